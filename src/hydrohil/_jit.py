@@ -1,0 +1,39 @@
+"""One place for the numba compilation options of every compiled kernel.
+
+Cached to disk (``cache=True``: a warm start skips compilation), NumPy error model (no Python
+ZeroDivisionError checks in the hot loop) and the fast-math flags that keep IEEE NaN/Inf semantics
+(so divergence detection still sees non-finite values): contraction to FMA and reciprocal division.
+"""
+
+from __future__ import annotations
+
+import types
+
+from numba import njit
+
+FASTMATH = {"contract", "arcp"}
+
+
+def jit(func=None, *, inline: bool = False):
+    """``@jit`` / ``@jit(inline=True)``: numba ``njit`` with the project's options."""
+    opts = dict(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always" if inline else "never")
+    if func is None:
+        return lambda f: njit(**opts)(f)
+    return njit(**opts)(func)
+
+
+def specialize(template, name: str, *, inline: bool = False, **bindings):
+    """Compile a copy of the module-level function ``template`` whose global names ``bindings`` are
+    bound to the given compiled functions / constants (tableaus, right-hand sides, steppers).
+
+    Binding through globals (not closures) keeps numba's on-disk cache valid across processes
+    (closure cells holding dispatchers change identity per process); the unique ``name`` gives each
+    specialisation its own cache file.
+    """
+    g = dict(template.__globals__)
+    g.update(bindings)
+    fn = types.FunctionType(template.__code__, g, name, template.__defaults__)
+    fn.__qualname__ = name
+    fn.__module__ = template.__module__
+    fn.__doc__ = template.__doc__
+    return jit(fn, inline=inline)

@@ -1,0 +1,150 @@
+"""Command-line interface: a thin layer over the library; every command is an importable function.
+
+Exit codes: 0 success, 1 simulation diverged / runtime failure, 2 bad input (file, key, range).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from hydrohil.errors import HydrohilError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="hydrohil: hybrid valve-cylinder models, identification and real-time HIL simulation.")
+params_app = typer.Typer(no_args_is_help=True, help="Inspect parameter sets.")
+app.add_typer(params_app, name="params")
+
+
+def _fail(exc: HydrohilError):
+    typer.echo(f"error: {exc}", err=True)
+    raise typer.Exit(exc.exit_code)
+
+
+def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Optional[float] = None,
+             plot: bool = True, progress: bool = True) -> dict:
+    """Run one scenario and write ``out/log.csv``, ``out/summary.json`` and ``out/simulation.png``."""
+    from hydrohil.simulation.outputs import write_json, write_log_csv
+    from hydrohil.simulation.run import run_scenario
+    from hydrohil.simulation.scenario import load_scenario
+
+    sc = load_scenario(scenario, solver=solver, step=step)
+    prog = None
+    if progress and sc.scenario.solver.method == "reference" and sys.stderr.isatty():
+        from rich.progress import Progress
+        bar = Progress(transient=True)
+        bar.start()
+        task = bar.add_task("reference (LSODA)", total=sc.scenario.n_steps())
+        prog = lambda k: bar.update(task, completed=k)  # noqa: E731
+    try:
+        res = run_scenario(sc, progress=prog)
+    finally:
+        if prog:
+            bar.stop()
+    out.mkdir(parents=True, exist_ok=True)
+    extra = {}
+    if sc.scenario.closed_loop:
+        s = sc.scenario
+        extra["x_ref"] = s.references()[::s.solver.output_every][:len(res.log)]
+    write_log_csv(out / "log.csv", res.log, extra)
+    summary = res.summary()
+    summary.update({"scenario": str(scenario), "params": sc.scenario.params})
+    write_json(out / "summary.json", summary)
+    if plot:
+        from hydrohil.plotting import plot_run
+        plot_run(out / "simulation.png", res.column("t"), res.column("xp"), res.column("p1"), res.column("p2"),
+                 res.column("u"), res.column("xs"), res.column("travel_mode"), res.column("friction_mode"),
+                 xref=extra.get("x_ref"), title=f"{scenario.name} — {res.solver}, h = {res.step:g} s")
+    if res.diverged:
+        raise res.diverged
+    return summary
+
+
+@app.command("simulate")
+def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
+                 out: Path = typer.Option(Path("hydrohil-out"), "--out", help="output folder"),
+                 solver: Optional[str] = typer.Option(None, help="euler|heun|rk3|rk4|reference"),
+                 step: Optional[float] = typer.Option(None, help="fixed step / sample time [s]"),
+                 plot: bool = typer.Option(True, help="write simulation.png")):
+    """Simulate a scenario with the hybrid model (or the continuous reference)."""
+    try:
+        s = simulate(scenario, out, solver, step, plot)
+    except HydrohilError as exc:
+        _fail(exc)
+    typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']}: wall {s['wall_time_s']:.3f} s, "
+               f"real-time factor {s['realtime_factor']:.0f}; final xp = {s['final_state']['xp'] * 1e3:.3f} mm; "
+               f"wrote {out}/log.csv, summary.json, simulation.png")
+
+
+@app.command("maxstep")
+def maxstep_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
+                model: str = typer.Option("hybrid", help="hybrid|continuous"),
+                solver: str = typer.Option("rk3", help="euler|heun|rk3|rk4"),
+                duration: Optional[float] = typer.Option(None, help="override the scenario duration [s]"),
+                tol_x: float = typer.Option(2e-3, help="max RMS position error vs reference [m]"),
+                tol_p: float = typer.Option(10e5, help="max RMS pressure error vs reference [Pa]")):
+    """Find the largest stable fixed step by bisection; prints JSON."""
+    from hydrohil.maxstep import max_stable_step
+    from hydrohil.simulation.scenario import load_scenario
+    try:
+        sc = load_scenario(scenario, duration=duration)
+        res = max_stable_step(sc, model, solver, tol_x=tol_x, tol_p=tol_p,
+                              progress=lambda h, r: typer.echo(f"  h = {h:.3e} s: {r['reason']}", err=True))
+    except (HydrohilError, ValueError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2)
+    typer.echo(json.dumps(res, indent=2))
+
+
+@params_app.command("show")
+def params_show(name: str = typer.Argument("ferreira2004", help="built-in name or TOML path"),
+                as_json: bool = typer.Option(False, "--json", help="print JSON instead of TOML")):
+    """Print a resolved, validated parameter set."""
+    from hydrohil.parameters import load_parameters
+    try:
+        prm = load_parameters(name)
+    except HydrohilError as exc:
+        _fail(exc)
+    data = prm.model_dump(mode="json")
+    if as_json:
+        typer.echo(json.dumps(data, indent=2))
+    else:
+        import tomli_w
+        typer.echo(tomli_w.dumps(data))
+
+
+@params_app.command("list")
+def params_list():
+    """List the built-in parameter sets."""
+    from hydrohil.parameters import builtin_names
+    for n in builtin_names():
+        typer.echo(n)
+
+
+@app.command("linear")
+def linear_cmd(params: str = typer.Option("ferreira2004", help="built-in name or TOML path")):
+    """Linearised model (eq 18-20): equilibrium pressures, eigenvalues, natural frequency, damping."""
+    from hydrohil.models.linear import linear_model
+    from hydrohil.parameters import load_parameters
+    try:
+        lm = linear_model(load_parameters(params))
+    except HydrohilError as exc:
+        _fail(exc)
+    ev = lm.eigenvalues
+    typer.echo(json.dumps({"p10_pa": lm.p10, "p20_pa": lm.p20,
+                           "eigenvalues": [[float(e.real), float(e.imag)] for e in ev],
+                           "natural_frequency_rad_s": lm.natural_frequency,
+                           "natural_frequency_hz": lm.natural_frequency / (2 * 3.141592653589793),
+                           "damping": lm.damping, "A": lm.A.tolist(), "B": lm.B.tolist()}, indent=2))
+
+
+def main():
+    app()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,32 @@
+"""Exceptions with the context a user needs to fix the problem (file, key, expected range, state)."""
+
+from __future__ import annotations
+
+
+class HydrohilError(Exception):
+    """Base class. ``exit_code`` is what the CLI returns for it."""
+
+    exit_code = 1
+
+
+class InputError(HydrohilError):
+    """Bad user input: a file, key or value that is missing, malformed or out of range (exit 2)."""
+
+    exit_code = 2
+
+    def __init__(self, message: str, *, source: str | None = None, key: str | None = None):
+        self.source, self.key = source, key
+        where = ": ".join(x for x in (source, key) if x)
+        super().__init__(f"{where}: {message}" if where else message)
+
+
+class SimulationDiverged(HydrohilError):
+    """The integration produced a non-finite or unphysical state (exit 1)."""
+
+    exit_code = 1
+
+    def __init__(self, t: float, modes: dict[str, str], state: dict[str, float], reason: str):
+        self.t, self.modes, self.state, self.reason = t, modes, state, reason
+        st = ", ".join(f"{k}={v:.6g}" for k, v in state.items())
+        md = ", ".join(f"{k}={v}" for k, v in modes.items())
+        super().__init__(f"simulation diverged at t = {t:.6f} s ({reason}); modes: {md}; state: {st}")

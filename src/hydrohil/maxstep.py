@@ -1,0 +1,185 @@
+"""Largest stable fixed step of the hybrid model and of the continuous (stiff end-stop) model.
+
+A fixed step h is **stable** on a scenario when the explicit run over the whole scenario
+1. stays finite and physical (no divergence: |p| < 1e9 Pa, |vp| < 100 m/s, xp within [-L, 2L]),
+2. stays bounded: chamber pressures within [-1 bar, 1.5*Ps] and the spool within [-2, 2], and
+3. stays close to the continuous reference solved by LSODA at tight tolerance (no growing or
+   spurious oscillation): RMS position error <= ``tol_x`` (default 2 mm) and RMS pressure error
+   <= ``tol_p`` (default 10 bar), on the reference's sample grid.
+The input is zero-order held at the plant step (controller sampled at the plant step). The search
+brackets a stable and an unstable step by halving/doubling from 0.5 ms, then bisects geometrically
+until the bracket ratio is below ``1 + rel_tol``.
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+
+import numpy as np
+
+from hydrohil._jit import specialize
+from hydrohil.control import p_control
+from hydrohil.models.delay import delay_push_read, make_buffer, split_delay
+from hydrohil.models.layout import ENC_RES, NY, P1, P2, PS, XP, XS, pack
+from hydrohil.models.reference import reference_rhs
+from hydrohil.models.sensors import encoder_position
+from hydrohil.simulation.loop import diverged, initial_state
+from hydrohil.simulation.run import run_scenario
+from hydrohil.simulation.scenario import LoadedScenario
+from hydrohil.solvers.fixed_step import make_rk_step
+from hydrohil.solvers.reference import solve_reference
+from hydrohil.solvers.tableaus import MAX_STAGES, get_tableau
+
+
+RK_STEP = None  # bound per solver by continuous_loop
+
+
+def _continuous_run(y, p, h, n_steps, every, t_in, u_in, closed, kp, x_in, buf, pos, dl_n, dl_alpha, out):
+    """Integrate; record t, xp, p1, p2 every ``every`` steps into ``out``; input/reference sampled
+    from the tables (t_in, u_in / x_in) by zero-order hold at each step."""
+    work = np.empty((MAX_STAGES, NY))
+    ytmp = np.empty(NY)
+    y1 = np.empty(NY)
+    m = np.zeros(3, dtype=np.int64)
+    row = 0
+    j = 0
+    for k in range(n_steps + 1):
+        t = k * h
+        while j + 1 < t_in.shape[0] and t_in[j + 1] <= t + 1e-15:
+            j += 1
+        if closed:
+            u = p_control(kp, x_in[j], encoder_position(y[XP], p[ENC_RES]))
+        else:
+            u = u_in[j]
+        ud = delay_push_read(buf, pos, u, dl_n, dl_alpha)
+        if k % every == 0:
+            out[row, 0] = t
+            out[row, 1] = y[XP]
+            out[row, 2] = y[P1]
+            out[row, 3] = y[P2]
+            row += 1
+        if k == n_steps:
+            break
+        RK_STEP(y, h, ud, m, p, 0.0, 0.0, work, ytmp, y1)
+        for i in range(NY):
+            y[i] = y1[i]
+        if diverged(y, p) or y[P1] > 1.5 * p[PS] or y[P2] > 1.5 * p[PS] or abs(y[XS]) > 2.0:
+            return False, row
+    return True, row
+
+
+@functools.cache
+def continuous_loop(solver: str):
+    """Compiled fixed-step explicit loop of the continuous reference model (for the step comparison)."""
+    return specialize(_continuous_run, f"continuous_run_{solver}",
+                      RK_STEP=make_rk_step(reference_rhs, get_tableau(solver)))
+
+
+def _errors(t, xp, p1, p2, ref_log):
+    tr = ref_log[:, 0]
+    ex = np.interp(tr, t, xp) - ref_log[:, 7]
+    e1 = np.interp(tr, t, p1) - ref_log[:, 5]
+    e2 = np.interp(tr, t, p2) - ref_log[:, 6]
+    rms = lambda e: float(np.sqrt(np.mean(e ** 2)))  # noqa: E731
+    return rms(ex), max(rms(e1), rms(e2))
+
+
+def check_step(sc: LoadedScenario, model: str, solver: str, h: float, ref_log: np.ndarray,
+               tol_x: float = 2e-3, tol_p: float = 10e5) -> dict:
+    """Run one candidate step; returns {stable, reason, rms_x, rms_p, wall_s}."""
+    s, params = sc.scenario, sc.params
+    p = pack(params)
+    h_out = s.solver.step
+    n = int(round(s.duration / h))
+    t0 = time.perf_counter()
+    if model == "hybrid":
+        scn = sc.model_copy(update={"scenario": s.model_copy(update={
+            "solver": s.solver.model_copy(update={"method": solver, "step": h,
+                                                  "output_every": max(1, int(round(h_out / h)))})})})
+        res = run_scenario(scn)
+        if res.diverged:
+            return {"stable": False, "reason": "diverged", "wall_s": time.perf_counter() - t0}
+        t, xp, p1, p2 = (res.column(c) for c in ("t", "xp", "p1", "p2"))
+        ok_bounds = p1.max() <= 1.5 * params.supply.ps and p2.max() <= 1.5 * params.supply.ps
+        if not ok_bounds:
+            return {"stable": False, "reason": "unbounded pressure", "wall_s": time.perf_counter() - t0}
+    else:
+        run = continuous_loop(solver)
+        y, _ = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
+        t_in = np.arange(s.n_steps() + 1) * h_out
+        closed = s.closed_loop
+        u_in = np.zeros_like(t_in) if closed else s.commands()
+        x_in = s.references() if closed else np.zeros_like(t_in)
+        kp = s.controller.kp if closed else 0.0
+        dl_n, alpha = split_delay(params.spool.delay, h)
+        every = max(1, int(round(h_out / h)))
+        out = np.zeros((n // every + 2, 4))
+        ok, rows = run(y, p, h, n, every, t_in, u_in, closed, kp, x_in, make_buffer(dl_n, y[XS]),
+                       np.zeros(1, np.int64), dl_n, alpha, out)
+        if not ok:
+            return {"stable": False, "reason": "diverged or unbounded", "wall_s": time.perf_counter() - t0}
+        t, xp, p1, p2 = out[:rows, 0], out[:rows, 1], out[:rows, 2], out[:rows, 3]
+    ex, ep = _errors(t, xp, p1, p2, ref_log)
+    stable = ex <= tol_x and ep <= tol_p
+    return {"stable": stable, "reason": "ok" if stable else "far from reference", "rms_x": ex, "rms_p": ep,
+            "wall_s": time.perf_counter() - t0}
+
+
+def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk3", *, tol_x: float = 2e-3,
+                    tol_p: float = 10e5, rel_tol: float = 0.05, h_min: float = 1e-10, h_max: float = 2e-2,
+                    progress=None) -> dict:
+    """Bisect for the largest stable fixed step (definition in the module docstring)."""
+    if model not in ("hybrid", "continuous"):
+        raise ValueError("model must be 'hybrid' or 'continuous'")
+    s, params = sc.scenario, sc.params
+    p = pack(params)
+    y0, _ = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
+    closed = s.closed_loop
+    status, _, ref_log, _ = solve_reference(p, y0, s.solver.step, s.n_steps(),
+                                            u_open=None if closed else s.commands(),
+                                            kp=s.controller.kp if closed else 0.0,
+                                            xref=s.references() if closed else None)
+    trials = []
+
+    def test(h):
+        r = check_step(sc, model, solver, h, ref_log, tol_x, tol_p)
+        r["step"] = h
+        trials.append(r)
+        if progress:
+            progress(h, r)
+        return r["stable"]
+
+    lo, hi = None, None
+    h = 5e-4
+    if test(h):
+        lo = h
+        while hi is None:
+            h *= 2
+            if h > h_max:
+                break
+            if test(h):
+                lo = h
+            else:
+                hi = h
+    else:
+        hi = h
+        while lo is None:
+            h /= 4
+            if h < h_min:
+                break
+            if test(h):
+                lo = h
+            else:
+                hi = h
+    if lo is not None and hi is not None:
+        while hi / lo > 1 + rel_tol:
+            mid = float(np.sqrt(lo * hi))
+            if test(mid):
+                lo = mid
+            else:
+                hi = mid
+    return {"max_stable_step": lo, "first_unstable_step": hi, "model": model, "solver": solver,
+            "scenario": sc.source, "duration": s.duration, "tol_x_m": tol_x, "tol_p_pa": tol_p,
+            "criteria": "finite, |p| <= 1.5 Ps, RMS error vs LSODA reference <= tol_x and tol_p",
+            "trials": [{k: v for k, v in t.items()} for t in trials]}

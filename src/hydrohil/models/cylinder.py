@@ -1,0 +1,53 @@
+"""Differential cylinder: chamber volumes, effective bulk modulus (eq 21) and continuity (SPEC §4)."""
+
+from __future__ import annotations
+
+from hydrohil._jit import jit
+
+from hydrohil.models.layout import (A1, A2, BB, BC, BETA1, BETA2, BULK_CONST, FLOAD, G_LKC, GDIR, GRAV, MASS, PS,
+                                    PT, STROKE, V01, V02)
+from hydrohil.models.valve import orifice_flow, pseudo_sections
+
+P_MIN = -0.99e5  # Pa gauge: just above absolute zero; pressures are floored here (cavitation)
+
+
+@jit(inline=True)
+def bulk_modulus(pressure, chamber, p):
+    """Effective bulk modulus [Pa] at gauge ``pressure`` [Pa]: eq 21 (1e5 + P)/(B*P + C), or the
+    constant per-chamber value (chamber 1 or 2) when ``cylinder.bulk_modulus = "constant"``."""
+    if p[BULK_CONST] > 0.5:
+        return p[BETA1] if chamber == 1 else p[BETA2]
+    pr = max(pressure, P_MIN)
+    return (1e5 + pr) / (p[BB] * pr + p[BC])
+
+
+@jit(inline=True)
+def volumes(xp, p):
+    """Chamber volumes [m^3]: V1 = V01 + A1*xp, V2 = V02 + A2*(L - xp); xp limited to the stroke."""
+    x = min(max(xp, 0.0), p[STROKE])
+    return p[V01] + p[A1] * x, p[V02] + p[A2] * (p[STROKE] - x)
+
+
+@jit(inline=True)
+def chamber_pressure_rates(xs, p1, p2, xp, vp, p, dp_t1, dp_t2):
+    """(dP1/dt, dP2/dt) [Pa/s] by continuity (SPEC §4) with the valve flows of SPEC §3.2.
+
+    Q1 = q_s1 - q_1t, Q2 = q_s2 - q_2t; q_lkc = g_lkc*(P1 - P2) (eq 22);
+    dP1/dt = beta(P1)/V1*(Q1 - A1*vp - q_lkc), dP2/dt = beta(P2)/V2*(Q2 + A2*vp + q_lkc).
+    ``dp_t1``/``dp_t2`` are the laminar transition pressures of the orifices of chamber 1/2.
+    """
+    as1, as2, a1t, a2t = pseudo_sections(xs, p)
+    ps, pt = p[PS], p[PT]
+    q1 = orifice_flow(as1, ps - p1, dp_t1) - orifice_flow(a1t, p1 - pt, dp_t1)
+    q2 = orifice_flow(as2, ps - p2, dp_t2) - orifice_flow(a2t, p2 - pt, dp_t2)
+    q_lk = p[G_LKC] * (p1 - p2)
+    v1, v2 = volumes(xp, p)
+    dp1 = bulk_modulus(p1, 1, p) / v1 * (q1 - p[A1] * vp - q_lk)
+    dp2 = bulk_modulus(p2, 2, p) / v2 * (q2 + p[A2] * vp + q_lk)
+    return dp1, dp2
+
+
+@jit(inline=True)
+def external_force(p1, p2, p):
+    """Hydraulic + gravity + load force on the piston along +x [N] (eq 28 without friction)."""
+    return p1 * p[A1] - p2 * p[A2] - p[FLOAD] + p[GDIR] * p[MASS] * p[GRAV]

@@ -1,0 +1,20 @@
+"""Sensor interface models shared by offline simulation and the HIL plant (SPEC §8 'sensors', §10)."""
+
+from __future__ import annotations
+
+import numpy as np
+from hydrohil._jit import jit
+
+
+@jit
+def encoder_counts(xp, resolution):
+    """Encoder reading [counts] of position xp [m] for a count size ``resolution`` [m] (nearest count)."""
+    return np.floor(xp / resolution + 0.5)
+
+
+@jit
+def encoder_position(xp, resolution):
+    """Position [m] as the encoder reports it; ``resolution`` <= 0 means ideal."""
+    if resolution <= 0.0:
+        return xp
+    return encoder_counts(xp, resolution) * resolution

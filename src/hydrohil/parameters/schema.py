@@ -1,0 +1,132 @@
+"""Validated parameter schema (SPEC §3-§8). All values SI unless the field says otherwise.
+
+Each field carries its unit and admissible range; loading a file that breaks one of them raises
+:class:`hydrohil.errors.InputError` naming the file, the dotted key and what was expected.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def _f(lo: float | None = None, hi: float | None = None, *, gt: float | None = None,
+       lt: float | None = None, unit: str = "-", doc: str = ""):
+    """A float field with unit text and bounds (ge=lo, le=hi, or strict gt/lt)."""
+    return Field(ge=lo, le=hi, gt=gt, lt=lt, description=f"{doc} [{unit}]",
+                 json_schema_extra={"unit": unit})
+
+
+class Spool(_Strict):
+    wn: float = _f(gt=0, hi=1e5, unit="rad/s", doc="natural frequency")
+    xi: float = _f(gt=0, hi=10, unit="-", doc="damping ratio")
+    lv: float = _f(gt=0, hi=1e6, unit="1/s", doc="spool velocity limit")
+    la: float = _f(gt=0, hi=1e9, unit="1/s^2", doc="spool acceleration limit")
+    delay: float = _f(0, 0.1, unit="s", doc="pure delay")
+
+
+class Valve(_Strict):
+    k: tuple[float, float, float, float, float] = Field(description="k1..k5 of eq 3 (l/min, bar)")
+    kt: tuple[float, float, float, float, float] = Field(description="k1t..k5t of eq 3 (l/min, bar)")
+    dp_laminar: float = _f(gt=0, hi=5e6, unit="Pa", doc="laminar transition pressure drop")
+
+
+class Supply(_Strict):
+    ps: float = _f(gt=1e5, hi=1e8, unit="Pa", doc="supply pressure (gauge)")
+    pt: float = _f(-1e5, 5e6, unit="Pa", doc="tank pressure (gauge)")
+
+    @model_validator(mode="after")
+    def _ps_above_pt(self):
+        if self.ps <= self.pt:
+            raise ValueError(f"ps ({self.ps} Pa) must exceed pt ({self.pt} Pa)")
+        return self
+
+
+class Cylinder(_Strict):
+    a1: float = _f(gt=0, hi=1.0, unit="m^2", doc="cap-side area A1")
+    a2: float = _f(gt=0, hi=1.0, unit="m^2", doc="rod-side area A2")
+    v01: float = _f(gt=0, hi=1.0, unit="m^3", doc="dead volume chamber 1")
+    v02: float = _f(gt=0, hi=1.0, unit="m^3", doc="dead volume chamber 2")
+    stroke: float = _f(gt=0, hi=10.0, unit="m", doc="maximum stroke L")
+    g_lkc: float = _f(0, 1e-9, unit="m^3/(s.Pa)", doc="internal leakage conductance")
+    bulk_modulus: Literal["pressure", "constant"] = Field(description="eq 21 or constant per chamber")
+    b: float = _f(0, 1e-6, unit="1/Pa", doc="eq 21 coefficient B")
+    c: float = _f(gt=0, hi=1.0, unit="-", doc="eq 21 coefficient C")
+    beta1: float = _f(gt=1e6, hi=1e11, unit="Pa", doc="constant bulk modulus, chamber 1")
+    beta2: float = _f(gt=1e6, hi=1e11, unit="Pa", doc="constant bulk modulus, chamber 2")
+
+
+class StaticFriction(_Strict):
+    fc: float = _f(0, 1e6, unit="N", doc="Coulomb force")
+    fs: float = _f(0, 1e6, unit="N", doc="breakaway force Fc + (Fs - Fc)")
+    vs: float = _f(gt=0, hi=10, unit="m/s", doc="Stribeck velocity")
+    kv: float = _f(0, 1e7, unit="N.s/m", doc="viscous coefficient")
+
+    @model_validator(mode="after")
+    def _breakaway(self):
+        if self.fs < self.fc:
+            raise ValueError(f"fs (breakaway, {self.fs} N) must be >= fc ({self.fc} N)")
+        return self
+
+
+class Friction(_Strict):
+    sigma0: float = _f(gt=0, hi=1e12, unit="N/m", doc="bristle stiffness")
+    sigma1: float = _f(0, 1e8, unit="N.s/m", doc="bristle damping")
+    asymmetric: bool = Field(description="use positive/negative sets instead of symmetric")
+    symmetric: StaticFriction
+    positive: StaticFriction
+    negative: StaticFriction
+
+
+class Load(_Strict):
+    mass: float = _f(gt=0, hi=1e6, unit="kg", doc="moved mass")
+    gravity_direction: Literal[-1, 0, 1] = Field(description="+1 gravity aids extension")
+    gravity: float = _f(0, 30, unit="m/s^2", doc="gravity acceleration")
+    force: float = _f(-1e7, 1e7, unit="N", doc="external force, positive opposes extension")
+
+
+class Linear(_Strict):
+    xp0: float = _f(0, 10, unit="m", doc="linearisation position")
+    xs0: float = _f(-1, 1, unit="-", doc="equilibrium spool position")
+    friction_factor: float = _f(0, 1e8, unit="N.s/m", doc="friction factor f")
+    kq: float = _f(gt=0, hi=1.0, unit="m^3/s", doc="flow gain coefficient")
+    kp1: float = _f(-1e4, 1e4, unit="-", doc="pressure gain chamber 1 per Ps")
+    kp2: float = _f(-1e4, 1e4, unit="-", doc="pressure gain chamber 2 per Ps")
+    pn: float = _f(gt=0, hi=1e8, unit="Pa", doc="nominal pressure drop")
+
+
+class Sensors(_Strict):
+    encoder_resolution: float = _f(0, 1e-2, unit="m", doc="encoder count size (0 = ideal)")
+    pressure_range: float = _f(gt=0, hi=1e9, unit="Pa", doc="transducer full scale")
+    pressure_resolution: float = _f(0, 1e6, unit="Pa", doc="ADC quantum (0 = ideal)")
+    pressure_noise: float = _f(0, 1e6, unit="Pa", doc="RMS noise (0 = none)")
+
+
+class Parameters(_Strict):
+    """A complete, validated parameter set."""
+
+    spool: Spool
+    valve: Valve
+    supply: Supply
+    cylinder: Cylinder
+    friction: Friction
+    load: Load
+    linear: Linear
+    sensors: Sensors
+
+    @model_validator(mode="after")
+    def _geometry(self):
+        if self.linear.xp0 > self.cylinder.stroke:
+            raise ValueError(f"linear.xp0 ({self.linear.xp0} m) lies beyond cylinder.stroke "
+                             f"({self.cylinder.stroke} m)")
+        return self
+
+    def friction_sets(self) -> tuple[StaticFriction, StaticFriction]:
+        """(positive, negative) static friction sets actually used by the models."""
+        f = self.friction
+        return (f.positive, f.negative) if f.asymmetric else (f.symmetric, f.symmetric)

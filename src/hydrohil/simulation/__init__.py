@@ -1,0 +1,1 @@
+"""Running the models: compiled loops, per-step plant API, scenarios and their outputs."""

@@ -1,0 +1,170 @@
+"""Scenario files (TOML): what to simulate, for how long, with which solver, input or controller.
+
+See ``examples/*.toml`` and the README for the format. Relative ``params`` paths are resolved against
+the scenario file's folder.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from hydrohil.errors import InputError
+from hydrohil.parameters import Parameters, format_validation_error, load_parameters, read_toml
+from hydrohil.solvers.tableaus import FIXED_STEP_SOLVERS
+
+SOLVERS = (*FIXED_STEP_SOLVERS, "reference")
+
+
+class _S(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class SolverCfg(_S):
+    method: Literal["euler", "heun", "rk3", "rk4", "reference"] = "rk3"
+    step: float = Field(5e-4, gt=1e-9, le=0.01, description="fixed step / control sample time [s]")
+    output_every: int = Field(1, ge=1, le=10**6, description="log one row every N steps")
+    rtol: float = Field(1e-7, gt=0, lt=1e-2, description="reference solver relative tolerance")
+
+
+class Initial(_S):
+    xp: float = Field(description="piston position [m]")
+    xs: float = Field(0.0, ge=-1, le=1, description="spool position [-]")
+    p1: float | None = Field(None, ge=-1e5, le=1e8, description="chamber 1 pressure [Pa]")
+    p2: float | None = Field(None, ge=-1e5, le=1e8, description="chamber 2 pressure [Pa]")
+
+
+class TableInput(_S):
+    type: Literal["table"]
+    t: list[float] = Field(min_length=1, description="times [s], non-decreasing")
+    u: list[float] = Field(min_length=1, description="valve command [-], in [-1, 1]")
+
+    @model_validator(mode="after")
+    def _check(self):
+        _check_table(self.t, self.u, "u", -1.0, 1.0)
+        return self
+
+
+class SineInput(_S):
+    type: Literal["sine"]
+    amplitude: float = Field(ge=0, le=1, description="[-]")
+    frequency: float = Field(gt=0, le=1000, description="[Hz]")
+    offset: float = Field(0.0, ge=-1, le=1, description="[-]")
+    phase: float = Field(0.0, description="[rad]")
+
+    @model_validator(mode="after")
+    def _check(self):
+        if abs(self.offset) + self.amplitude > 1.0 + 1e-12:
+            raise ValueError("|offset| + amplitude must be <= 1 (the command range)")
+        return self
+
+
+class PControllerCfg(_S):
+    type: Literal["p"]
+    kp: float = Field(gt=0, le=1e5, description="proportional gain [1/m] on the valve command")
+
+
+class TableReference(_S):
+    type: Literal["table"]
+    t: list[float] = Field(min_length=1, description="times [s], non-decreasing")
+    x: list[float] = Field(min_length=1, description="piston position reference [m]")
+
+    @model_validator(mode="after")
+    def _check(self):
+        _check_table(self.t, self.x, "x", -1e3, 1e3)
+        return self
+
+
+def _check_table(t, v, name, lo, hi):
+    if len(t) != len(v):
+        raise ValueError(f"t and {name} must have the same length ({len(t)} vs {len(v)})")
+    if any(b < a for a, b in zip(t, t[1:])):
+        raise ValueError("t must be non-decreasing")
+    if any(not (lo <= x <= hi) for x in v):
+        raise ValueError(f"{name} values must lie in [{lo}, {hi}]")
+
+
+class Scenario(_S):
+    params: str = Field("ferreira2004", description="built-in parameter set name or TOML path")
+    duration: float = Field(gt=0, le=3600, description="[s]")
+    solver: SolverCfg = SolverCfg()
+    overrides: dict[str, Any] = Field(default_factory=dict, description="dotted parameter name -> SI value")
+    initial: Initial
+    input: TableInput | SineInput | None = Field(None, discriminator="type")
+    controller: PControllerCfg | None = None
+    reference: TableReference | None = None
+    hil: dict[str, Any] = Field(default_factory=dict, description="real-time settings (hydrohil hil)")
+
+    @model_validator(mode="after")
+    def _one_drive(self):
+        closed = self.controller is not None or self.reference is not None
+        if closed and self.input is not None:
+            raise ValueError("give either [input] (open loop) or [controller] + [reference] (closed loop), not both")
+        if closed and (self.controller is None or self.reference is None):
+            raise ValueError("a closed loop needs both [controller] and [reference]")
+        if not closed and self.input is None:
+            raise ValueError("missing [input] (open loop) or [controller] + [reference] (closed loop)")
+        return self
+
+    @property
+    def closed_loop(self) -> bool:
+        return self.controller is not None
+
+    def n_steps(self) -> int:
+        return int(round(self.duration / self.solver.step))
+
+    def commands(self) -> np.ndarray:
+        """Open-loop valve command at each sample t_k = k*h, k = 0..n_steps."""
+        t = np.arange(self.n_steps() + 1) * self.solver.step
+        inp = self.input
+        if isinstance(inp, SineInput):
+            return inp.offset + inp.amplitude * np.sin(2 * np.pi * inp.frequency * t + inp.phase)
+        return np.interp(t, inp.t, inp.u)
+
+    def references(self) -> np.ndarray:
+        """Closed-loop position reference at each sample t_k, k = 0..n_steps."""
+        t = np.arange(self.n_steps() + 1) * self.solver.step
+        return np.interp(t, self.reference.t, self.reference.x)
+
+
+class LoadedScenario(BaseModel):
+    model_config = ConfigDict(arbitrary_types_allowed=True, frozen=True)
+    scenario: Scenario
+    params: Parameters
+    source: str
+
+
+def load_scenario(path: str | Path, *, solver: str | None = None, step: float | None = None,
+                  duration: float | None = None) -> LoadedScenario:
+    """Read, validate and resolve a scenario file (with optional CLI overrides of solver/step/duration)."""
+    path = Path(path)
+    data = read_toml(path)
+    if solver is not None or step is not None:
+        data.setdefault("solver", {})
+        if solver is not None:
+            data["solver"]["method"] = solver
+        if step is not None:
+            data["solver"]["step"] = step
+    if duration is not None:
+        data["duration"] = duration
+    try:
+        sc = Scenario.model_validate(data)
+    except ValidationError as exc:
+        key, msg = format_validation_error(exc, Scenario)
+        raise InputError(msg, source=str(path), key=key) from None
+    ppath = Path(sc.params)
+    if ppath.suffix == ".toml" and not ppath.is_absolute():
+        ppath = path.parent / ppath
+    try:
+        params = load_parameters(ppath if ppath.suffix == ".toml" else sc.params, sc.overrides)
+    except InputError as exc:
+        if exc.source != "overrides":
+            raise
+        raise InputError(str(exc).split(": ", 2)[-1], source=str(path), key=f"overrides.{exc.key}") from None
+    L = params.cylinder.stroke
+    if not 0.0 <= sc.initial.xp <= L:
+        raise InputError(f"must lie in [0, {L}] m (cylinder.stroke)", source=str(path), key="initial.xp")
+    return LoadedScenario(scenario=sc, params=params, source=str(path))
