@@ -38,7 +38,7 @@ from hydrohil._jit import jit, specialize
 
 from hydrohil.models.cylinder import P_MIN, bulk_modulus, chamber_pressure_rates, external_force, volumes
 from hydrohil.models.friction import slip_friction, stribeck, viscous
-from hydrohil.models.layout import (AT_EXTEND, AT_RETRACT, DP_LAM, FREE, FS_NEG, FS_POS, KV_POS, LAMBDA_H_MAX,
+from hydrohil.models.layout import (AT_EXTEND, AT_RETRACT, DP_LAM, FREE, FS_NEG, FS_POS, LAMBDA_H_MAX,
                                     LPM_PER_SQRT_BAR, LV, M_FRICTION, M_SPOOL, M_TRAVEL, MASS, P1, P2, SIGMA0,
                                     SIGMA1, SLIP_NEG, SLIP_POS, SPOOL_ACC_LIMITED, SPOOL_AT_END, SPOOL_LINEAR,
                                     SPOOL_VEL_LIMITED, STICK, STROKE, VP, VS, XP, XS, Z, LA, WN, XI)

@@ -17,7 +17,7 @@ from hydrohil.control import p_control
 from hydrohil.models.cylinder import external_force
 from hydrohil.models.delay import delay_push_read, make_buffer, split_delay
 from hydrohil.models.hybrid import friction_force, make_hybrid_step
-from hydrohil.models.layout import (AT_EXTEND, AT_RETRACT, DELAY, ENC_RES, FREE, FS_NEG, FS_POS, M_FRICTION,
+from hydrohil.models.layout import (AT_EXTEND, AT_RETRACT, ENC_RES, FREE, FS_NEG, FS_POS, M_FRICTION,
                                     M_SPOOL, M_TRAVEL, NM, NY, P1, P2, SIGMA0, SPOOL_LINEAR, STICK, STROKE, VP,
                                     VS, XP, XS, Z, pack)
 from hydrohil.models.sensors import encoder_position

@@ -13,7 +13,7 @@ from scipy.integrate import odeint
 
 from hydrohil.control import p_control
 from hydrohil.models.delay import make_buffer, split_delay
-from hydrohil.models.layout import (DELAY, ENC_RES, FS_NEG, FS_POS, NY, SIGMA0, SLIP_NEG, SLIP_POS, STICK, STROKE, VP,
+from hydrohil.models.layout import (DELAY, ENC_RES, NY, SLIP_NEG, SLIP_POS, STICK, STROKE, VP,
                                     XP, XS, Z, AT_EXTEND, AT_RETRACT, FREE)
 from hydrohil.models.reference import end_stop_force, reference_rhs
 from hydrohil.models.friction import lugre
