@@ -25,13 +25,19 @@ def make_buffer(n: int, u0: float) -> np.ndarray:
     return np.full(n + 2, float(u0))
 
 
-@jit
-def delay_push_read(buf, pos, u, n, alpha):
-    """Push command u of the current step into ``buf`` (write index ``pos[0]``) and return the
-    delayed spool input for this step."""
+@jit(inline=True)
+def delay_push(buf, pos, u, n):
+    """Push command u of the current step into ``buf`` (write index ``pos[0]``); return the two held
+    commands the delayed input straddles this step: (u_{k-n}, u_{k-n-1})."""
     size = buf.shape[0]
     pos[0] = (pos[0] + 1) % size
     buf[pos[0]] = u
-    i0 = (pos[0] - n) % size
-    i1 = (pos[0] - n - 1) % size
-    return (1.0 - alpha) * buf[i0] + alpha * buf[i1]
+    return buf[(pos[0] - n) % size], buf[(pos[0] - n - 1) % size]
+
+
+@jit
+def delay_push_read(buf, pos, u, n, alpha):
+    """Push command u of the current step and return the delayed spool input for this step (the step
+    average of the two held commands it straddles)."""
+    u_new, u_old = delay_push(buf, pos, u, n)
+    return (1.0 - alpha) * u_new + alpha * u_old

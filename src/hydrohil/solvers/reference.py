@@ -12,10 +12,10 @@ import numpy as np
 from scipy.integrate import odeint
 
 from hydrohil.control import p_control
-from hydrohil.models.delay import make_buffer, split_delay
+from hydrohil.models.delay import delay_push, make_buffer, split_delay
 from hydrohil.models.layout import (DELAY, ENC_RES, NY, SLIP_NEG, SLIP_POS, STICK, STROKE, VP,
                                     XP, XS, Z, AT_EXTEND, AT_RETRACT, FREE)
-from hydrohil.models.reference import end_stop_force, reference_rhs
+from hydrohil.models.reference import reference_rhs
 from hydrohil.models.friction import lugre
 from hydrohil.models.sensors import encoder_position
 from hydrohil.simulation.loop import NLOG, diverged
@@ -26,13 +26,8 @@ DEFAULT_ATOL = np.array([1e-8, 1e-6, 1.0, 1.0, 1e-9, 1e-8, 1e-11])
 
 
 def _derived_modes(y, p):
-    """Modes read off the continuous state, for plots only: contact -> stop; |vp| < 1 mm/s -> stick."""
-    f_stop = end_stop_force(y[XP], y[VP], p)
-    travel = AT_RETRACT if f_stop > 0 else AT_EXTEND if f_stop < 0 else FREE
-    if y[XP] < 0:
-        travel = AT_RETRACT
-    elif y[XP] > p[STROKE]:
-        travel = AT_EXTEND
+    """Modes read off the continuous state, for plots only: penetration -> stop; |vp| < 1 mm/s -> stick."""
+    travel = AT_RETRACT if y[XP] < 0 else AT_EXTEND if y[XP] > p[STROKE] else FREE
     fric = STICK if abs(y[VP]) < 1e-3 else SLIP_POS if y[VP] > 0 else SLIP_NEG
     return travel, fric
 
@@ -50,8 +45,7 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, *, u_
     closed = u_open is None
     dl_n, alpha = split_delay(p[DELAY], h)
     buf = make_buffer(dl_n, y0[XS])
-    size = buf.shape[0]
-    pos = 0
+    pos = np.zeros(1, dtype=np.int64)
     y = np.array(y0, dtype=float)
     dy = np.empty(NY)
     m_dummy = np.zeros(3, dtype=np.int64)
@@ -68,9 +62,7 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, *, u_
             u = p_control(kp, xref[k], encoder_position(y[XP], p[ENC_RES]))
         else:
             u = float(u_open[k])
-        pos = (pos + 1) % size
-        buf[pos] = u
-        u_new, u_old = buf[(pos - dl_n) % size], buf[(pos - dl_n - 1) % size]
+        u_new, u_old = delay_push(buf, pos, u, dl_n)
         if k % every == 0:
             travel, fric = _derived_modes(y, p)
             _, ff = lugre(y[VP], y[Z], p)
