@@ -14,9 +14,12 @@ from numba import njit
 FASTMATH = {"contract", "arcp"}
 
 
-def jit(func=None, *, inline: bool = False):
-    """``@jit`` / ``@jit(inline=True)``: numba ``njit`` with the project's options."""
+def jit(func=None, *, inline: bool = False, parallel: bool = False):
+    """``@jit`` / ``@jit(inline=True)`` / ``@jit(parallel=True)``: numba ``njit`` with the project's
+    options (``parallel`` turns ``numba.prange`` loops into threads)."""
     opts = dict(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always" if inline else "never")
+    if parallel:
+        opts["parallel"] = True
     if func is None:
         return lambda f: njit(**opts)(f)
     return njit(**opts)(func)

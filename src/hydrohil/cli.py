@@ -142,6 +142,99 @@ def linear_cmd(params: str = typer.Option("ferreira2004", help="built-in name or
                            "damping": lm.damping, "A": lm.A.tolist(), "B": lm.B.tolist()}, indent=2))
 
 
+def _parse_sets(items: list[str]) -> dict:
+    """``key=value`` pairs (dotted parameter names, numbers) from repeated ``--set`` options."""
+    from hydrohil.errors import InputError
+    out = {}
+    for it in items:
+        key, sep, val = it.partition("=")
+        if not sep:
+            raise InputError("expected key=value, e.g. load.gravity_direction=0", source="--set", key=it)
+        try:
+            num = float(val)
+        except ValueError:
+            raise InputError(f"not a number: {val!r}", source="--set", key=key) from None
+        out[key.strip()] = int(num) if num.is_integer() and "gravity_direction" in key else num
+    return out
+
+
+def identify(procedure: str, data: Path, out: Optional[Path] = None, params: str = "ferreira2004",
+             report: Optional[Path] = None, conditions: Optional[dict] = None, progress: bool = True) -> dict:
+    """Run one identification procedure (or ``all`` with a chain config) and write the parameter file
+    ``out`` (the ``params`` set with the identified values) and the report figures into ``report``.
+    Returns the JSON document the CLI prints with ``--json``."""
+    from hydrohil.identification import PROCEDURES
+    from hydrohil.identification import identify as run_one
+    from hydrohil.identification.chain import identify_all
+    from hydrohil.identification.report import write_report
+    from hydrohil.parameters import load_parameters, save_parameters
+
+    if procedure != "all" and procedure not in PROCEDURES:
+        from hydrohil.errors import InputError
+        raise InputError(f"unknown procedure (one of: {', '.join(PROCEDURES)}, all)", source="identify",
+                         key=procedure)
+    bar = None
+    cb = None
+    if progress and sys.stderr.isatty():
+        from rich.progress import Progress
+        bar = Progress(transient=True)
+        bar.start()
+        task = bar.add_task(procedure, total=1)
+        cb = lambda k, n: bar.update(task, completed=k, total=n)  # noqa: E731
+    try:
+        if procedure == "all":
+            start = (lambda name: bar.update(task, description=name, completed=0)) if bar else None
+            result, fits = identify_all(data, on_start=start, progress=cb)
+            doc = {"procedures": [f.to_json() for f in fits]}
+        else:
+            base = load_parameters(params)
+            fit = run_one(procedure, data, base, conditions, progress=cb)
+            result, fits = fit.apply(base), [fit]
+            doc = fit.to_json()
+    finally:
+        if bar:
+            bar.stop()
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        header = (f"written by `hydrohil identify {procedure} {data}`\n"
+                  + "\n".join(f"{f.procedure}: " + ", ".join(f"{k} = {v}" for k, v in f.updates.items()) for f in fits))
+        save_parameters(result, out, header=header)
+        doc["params_file"] = str(out)
+    if report is not None:
+        doc["report"] = [str(p) for f in fits for p in write_report(f, report)]
+    return doc
+
+
+@app.command("identify")
+def identify_cmd(procedure: str = typer.Argument(..., help="spool|valve-static|bulk-modulus|leakage|"
+                                                 "friction-static|friction-dynamic|all"),
+                 data: Path = typer.Argument(..., help="input file (CSV/TOML; for `all` the chain config)"),
+                 out: Optional[Path] = typer.Option(None, "--out", help="parameter file to write (TOML)"),
+                 params: str = typer.Option("ferreira2004", help="starting parameter set (name or path)"),
+                 report: Optional[Path] = typer.Option(None, "--report", help="folder for the fit figures"),
+                 as_json: bool = typer.Option(False, "--json", help="print the fitted values as one JSON object"),
+                 sets: list[str] = typer.Option([], "--set", help="experiment condition key=value (repeatable), "
+                                                "e.g. load.gravity_direction=0; used for the fit only")):
+    """Identify model parameters from a datasheet or a measurement (paper §3)."""
+    try:
+        doc = identify(procedure, data, out, params, report, _parse_sets(sets))
+    except HydrohilError as exc:
+        _fail(exc)
+    if as_json:
+        typer.echo(json.dumps(doc, indent=2, default=float))
+    else:
+        for f in doc.get("procedures", [doc]):
+            vals = {k: v for k, v in f.items() if k not in ("procedure", "achieved", "curves", "targets",
+                                                          "relative_error", "notes", "per_pressure")}
+            typer.echo(f"{f['procedure']}: " + json.dumps(vals, default=float))
+            for n in f.get("notes", []):
+                typer.echo(f"  note: {n}")
+        if out:
+            typer.echo(f"wrote {out}")
+        if report:
+            typer.echo(f"wrote {len(doc['report'])} figure(s) to {report}")
+
+
 def main():
     app()
 

@@ -9,6 +9,7 @@ from hydrohil.models.layout import (A1, A2, BB, BC, BETA1, BETA2, BULK_CONST, FL
 from hydrohil.models.valve import orifice_flow, pseudo_sections
 
 P_MIN = -0.99e5  # Pa gauge: just above absolute zero; pressures are floored here (cavitation)
+P_ATM = 1e5      # Pa, the atmospheric pressure of eq 21
 
 
 @jit(inline=True)
@@ -18,7 +19,7 @@ def bulk_modulus(pressure, chamber, p):
     if p[BULK_CONST] > 0.5:
         return p[BETA1] if chamber == 1 else p[BETA2]
     pr = max(pressure, P_MIN)
-    return (1e5 + pr) / (p[BB] * pr + p[BC])
+    return (P_ATM + pr) / (p[BB] * pr + p[BC])
 
 
 @jit(inline=True)

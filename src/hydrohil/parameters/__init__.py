@@ -18,7 +18,7 @@ from hydrohil.parameters.schema import Parameters
 
 BUILTIN_DIR = Path(__file__).parent
 __all__ = ["Parameters", "load_parameters", "builtin_names", "read_toml", "apply_overrides",
-           "validate_parameters", "save_parameters", "format_validation_error"]
+           "validate_parameters", "save_parameters", "format_validation_error", "replace_values"]
 
 
 def builtin_names() -> list[str]:
@@ -119,9 +119,16 @@ def load_parameters(name_or_path: str | Path = "ferreira2004",
         raise
 
 
+def replace_values(params: Parameters, values: Mapping[str, Any], source: str = "overrides") -> Parameters:
+    """A copy of ``params`` with dotted keys set (``{"supply.ps": 1.2e7}``), validated again."""
+    return validate_parameters(apply_overrides(params.model_dump(mode="python"), values, source), source)
+
+
 def save_parameters(params: Parameters, path: str | Path, header: str = "") -> None:
     """Write a parameter set as TOML that :func:`load_parameters` reads back unchanged."""
     text = tomli_w.dumps(params.model_dump(mode="python"))
     if header:
         text = "".join(f"# {line}\n" for line in header.splitlines()) + "\n" + text
-    Path(path).write_text(text)
+    tmp = Path(str(path) + ".part")   # never leave a half-written parameter file
+    tmp.write_text(text)
+    tmp.replace(path)

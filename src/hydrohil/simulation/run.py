@@ -10,6 +10,7 @@ import numpy as np
 from hydrohil.errors import SimulationDiverged
 from hydrohil.models.delay import make_buffer, split_delay
 from hydrohil.models.layout import pack
+from hydrohil.parameters import Parameters
 from hydrohil.simulation.diagnostics import divergence_error
 from hydrohil.simulation.loop import LOG_COLUMNS, NLOG, STATUS_OK, initial_state, kernels
 from hydrohil.simulation.scenario import LoadedScenario
@@ -69,7 +70,22 @@ def run_scenario(sc: LoadedScenario, *, progress=None, warmup: bool = True) -> S
         wall = time.perf_counter() - t0
         div = None if status == STATUS_OK else divergence_error(done * h, yend, np.zeros(3, dtype=np.int64))
         return SimulationResult(log, "reference", h, wall, div)
-    run_loop = kernels(s.solver.method).run_loop
+    status, done, log, wall = run_hybrid(params, p, y, m, h, n, every, u_open, closed=closed, kp=kp, xref=xref,
+                                         solver=s.solver.method, warmup=warmup)
+    div = None if status == STATUS_OK else divergence_error(done * h, y, m)
+    return SimulationResult(log, s.solver.method, h, wall, div)
+
+
+def run_hybrid(params: Parameters, p: np.ndarray, y: np.ndarray, m: np.ndarray, h: float, n: int, every: int,
+               u_open: np.ndarray, *, closed: bool = False, kp: float = 0.0, xref: np.ndarray | None = None,
+               solver: str = "rk3", warmup: bool = True):
+    """Run the compiled loop of the hybrid model for n steps from (y, m), both updated in place.
+
+    Open loop: ``u_open[k]`` is the command held over step k (n + 1 values). Closed loop: the P
+    controller on ``xref``. Returns (status, steps done, log rows, wall time of the loop [s]).
+    """
+    xref = np.zeros(n + 1) if xref is None else xref
+    run_loop = kernels(solver).run_loop
     dl_n, alpha = split_delay(params.spool.delay, h)
     log = np.zeros((n // every + 1, NLOG))
     if warmup:  # compile (or load from cache) outside the timed region
@@ -78,8 +94,6 @@ def run_scenario(sc: LoadedScenario, *, progress=None, warmup: bool = True) -> S
     t0 = time.perf_counter()
     status, done, rows = run_loop(y, m, p, h, n, every, u_open, closed, kp, xref, make_buffer(dl_n, y[0]),
                                   np.zeros(1, np.int64), dl_n, alpha, log)
-    wall = time.perf_counter() - t0
-    div = None if status == STATUS_OK else divergence_error(done * h, y, m)
-    return SimulationResult(log[:rows], s.solver.method, h, wall, div)
+    return status, done, log[:rows], time.perf_counter() - t0
 
 
