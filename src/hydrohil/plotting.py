@@ -49,3 +49,42 @@ def plot_run(path: Path, t, xp, p1, p2, u, xs, travel, friction, *, xref=None, t
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "") -> None:
+    """HIL report: reference vs HIL vs offline position, error, pressures, plant modes, step jitter."""
+    t = np.asarray(hil["t"])
+    n = min(len(t), len(offline.log))
+    fig, ax = plt.subplots(5, 1, figsize=(10, 13), sharex=True,
+                           gridspec_kw={"height_ratios": [3, 2, 3, 1.5, 1.5]})
+    ax[0].plot(t[:n], np.asarray(xref[:n]) * 1e3, "k--", lw=1, label="reference")
+    ax[0].plot(t, np.asarray(hil["xp"]) * 1e3, lw=1.5, label="HIL (real-time plant)")
+    ax[0].plot(offline.column("t")[:n], offline.column("xp")[:n] * 1e3, ":", lw=1.5, label="offline simulation")
+    ax[1].plot(t[:n], (np.asarray(hil["xp"][:n]) - np.asarray(xref[:n])) * 1e3, lw=1, label="HIL − reference")
+    ax[1].plot(t[:n], (np.asarray(hil["xp"][:n]) - offline.column("xp")[:n]) * 1e3, lw=1, label="HIL − offline")
+    ax[2].plot(t, np.asarray(hil["p1"]) / 1e5, lw=1, label="P1 (HIL)")
+    ax[2].plot(t, np.asarray(hil["p2"]) / 1e5, lw=1, label="P2 (HIL)")
+    ax[2].plot(offline.column("t")[:n], offline.column("p1")[:n] / 1e5, ":", lw=1, label="P1 (offline)")
+    ax[2].plot(offline.column("t")[:n], offline.column("p2")[:n] / 1e5, ":", lw=1, label="P2 (offline)")
+    codes_t = np.array([TRAVEL_NAMES.index(v) for v in hil["travel_mode"]])
+    codes_f = np.array([FRICTION_NAMES.index(v) for v in hil["friction_mode"]])
+    ax[3].step(t, codes_t, where="post", label="travel")
+    ax[3].step(t, codes_f + 3, where="post", label="friction")
+    ax[3].set_yticks(range(6), [*TRAVEL_NAMES, *FRICTION_NAMES], fontsize=7)
+    ax[4].plot(t, np.asarray(hil["jitter_us"]), ".", ms=1, label="step start lateness (jitter)")
+    ax[4].plot(t, np.asarray(hil["watchdog"]) * max(1.0, float(np.max(hil["jitter_us"]))), lw=1,
+               label="watchdog active")
+    ax[0].set_ylabel("position [mm]")
+    ax[1].set_ylabel("error [mm]")
+    ax[2].set_ylabel("pressure [bar]")
+    ax[3].set_ylabel("mode")
+    ax[4].set_ylabel("jitter [µs]")
+    ax[4].set_xlabel("time [s]")
+    for a in (ax[0], ax[1], ax[2], ax[4]):
+        a.grid(alpha=0.3)
+        a.legend(loc="best", fontsize=8)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

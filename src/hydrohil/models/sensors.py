@@ -18,3 +18,14 @@ def encoder_position(xp, resolution):
     if resolution <= 0.0:
         return xp
     return encoder_counts(xp, resolution) * resolution
+
+
+def pressure_reading(pressure, full_scale, resolution, noise):
+    """Pressure [Pa] as a transducer + ADC reports it: true value + ``noise`` (a sample, Pa), clipped to
+    [0, full_scale] gauge, quantised to ``resolution`` (<= 0: none). Returns (reading, saturated)."""
+    v = pressure + noise
+    sat = v < 0.0 or v > full_scale
+    v = min(max(v, 0.0), full_scale)
+    if resolution > 0.0:
+        v = np.floor(v / resolution + 0.5) * resolution
+    return v, sat

@@ -78,6 +78,26 @@ class TableReference(_S):
         return self
 
 
+class HilCfg(_S):
+    """``[hil]``: real-time settings and interface models of ``hydrohil hil`` (docs/protocol.md).
+
+    The command transport delay acts in series with the spool delay, offline and in real time alike.
+    """
+
+    step: float | None = Field(None, gt=1e-6, le=0.01, description="plant step [s] (default: solver.step)")
+    command_delay: float = Field(0.0, ge=0, le=0.1, description="valve command transport delay [s]")
+    command_scale: float = Field(1.0, gt=0, le=1e3, description="command units per unit ū (e.g. 10 for ±10 V)")
+    watchdog_timeout: float = Field(0.05, gt=0, le=10, description="no valid command for this long -> safe state [s]")
+    safe_state: Literal["centre", "hold"] = Field("centre", description="valve to centre, or hold position")
+    hold_kp: float = Field(50.0, gt=0, le=1e5, description="P gain of the 'hold' safe state [1/m]")
+    controller_mode: Literal["packet", "clock"] = Field("packet", description="controller driven by sensor "
+                                                        "packets or by its own clock")
+    busy_poll: bool = Field(True, description="controller spins on its socket (lower latency, uses one core)")
+    seed: int = Field(0, ge=0, description="seed of the pressure-sensor noise")
+    cpu_plant: int | None = Field(None, ge=0, description="pin the plant process to this CPU")
+    cpu_controller: int | None = Field(None, ge=0, description="pin the controller process to this CPU")
+
+
 def _check_table(t, v, name, lo, hi):
     if len(t) != len(v):
         raise ValueError(f"t and {name} must have the same length ({len(t)} vs {len(v)})")
@@ -96,7 +116,7 @@ class Scenario(_S):
     input: TableInput | SineInput | None = Field(None, discriminator="type")
     controller: PControllerCfg | None = None
     reference: TableReference | None = None
-    hil: dict[str, Any] = Field(default_factory=dict, description="real-time settings (hydrohil hil)")
+    hil: HilCfg = HilCfg()
 
     @model_validator(mode="after")
     def _one_drive(self):
@@ -164,6 +184,9 @@ def load_scenario(path: str | Path, *, solver: str | None = None, step: float | 
         if exc.source != "overrides":
             raise
         raise InputError(str(exc).split(": ", 2)[-1], source=str(path), key=f"overrides.{exc.key}") from None
+    if sc.hil.command_delay > 0:   # transport delay in series with the spool delay (same offline and HIL)
+        from hydrohil.parameters import replace_values
+        params = replace_values(params, {"spool.delay": params.spool.delay + sc.hil.command_delay}, str(path))
     L = params.cylinder.stroke
     if not 0.0 <= sc.initial.xp <= L:
         raise InputError(f"must lie in [0, {L}] m (cylinder.stroke)", source=str(path), key="initial.xp")

@@ -1,0 +1,1 @@
+"""Real-time hardware-in-the-loop runtime: wire protocol, plant server, controller client, orchestration."""

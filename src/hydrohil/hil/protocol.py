@@ -1,0 +1,129 @@
+"""hydrohil wire protocol v1: fixed-layout little-endian UDP datagrams (specified in docs/protocol.md).
+
+Every datagram = 32-byte header + payload + CRC-32 (zlib/IEEE, over everything before it):
+
+    header  <4s H H I q q I>   magic b"HHIL", version, type, seq, t_send_ns, echo_t_ns, echo_seq
+    SENSOR  <d Q q d d d d I B B B x>   t_sim, step, encoder_counts, p1, p2, ps, pt, status, modes
+    COMMAND <d I I>             u (command in the configured unit, ū by default), flags, reserved
+    HELLO / BYE                 no payload
+
+A datagram that is too short/long for its type, has a wrong magic, version, type or CRC is *bad*:
+:func:`decode` returns None and the receiver counts it. Nothing here raises on network input.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from typing import NamedTuple
+
+MAGIC = b"HHIL"
+VERSION = 1
+T_SENSOR, T_COMMAND, T_HELLO, T_BYE = 1, 2, 3, 4
+
+HEADER = struct.Struct("<4sHHIqqI")          # 32 bytes
+SENSOR = struct.Struct("<dQqddddIBBBx")       # 64 bytes
+COMMAND = struct.Struct("<dII")               # 16 bytes
+CRC = struct.Struct("<I")
+SIZES = {T_SENSOR: HEADER.size + SENSOR.size + CRC.size,      # 100
+         T_COMMAND: HEADER.size + COMMAND.size + CRC.size,    # 52
+         T_HELLO: HEADER.size + CRC.size,                     # 36
+         T_BYE: HEADER.size + CRC.size}
+MAX_DATAGRAM = 512
+
+# status bits of a sensor packet
+ST_WATCHDOG = 1 << 0      # safe state active: no valid command for longer than the watchdog timeout
+ST_LOCKSTEP = 1 << 1      # plant runs in lock-step (not wall-clock) mode
+ST_AT_RETRACT = 1 << 2    # piston at the retract end stop
+ST_AT_EXTEND = 1 << 3     # piston at the extend end stop
+ST_STICK = 1 << 4         # friction in stick (presliding)
+ST_OVERRUN = 1 << 5       # the step that produced this packet started after its successor's instant
+ST_SATURATED = 1 << 6     # a pressure reading is clipped at the sensor range
+ST_LATE_COMMAND = 1 << 7  # the command used was not the answer to the previous sensor packet
+ST_FAULT = 1 << 8         # the plant stopped on a fault (simulation diverged); last packet
+ST_FINAL = 1 << 9         # last packet of the run
+# command flags
+CMD_STOP = 1 << 0         # controller asks the plant to end the run
+
+
+class Header(NamedTuple):
+    type: int
+    seq: int
+    t_send_ns: int
+    echo_t_ns: int
+    echo_seq: int
+
+
+class Sensor(NamedTuple):
+    header: Header
+    t_sim: float
+    step: int
+    encoder_counts: int
+    p1: float
+    p2: float
+    ps: float
+    pt: float
+    status: int
+    travel_mode: int
+    friction_mode: int
+    spool_mode: int
+
+
+class Command(NamedTuple):
+    header: Header
+    u: float
+    flags: int
+
+
+def _seal(buf: bytearray) -> bytes:
+    CRC.pack_into(buf, len(buf) - CRC.size, zlib.crc32(memoryview(buf)[:-CRC.size]))
+    return bytes(buf)
+
+
+def encode_header(buf: bytearray, typ: int, seq: int, t_send_ns: int, echo_t_ns: int, echo_seq: int) -> None:
+    HEADER.pack_into(buf, 0, MAGIC, VERSION, typ, seq & 0xFFFFFFFF, t_send_ns, echo_t_ns, echo_seq & 0xFFFFFFFF)
+
+
+def encode_sensor(seq, t_send_ns, echo_t_ns, echo_seq, t_sim, step, encoder_counts, p1, p2, ps, pt, status,
+                  travel_mode, friction_mode, spool_mode) -> bytes:
+    buf = bytearray(SIZES[T_SENSOR])
+    encode_header(buf, T_SENSOR, seq, t_send_ns, echo_t_ns, echo_seq)
+    SENSOR.pack_into(buf, HEADER.size, t_sim, step, encoder_counts, p1, p2, ps, pt, status, travel_mode,
+                     friction_mode, spool_mode)
+    return _seal(buf)
+
+
+def encode_command(seq, t_send_ns, echo_t_ns, echo_seq, u, flags=0) -> bytes:
+    buf = bytearray(SIZES[T_COMMAND])
+    encode_header(buf, T_COMMAND, seq, t_send_ns, echo_t_ns, echo_seq)
+    COMMAND.pack_into(buf, HEADER.size, u, flags, 0)
+    return _seal(buf)
+
+
+def encode_simple(typ: int, seq: int, t_send_ns: int, echo_t_ns: int = 0, echo_seq: int = 0) -> bytes:
+    """HELLO or BYE."""
+    buf = bytearray(SIZES[typ])
+    encode_header(buf, typ, seq, t_send_ns, echo_t_ns, echo_seq)
+    return _seal(buf)
+
+
+def decode(data: bytes) -> Header | Sensor | Command | None:
+    """Decode one datagram; None for anything malformed, foreign, truncated, corrupted or of another
+    version (the caller counts it)."""
+    n = len(data)
+    if n < HEADER.size + CRC.size or n > MAX_DATAGRAM:
+        return None
+    magic, version, typ, seq, t_send, echo_t, echo_seq = HEADER.unpack_from(data, 0)
+    if magic != MAGIC or version != VERSION or SIZES.get(typ) != n:
+        return None
+    if CRC.unpack_from(data, n - CRC.size)[0] != zlib.crc32(memoryview(data)[:-CRC.size]):
+        return None
+    hdr = Header(typ, seq, t_send, echo_t, echo_seq)
+    if typ == T_SENSOR:
+        return Sensor(hdr, *SENSOR.unpack_from(data, HEADER.size))
+    if typ == T_COMMAND:
+        u, flags, _ = COMMAND.unpack_from(data, HEADER.size)
+        if u != u or abs(u) == float("inf"):
+            return None   # NaN/inf command: bad packet
+        return Command(hdr, u, flags)
+    return hdr
