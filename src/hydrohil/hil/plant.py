@@ -2,7 +2,7 @@
 
 Timeline of step k (h = plant step, t0 = start instant, docs/protocol.md):
   * until t0 + k·h the plant waits on its socket (``select``; coarse sleep) and spins the last
-    ``SPIN_NS``; every command that arrives is time-stamped on arrival;
+    ``spin_ns`` (150 µs, at most 30 % of h); every command that arrives is time-stamped on arrival;
   * at t0 + k·h it takes the latest valid command (or the watchdog's safe command), advances the model
     one step and sends the sensor packet of the state at (k+1)·h; its answer is due before t0 + (k+1)·h.
 Jitter = start of step k − (t0 + k·h); an overrun is a step that starts after t0 + (k+1)·h.
@@ -32,7 +32,8 @@ from hydrohil.parameters import Parameters
 from hydrohil.simulation.loop import HybridPlant
 from hydrohil.simulation.scenario import HilCfg
 
-SPIN_NS = 150_000            # busy-wait the last 150 us before a deadline (longer spins trip RT throttling)
+SPIN_NS = 150_000            # busy-wait the last 150 us before a deadline ...
+SPIN_FRACTION = 0.3          # ... but at most 30 % of a step: spinning ~all the time trips the kernel's RT throttling
 CONNECT_TIMEOUT_S = 30.0     # wait this long for the controller's first packet
 LOG_COLUMNS = ("k", "t", "wall", "jitter_us", "compute_us", "u", "cmd_seq", "cmd_age", "watchdog", "xs", "p1",
                "p2", "xp", "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas",
@@ -103,6 +104,7 @@ class PlantServer:
         self.address = self.sock.getsockname()
         self.peer = peer
         self.cpu = cpu
+        self.spin_ns = min(SPIN_NS, int(SPIN_FRACTION * self.h * 1e9))
         self.c = Counters()
         self.rng = np.random.default_rng(self.hil.seed)
         self.log = np.zeros((self.n + 1, len(LOG_COLUMNS)))
@@ -157,11 +159,11 @@ class PlantServer:
             self._receive(data, addr, time.perf_counter_ns())
 
     def _wait_until(self, deadline_ns: int) -> None:
-        """Sleep on the socket (handling arrivals) until SPIN_NS before the deadline, then spin."""
+        """Sleep on the socket (handling arrivals) until ``spin_ns`` before the deadline, then spin."""
         sock = self.sock
         while True:
             now = time.perf_counter_ns()
-            left = deadline_ns - now - SPIN_NS
+            left = deadline_ns - now - self.spin_ns
             if left <= 0:
                 break
             r, _, _ = select.select([sock], [], [], left / 1e9)
