@@ -96,10 +96,15 @@ def main():
                      ("max_stable_step", max_steps)):
         print(f"[bench] {name} ...", file=sys.stderr, flush=True)
         res[name] = fn()
+    emit(res, args.json)
+
+
+def emit(res: dict, path: Path | None) -> None:
+    """Print the results as JSON (and write them to ``path`` when given)."""
     text = json.dumps(res, indent=2)
     print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    if path:
+        path.write_text(text + "\n")
 
 
 if __name__ == "__main__":

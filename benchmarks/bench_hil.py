@@ -11,11 +11,11 @@ Run:  python benchmarks/bench_hil.py [--json FILE] [--seconds 60]
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 import tempfile
 import time
 from pathlib import Path
+
+from bench_core import emit, machine
 
 ROOT = Path(__file__).resolve().parent.parent
 EX = ROOT / "examples"
@@ -71,18 +71,14 @@ def main():
     ap.add_argument("--json", type=Path)
     ap.add_argument("--seconds", type=float, default=60.0)
     args = ap.parse_args()
-    res = {"machine": {"python": platform.python_version(), "platform": platform.platform(),
-                       "processor": platform.processor(), "cpus": __import__("os").cpu_count()}}
+    res = {"machine": machine()}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         res["realtime_0.5ms"] = hil_run(scenario(tmp, args.seconds, 5e-4), tmp / "rt05")
         res["realtime_0.1ms"] = hil_run(scenario(tmp, 10.0, 1e-4), tmp / "rt01")
         res["lockstep_0.5ms"] = hil_run(scenario(tmp, 10.0, 5e-4), tmp / "ls", lockstep=True)
     res["identification"] = identification_times()
-    text = json.dumps(res, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    emit(res, args.json)
 
 
 if __name__ == "__main__":

@@ -143,7 +143,9 @@ def linear_cmd(params: str = typer.Option("ferreira2004", help="built-in name or
 
 
 def _parse_sets(items: list[str]) -> dict:
-    """``key=value`` pairs (dotted parameter names, numbers) from repeated ``--set`` options."""
+    """``key=value`` pairs from repeated ``--set`` options; values are TOML literals (``0`` is an
+    integer, ``7e6`` a float, ``true`` a boolean), exactly as in a scenario's ``[overrides]``."""
+    import tomllib
     from hydrohil.errors import InputError
     out = {}
     for it in items:
@@ -151,10 +153,9 @@ def _parse_sets(items: list[str]) -> dict:
         if not sep:
             raise InputError("expected key=value, e.g. load.gravity_direction=0", source="--set", key=it)
         try:
-            num = float(val)
-        except ValueError:
-            raise InputError(f"not a number: {val!r}", source="--set", key=key) from None
-        out[key.strip()] = int(num) if num.is_integer() and "gravity_direction" in key else num
+            out[key.strip()] = tomllib.loads(f"v = {val.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            raise InputError(f"not a TOML value: {val!r}", source="--set", key=key) from None
     return out
 
 
@@ -275,10 +276,7 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
         prm = load_parameters(params)
     server = PlantServer(prm, step=step, duration=duration, bind=host_port, lockstep=lockstep, hil=hil,
                          initial=initial, cpu=cpu)
-    server.plant.step(0.0)            # compile / load every kernel before reporting READY
-    server.plant.reset(**initial) if initial else server.plant.reset()
-    from hydrohil.models.sensors import encoder_counts, pressure_reading
-    encoder_counts(0.0, 1e-6), pressure_reading(0.0, 1.0, 0.0, 0.0)
+    server.warm_up()
 
     def _stop(signum, frame):
         server.stop_requested = True

@@ -33,15 +33,23 @@ def plot_run(path: Path, t, xp, p1, p2, u, xs, travel, friction, *, xref=None, t
         ax[1].plot(compare["t"], np.asarray(compare["p2"]) / 1e5, ":", lw=1.5, label=f"P2 ({lab})")
     ax[2].plot(t, u, lw=1, label="command ū")
     ax[2].plot(t, xs, lw=1, label="spool x̄s")
-    ax[3].step(t, np.asarray(travel), where="post", label="travel")
-    ax[3].step(t, np.asarray(friction) + 3, where="post", label="friction")
-    ax[3].set_yticks(range(6), [*TRAVEL_NAMES, *FRICTION_NAMES], fontsize=7)
-    ax[0].set_ylabel("position [mm]")
-    ax[1].set_ylabel("pressure [bar]")
-    ax[2].set_ylabel("valve [-]")
-    ax[3].set_ylabel("mode")
-    ax[3].set_xlabel("time [s]")
-    for a in ax[:3]:
+    _mode_strip(ax[3], t, travel, friction)
+    _finish(fig, path, ax, ("position [mm]", "pressure [bar]", "valve [-]", "mode"), ax[:3], title)
+
+
+def _mode_strip(ax, t, travel, friction) -> None:
+    """Cylinder state diagram (Fig 11b style): travel and friction mode codes over time."""
+    ax.step(t, np.asarray(travel), where="post", label="travel")
+    ax.step(t, np.asarray(friction) + 3, where="post", label="friction")
+    ax.set_yticks(range(6), [*TRAVEL_NAMES, *FRICTION_NAMES], fontsize=7)
+
+
+def _finish(fig, path: Path, ax, ylabels, legend_axes, title: str) -> None:
+    """Axis labels (time on the last axis), grid and legend on ``legend_axes``, title; save and close."""
+    for a, label in zip(ax, ylabels):
+        a.set_ylabel(label)
+    ax[-1].set_xlabel("time [s]")
+    for a in legend_axes:
         a.grid(alpha=0.3)
         a.legend(loc="best", fontsize=8)
     if title:
@@ -66,25 +74,10 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "") -> None:
     ax[2].plot(t, np.asarray(hil["p2"]) / 1e5, lw=1, label="P2 (HIL)")
     ax[2].plot(offline.column("t")[:n], offline.column("p1")[:n] / 1e5, ":", lw=1, label="P1 (offline)")
     ax[2].plot(offline.column("t")[:n], offline.column("p2")[:n] / 1e5, ":", lw=1, label="P2 (offline)")
-    codes_t = np.array([TRAVEL_NAMES.index(v) for v in hil["travel_mode"]])
-    codes_f = np.array([FRICTION_NAMES.index(v) for v in hil["friction_mode"]])
-    ax[3].step(t, codes_t, where="post", label="travel")
-    ax[3].step(t, codes_f + 3, where="post", label="friction")
-    ax[3].set_yticks(range(6), [*TRAVEL_NAMES, *FRICTION_NAMES], fontsize=7)
+    _mode_strip(ax[3], t, [TRAVEL_NAMES.index(v) for v in hil["travel_mode"]],
+                [FRICTION_NAMES.index(v) for v in hil["friction_mode"]])
     ax[4].plot(t, np.asarray(hil["jitter_us"]), ".", ms=1, label="step start lateness (jitter)")
     ax[4].plot(t, np.asarray(hil["watchdog"]) * max(1.0, float(np.max(hil["jitter_us"]))), lw=1,
                label="watchdog active")
-    ax[0].set_ylabel("position [mm]")
-    ax[1].set_ylabel("error [mm]")
-    ax[2].set_ylabel("pressure [bar]")
-    ax[3].set_ylabel("mode")
-    ax[4].set_ylabel("jitter [µs]")
-    ax[4].set_xlabel("time [s]")
-    for a in (ax[0], ax[1], ax[2], ax[4]):
-        a.grid(alpha=0.3)
-        a.legend(loc="best", fontsize=8)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(fig, path, ax, ("position [mm]", "error [mm]", "pressure [bar]", "mode", "jitter [µs]"),
+            (ax[0], ax[1], ax[2], ax[4]), title)

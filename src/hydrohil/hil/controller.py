@@ -21,6 +21,7 @@ import numpy as np
 
 from hydrohil.control import PController
 from hydrohil.hil import protocol as pr
+from hydrohil.simulation.outputs import write_table
 
 
 SPIN_S = 150e-6
@@ -181,17 +182,6 @@ def run_p_controller(client: PlantClient, kp: float, reference: Callable[[float]
                     pass
     arr = np.array(rows, dtype=float).reshape(-1, len(CONTROLLER_LOG_COLUMNS))
     if log_path is not None:
-        write_rows(log_path, CONTROLLER_LOG_COLUMNS, arr, ints={0, 6})
+        write_table(log_path, CONTROLLER_LOG_COLUMNS, arr, ints={0, 6})
     return {"commands_sent": client.seq, "sensor_packets": client.received, "sensor_packets_bad": client.bad,
             "sensor_packets_lost": client.lost}
-
-
-def write_rows(path: Path, columns, arr: np.ndarray, ints=frozenset()) -> None:
-    import csv
-    tmp = Path(str(path) + ".part")
-    with open(tmp, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(columns)
-        for r in arr:
-            w.writerow([int(v) if i in ints else repr(float(v)) for i, v in enumerate(r)])
-    tmp.replace(path)

@@ -30,6 +30,7 @@ from hydrohil.models.layout import AT_EXTEND, AT_RETRACT, FRICTION_NAMES, SPOOL_
 from hydrohil.models.sensors import encoder_counts, pressure_reading
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.loop import HybridPlant
+from hydrohil.simulation.outputs import write_table
 from hydrohil.simulation.scenario import HilCfg
 
 SPIN_NS = 150_000            # busy-wait the last 150 us before a deadline ...
@@ -98,7 +99,8 @@ class PlantServer:
         self.params, self.h, self.lockstep = params, float(step), lockstep
         self.hil = hil or HilCfg()
         self.n = int(round(duration / self.h))
-        self.plant = HybridPlant(params, h=self.h, **(initial or {}))
+        self.initial = dict(initial or {})
+        self.plant = HybridPlant(params, h=self.h, **self.initial)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
         self.sock.bind(bind)
@@ -120,8 +122,15 @@ class PlantServer:
         self.cmd_t_arrival = None
         self.watchdog = False
         self.hold_x = None
-        self.sensor_seq = 0
         self.sensor_t_send = {}
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) every kernel the loop calls, then restore the initial
+        state: the first steps of a run must not pay for compilation."""
+        self.plant.step(0.0)
+        self.plant.reset(**self.initial)
+        encoder_counts(0.0, 1e-6)
+        p_control(1.0, 0.0, 0.0)
 
     # -- receiving --------------------------------------------------------------------------------
     def _receive(self, data: bytes, addr, t_arr: int) -> None:
@@ -135,7 +144,6 @@ class PlantServer:
             self.c.packets_foreign += 1
             return
         self.c.packets_rx += 1
-        hdr = msg.header if hasattr(msg, "header") else msg
         if isinstance(msg, pr.Command):
             if msg.header.seq <= self.cmd_seq:
                 self.c.packets_reordered += 1
@@ -149,7 +157,7 @@ class PlantServer:
                 self.c.rtt_ns.append(t_arr - ts)
             if msg.flags & pr.CMD_STOP:
                 self.stop_requested = True
-        elif hdr.type == pr.T_BYE:
+        elif isinstance(msg, pr.Header) and msg.type == pr.T_BYE:
             self.stop_requested = True
 
     def _drain(self) -> None:
@@ -352,17 +360,8 @@ class PlantServer:
 
     def write_log(self, path: Path) -> None:
         """Write the per-step log as CSV (modes as names)."""
-        import csv
-        tmp = Path(str(path) + ".part")
-        names = {15: TRAVEL_NAMES, 16: FRICTION_NAMES, 17: SPOOL_NAMES}
-        ints = {0, 6, 7, 8, 18}
-        with open(tmp, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(LOG_COLUMNS)
-            for r in self.log[: self.rows]:
-                w.writerow([names[i][int(v)] if i in names else int(v) if i in ints else repr(float(v))
-                            for i, v in enumerate(r)])
-        tmp.replace(path)
+        write_table(path, LOG_COLUMNS, self.log[: self.rows], names={15: TRAVEL_NAMES, 16: FRICTION_NAMES,
+                                                                     17: SPOOL_NAMES}, ints={0, 6, 7, 8, 18})
 
     def close(self) -> None:
         self.sock.close()

@@ -90,7 +90,10 @@ class ForceSimulator:
         return log
 
     def force(self, sigma0: float, sigma1: float) -> np.ndarray | None:
-        log = self.log(sigma0, sigma1)
+        return self.force_of(self.log(sigma0, sigma1))
+
+    def force_of(self, log: np.ndarray | None) -> np.ndarray | None:
+        """Hydraulic force Fh = P1·A1 − P2·A2 [N] at the samples of a simulation log (eq 28)."""
         if log is None:
             return None
         c = self.params.cylinder
@@ -144,7 +147,8 @@ def identify_friction_dynamic(data: dict[str, np.ndarray] | str | Path, params: 
         if progress:
             progress(len(grid) + j + 1, total)
     s0, s1 = (float(v) for v in np.exp(nm.x))
-    f_fit = sim.force(s0, s1)
+    log_fit = sim.log(s0, s1)
+    f_fit = sim.force_of(log_fit)
     f_start = sim.force(params.friction.sigma0, params.friction.sigma1)
     rms = float(np.sqrt(np.mean((fh - f_fit) ** 2)))
     fit = Fit("friction-dynamic", {"sigma0": s0, "sigma1": s1}, cost=float(nm.fun),
@@ -153,7 +157,7 @@ def identify_friction_dynamic(data: dict[str, np.ndarray] | str | Path, params: 
                         float(np.sqrt(np.mean((fh - f_start) ** 2))) if f_start is not None else None,
                         "simulations": sim.evaluations, "samples": sim.n_samples},
               curves={"t": d["t"], "fh": fh, "fh_fit": f_fit, "fh_start": f_start, "xp": d["xp"],
-                      "xp_fit": sim.log(s0, s1)[: sim.n_samples, LOG_COLUMNS.index("xp")]})
+                      "xp_fit": log_fit[: sim.n_samples, LOG_COLUMNS.index("xp")]})
     fit.wall_time_s = time.perf_counter() - t_start
     return fit
 

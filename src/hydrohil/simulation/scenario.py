@@ -92,7 +92,8 @@ class HilCfg(_S):
     hold_kp: float = Field(50.0, gt=0, le=1e5, description="P gain of the 'hold' safe state [1/m]")
     controller_mode: Literal["packet", "clock"] = Field("packet", description="controller driven by sensor "
                                                         "packets or by its own clock")
-    busy_poll: bool = Field(True, description="controller spins on its socket (lower latency, uses one core)")
+    busy_poll: bool = Field(True, description="controller naps until 150 us before the next packet, then spins "
+                            "on its socket (lower latency, ~1/3 of a core)")
     seed: int = Field(0, ge=0, description="seed of the pressure-sensor noise")
     cpu_plant: int | None = Field(None, ge=0, description="pin the plant process to this CPU")
     cpu_controller: int | None = Field(None, ge=0, description="pin the controller process to this CPU")
