@@ -142,15 +142,16 @@ def test_plant_sigint_finishes_log_and_timing(tmp_path):
 
 # ---- hil: plant + controller processes vs offline -------------------------------------------------
 
-def short_scenario(tmp_path, duration):
-    text = (EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", f"duration = {duration}")
-    path = tmp_path / "fig11_short.toml"
+def short_scenario(tmp_path, duration, name="fig11_p_control.toml"):
+    text = (EXAMPLES / name).read_text().replace("duration = 6.0", f"duration = {duration}")
+    path = tmp_path / f"short_{name}"
     path.write_text(text)
     return path
 
 
 def test_hil_lockstep_matches_offline_to_numerical_precision(tmp_path):
-    scen = short_scenario(tmp_path, 2.0)
+    # Fig 12's reference steps at t = 0.5 s and 1.5 s: plant time must be k*h exactly (no summed drift)
+    scen = short_scenario(tmp_path, 2.0, "fig12_steps_ramps.toml")
     r = hh("hil", scen, "--out", tmp_path / "out", "--lockstep")
     assert r.returncode == 0, r.stderr
     log = read_csv_columns(tmp_path / "out" / "plant_log.csv")
@@ -158,6 +159,7 @@ def test_hil_lockstep_matches_offline_to_numerical_precision(tmp_path):
     assert len(log["t"]) == len(off.log) == 4001
     assert np.max(np.abs(log["xp"] - off.column("xp"))) < 1e-9
     assert np.max(np.abs(log["p1"] - off.column("p1"))) < 1e-2          # Pa
+    assert np.array_equal(log["t"], off.column("t"))
     assert list(log["travel_mode"]) == [("free", "at_retract_stop", "at_extend_stop")[int(v)]
                                         for v in off.column("travel_mode")]
     for f in ("controller_log.csv", "timing.json", "report.png", "comparison.json"):

@@ -90,7 +90,7 @@ def _plant_step(y, m, p, buf, pos, dl_n, dl_alpha, u, h, work, out):
     """One step of the per-step API: delay the command, advance, fill ``out`` (see HybridPlant)."""
     ud = delay_push_read(buf, pos, u, dl_n, dl_alpha)
     ev = HYBRID_STEP(y, m, p, ud, h, work)
-    out[0] += h
+    out[0] = (np.floor(out[0] / h + 0.5) + 1.0) * h   # t = k*h exactly as the offline loop (no sum drift)
     for i in range(NY):
         out[1 + i] = y[i]
     out[8] = friction_force(y, m, p)
