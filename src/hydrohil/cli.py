@@ -447,6 +447,88 @@ def demo_cmd(out: Path = typer.Option(Path("hydrohil-demo"), "--out", help="repo
     typer.echo(f"report: {out}/report.md (figures {out}/fig11/report.png, {out}/fig12/report.png)")
 
 
+class _Stages:
+    """Progress over named stages: a rich bar on a terminal, one line per stage otherwise."""
+
+    def __init__(self, title: str, enabled: bool = True):
+        self.title, self.bar, self.task, self.t0 = title, None, None, None
+        if enabled and sys.stderr.isatty():
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+            self.bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                                TimeElapsedColumn())
+        self.enabled = enabled
+
+    def __enter__(self):
+        if self.bar:
+            self.bar.start()
+        return self
+
+    def __call__(self, name: str, i: int, n: int) -> None:
+        if self.bar:
+            if self.task is None:
+                self.task = self.bar.add_task(self.title, total=n)
+            self.bar.update(self.task, completed=i, description=f"{self.title}: {name}")
+        elif self.enabled:
+            typer.echo(f"[{i + 1}/{n}] {name} ...", err=True)
+
+    def __exit__(self, *exc):
+        if self.bar:
+            self.bar.stop()
+
+
+def reproduce(out: Path = Path("hydrohil-reproduce"), quick: bool = False, lockstep: Optional[bool] = None,
+              progress: bool = True) -> dict:
+    """Every figure and number of the paper a model can produce; writes ``out/report.md`` and the rest."""
+    from hydrohil.reproduce import run_reproduce
+    with _Stages("reproduce", progress) as stages:
+        return run_reproduce(out, quick=quick, lockstep=lockstep, on_step=stages)
+
+
+@app.command("reproduce")
+def reproduce_cmd(out: Path = typer.Option(Path("hydrohil-reproduce"), "--out", help="report folder"),
+                  quick: bool = typer.Option(False, help="lock-step HIL and a coarse step-size search (minutes "
+                                                         "-> about 30 s)"),
+                  lockstep: Optional[bool] = typer.Option(None, "--lockstep/--realtime",
+                                                          help="HIL mode for Figs 11-12 (default: real time)")):
+    """Reproduce the paper: Figs 4, 5, 7-12, step sizes, paper-vs-hydrohil table, identification round trips."""
+    try:
+        res = reproduce(out, quick, lockstep)
+    except HydrohilError as exc:
+        _fail(exc)
+    st = res["step-size"]
+    typer.echo(f"hybrid step {st['hybrid_s']:.3g} s vs stiff model {st['continuous_s']:.3g} s; "
+               f"{sum(len(v) for v in res['figures'].values())} figures; {res['wall_time_s']['total']:.0f} s; "
+               f"report: {out}/report.md")
+
+
+def bench(json_path: Optional[Path] = None, markdown_path: Optional[Path] = None, seconds: float = 60.0,
+          quick: bool = False, progress: bool = True) -> dict:
+    """Run the benchmark suite; optionally write the JSON and the README table (markdown)."""
+    from hydrohil.bench import markdown, run_bench
+    from hydrohil.simulation.outputs import write_json
+    with _Stages("bench", progress) as stages:
+        res = run_bench(seconds=seconds, quick=quick, on_section=stages)
+    if json_path:
+        write_json(json_path, res)
+    if markdown_path:
+        markdown_path.write_text(markdown(res))
+    return res
+
+
+@app.command("bench")
+def bench_cmd(json_path: Optional[Path] = typer.Option(None, "--json", help="write all results as JSON"),
+              markdown_path: Optional[Path] = typer.Option(None, "--markdown", help="write the README table"),
+              seconds: float = typer.Option(60.0, help="length of the 0.5 ms real-time run [s]"),
+              quick: bool = typer.Option(False, help="short runs: a smoke test, not figures to report")):
+    """Benchmark suite: step cost, solvers, step sizes, real-time jitter/overruns/RTT, lock-step, identification."""
+    from hydrohil.bench import markdown
+    try:
+        res = bench(json_path, markdown_path, seconds, quick)
+    except HydrohilError as exc:
+        _fail(exc)
+    typer.echo(markdown(res))
+
+
 def main():
     app()
 

@@ -1,0 +1,274 @@
+"""``hydrohil bench``: one benchmark suite, measured in one run on the current machine.
+
+Sections (each a function returning a dict; medians over repeats, ratios computed from the same run):
+  machine           CPU model, cores, Python/numpy/numba versions, real-time permissions
+  startup           `hydrohil simulate` as a new process, cold (empty JIT cache) and warm
+  compiled_loop     ns per hybrid RK3 step in the compiled loop (open and closed loop), real-time factor
+  per_step_api      µs per ``HybridPlant.step(u)`` call from Python
+  reference_solver  wall time of the LSODA reference per simulated second, ratio to the hybrid loop
+  max_stable_step   largest stable RK3 step, hybrid vs continuous stiff-stop model, ratio
+  realtime_0.5ms    plant + controller processes over loopback, wall-clock locked: jitter, overruns, RTT
+  realtime_0.1ms    the same at 0.1 ms: does it keep up?
+  udp_ping_pong     bare Python UDP round trip on loopback (the floor under the HIL RTT)
+  lockstep          lock-step HIL throughput (steps/s)
+  identification    wall time of the spool and dynamic-friction fits
+``markdown(results)`` renders the README's performance table from the JSON.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import socket
+import statistics
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+EXPERIMENTS_DIR = Path(__file__).resolve().parent / "experiments"
+HIL_KEYS = ("steps", "overruns", "overrun_fraction", "jitter_us_p50", "jitter_us_p99", "jitter_us_p999",
+            "jitter_us_max", "compute_us_p50", "compute_us_p99", "rtt_us_p50", "rtt_us_p99", "late_commands",
+            "watchdog_trips", "packets_lost", "drift_ms", "os_rt_priority")
+
+
+def machine() -> dict:
+    cpu = platform.processor()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import numba
+    return {"cpu": cpu, "cpus": os.cpu_count(), "platform": platform.platform(),
+            "python": sys.version.split()[0], "numpy": np.__version__, "numba": numba.__version__,
+            "date_utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime())}
+
+
+def _scenario(name: str, duration: float, every: int = 1000, solver: str | None = None):
+    from hydrohil.simulation.scenario import load_scenario
+    sc = load_scenario(EXPERIMENTS_DIR / name, duration=duration, solver=solver)
+    return sc.model_copy(update={"scenario": sc.scenario.model_copy(update={
+        "solver": sc.scenario.solver.model_copy(update={"output_every": every})})})
+
+
+def compiled_loop(duration: float = 60.0, repeats: int = 7) -> dict:
+    from hydrohil.simulation.run import run_scenario
+    out = {}
+    for label, name in (("open_loop", "fig10_open_loop_sine.toml"), ("closed_loop", "fig11_p_control.toml")):
+        sc = _scenario(name, duration)
+        walls = [run_scenario(sc).wall_time_s for _ in range(repeats)]
+        med = statistics.median(walls)
+        out[label] = {"ns_per_step": med / sc.scenario.n_steps() * 1e9, "realtime_factor": duration / med}
+    return out
+
+
+def per_step_api(n: int = 20000, repeats: int = 5) -> dict:
+    from hydrohil.parameters import load_parameters
+    from hydrohil.simulation.loop import HybridPlant
+    plant = HybridPlant(load_parameters("ferreira2004", {"load.gravity_direction": 0}), xp=0.09)
+    u = 0.3 * np.sin(2 * np.pi * 0.5 * np.arange(n) * 5e-4)
+    res = []
+    for _ in range(repeats):
+        plant.reset(xp=0.09)
+        step = plant.step
+        t0 = time.perf_counter()
+        for uk in u:
+            step(uk)
+        res.append((time.perf_counter() - t0) / n * 1e6)
+    return {"us_per_call": statistics.median(res)}
+
+
+def reference_solver(duration: float = 6.0, repeats: int = 3) -> dict:
+    from hydrohil.simulation.run import run_scenario
+    ref = _scenario("fig10_open_loop_sine.toml", duration, every=1, solver="reference")
+    hyb = _scenario("fig10_open_loop_sine.toml", duration, every=1)
+    w_ref = statistics.median(run_scenario(ref).wall_time_s for _ in range(repeats))
+    w_hyb = statistics.median(run_scenario(hyb).wall_time_s for _ in range(repeats))
+    return {"lsoda_s_per_simulated_s": w_ref / duration, "hybrid_s_per_simulated_s": w_hyb / duration,
+            "ratio": w_ref / w_hyb}
+
+
+def max_stable_step() -> dict:
+    from hydrohil.maxstep import max_stable_step as search
+    from hydrohil.simulation.scenario import load_scenario
+    sc = load_scenario(EXPERIMENTS_DIR / "endstop_step_size.toml")
+    t0 = time.perf_counter()
+    hyb, cont = search(sc, "hybrid", "rk3"), search(sc, "continuous", "rk3")
+    return {"hybrid_s": hyb["max_stable_step"], "continuous_s": cont["max_stable_step"],
+            "ratio": hyb["max_stable_step"] / cont["max_stable_step"], "search_wall_s": time.perf_counter() - t0}
+
+
+def startup(repeats: int = 3) -> dict:
+    """`hydrohil simulate` of a short scenario as a fresh process: cold (empty JIT cache) and warm."""
+    import subprocess
+    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as out:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        cmd = [sys.executable, "-m", "hydrohil.cli", "simulate", str(EXPERIMENTS_DIR / "endstop_step_size.toml"),
+               "--out", out, "--no-plot"]
+        walls = []
+        for _ in range(repeats + 1):
+            t0 = time.perf_counter()
+            subprocess.run(cmd, env=env, check=True, capture_output=True)
+            walls.append(time.perf_counter() - t0)
+    return {"cold_s": walls[0], "warm_s": statistics.median(walls[1:])}
+
+
+def _hil_scenario(tmp: Path, seconds: float, step: float) -> Path:
+    """Fig 11's point-to-point move repeated for ``seconds`` at plant step ``step``."""
+    t, x = [0.0], [0.03]
+    k = 0
+    while t[-1] < seconds:
+        base = 6.0 * k
+        t += [base + 0.5, base + 1.5, base + 3.0, base + 4.0, base + 6.0]
+        x += [0.03, 0.15, 0.15, 0.03, 0.03]
+        k += 1
+    path = tmp / f"bench_{seconds:g}s_{step:g}.toml"
+    path.write_text(f'params = "ferreira2004"\nduration = {seconds}\n[solver]\nstep = {step}\n[initial]\nxp = 0.03\n'
+                    f'[controller]\ntype = "p"\nkp = 50.0\n[reference]\ntype = "table"\nt = {t}\nx = {x}\n')
+    return path
+
+
+def hil(seconds: float, step: float, lockstep: bool = False) -> dict:
+    from hydrohil.hil.run import run_hil
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        t0 = time.perf_counter()
+        r = run_hil(_hil_scenario(tmp, seconds, step), tmp / "out", lockstep=lockstep, plot=False)
+        res = {k: r.timing.get(k) for k in HIL_KEYS}
+        if res["steps"]:
+            res["overrun_fraction"] = (res["overruns"] or 0) / res["steps"]
+        res.update({"step_s": step, "seconds": seconds, "xp_rms_vs_offline_mm": r.comparison["xp_rms_mm"],
+                    "wall_s": time.perf_counter() - t0})
+        if lockstep:
+            res["steps_per_s"] = r.timing.get("steps_per_s")
+    return res
+
+
+def udp_ping_pong(n: int = 20000) -> dict:
+    """Round trip of a 52-byte datagram between two sockets on loopback, echo in a thread."""
+    a = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    b = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    a.bind(("127.0.0.1", 0))
+    b.bind(("127.0.0.1", 0))
+    a.connect(b.getsockname())
+    b.connect(a.getsockname())
+    stop = threading.Event()
+
+    def echo():
+        b.settimeout(0.5)
+        while not stop.is_set():
+            try:
+                b.send(b.recv(2048))
+            except socket.timeout:
+                pass
+
+    th = threading.Thread(target=echo, daemon=True)
+    th.start()
+    msg = bytes(52)
+    rtt = np.empty(n)
+    for i in range(n):
+        t0 = time.perf_counter_ns()
+        a.send(msg)
+        a.recv(2048)
+        rtt[i] = (time.perf_counter_ns() - t0) / 1e3
+    stop.set()
+    th.join()
+    a.close()
+    b.close()
+    return {"rtt_us_p50": float(np.percentile(rtt, 50)), "rtt_us_p99": float(np.percentile(rtt, 99))}
+
+
+def identification() -> dict:
+    from hydrohil.identification import identify_friction_dynamic, identify_spool
+    from hydrohil.identification.friction_dynamic import synthetic_experiment
+    from hydrohil.identification.spool import synthetic_bode
+    from hydrohil.parameters import load_parameters, replace_values
+    data = synthetic_bode(850.0, 0.62, 150.0, 6e4, 5e-4, noise_db=0.1, seed=1)
+    identify_spool(data)                       # compile
+    base = load_parameters("ferreira2004", {"load.gravity_direction": 0})
+    d = synthetic_experiment(replace_values(base, {"friction.sigma0": 1.2e7, "friction.sigma1": 5e3}), seed=7)
+    return {"spool_s": identify_spool(data).wall_time_s,
+            "friction_dynamic_s": identify_friction_dynamic(d, base).wall_time_s}
+
+
+def run_bench(*, seconds: float = 60.0, quick: bool = False,
+              on_section: Callable[[str, int, int], None] | None = None) -> dict:
+    """Run every section; ``quick`` shortens every run (a smoke test, not figures to report)."""
+    rt = 2.0 if quick else seconds
+    sections: list[tuple[str, Callable[[], dict]]] = [
+        ("startup", lambda: startup(1 if quick else 3)),
+        ("compiled_loop", lambda: compiled_loop(6.0 if quick else 60.0, 2 if quick else 7)),
+        ("per_step_api", lambda: per_step_api(2000 if quick else 20000, 2 if quick else 5)),
+        ("reference_solver", lambda: reference_solver(1.0 if quick else 6.0, 1 if quick else 3)),
+        ("max_stable_step", max_stable_step),
+        ("realtime_0.5ms", lambda: hil(rt, 5e-4)),
+        ("realtime_0.1ms", lambda: hil(min(rt, 10.0), 1e-4)),
+        ("udp_ping_pong", lambda: udp_ping_pong(2000 if quick else 20000)),
+        ("lockstep", lambda: hil(2.0 if quick else 10.0, 5e-4, lockstep=True)),
+        ("identification", identification),
+    ]
+    res = {"machine": machine(), "quick": quick}
+    for i, (name, fn) in enumerate(sections):
+        if on_section:
+            on_section(name, i, len(sections))
+        res[name] = fn()
+    res["ratios"] = {
+        "hybrid_vs_continuous_step": res["max_stable_step"]["ratio"],
+        "lsoda_vs_hybrid_wall": res["reference_solver"]["ratio"],
+        "hil_rtt_p50_vs_bare_udp": res["realtime_0.5ms"]["rtt_us_p50"] / res["udp_ping_pong"]["rtt_us_p50"],
+        "per_step_api_vs_compiled_step": res["per_step_api"]["us_per_call"] * 1e3
+        / res["compiled_loop"]["open_loop"]["ns_per_step"]}
+    return res
+
+
+def _f(v, fmt="{:.3g}") -> str:
+    return "—" if v is None else fmt.format(v)
+
+
+def markdown(res: dict) -> str:
+    """The README's performance table from a ``run_bench`` result."""
+    c, rt5, rt1 = res["compiled_loop"], res["realtime_0.5ms"], res["realtime_0.1ms"]
+    m = res["machine"]
+    rows = [
+        ("hybrid RK3 step, compiled loop (open / closed loop)",
+         f"{c['open_loop']['ns_per_step']:.0f} / {c['closed_loop']['ns_per_step']:.0f} ns "
+         f"(real-time factor {c['open_loop']['realtime_factor']:.0f} / {c['closed_loop']['realtime_factor']:.0f})",
+         "≤ 300 ns"),
+        ("`hydrohil simulate` start-up, cold (empty JIT cache) / warm",
+         f"{res['startup']['cold_s']:.1f} s / {res['startup']['warm_s']:.2f} s", "≤ 10 s / ≤ 2 s"),
+        ("per-step API `plant.step(u)` from Python", f"{res['per_step_api']['us_per_call']:.2f} µs", "≤ 5 µs"),
+        ("LSODA reference, wall per simulated second",
+         f"{res['reference_solver']['lsoda_s_per_simulated_s']:.3g} s ({res['reference_solver']['ratio']:.0f}× "
+         "the hybrid loop)", "—"),
+        ("largest stable RK3 step: hybrid / stiff end stops",
+         f"{_f(res['max_stable_step']['hybrid_s'])} s / {_f(res['max_stable_step']['continuous_s'])} s "
+         f"(ratio {res['max_stable_step']['ratio']:.3g})", "ratio ≥ 100"),
+        (f"real time 0.5 ms, {rt5['seconds']:g} s: jitter p50 / p99 / p99.9 / max",
+         f"{_f(rt5['jitter_us_p50'])} / {_f(rt5['jitter_us_p99'])} / {_f(rt5['jitter_us_p999'])} / "
+         f"{_f(rt5['jitter_us_max'])} µs", "p99 ≤ 50 µs"),
+        ("real time 0.5 ms: overruns", f"{rt5['overruns']} of {rt5['steps']} ({rt5['overrun_fraction']:.3%})",
+         "≤ 0.1 %"),
+        ("real time 0.5 ms: drift (final wall − simulated time)", f"{_f(rt5['drift_ms'])} ms", "≤ 1 ms"),
+        ("loopback RTT p50 / p99 (plant packet out → answering command in)",
+         f"{_f(rt5['rtt_us_p50'])} / {_f(rt5['rtt_us_p99'])} µs", "p99 ≤ 100 µs"),
+        ("bare Python UDP ping-pong p50 / p99 (floor)",
+         f"{_f(res['udp_ping_pong']['rtt_us_p50'])} / {_f(res['udp_ping_pong']['rtt_us_p99'])} µs", "—"),
+        ("HIL vs offline position (0.5 ms run)", f"{_f(rt5['xp_rms_vs_offline_mm'])} mm RMS", "≤ 0.5 mm"),
+        (f"real time 0.1 ms, {rt1['seconds']:g} s: overruns, jitter p99, late commands",
+         f"{rt1['overrun_fraction']:.2%}, {_f(rt1['jitter_us_p99'])} µs, {rt1['late_commands']}", "reported"),
+        ("lock-step HIL throughput", f"{res['lockstep']['steps_per_s']:.0f} steps/s "
+         f"(vs offline {_f(res['lockstep']['xp_rms_vs_offline_mm'])} mm)", "—"),
+        ("identification: spool / dynamic friction", f"{res['identification']['spool_s']:.1f} s / "
+         f"{res['identification']['friction_dynamic_s']:.1f} s", "—"),
+    ]
+    head = [f"Measured by `hydrohil bench` on {m['cpu']} ({m['cpus']} CPUs), Python {m['python']}, "
+            f"numba {m['numba']}, {m['date_utc']} UTC; real-time priority: {rt5['os_rt_priority']}.", "",
+            "| figure | measured | target |", "|---|---|---|"]
+    return "\n".join(head + [f"| {a} | {b} | {c} |" for a, b, c in rows]) + "\n"

@@ -1,0 +1,79 @@
+"""`hydrohil reproduce` (reduced: lock-step HIL, coarse step-size search) and `hydrohil bench --quick`."""
+
+import json
+import math
+
+import pytest
+
+from hydrohil.cli import bench, reproduce
+from hydrohil.parameters import load_parameters
+from hydrohil.reproduce.paper import PAPER
+
+
+@pytest.fixture(scope="module")
+def repro(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reproduce")
+    res = reproduce(out, quick=True, progress=False)
+    return out, res
+
+
+def test_every_figure_and_file_written(repro):
+    out, res = repro
+    expected = ["figures/fig4_spool_bode.png", "figures/fig5_valve_static.png", "figures/fig7_acceleration.png",
+                "figures/fig8_bulk_modulus.png", "figures/fig9_friction_static.png", "figures/fig10_open_loop.png",
+                "fig11/report.png", "fig12/report.png", "figures/step_size.png"]
+    for rel in expected:
+        assert (out / rel).stat().st_size > 10_000, rel
+    listed = [p for paths in res["figures"].values() for p in paths]
+    assert set(expected) <= set(listed)
+    for f in ("report.md", "results.json", "identified.toml", "data/spool_bode.csv", "data/friction_dynamic.csv",
+              "fig11/plant_log.csv", "fig12/timing.json"):
+        assert (out / f).stat().st_size > 0, f
+    assert json.loads((out / "results.json").read_text())["mode"]["quick"] is True
+    load_parameters(out / "identified.toml")          # the identified set is a valid parameter file
+
+
+def test_report_has_a_row_for_every_paper_number(repro):
+    out, _ = repro
+    text = (out / "report.md").read_text()
+    for key, (value, unit, where) in PAPER.items():
+        assert f"| {value:.4g} | {where} |" in text, key
+    for title in ("Fig 4", "Fig 5a", "Fig 10", "Fig 11", "Fig 12", "Step size", "Identification round trips"):
+        assert title in text
+    assert "nan" not in text.lower().replace("nanoseconds", "")
+
+
+def test_key_numbers(repro):
+    _, res = repro
+    ch = res["characteristics"]
+    assert ch["dpm_bar"] == pytest.approx(8.0, abs=0.1)
+    assert ch["kp0"] == pytest.approx(36.4, abs=0.2)
+    assert ch["kq0_lpm"] == pytest.approx(28.2, abs=0.2)
+    assert ch["p10_bar"] == pytest.approx(25.1, abs=0.1) and ch["p20_bar"] == pytest.approx(44.9, abs=0.1)
+    assert res["leakage"]["g_lkc_from_paper_numbers"] == pytest.approx(1.248e-14, rel=1e-3)
+    assert res["leakage"]["g_lkc"] == pytest.approx(1.248e-14, rel=0.02)
+    v = res["valve-static"]["achieved"]
+    assert v["dpm_bar"] == pytest.approx(8.0, rel=1e-6) and v["kp0"] == pytest.approx(36.5, rel=1e-6)
+    assert res["spool"]["wn"] == pytest.approx(PAPER["spool.wn"][0], rel=0.02)
+    assert res["bulk-modulus"]["b"] == pytest.approx(PAPER["cylinder.b"][0], rel=0.05)
+    assert res["friction-dynamic"]["sigma0"] == pytest.approx(PAPER["friction.sigma0"][0], rel=0.3)
+    st = res["step-size"]
+    assert st["hybrid_s"] >= 5e-4                     # hybrid stable at the paper's 0.5 ms
+    assert st["continuous_s"] < 1e-5 and st["ratio"] > 100
+    for fig in ("fig11", "fig12"):                   # lock-step HIL == offline
+        assert res[fig]["comparison"]["xp_rms_mm"] < 1e-6
+        assert res[fig]["timing"]["steps"] == 12000
+
+
+def test_bench_quick_measures_every_section(tmp_path):
+    res = bench(tmp_path / "bench.json", tmp_path / "bench.md", quick=True, progress=False)
+    on_disk = json.loads((tmp_path / "bench.json").read_text())
+    for section in ("machine", "startup", "compiled_loop", "per_step_api", "reference_solver", "max_stable_step",
+                    "realtime_0.5ms", "realtime_0.1ms", "udp_ping_pong", "lockstep", "identification", "ratios"):
+        assert section in on_disk, section
+    assert 50 < res["compiled_loop"]["open_loop"]["ns_per_step"] < 1e5
+    assert res["realtime_0.5ms"]["steps"] == 4000 and math.isfinite(res["realtime_0.5ms"]["jitter_us_p99"])
+    assert res["lockstep"]["steps_per_s"] > 500
+    assert res["ratios"]["hybrid_vs_continuous_step"] > 100
+    table = (tmp_path / "bench.md").read_text()
+    assert table.count("\n|") >= 14 and "None" not in table
