@@ -1,3 +1,6 @@
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -13,3 +16,9 @@ def paper():
 
 def rms(e):
     return float(np.sqrt(np.mean(np.asarray(e) ** 2)))
+
+
+def hh(*args, cwd=None, timeout=300):
+    """Run the ``hydrohil`` CLI as a subprocess (what a user types)."""
+    return subprocess.run([sys.executable, "-m", "hydrohil.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=timeout)

@@ -2,16 +2,9 @@
 
 import csv
 import json
-import subprocess
-import sys
 
 
-from conftest import EXAMPLES
-
-
-def hh(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "hydrohil.cli", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, timeout=300)
+from conftest import EXAMPLES, hh
 
 
 def test_simulate_writes_log_summary_plot(tmp_path):

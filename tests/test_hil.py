@@ -12,13 +12,12 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import EXAMPLES
+from conftest import EXAMPLES, hh
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.controller import PlantClient
 from hydrohil.hil.run import read_csv_columns
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import load_scenario
-from test_cli import hh
 
 
 # ---- protocol ------------------------------------------------------------------------------------

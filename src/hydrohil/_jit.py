@@ -7,9 +7,39 @@ ZeroDivisionError checks in the hot loop) and the fast-math flags that keep IEEE
 
 from __future__ import annotations
 
+import hashlib
+import os
 import types
+from pathlib import Path
 
+import numba
 from numba import njit
+
+
+def _cache_dir() -> Path | None:
+    """numba's on-disk cache is keyed on each function's own file only: a kernel in loop.py inlines the
+    models of other files and would keep stale code after they change. So the cache lives in a folder
+    named by a hash of the whole package source (``~/.cache/hydrohil/numba/<hash>``); ``NUMBA_CACHE_DIR``
+    set by the user wins."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return None
+    digest = hashlib.sha1()
+    root = Path(__file__).resolve().parent
+    for f in sorted(root.rglob("*.py")):
+        digest.update(f.relative_to(root).as_posix().encode())
+        digest.update(f.read_bytes())
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    path = base / "hydrohil" / "numba" / digest.hexdigest()[:16]
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None              # read-only home: numba's default (next to the sources)
+    return path
+
+
+_CACHE = _cache_dir()
+if _CACHE is not None:
+    numba.config.CACHE_DIR = str(_CACHE)
 
 FASTMATH = {"contract", "arcp"}
 

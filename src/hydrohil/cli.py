@@ -46,7 +46,7 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
         if prog:
             bar.stop()
     out.mkdir(parents=True, exist_ok=True)
-    extra = {}
+    extra = dict(res.columns)
     if sc.scenario.closed_loop:
         s = sc.scenario
         extra["x_ref"] = s.references()[::s.solver.output_every][:len(res.log)]
@@ -254,9 +254,10 @@ def _reference_table(text: str):
 def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", step: float = 5e-4,
                 duration: float = 10.0, log: Optional[Path] = None, lockstep: bool = False,
                 scenario: Optional[Path] = None, allow_remote: bool = False, cpu: Optional[int] = None,
-                ready=print) -> dict:
-    """Run the plant server until the run ends; writes ``log/plant_log.csv`` and ``log/timing.json``.
-    With ``scenario`` the parameters, step, duration, initial state and [hil] settings come from it."""
+                peer: Optional[str] = None, ready=print) -> dict:
+    """Run the plant server until the run ends; streams ``log/plant_log.csv`` and writes ``log/timing.json``
+    (also on SIGINT/SIGTERM). With ``scenario`` the parameters, step, duration, initial state, [hil] settings
+    and [[faults]] come from it. ``peer``: the only controller address accepted (default: first sender)."""
     import signal
     from hydrohil.hil.plant import PlantServer, finite_or_none, parse_address
     from hydrohil.parameters import load_parameters
@@ -264,7 +265,8 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
     from hydrohil.simulation.scenario import HilCfg, load_scenario
 
     host_port = parse_address(bind, allow_remote=allow_remote)
-    initial, hil = {}, HilCfg()
+    peer_addr = parse_address(peer, allow_remote=allow_remote) if peer else None
+    initial, hil, faults = {}, HilCfg(), []
     if scenario is not None:
         sc = load_scenario(scenario)
         s = sc.scenario
@@ -272,10 +274,14 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
         step, duration = hil.step or s.solver.step, s.duration
         initial = {"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1, "p2": s.initial.p2}
         cpu = hil.cpu_plant if cpu is None else cpu
+        faults = s.faults
     else:
         prm = load_parameters(params)
+    if log is not None:
+        log.mkdir(parents=True, exist_ok=True)
     server = PlantServer(prm, step=step, duration=duration, bind=host_port, lockstep=lockstep, hil=hil,
-                         initial=initial, cpu=cpu)
+                         initial=initial, cpu=cpu, faults=faults, peer=peer_addr,
+                         log=(log / "plant_log.csv") if log is not None else None)
     server.warm_up()
 
     def _stop(signum, frame):
@@ -287,9 +293,6 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
     try:
         timing = finite_or_none(server.run())
     finally:
-        if log is not None:
-            log.mkdir(parents=True, exist_ok=True)
-            server.write_log(log / "plant_log.csv")
         server.close()
     if log is not None:
         write_json(log / "timing.json", timing)
@@ -305,10 +308,12 @@ def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (na
               lockstep: bool = typer.Option(False, help="advance one step per command, as fast as possible"),
               scenario: Optional[Path] = typer.Option(None, help="take params/step/duration/initial/[hil] from it"),
               allow_remote: bool = typer.Option(False, help="allow binding a non-loopback address"),
-              cpu: Optional[int] = typer.Option(None, help="pin the plant to this CPU")):
+              cpu: Optional[int] = typer.Option(None, help="pin the plant to this CPU"),
+              peer: Optional[str] = typer.Option(None, help="accept commands only from this HOST:PORT "
+                                                 "(default: the first valid sender)")):
     """Serve the virtual rig over UDP (protocol: docs/protocol.md), locked to the wall clock."""
     try:
-        t = serve_plant(params, bind, step, duration, log, lockstep, scenario, allow_remote, cpu)
+        t = serve_plant(params, bind, step, duration, log, lockstep, scenario, allow_remote, cpu, peer)
     except HydrohilError as exc:
         _fail(exc)
     typer.echo(json.dumps(t), err=True)
@@ -348,9 +353,14 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
     if log is not None:
         log.mkdir(parents=True, exist_ok=True)
     warm_up()
+    import signal
+    stop = []
+    for sig in (signal.SIGINT, signal.SIGTERM):      # finish the log and controller.json, then exit
+        signal.signal(sig, lambda signum, frame: stop.append(signum))
     with PlantClient(addr, timeout=10.0, command_scale=scale, busy_poll=busy_poll, period=sample) as client:
         summary = run_p_controller(client, kp, ref, encoder_resolution=enc, mode=mode, sample_time=sample,
-                                   log_path=(log / "controller_log.csv") if log else None)
+                                   log_path=(log / "controller_log.csv") if log else None,
+                                   should_stop=lambda: bool(stop))
     if log is not None:
         write_json(log / "controller.json", summary)
     return summary

@@ -17,11 +17,9 @@ import time
 from pathlib import Path
 from typing import Callable, Iterator
 
-import numpy as np
-
 from hydrohil.control import PController
 from hydrohil.hil import protocol as pr
-from hydrohil.simulation.outputs import write_table
+from hydrohil.simulation.outputs import CsvStream
 
 
 SPIN_S = 150e-6
@@ -139,49 +137,52 @@ def warm_up() -> None:
 
 def run_p_controller(client: PlantClient, kp: float, reference: Callable[[float], float], *,
                      encoder_resolution: float = 1e-6, mode: str = "packet", sample_time: float = 5e-4,
-                     max_rows: int = 10_000_000, log_path: Path | None = None) -> dict:
+                     log_path: Path | None = None, should_stop: Callable[[], bool] = lambda: False) -> dict:
     """The paper's P position controller over the link: ū = clamp(Kp·(x_ref(t) − x_enc), −1, 1).
 
     ``mode = "packet"``: one command per sensor packet (answers it). ``mode = "clock"``: on its own
-    periodic clock of ``sample_time``, using the latest sensor packet. Returns a summary; the log is
-    written to ``log_path`` (CSV) when given.
+    periodic clock of ``sample_time``, using the latest sensor packet. The log is streamed to ``log_path``
+    (CSV) while running. ``should_stop`` is polled every cycle (signal handlers set it). Returns a summary.
     """
     ctl = PController(kp)
     res = encoder_resolution if encoder_resolution > 0 else 1e-6
-    rows = []
+    log = CsvStream(log_path, CONTROLLER_LOG_COLUMNS, ints={0, 6}) if log_path is not None else None
     t_start = time.perf_counter()
-    if mode == "packet":
-        for s in client.sensors():
-            x = s.encoder_counts * res
-            xr = reference(s.t_sim)
-            u = ctl.update(s.t_sim, xr, x)
-            client.send(u, answer=s)
-            if len(rows) < max_rows:
-                rows.append((s.header.seq, s.t_sim, time.perf_counter() - t_start, x, xr, u, s.status))
-    else:
-        last = client.receive()
-        next_t = time.perf_counter()
-        while last is not None and not client.finished:
-            while True:   # take the newest packet available now
-                s = client.receive(timeout=0.0)
-                if s is None:
+
+    def act(s: pr.Sensor) -> None:
+        x = s.encoder_counts * res
+        xr = reference(s.t_sim)
+        u = ctl.update(s.t_sim, xr, x)
+        client.send(u, answer=s)
+        if log is not None:
+            log.write((s.header.seq, s.t_sim, time.perf_counter() - t_start, x, xr, u, s.status))
+
+    try:
+        if mode == "packet":
+            for s in client.sensors():
+                act(s)
+                if should_stop():
                     break
-                last = s
-            x = last.encoder_counts * res
-            xr = reference(last.t_sim)
-            u = ctl.update(last.t_sim, xr, x)
-            client.send(u, answer=last)
-            rows.append((last.header.seq, last.t_sim, time.perf_counter() - t_start, x, xr, u, last.status))
-            next_t += sample_time
-            delay = next_t - time.perf_counter()
-            if delay > 0:
-                s = client.receive(timeout=delay)
-                if s is not None:
+        else:
+            last = client.receive()
+            next_t = time.perf_counter()
+            while last is not None and not client.finished and not should_stop():
+                while True:   # take the newest packet available now
+                    s = client.receive(timeout=0.0)
+                    if s is None:
+                        break
                     last = s
-                while time.perf_counter() < next_t:
-                    pass
-    arr = np.array(rows, dtype=float).reshape(-1, len(CONTROLLER_LOG_COLUMNS))
-    if log_path is not None:
-        write_table(log_path, CONTROLLER_LOG_COLUMNS, arr, ints={0, 6})
+                act(last)
+                next_t += sample_time
+                delay = next_t - time.perf_counter()
+                if delay > 0:
+                    s = client.receive(timeout=delay)
+                    if s is not None:
+                        last = s
+                    while time.perf_counter() < next_t:
+                        pass
+    finally:
+        if log is not None:
+            log.close()
     return {"commands_sent": client.seq, "sensor_packets": client.received, "sensor_packets_bad": client.bad,
-            "sensor_packets_lost": client.lost}
+            "sensor_packets_lost": client.lost, "stopped_by_signal": bool(should_stop())}

@@ -18,19 +18,16 @@ import os
 import select
 import socket
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from hydrohil.control import p_control
 from hydrohil.errors import HydrohilError, InputError
 from hydrohil.hil import protocol as pr
-from hydrohil.models.layout import AT_EXTEND, AT_RETRACT, FRICTION_NAMES, SPOOL_NAMES, STICK, TRAVEL_NAMES
-from hydrohil.models.sensors import encoder_counts, pressure_reading
+from hydrohil.hil.stats import LatencyHistogram
+from hydrohil.models.layout import FRICTION_NAMES, SPOOL_NAMES, TRAVEL_NAMES
 from hydrohil.parameters import Parameters
-from hydrohil.simulation.loop import HybridPlant
-from hydrohil.simulation.outputs import write_table
+from hydrohil.simulation.outputs import CsvStream
+from hydrohil.simulation.rig import Reading, VirtualRig
 from hydrohil.simulation.scenario import HilCfg
 
 SPIN_NS = 150_000            # busy-wait the last 150 us before a deadline ...
@@ -38,7 +35,7 @@ SPIN_FRACTION = 0.3          # ... but at most 30 % of a step: spinning ~all the
 CONNECT_TIMEOUT_S = 30.0     # wait this long for the controller's first packet
 LOG_COLUMNS = ("k", "t", "wall", "jitter_us", "compute_us", "u", "cmd_seq", "cmd_age", "watchdog", "xs", "p1",
                "p2", "xp", "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas",
-               "p2_meas")
+               "p2_meas", "faults", "status")
 
 
 def parse_address(text: str, *, allow_remote: bool = False) -> tuple[str, int]:
@@ -86,51 +83,49 @@ class Counters:
     packets_lost: int = 0
     packets_reordered: int = 0
     late_commands: int = 0
-    watchdog_trips: int = 0
-    rtt_ns: list = field(default_factory=list)
 
 
 class PlantServer:
-    """Serve the hybrid plant over UDP. ``run()`` returns the timing summary (``timing.json``)."""
+    """Serve the virtual rig (:class:`~hydrohil.simulation.rig.VirtualRig`) over UDP. ``run()`` returns the
+    timing summary (``timing.json``); with ``log`` the per-step log is streamed to ``log`` (CSV) as it runs.
+    Memory stays bounded however long the run (histograms, streamed log)."""
 
     def __init__(self, params: Parameters, *, step: float = 5e-4, duration: float = 10.0,
                  bind: tuple[str, int] = ("127.0.0.1", 0), lockstep: bool = False, hil: HilCfg | None = None,
-                 initial: dict | None = None, peer: tuple[str, int] | None = None, cpu: int | None = None):
+                 initial: dict | None = None, peer: tuple[str, int] | None = None, cpu: int | None = None,
+                 faults: list | None = None, log: Path | None = None):
         self.params, self.h, self.lockstep = params, float(step), lockstep
         self.hil = hil or HilCfg()
         self.n = int(round(duration / self.h))
-        self.initial = dict(initial or {})
-        self.plant = HybridPlant(params, h=self.h, **self.initial)
+        self.rig = VirtualRig(params, self.h, self.hil, faults, initial)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
         self.sock.bind(bind)
         self.address = self.sock.getsockname()
-        self.peer = peer
+        self.peer = peer                      # configured controller address, else the first valid sender
         self.cpu = cpu
         self.spin_ns = min(SPIN_NS, int(SPIN_FRACTION * self.h * 1e9))
         self.c = Counters()
-        self.rng = np.random.default_rng(self.hil.seed)
-        self.log = np.empty((self.n + 1, len(LOG_COLUMNS)))
-        self.log.fill(0.0)   # touch every page now: no page faults (or huge-page zeroing) inside the loop
-        self.rows = 0
+        self.jitter, self.compute, self.rtt = LatencyHistogram(), LatencyHistogram(), LatencyHistogram()
+        self.overruns = 0
+        self.log = CsvStream(log, LOG_COLUMNS, names={15: TRAVEL_NAMES, 16: FRICTION_NAMES, 17: SPOOL_NAMES},
+                             ints={0, 6, 7, 8, 18, 21, 22}) if log is not None else None
+        self.row = [0.0] * len(LOG_COLUMNS)
+        self.steps_done = 0
         self.stop_requested = False
         self.fault: str | None = None
         # latest command
         self.cmd_u = 0.0
+        self.cmd_new = False
         self.cmd_seq = -1
         self.cmd_echo = -1
         self.cmd_t_arrival = None
-        self.watchdog = False
-        self.hold_x = None
         self.sensor_t_send = {}
 
     def warm_up(self) -> None:
-        """Compile (or load from numba's cache) every kernel the loop calls, then restore the initial
-        state: the first steps of a run must not pay for compilation."""
-        self.plant.step(0.0)
-        self.plant.reset(**self.initial)
-        encoder_counts(0.0, 1e-6)
-        p_control(1.0, 0.0, 0.0)
+        """Compile (or load from numba's cache) every kernel the loop calls: the first steps of a run must
+        not pay for compilation."""
+        self.rig.warm_up()
 
     # -- receiving --------------------------------------------------------------------------------
     def _receive(self, data: bytes, addr, t_arr: int) -> None:
@@ -152,9 +147,10 @@ class PlantServer:
                 self.c.packets_lost += msg.header.seq - self.cmd_seq - 1
             self.cmd_seq, self.cmd_echo, self.cmd_t_arrival = msg.header.seq, msg.header.echo_seq, t_arr
             self.cmd_u = msg.u / self.hil.command_scale
+            self.cmd_new = True
             ts = self.sensor_t_send.pop(msg.header.echo_seq, None)
             if ts is not None:
-                self.c.rtt_ns.append(t_arr - ts)
+                self.rtt.add(t_arr - ts)
             if msg.flags & pr.CMD_STOP:
                 self.stop_requested = True
         elif isinstance(msg, pr.Header) and msg.type == pr.T_BYE:
@@ -188,24 +184,12 @@ class PlantServer:
             self._receive(data, addr, time.perf_counter_ns())
 
     # -- sending ----------------------------------------------------------------------------------
-    def _send_sensor(self, k: int, out, status: int) -> tuple[int, float, float]:
-        p = self.params
-        s = p.sensors
-        enc = int(encoder_counts(out[5], s.encoder_resolution)) if s.encoder_resolution > 0 else int(
-            round(out[5] * 1e6))
-        nz = self.rng.standard_normal(4) * s.pressure_noise if s.pressure_noise > 0 else (0.0, 0.0, 0.0, 0.0)
-        p1, sat1 = pressure_reading(out[3], s.pressure_range, s.pressure_resolution, nz[0])
-        p2, sat2 = pressure_reading(out[4], s.pressure_range, s.pressure_resolution, nz[1])
-        ps, _ = pressure_reading(p.supply.ps, s.pressure_range, s.pressure_resolution, nz[2])
-        pt, _ = pressure_reading(p.supply.pt, s.pressure_range, s.pressure_resolution, nz[3])
-        travel, friction = int(out[9]), int(out[10])
-        status |= (pr.ST_SATURATED if (sat1 or sat2) else 0) | (pr.ST_LOCKSTEP if self.lockstep else 0)
-        status |= pr.ST_WATCHDOG if self.watchdog else 0
-        status |= pr.ST_AT_RETRACT if travel == AT_RETRACT else pr.ST_AT_EXTEND if travel == AT_EXTEND else 0
-        status |= pr.ST_STICK if friction == STICK else 0
+    def _send_sensor(self, k: int, status: int) -> Reading:
+        r = self.rig.read()
+        status |= r.status | (pr.ST_LOCKSTEP if self.lockstep else 0)
         t_send = time.perf_counter_ns()
-        pkt = pr.encode_sensor(k, t_send, self.cmd_t_arrival or 0, max(self.cmd_seq, 0), out[0], k, enc,
-                               p1, p2, ps, pt, status, travel, friction, int(out[11]))
+        pkt = pr.encode_sensor(k, t_send, self.cmd_t_arrival or 0, max(self.cmd_seq, 0), r.t, k, r.encoder,
+                               r.p1, r.p2, r.ps, r.pt, status, r.travel, r.friction, r.spool)
         self.sensor_t_send[k] = t_send
         if len(self.sensor_t_send) > 64:
             self.sensor_t_send.pop(next(iter(self.sensor_t_send)))
@@ -214,24 +198,17 @@ class PlantServer:
                 self.sock.sendto(pkt, self.peer)
             except OSError:
                 pass
-        return enc, p1, p2
+        r.status = status
+        return r
 
     # -- one step ---------------------------------------------------------------------------------
-    def _command_for_step(self, k: int, now_ns: int) -> float:
-        """The valve command ū of step k: latest valid command, or the safe state after the timeout."""
-        silent = self.cmd_t_arrival is None or (now_ns - self.cmd_t_arrival) > self.hil.watchdog_timeout * 1e9
-        if silent and not self.watchdog:
-            self.watchdog = True
-            self.c.watchdog_trips += 1
-            self.hold_x = float(self.plant.out[5])
-        elif not silent and self.watchdog:
-            self.watchdog = False
-        if self.watchdog:
-            if self.hil.safe_state == "hold":
-                return float(p_control(self.hil.hold_kp, self.hold_x, float(self.plant.out[5])))
-            return 0.0
-        if self.cmd_echo < k:
+    def _take_command(self, k: int) -> float | None:
+        """The command that arrived for step k (None: nothing new since the last step)."""
+        if self.cmd_echo < k and not self.rig.watchdog:
             self.c.late_commands += 1
+        if not self.cmd_new:
+            return None
+        self.cmd_new = False
         return min(max(self.cmd_u, -1.0), 1.0)
 
     def run(self, progress=None) -> dict:
@@ -251,17 +228,13 @@ class PlantServer:
             if time.monotonic() - t_connect > CONNECT_TIMEOUT_S:
                 raise HydrohilError(f"no controller packet within {CONNECT_TIMEOUT_S:g} s")
         self.sock.setblocking(False)
-        out = self.plant.out
+        self.cmd_new = False             # HELLO / early packets are not commands for step 0
         gc.collect()
         gc.freeze()
         gc.disable()
-        jit_ns = np.full(self.n + 1, 0, dtype=np.int64)    # np.full writes: pages faulted in before the loop
-        comp_ns = np.full(self.n + 1, 0, dtype=np.int64)
         status_extra = 0
         t0 = time.perf_counter_ns() + 2 * h_ns
-        self.cmd_t_arrival = t0          # the watchdog counts from the start
-        enc, m1, m2 = self._send_sensor(0, out, 0)
-        self._log_row(0, out, 0.0, 0, 0, 0.0, enc, m1, m2)
+        self._log_row(0, self._send_sensor(0, 0), 0.0, 0, 0, 0.0)
         k_done = 0
         last_start = t0
         try:
@@ -277,20 +250,21 @@ class PlantServer:
                     self._drain()
                     late = start - deadline
                     status_extra = pr.ST_OVERRUN if late > h_ns else 0
-                u = self._command_for_step(k, start)
+                    self.overruns += late > h_ns
                 try:
-                    self.plant.step(u)
+                    u = self.rig.step(k, self._take_command(k))
                 except HydrohilError as exc:
                     self.fault = str(exc)
-                    self._send_sensor(k + 1, out, pr.ST_FAULT | pr.ST_FINAL)
+                    self._send_sensor(k + 1, pr.ST_FAULT | pr.ST_FINAL)
                     break
                 final = pr.ST_FINAL if (k + 1 == self.n or self.stop_requested) else 0
-                enc, m1, m2 = self._send_sensor(k + 1, out, status_extra | final)
+                reading = self._send_sensor(k + 1, status_extra | final)
                 end = time.perf_counter_ns()
-                jit_ns[k], comp_ns[k] = late, end - start
-                self._log_row(k + 1, out, (start - t0) / 1e9 if not self.lockstep else 0.0, late, end - start, u,
-                              enc, m1, m2)
-                k_done = k + 1
+                self.jitter.add(late)          # 0 in lock-step: no clock to be late against
+                self.compute.add(end - start)
+                k_done = self.steps_done = k + 1
+                self._log_row(k + 1, reading, (start - t0) / 1e9 if not self.lockstep else 0.0, late, end - start,
+                              u)
                 if progress is not None and k % 200 == 0:
                     progress(k_done, self.n)
                 if self.stop_requested:
@@ -305,8 +279,10 @@ class PlantServer:
                         self.sock.sendto(pr.encode_simple(pr.T_BYE, k_done + 1, t_end), self.peer)
                 except OSError:
                     pass
+            if self.log is not None:
+                self.log.close()
         drift_ns = last_start - (t0 + max(k_done - 1, 0) * h_ns)
-        return self._timing(jit_ns[:k_done], comp_ns[:k_done], k_done, h_ns, t0, t_end, rt, drift_ns)
+        return self._timing(k_done, t0, t_end, rt, drift_ns)
 
     def _wait_lockstep(self, k: int) -> None:
         """Block until the command answering sensor packet k arrives (or the watchdog timeout passes)."""
@@ -319,51 +295,48 @@ class PlantServer:
             if r:
                 self._drain()
 
-    def _log_row(self, k, out, wall, jitter_ns, compute_ns, u, enc, m1, m2) -> None:
-        row = self.log[k]
+    def _log_row(self, k, r: Reading, wall, jitter_ns, compute_ns, u) -> None:
+        if self.log is None:
+            return
+        out, row = self.rig.out, self.row
         row[0], row[1], row[2], row[3], row[4], row[5] = k, out[0], wall, jitter_ns / 1e3, compute_ns / 1e3, u
-        row[6], row[7], row[8] = self.cmd_seq, k - 1 - self.cmd_echo if self.cmd_seq >= 0 else -1, self.watchdog
+        row[6], row[7], row[8] = self.cmd_seq, k - 1 - self.cmd_echo if self.cmd_seq >= 0 else -1, self.rig.watchdog
         row[9], row[10], row[11], row[12], row[13], row[14] = out[1], out[3], out[4], out[5], out[6], out[8]
         row[15], row[16], row[17] = out[9], out[10], out[11]
-        row[18], row[19], row[20] = enc, m1, m2
-        self.rows = k + 1
+        row[18], row[19], row[20], row[21], row[22] = r.encoder, r.p1, r.p2, r.faults, r.status
+        self.log.write(row)
 
-    def _timing(self, jit_ns, comp_ns, steps, h_ns, t0, t_end, rt, drift_ns) -> dict:
-        def pct(a, q):
-            return float(np.percentile(a, q)) / 1e3 if len(a) else float("nan")
-
-        rtt = np.asarray(self.c.rtt_ns, dtype=float)
+    def _timing(self, steps, t0, t_end, rt, drift_ns) -> dict:
+        j, c, rtt = self.jitter, self.compute, self.rtt
         sim_t = steps * self.h
         res = {
             "mode": "lockstep" if self.lockstep else "realtime",
             "step_s": self.h, "steps": int(steps), "steps_planned": self.n,
-            "overruns": int(np.sum(jit_ns > h_ns)) if not self.lockstep else 0,
-            "jitter_us_p50": pct(jit_ns, 50), "jitter_us_p99": pct(jit_ns, 99), "jitter_us_p999": pct(jit_ns, 99.9),
-            "jitter_us_max": float(jit_ns.max()) / 1e3 if len(jit_ns) else float("nan"),
-            "compute_us_p50": pct(comp_ns, 50), "compute_us_p99": pct(comp_ns, 99),
-            "compute_us_max": float(comp_ns.max()) / 1e3 if len(comp_ns) else float("nan"),
-            "rtt_us_p50": float(np.percentile(rtt, 50)) / 1e3 if rtt.size else float("nan"),
-            "rtt_us_p99": float(np.percentile(rtt, 99)) / 1e3 if rtt.size else float("nan"),
+            "overruns": int(self.overruns),
+            "jitter_us_p50": j.percentile(50), "jitter_us_p99": j.percentile(99), "jitter_us_p999": j.percentile(99.9),
+            "jitter_us_max": j.max_ns / 1e3 if j.n else float("nan"),
+            "compute_us_p50": c.percentile(50), "compute_us_p99": c.percentile(99),
+            "compute_us_max": c.max_ns / 1e3 if c.n else float("nan"),
+            "rtt_us_p50": rtt.percentile(50), "rtt_us_p99": rtt.percentile(99),
             "packets_rx": self.c.packets_rx, "packets_bad": self.c.packets_bad,
             "packets_foreign": self.c.packets_foreign, "packets_lost": self.c.packets_lost,
             "packets_reordered": self.c.packets_reordered, "late_commands": self.c.late_commands,
-            "watchdog_trips": self.c.watchdog_trips,
+            "watchdog_trips": self.rig.watchdog_trips, "commands_delivered": self.rig.commands_delivered,
+            "faults_injected": [f.type for f in self.rig.faults.faults],
             "simulated_s": sim_t, "wall_s": (t_end - t0) / 1e9,
             # wall clock at the last step's start minus its scheduled instant t0 + (steps-1)*h
             "drift_ms": drift_ns / 1e6 if not self.lockstep else None,
             "fault": self.fault, "stopped_early": self.stop_requested,
+            "statistics": "histograms, 1.2 % bins (bounded memory); max exact",
             **{f"os_{k}": v for k, v in rt.items()},
         }
         if self.lockstep:
             res["steps_per_s"] = steps / max((t_end - t0) / 1e9, 1e-9)
         return res
 
-    def write_log(self, path: Path) -> None:
-        """Write the per-step log as CSV (modes as names)."""
-        write_table(path, LOG_COLUMNS, self.log[: self.rows], names={15: TRAVEL_NAMES, 16: FRICTION_NAMES,
-                                                                     17: SPOOL_NAMES}, ints={0, 6, 7, 8, 18})
-
     def close(self) -> None:
+        if self.log is not None:
+            self.log.close()
         self.sock.close()
 
 

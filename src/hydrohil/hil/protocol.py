@@ -42,6 +42,7 @@ ST_SATURATED = 1 << 6     # a pressure reading is clipped at the sensor range
 ST_LATE_COMMAND = 1 << 7  # the command used was not the answer to the previous sensor packet
 ST_FAULT = 1 << 8         # the plant stopped on a fault (simulation diverged); last packet
 ST_FINAL = 1 << 9         # last packet of the run
+ST_FAULT_INJECTED = 1 << 10  # a scenario fault ([[faults]]) is active at this step
 # command flags
 CMD_STOP = 1 << 0         # controller asks the plant to end the run
 

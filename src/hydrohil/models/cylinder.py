@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from hydrohil._jit import jit
 
-from hydrohil.models.layout import (A1, A2, BB, BC, BETA1, BETA2, BULK_CONST, FLOAD, G_LKC, GDIR, GRAV, MASS, PS,
-                                    PT, STROKE, V01, V02)
+from hydrohil.models.layout import (A1, A2, BB, BC, BETA1, BETA2, BULK_CONST, BURST1, BURST2, FLOAD, G_LKC, GDIR,
+                                    GRAV, MASS, PS, PT, STROKE, V01, V02)
 from hydrohil.models.valve import orifice_flow, pseudo_sections
 
 P_MIN = -0.99e5  # Pa gauge: just above absolute zero; pressures are floored here (cavitation)
@@ -35,12 +35,13 @@ def chamber_pressure_rates(xs, p1, p2, xp, vp, p, dp_t1, dp_t2):
 
     Q1 = q_s1 - q_1t, Q2 = q_s2 - q_2t; q_lkc = g_lkc*(P1 - P2) (eq 22);
     dP1/dt = beta(P1)/V1*(Q1 - A1*vp - q_lkc), dP2/dt = beta(P2)/V2*(Q2 + A2*vp + q_lkc).
-    ``dp_t1``/``dp_t2`` are the laminar transition pressures of the orifices of chamber 1/2.
+    ``dp_t1``/``dp_t2`` are the laminar transition pressures of the orifices of chamber 1/2. A burst
+    hose (fault) drains chamber i to tank through the section p[BURSTi] (0 normally).
     """
     as1, as2, a1t, a2t = pseudo_sections(xs, p)
     ps, pt = p[PS], p[PT]
-    q1 = orifice_flow(as1, ps - p1, dp_t1) - orifice_flow(a1t, p1 - pt, dp_t1)
-    q2 = orifice_flow(as2, ps - p2, dp_t2) - orifice_flow(a2t, p2 - pt, dp_t2)
+    q1 = orifice_flow(as1, ps - p1, dp_t1) - orifice_flow(a1t + p[BURST1], p1 - pt, dp_t1)
+    q2 = orifice_flow(as2, ps - p2, dp_t2) - orifice_flow(a2t + p[BURST2], p2 - pt, dp_t2)
     q_lk = p[G_LKC] * (p1 - p2)
     v1, v2 = volumes(xp, p)
     dp1 = bulk_modulus(p1, 1, p) / v1 * (q1 - p[A1] * vp - q_lk)

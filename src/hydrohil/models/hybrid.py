@@ -38,7 +38,7 @@ from hydrohil._jit import jit, specialize
 
 from hydrohil.models.cylinder import P_MIN, bulk_modulus, chamber_pressure_rates, external_force, volumes
 from hydrohil.models.friction import slip_friction, stribeck, viscous
-from hydrohil.models.layout import (AT_EXTEND, AT_RETRACT, DP_LAM, FREE, FS_NEG, FS_POS, LAMBDA_H_MAX,
+from hydrohil.models.layout import (AT_EXTEND, AT_RETRACT, BURST1, BURST2, DP_LAM, FREE, FS_NEG, FS_POS, LAMBDA_H_MAX,
                                     LPM_PER_SQRT_BAR, LV, M_FRICTION, M_SPOOL, M_TRAVEL, MASS, P1, P2, SIGMA0,
                                     SIGMA1, SLIP_NEG, SLIP_POS, SPOOL_ACC_LIMITED, SPOOL_AT_END, SPOOL_LINEAR,
                                     SPOOL_VEL_LIMITED, STICK, STROKE, VP, VS, XP, XS, Z, LA, WN, XI)
@@ -88,8 +88,8 @@ def laminar_widths(y, p, h):
     """Laminar transition pressure [Pa] of each chamber's orifices for the next step (see module doc)."""
     as1, as2, a1t, a2t = pseudo_sections(y[XS], p)
     v1, v2 = volumes(y[XP], p)
-    s1 = bulk_modulus(y[P1], 1, p) / v1 * (as1 + a1t) * LPM_PER_SQRT_BAR * h / p[LAMBDA_H_MAX]
-    s2 = bulk_modulus(y[P2], 2, p) / v2 * (as2 + a2t) * LPM_PER_SQRT_BAR * h / p[LAMBDA_H_MAX]
+    s1 = bulk_modulus(y[P1], 1, p) / v1 * (as1 + a1t + p[BURST1]) * LPM_PER_SQRT_BAR * h / p[LAMBDA_H_MAX]
+    s2 = bulk_modulus(y[P2], 2, p) / v2 * (as2 + a2t + p[BURST2]) * LPM_PER_SQRT_BAR * h / p[LAMBDA_H_MAX]
     return max(p[DP_LAM], s1 * s1), max(p[DP_LAM], s2 * s2)
 
 

@@ -34,8 +34,11 @@ SPOOL_NAMES = ("linear", "acc_limited", "vel_limited", "at_end")
  SIGMA0, SIGMA1, FC_POS, FS_POS, VS_POS, KV_POS, FC_NEG, FS_NEG, VS_NEG, KV_NEG,
  MASS, GDIR, GRAV, FLOAD,
  ENC_RES,
- STOP_K, STOP_C, DP_LAM_REF, LAMBDA_H_MAX) = range(48)
-NP = 48
+ STOP_K, STOP_C, DP_LAM_REF, LAMBDA_H_MAX,
+ VALVE_WEAR, BURST1, BURST2) = range(51)
+NP = 51
+# VALVE_WEAR, BURST1, BURST2 [(l/min)/sqrt(bar)] are zero in every parameter set; fault injection sets them:
+# worn spool lands (added to each pseudo-section) and a burst hose from chamber 1 / 2 to tank (faults.py).
 
 # Continuous reference model: unilateral spring-damper end stops (SPEC §6) and a narrow laminar region.
 REFERENCE_STOP_K = 1e10      # N/m

@@ -11,7 +11,7 @@ import numpy as np
 from hydrohil._jit import jit
 
 from hydrohil.models.layout import (K1, K1T, LA, LPM_PER_SQRT_BAR, LV, SPOOL_ACC_LIMITED, SPOOL_AT_END,
-                                    SPOOL_LINEAR, SPOOL_VEL_LIMITED, WN, XI)
+                                    SPOOL_LINEAR, SPOOL_VEL_LIMITED, VALVE_WEAR, WN, XI)
 
 
 def _section(x, k1, k2, k3, k4, k5):
@@ -24,12 +24,14 @@ section = jit(inline=True)(_section)
 
 @jit(inline=True)
 def pseudo_sections(x, p):
-    """(As1, As2, A1t, A2t) at spool position x (clamped to [-1, 1]) in (l/min)/sqrt(bar); eq 3."""
+    """(As1, As2, A1t, A2t) at spool position x (clamped to [-1, 1]) in (l/min)/sqrt(bar); eq 3,
+    plus the worn-lands leakage section p[VALVE_WEAR] on each (0 unless a valve-leakage fault is active)."""
     x = min(max(x, -1.0), 1.0)
-    as2 = section(x, p[K1], p[K1 + 1], p[K1 + 2], p[K1 + 3], p[K1 + 4])
-    as1 = section(-x, p[K1], p[K1 + 1], p[K1 + 2], p[K1 + 3], p[K1 + 4])
-    a1t = section(x, p[K1T], p[K1T + 1], p[K1T + 2], p[K1T + 3], p[K1T + 4])
-    a2t = section(-x, p[K1T], p[K1T + 1], p[K1T + 2], p[K1T + 3], p[K1T + 4])
+    w = p[VALVE_WEAR]
+    as2 = section(x, p[K1], p[K1 + 1], p[K1 + 2], p[K1 + 3], p[K1 + 4]) + w
+    as1 = section(-x, p[K1], p[K1 + 1], p[K1 + 2], p[K1 + 3], p[K1 + 4]) + w
+    a1t = section(x, p[K1T], p[K1T + 1], p[K1T + 2], p[K1T + 3], p[K1T + 4]) + w
+    a2t = section(-x, p[K1T], p[K1T + 1], p[K1T + 2], p[K1T + 3], p[K1T + 4]) + w
     return as1, as2, a1t, a2t
 
 

@@ -25,8 +25,11 @@ class SimulationResult:
     wall_time_s: float              # integration loop only (JIT compilation excluded)
     diverged: SimulationDiverged | None = None
     extra: dict = field(default_factory=dict)
+    columns: dict = field(default_factory=dict)   # extra per-row columns (rig runs: faults, x_meas, watchdog)
 
     def column(self, name: str) -> np.ndarray:
+        if name in self.columns:
+            return self.columns[name]
         return self.log[:, LOG_COLUMNS.index(name)]
 
     @property
@@ -55,6 +58,9 @@ class SimulationResult:
 def run_scenario(sc: LoadedScenario, *, progress=None, warmup: bool = True) -> SimulationResult:
     """Simulate a loaded scenario; returns the log (also when the run diverged: see ``.diverged``)."""
     s, params = sc.scenario, sc.params
+    if s.faults:
+        from hydrohil.simulation.rig import run_rig
+        return run_rig(sc, progress=progress)
     h, n = s.solver.step, s.n_steps()
     p = pack(params)
     y, m = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)

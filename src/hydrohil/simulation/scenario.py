@@ -14,6 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from hydrohil.errors import InputError
 from hydrohil.parameters import Parameters, format_validation_error, load_parameters, read_toml
+from hydrohil.simulation.faults import Fault
 from hydrohil.solvers.tableaus import FIXED_STEP_SOLVERS
 
 SOLVERS = (*FIXED_STEP_SOLVERS, "reference")
@@ -118,6 +119,7 @@ class Scenario(_S):
     controller: PControllerCfg | None = None
     reference: TableReference | None = None
     hil: HilCfg = HilCfg()
+    faults: list[Fault] = Field(default_factory=list, max_length=62, description="[[faults]] entries (faults.py)")
 
     @model_validator(mode="after")
     def _one_drive(self):
@@ -128,6 +130,12 @@ class Scenario(_S):
             raise ValueError("a closed loop needs both [controller] and [reference]")
         if not closed and self.input is None:
             raise ValueError("missing [input] (open loop) or [controller] + [reference] (closed loop)")
+        if self.faults and self.solver.method == "reference":
+            raise ValueError("[[faults]] need a fixed-step solver (the faults run in the virtual rig, step by step)")
+        for i, f in enumerate(self.faults):
+            if f.start >= self.duration:
+                raise ValueError(f"faults[{i}] ({f.type}) starts at {f.start} s, after the end of the run "
+                                 f"({self.duration} s)")
         return self
 
     @property

@@ -1,0 +1,175 @@
+"""The virtual rig: the hybrid plant as a controller sees it, one step at a time.
+
+Hybrid model (:class:`~hydrohil.simulation.loop.HybridPlant`) + interface models (encoder, pressure
+sensors, command saturation) + fault injection + the watchdog. The HIL plant server calls it once per
+step with whatever command arrived; offline runs of scenarios with ``[[faults]]`` drive the very same
+object from the P controller in a Python loop (:func:`run_rig`), so faults, watchdog and sensors act
+identically offline, in lock-step and in real time.
+
+Watchdog: silence is counted in plant steps since the last command that reached the plant (network
+faults included): longer than ``[hil] watchdog_timeout`` -> safe state (``centre``: ū = 0; ``hold``: P
+control on the position held at the trip), left on the next command that arrives.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from hydrohil.control import p_control
+from hydrohil.hil.protocol import (ST_AT_EXTEND, ST_AT_RETRACT, ST_FAULT_INJECTED, ST_SATURATED, ST_STICK,
+                                   ST_WATCHDOG)
+from hydrohil.models.layout import AT_EXTEND, AT_RETRACT, PS, PT, STICK
+from hydrohil.models.sensors import encoder_counts, pressure_reading
+from hydrohil.parameters import Parameters
+from hydrohil.simulation.faults import FaultInjector
+from hydrohil.simulation.loop import NLOG, HybridPlant, write_row
+from hydrohil.simulation.scenario import HilCfg
+
+
+
+@dataclass
+class Reading:
+    """What the rig's sensors report for the current state."""
+    t: float
+    encoder: int           # counts
+    p1: float              # Pa, as the transducer reports
+    p2: float
+    ps: float
+    pt: float
+    status: int
+    travel: int
+    friction: int
+    spool: int
+    faults: int            # bit i: fault i of the scenario active
+
+
+class VirtualRig:
+    def __init__(self, params: Parameters, h: float, hil: HilCfg | None = None, faults: list | None = None,
+                 initial: dict | None = None):
+        self.params, self.h = params, float(h)
+        self.hil = hil or HilCfg()
+        self.initial = dict(initial or {})
+        self.plant = HybridPlant(params, h=self.h, **self.initial)
+        self.faults = FaultInjector(faults or [], self.plant.p, self.h, seed=self.hil.seed)
+        self.faults.begin_step(0, self.plant.p, self.plant.y)
+        self.noise = np.random.default_rng(self.hil.seed)
+        self.res = params.sensors.encoder_resolution if params.sensors.encoder_resolution > 0 else 1e-6
+        self.u_held = 0.0
+        self.k_delivered = 0            # the watchdog counts from the start
+        self.watchdog = False
+        self.watchdog_trips = 0
+        self.hold_x = 0.0
+        self.commands_delivered = 0
+        self.last_u = 0.0
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) every kernel a step calls, then restore the initial state."""
+        self.plant.step(0.0)
+        self.plant.reset(**self.initial)
+        encoder_counts(0.0, 1e-6)
+        p_control(1.0, 0.0, 0.0)
+
+    @property
+    def out(self) -> np.ndarray:
+        return self.plant.out
+
+    def step(self, k: int, command: float | None) -> float:
+        """Advance step k -> k+1 with the command the controller sent for it (ū; None: none arrived).
+        Returns the command that drove the valve."""
+        plant = self.plant
+        self.faults.begin_step(k, plant.p, plant.y)
+        u = self.faults.deliver(command)
+        if u is not None:
+            self.u_held = min(max(u, -1.0), 1.0)
+            self.k_delivered = k
+            self.commands_delivered += 1
+        silent = (k - self.k_delivered) * self.h > self.hil.watchdog_timeout + 1e-12
+        if silent and not self.watchdog:
+            self.watchdog = True
+            self.watchdog_trips += 1
+            self.hold_x = float(plant.out[5])
+        elif not silent and self.watchdog:
+            self.watchdog = False
+        if self.watchdog:
+            u = p_control(self.hil.hold_kp, self.hold_x, float(plant.out[5])) if self.hil.safe_state == "hold" else 0.0
+        else:
+            u = self.u_held
+        u = self.faults.valve_command(u)
+        self.last_u = u
+        plant.step(u)
+        self.faults.begin_step(k + 1, plant.p, plant.y)     # faults of t_(k+1): its sensor reading and step
+        return u
+
+    def read(self) -> Reading:
+        """Sensor readings of the current state (interface models, then sensor faults) and the status bits of
+    the wire protocol the rig knows (the server adds lock-step, overrun and final)."""
+        out, s, p, f = self.plant.out, self.params.sensors, self.plant.p, self.faults
+        t = float(out[0])
+        enc = int(f.sense_position(float(encoder_counts(out[5], self.res)), self.res, t))
+        nz = self.noise.standard_normal(4) * s.pressure_noise if s.pressure_noise > 0 else (0.0, 0.0, 0.0, 0.0)
+        true = (out[3], out[4], p[PS], p[PT])
+        vals, sat = [], False
+        for name, v, n in zip(("p1", "p2", "ps", "pt"), true, nz):
+            r, sv = pressure_reading(f.sense_pressure(name, float(v), t), s.pressure_range, s.pressure_resolution, n)
+            vals.append(r)
+            sat |= sv
+        travel, friction = int(out[9]), int(out[10])
+        status = (ST_SATURATED if sat else 0) | (ST_WATCHDOG if self.watchdog else 0)
+        status |= ST_AT_RETRACT if travel == AT_RETRACT else ST_AT_EXTEND if travel == AT_EXTEND else 0
+        status |= (ST_STICK if friction == STICK else 0) | (ST_FAULT_INJECTED if f.mask else 0)
+        return Reading(t, enc, *vals, status, travel, friction, int(out[11]), f.mask)
+
+
+RIG_COLUMNS = ("faults", "x_meas", "p1_meas", "p2_meas", "ps_meas", "watchdog")
+
+
+def run_rig(sc, *, progress=None):
+    """Offline run of a scenario through the virtual rig (the path of scenarios with ``[[faults]]``):
+    closed loop = the P controller on the rig's encoder reading, exactly as the HIL controller process.
+    Returns a :class:`~hydrohil.simulation.run.SimulationResult` with the extra columns
+    :data:`RIG_COLUMNS` (what the sensors reported, active faults, watchdog)."""
+    from hydrohil.errors import HydrohilError
+    from hydrohil.simulation.run import SimulationResult
+    s = sc.scenario
+    h, n = s.solver.step, s.n_steps()
+    rig = VirtualRig(sc.params, h, s.hil, s.faults, {"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1,
+                                                    "p2": s.initial.p2})
+    rig.warm_up()
+    closed = s.closed_loop
+    drive = s.references() if closed else s.commands()
+    kp = s.controller.kp if closed else 0.0
+    every = s.solver.output_every
+    log = np.zeros((n // every + 1, NLOG))
+    extra = np.zeros((n // every + 1, len(RIG_COLUMNS)))
+    plant = rig.plant
+    y_prev, m_prev = plant.y.copy(), plant.m.copy()
+    t0 = time.perf_counter()
+    diverged = None
+    rows = 0
+    for k in range(n + 1):
+        r = rig.read()
+        x = r.encoder * rig.res
+        u = p_control(kp, drive[k], x) if closed else float(drive[k])
+        y_prev[:], m_prev[:] = plant.y, plant.m
+        record = k % every == 0
+        if k < n:
+            try:
+                u_valve = rig.step(k, u)
+            except HydrohilError as exc:
+                diverged = exc
+                break
+            ud = float(plant.out[13])
+        else:
+            u_valve, ud = u, float(plant.out[13])
+        if record:
+            write_row(log, rows, k * h, u_valve, ud, y_prev, m_prev, plant.p, int(plant.out[12]))
+            extra[rows] = (r.faults, x, r.p1, r.p2, r.ps, r.status & ST_WATCHDOG)
+            rows += 1
+        if progress is not None and k % 2000 == 0:
+            progress(k)
+    wall = time.perf_counter() - t0
+    return SimulationResult(log[:rows], s.solver.method, h, wall, diverged,
+                            columns={c: extra[:rows, i] for i, c in enumerate(RIG_COLUMNS)})
