@@ -9,6 +9,7 @@ import sys
 import time
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -123,20 +124,94 @@ def test_watchdog_trips_to_centre_and_recovers(tmp_path):
     assert np.allclose(log["u"][(log["t"] > 0.05) & (log["t"] < 0.2)], 0.3)
 
 
-def test_plant_sigint_finishes_log_and_timing(tmp_path):
+def start_controller(tmp_path, addr):
+    return subprocess.Popen([sys.executable, "-m", "hydrohil.cli", "controller", "--connect",
+                             f"{addr[0]}:{addr[1]}", "--log", tmp_path], stderr=subprocess.PIPE, text=True)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_plant_sigint_sigterm_finish_log_and_timing(tmp_path, sig):
     plant, addr = start_plant(tmp_path, "--duration", "60")
-    ctl = subprocess.Popen([sys.executable, "-m", "hydrohil.cli", "controller", "--connect", f"{addr[0]}:{addr[1]}",
-                            "--log", tmp_path], stderr=subprocess.PIPE, text=True)
+    ctl = start_controller(tmp_path, addr)
     time.sleep(1.5)
-    plant.send_signal(signal.SIGINT)
+    plant.send_signal(sig)
     finish(plant, timeout=20)
     ctl.wait(20)
     assert ctl.returncode == 0, ctl.stderr.read()
     t = json.loads((tmp_path / "timing.json").read_text())
     assert 0 < t["steps"] < t["steps_planned"] and t["stopped_early"]
     log = read_csv_columns(tmp_path / "plant_log.csv")
-    assert len(log["t"]) == t["steps"] + 1
-    assert (tmp_path / "controller_log.csv").exists()
+    assert len(log["t"]) == t["steps"] + 1 and np.array_equal(log["k"], np.arange(t["steps"] + 1))
+    assert (tmp_path / "controller_log.csv").stat().st_size > 0 and (tmp_path / "controller.json").exists()
+
+
+def test_controller_sigterm_finishes_its_log(tmp_path):
+    plant, addr = start_plant(tmp_path, "--duration", "3")
+    ctl = start_controller(tmp_path, addr)
+    time.sleep(1.5)
+    ctl.send_signal(signal.SIGTERM)
+    ctl.wait(20)
+    assert ctl.returncode == 0, ctl.stderr.read()
+    assert json.loads((tmp_path / "controller.json").read_text())["stopped_by_signal"]
+    finish(plant, timeout=20)                                  # the plant runs on in its safe state
+    log = read_csv_columns(tmp_path / "controller_log.csv")
+    assert len(log["seq"]) > 100 and np.all(np.diff(log["seq"]) == 1)
+
+
+def test_sigkill_leaves_readable_logs_up_to_the_last_second(tmp_path):
+    plant, addr = start_plant(tmp_path, "--duration", "60")
+    ctl = start_controller(tmp_path, addr)
+    time.sleep(3.0)
+    ctl.kill()
+    plant.kill()
+    plant.wait(10)
+    ctl.wait(10)
+    for name, key in (("plant_log.csv", "k"), ("controller_log.csv", "seq")):
+        text = (tmp_path / name).read_text()
+        assert text.endswith("\n"), name                      # whole lines only
+        log = read_csv_columns(tmp_path / name)
+        rows = len(log[key])
+        assert rows > (3.0 - 1.5 - 1.0) / 5e-4, (name, rows)   # started ~1.5 s in, flushed at least every 0.5 s
+        assert np.all(np.diff(log[key]) == 1), name            # no gaps, no torn rows
+    assert not (tmp_path / "timing.json").exists()
+
+
+def test_configured_peer_ignores_everyone_else(tmp_path):
+    me = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    me.bind(("127.0.0.1", 0))
+    intruder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    plant, addr = start_plant(tmp_path, "--lockstep", "--duration", "0.05", "--peer",
+                              f"127.0.0.1:{me.getsockname()[1]}")
+    for _ in range(3):                                           # a stranger speaks first: not adopted
+        intruder.sendto(pr.encode_simple(pr.T_HELLO, 0, 0), addr)
+        intruder.sendto(pr.encode_command(1, 0, 0, 0, 1.0), addr)
+    me.sendto(pr.encode_simple(pr.T_HELLO, 0, 0), addr)
+    me.settimeout(10)
+    steps = 0
+    while True:
+        s = pr.decode(me.recv(256))
+        if isinstance(s, pr.Sensor):
+            me.sendto(pr.encode_command(steps + 1, 0, 0, s.header.seq, -0.2), addr)
+            steps += 1
+            if s.status & pr.ST_FINAL:
+                break
+    finish(plant)
+    t = json.loads((tmp_path / "timing.json").read_text())
+    assert t["packets_foreign"] == 6 and t["steps"] == 100
+    log = read_csv_columns(tmp_path / "plant_log.csv")
+    assert np.all(log["u"][1:] == -0.2)                        # only our commands drove the valve
+
+
+def test_fuzzing_decoder_and_live_plant():
+    from hydrohil.hil.fuzz import fuzz_decoder, fuzz_live_plant
+    d = fuzz_decoder(30_000, seed=5)
+    assert d["rejected"] > 20_000 and d["accepted"] > 1_000          # both paths exercised, no exception
+    r = fuzz_live_plant(8_000, 4_000.0, seed=6)
+    assert r["plant_exit"] == 0 and r["controller_exit"] == 0
+    assert r["steps"] == r["steps_planned"]                            # the plant served the whole run
+    assert r["packets_bad"] == r["sent_malformed"] > 5_000            # every malformed datagram counted
+    assert r["packets_foreign"] == r["sent_well_formed"]              # every well-formed stranger ignored
+    assert r["watchdog_trips"] == 0 and r["drift_ms"] < 1.0
 
 
 # ---- hil: plant + controller processes vs offline -------------------------------------------------
