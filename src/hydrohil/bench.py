@@ -120,7 +120,7 @@ def startup(repeats: int = 3) -> dict:
     return {"cold_s": walls[0], "warm_s": statistics.median(walls[1:])}
 
 
-def _hil_scenario(tmp: Path, seconds: float, step: float) -> Path:
+def hil_scenario(tmp: Path, seconds: float, step: float) -> Path:
     """Fig 11's point-to-point move repeated for ``seconds`` at plant step ``step``."""
     t, x = [0.0], [0.03]
     k = 0
@@ -140,7 +140,7 @@ def hil(seconds: float, step: float, lockstep: bool = False) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         t0 = time.perf_counter()
-        r = run_hil(_hil_scenario(tmp, seconds, step), tmp / "out", lockstep=lockstep, plot=False)
+        r = run_hil(hil_scenario(tmp, seconds, step), tmp / "out", lockstep=lockstep, plot=False)
         res = {k: r.timing.get(k) for k in HIL_KEYS}
         if res["steps"]:
             res["overrun_fraction"] = (res["overruns"] or 0) / res["steps"]

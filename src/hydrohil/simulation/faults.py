@@ -47,7 +47,7 @@ Sensor = Literal["position", "p1", "p2", "ps", "pt"]
 
 
 class _Fault(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     start: float = Field(ge=0, le=3600, description="first instant the fault is active [s]")
     end: float | None = Field(None, gt=0, le=3600, description="instant it ends [s] (omit: to the end of the run)")
 

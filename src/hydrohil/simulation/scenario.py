@@ -21,7 +21,7 @@ SOLVERS = (*FIXED_STEP_SOLVERS, "reference")
 
 
 class _S(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class SolverCfg(_S):

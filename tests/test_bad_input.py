@@ -1,0 +1,144 @@
+"""Bad input everywhere (issue #6): property-based mutations of parameter, scenario and identification
+files. Each either loads (the mutation was valid) or fails with :class:`InputError` naming the file, and a
+command given the bad file exits 2 and writes nothing."""
+
+import copy
+import math
+
+import numpy as np
+import pytest
+import tomli_w
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from conftest import EXAMPLES, hh
+from hydrohil.errors import InputError
+from hydrohil.identification import PROCEDURES, identify
+from hydrohil.parameters import BUILTIN_DIR, load_parameters, read_toml
+from hydrohil.simulation.scenario import load_scenario
+
+PARAMS = read_toml(BUILTIN_DIR / "ferreira2004.toml")
+SCENARIO = read_toml(EXAMPLES / "faults" / "hose_burst.toml")
+
+BAD_VALUES = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**12, 10**12), st.text(max_size=8),
+    st.booleans(), st.lists(st.floats(allow_nan=False), max_size=3), st.just({"x": 1}),
+    st.sampled_from([0.0, -1.0, 1e30, -1e30, math.nan, math.inf, "", "70 bar"]))
+
+
+def leaves(d, prefix=()):
+    for k, v in d.items():
+        if isinstance(v, dict):
+            yield from leaves(v, prefix + (k,))
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            for i, item in enumerate(v):
+                yield from leaves(item, prefix + (k, i))
+        else:
+            yield prefix + (k,)
+
+
+def mutated(base, path, op, value):
+    d = copy.deepcopy(base)
+    node = d
+    for part in path[:-1]:
+        node = node[part]
+    if op == "delete":
+        del node[path[-1]]
+    elif op == "unknown":
+        node[f"{path[-1]}_typo"] = 1.0
+    else:
+        node[path[-1]] = value
+    return d
+
+
+def _write(tmp_path, name, data):
+    f = tmp_path / name
+    f.write_text(tomli_w.dumps(data))
+    return f
+
+
+PARAM_LEAVES = list(leaves(PARAMS))
+SCENARIO_LEAVES = list(leaves(SCENARIO))
+MUTATION = st.sampled_from(["replace", "replace", "replace", "delete", "unknown"])
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(path=st.sampled_from(PARAM_LEAVES), op=MUTATION, value=BAD_VALUES)
+def test_mutated_parameter_files_load_or_name_file_and_key(tmp_path, path, op, value):
+    f = _write(tmp_path, "params.toml", mutated(PARAMS, path, op, value))
+    try:
+        p = load_parameters(f)
+    except InputError as exc:
+        msg = str(exc)
+        assert str(f) in msg
+        assert path[0] in msg                  # the group (and usually the dotted key) is named
+        return
+    for v in (p.supply.ps, p.cylinder.a1, p.cylinder.v01, p.load.mass, p.spool.wn):
+        assert math.isfinite(v) and v > 0      # whatever loads is physical
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(path=st.sampled_from(SCENARIO_LEAVES), op=MUTATION, value=BAD_VALUES)
+def test_mutated_scenario_files_load_or_name_file_and_key(tmp_path, path, op, value):
+    f = _write(tmp_path, "scenario.toml", mutated(SCENARIO, path, op, value))
+    try:
+        sc = load_scenario(f)
+    except InputError as exc:
+        assert str(f) in str(exc)
+        return
+    assert sc.scenario.duration > 0 and 0 <= sc.scenario.initial.xp <= sc.params.cylinder.stroke
+
+
+@pytest.mark.parametrize("edit, key", [
+    (lambda d: d["initial"].update(xp=0.5), "initial.xp"),                      # beyond the 0.18 m stroke
+    (lambda d: d["faults"][0].update(line=0), "faults.0"),
+    (lambda d: d.update(overrides={"cylinder.v01": 0.0}), "cylinder.v01"),     # zero dead volume
+    (lambda d: d.update(overrides={"cylinder.a2": -8e-4}), "cylinder.a2"),     # negative area
+    (lambda d: d["solver"].update(step=float("nan")), "solver.step"),
+])
+def test_simulate_bad_scenario_exits_2_and_writes_nothing(tmp_path, edit, key):
+    d = copy.deepcopy(SCENARIO)
+    edit(d)
+    f = _write(tmp_path, "bad.toml", d)
+    out = tmp_path / "out"
+    for cmd in (("simulate", f, "--out", out), ("hil", f, "--out", out, "--lockstep")):
+        r = hh(*cmd)
+        assert r.returncode == 2, r.stderr
+        line = r.stderr.strip().splitlines()[-1]
+        assert str(f) in line and key in line
+        assert not out.exists()
+
+
+CSV_GARBAGE = st.one_of(
+    st.binary(max_size=300).map(lambda b: b.decode("latin-1")),
+    st.lists(st.lists(st.sampled_from(["1", "-2.5", "nan", "x", "", "1e400", "0"]), min_size=1, max_size=6),
+             max_size=30).map(lambda rows: "\n".join(",".join(r) for r in rows)))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(proc=st.sampled_from([p for p in PROCEDURES if p != "valve-static"]), body=CSV_GARBAGE,
+       header=st.booleans())
+def test_malformed_identification_csv_is_an_input_error(tmp_path, proc, body, header):
+    heads = {"spool": "amplitude,frequency_hz,gain_db,phase_deg", "bulk-modulus": "ps,frequency_hz,accel",
+             "leakage": "t,xp,p2", "friction-static": "v,ff", "friction-dynamic": "t,u,p1,p2,xp"}
+    f = tmp_path / "data.csv"
+    f.write_text((heads[proc] + "\n" if header else "") + body)
+    try:
+        identify(proc, f, load_parameters("ferreira2004"))
+    except InputError as exc:
+        assert str(f) in str(exc)
+    # a garbage file that happens to be valid data may fit; any other exception fails the test
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(key=st.sampled_from(["qn_lpm", "pn_bar", "ps_bar", "kq0_lpm", "kp0", "dpm_bar"]), value=BAD_VALUES)
+def test_malformed_valve_datasheet_is_an_input_error(tmp_path, key, value):
+    d = read_toml(EXAMPLES / "identification" / "valve_datasheet.toml")
+    d[key] = value
+    f = _write(tmp_path, "datasheet.toml", d)
+    try:
+        fit = identify("valve-static", f, load_parameters("ferreira2004"))
+    except InputError as exc:
+        assert str(f) in str(exc) and key in str(exc)
+        return
+    assert np.all(np.isfinite(fit.values["k"] + fit.values["kt"]))
