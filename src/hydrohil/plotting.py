@@ -14,10 +14,11 @@ from hydrohil.models.layout import FRICTION_NAMES, TRAVEL_NAMES  # noqa: E402
 
 
 def plot_run(path: Path, t, xp, p1, p2, u, xs, travel, friction, *, xref=None, title: str = "",
-             compare: dict | None = None) -> None:
+             compare: dict | None = None, faults=None) -> None:
     """Position (and reference), chamber pressures, command and spool, and the cylinder modes over time.
 
-    ``compare`` optionally holds another run (keys t, xp, p1, p2, label) drawn dashed.
+    ``compare`` optionally holds another run (keys t, xp, p1, p2, label) drawn dashed; ``faults`` (the
+    per-row fault mask) shades the intervals with an injected fault.
     """
     fig, ax = plt.subplots(4, 1, figsize=(10, 10), sharex=True,
                            gridspec_kw={"height_ratios": [3, 3, 2, 1.5]})
@@ -34,7 +35,22 @@ def plot_run(path: Path, t, xp, p1, p2, u, xs, travel, friction, *, xref=None, t
     ax[2].plot(t, u, lw=1, label="command ū")
     ax[2].plot(t, xs, lw=1, label="spool x̄s")
     _mode_strip(ax[3], t, travel, friction)
+    _fault_spans(ax, t, faults)
     _finish(fig, path, ax, ("position [mm]", "pressure [bar]", "valve [-]", "mode"), ax[:3], title)
+
+
+def _fault_spans(ax, t, faults) -> None:
+    """Shade the time intervals where the fault mask is non-zero (injected faults) on every axis."""
+    if faults is None:
+        return
+    t, on = np.asarray(t), np.asarray(faults) != 0
+    if not on.any():
+        return
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
+    for a in ax:
+        for i, (k0, k1) in enumerate(zip(edges[::2], edges[1::2])):
+            a.axvspan(t[k0], t[min(k1, len(t) - 1)], color="red", alpha=0.08,
+                      label="fault injected" if (i == 0 and a is ax[0]) else None)
 
 
 def _mode_strip(ax, t, travel, friction) -> None:
@@ -79,5 +95,6 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "") -> None:
     ax[4].plot(t, np.asarray(hil["jitter_us"]), ".", ms=1, label="step start lateness (jitter)")
     ax[4].plot(t, np.asarray(hil["watchdog"]) * max(1.0, float(np.max(hil["jitter_us"]))), lw=1,
                label="watchdog active")
+    _fault_spans(ax, t, hil.get("faults"))
     _finish(fig, path, ax, ("position [mm]", "error [mm]", "pressure [bar]", "mode", "jitter [µs]"),
             (ax[0], ax[1], ax[2], ax[4]), title)
