@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 import tomli_w
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from conftest import EXAMPLES, hh
@@ -79,6 +79,8 @@ def test_mutated_parameter_files_load_or_name_file_and_key(tmp_path, path, op, v
 
 @settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(path=st.sampled_from(SCENARIO_LEAVES), op=MUTATION, value=BAD_VALUES)
+@example(path=("params",), op="replace", value="0")          # found by hypothesis: unknown parameter set
+@example(path=("params",), op="replace", value="")           # ... and a directory
 def test_mutated_scenario_files_load_or_name_file_and_key(tmp_path, path, op, value):
     f = _write(tmp_path, "scenario.toml", mutated(SCENARIO, path, op, value))
     try:

@@ -190,8 +190,8 @@ def load_scenario(path: str | Path, *, solver: str | None = None, step: float | 
     try:
         params = load_parameters(ppath if ppath.suffix == ".toml" else sc.params, sc.overrides)
     except InputError as exc:
-        if exc.source != "overrides":
-            raise
+        if exc.source != "overrides":        # the parameter set itself: name both files
+            raise InputError(str(exc), source=str(path), key="params") from None
         raise InputError(str(exc).split(": ", 2)[-1], source=str(path), key=f"overrides.{exc.key}") from None
     if sc.hil.command_delay > 0:   # transport delay in series with the spool delay (same offline and HIL)
         from hydrohil.parameters import replace_values
