@@ -330,7 +330,7 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
     from hydrohil.simulation.outputs import write_json
 
     addr = parse_address(connect, allow_remote=allow_remote)
-    enc, scale, sample = 1e-6, 1.0, 5e-4
+    enc, scale, sample, spin = 1e-6, 1.0, 5e-4, False
     if scenario is not None:
         from hydrohil.simulation.scenario import load_scenario
         sc = load_scenario(scenario)
@@ -341,7 +341,8 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
         rt, rx = np.asarray(s.reference.t), np.asarray(s.reference.x)
         ref = lambda t: float(np.interp(t, rt, rx))  # noqa: E731
         cpu = s.hil.cpu_controller
-        busy_poll = s.hil.busy_poll if busy_poll is None else busy_poll
+        spin = s.hil.wait == "spin"
+        busy_poll = (s.hil.busy_poll or spin) if busy_poll is None else busy_poll
         if cpu is not None:
             try:
                 import os
@@ -358,7 +359,14 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
     stop = []
     for sig in (signal.SIGINT, signal.SIGTERM):      # finish the log and controller.json, then exit
         signal.signal(sig, lambda signum, frame: stop.append(signum))
-    with PlantClient(addr, timeout=10.0, command_scale=scale, busy_poll=busy_poll, period=sample) as client:
+    if spin:
+        import os
+        try:
+            os.setpriority(os.PRIO_PROCESS, 0, -20)
+        except OSError:
+            pass
+    with PlantClient(addr, timeout=10.0, command_scale=scale, busy_poll=busy_poll, period=sample,
+                     nap=not spin) as client:
         summary = run_p_controller(client, kp, ref, encoder_resolution=enc, mode=mode, sample_time=sample,
                                    log_path=(log / "controller_log.csv") if log else None,
                                    should_stop=lambda: bool(stop))

@@ -29,11 +29,13 @@ class PlantClient:
     """UDP client of a plant server: ``sensors()`` yields sensor packets, ``send(u)`` sends a command."""
 
     def __init__(self, address: tuple[str, int], *, timeout: float = 5.0, command_scale: float = 1.0,
-                 busy_poll: bool = False, period: float = 5e-4):
+                 busy_poll: bool = False, period: float = 5e-4, nap: bool = True):
         self.address = address
         # busy_poll: sleep until SPIN_S before the next expected packet (one plant period after the last),
-        # then spin on the socket: lower latency than waking up from select, ~1/3 of a core
+        # then spin on the socket: lower latency than waking up from select, ~1/3 of a core;
+        # nap=False: never sleep (spin all the time, a whole core)
         self.busy_poll = busy_poll
+        self.nap = nap
         self.period = period
         self.last_arrival = None
         self.timeout = timeout
@@ -72,7 +74,7 @@ class PlantClient:
                 return None
             try:
                 if self.busy_poll:
-                    if self.last_arrival is not None:
+                    if self.nap and self.last_arrival is not None:
                         nap = self.last_arrival + self.period - SPIN_S - time.perf_counter()
                         if nap > 0:
                             select.select([self.sock], [], [], min(nap, left))

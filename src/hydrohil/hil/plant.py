@@ -50,8 +50,10 @@ def parse_address(text: str, *, allow_remote: bool = False) -> tuple[str, int]:
     return host, int(port)
 
 
-def realtime_setup(cpu: int | None) -> dict:
-    """Best effort: pin to ``cpu``, SCHED_FIFO priority, 1-ns timer slack. Reports what was granted."""
+def realtime_setup(cpu: int | None, *, spin: bool = False) -> dict:
+    """Best effort: pin to ``cpu``, SCHED_FIFO priority (``spin``: normal policy at nice -20 instead: a FIFO
+    task that never sleeps is stopped by the kernel's RT throttling), 1-ns timer slack, memory locked.
+    Reports what was granted."""
     rep = {"cpu": None, "rt_priority": "not requested", "timer_slack": "default", "memory_locked": False}
     if cpu is not None:
         try:
@@ -60,8 +62,12 @@ def realtime_setup(cpu: int | None) -> dict:
         except (OSError, AttributeError) as exc:
             rep["cpu"] = f"not permitted ({exc.__class__.__name__})"
     try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(50))
-        rep["rt_priority"] = "SCHED_FIFO 50"
+        if spin:
+            os.setpriority(os.PRIO_PROCESS, 0, -20)
+            rep["rt_priority"] = "normal policy, nice -20 (spin)"
+        else:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(50))
+            rep["rt_priority"] = "SCHED_FIFO 50"
     except (OSError, AttributeError) as exc:
         rep["rt_priority"] = f"not permitted ({exc.__class__.__name__}); normal priority"
     try:
@@ -104,7 +110,9 @@ class PlantServer:
         self.address = self.sock.getsockname()
         self.peer = peer                      # configured controller address, else the first valid sender
         self.cpu = cpu
-        self.spin_ns = min(SPIN_NS, int(SPIN_FRACTION * self.h * 1e9))
+        # wait = "spin": busy-wait the whole period, never sleep (a halted vCPU wakes late, README)
+        self.spin = self.hil.wait == "spin"
+        self.spin_ns = int(self.h * 2e9) if self.spin else min(SPIN_NS, int(SPIN_FRACTION * self.h * 1e9))
         self.c = Counters()
         self.jitter, self.compute, self.rtt = LatencyHistogram(), LatencyHistogram(), LatencyHistogram()
         self.overruns = 0
@@ -213,8 +221,10 @@ class PlantServer:
 
     def run(self, progress=None) -> dict:
         """Serve until ``duration`` is simulated, the controller says BYE/stop, or a fault. Returns timing."""
-        rt = realtime_setup(self.cpu) if not self.lockstep else {"cpu": None, "rt_priority": "lock-step",
-                                                                  "timer_slack": "default"}
+        if self.lockstep:
+            rt = {"cpu": None, "rt_priority": "lock-step", "timer_slack": "default"}
+        else:
+            rt = realtime_setup(self.cpu, spin=self.spin)
         h_ns = int(round(self.h * 1e9))
         # wait for the controller (first valid packet fixes the peer unless configured)
         self.sock.settimeout(CONNECT_TIMEOUT_S)

@@ -95,6 +95,10 @@ class HilCfg(_S):
                                                         "packets or by its own clock")
     busy_poll: bool = Field(True, description="controller naps until 150 us before the next packet, then spins "
                             "on its socket (lower latency, ~1/3 of a core)")
+    wait: Literal["sleep", "spin"] = Field("sleep", description="sleep: plant (SCHED_FIFO) sleeps until 150 us "
+                                           "before each step, the controller naps; spin: both busy-wait the whole "
+                                           "period on their own CPU (normal policy, nice -20): no timer wake-ups, "
+                                           "two cores fully used")
     seed: int = Field(0, ge=0, description="seed of the pressure-sensor noise")
     cpu_plant: int | None = Field(None, ge=0, description="pin the plant process to this CPU")
     cpu_controller: int | None = Field(None, ge=0, description="pin the controller process to this CPU")
