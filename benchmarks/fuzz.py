@@ -7,11 +7,10 @@ The live run takes n / rate + a few seconds (default ~55 s). Results go to stdou
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
-from hydrohil.bench import machine
+from hydrohil.bench import emit, machine
 from hydrohil.hil.fuzz import fuzz_decoder, fuzz_live_plant
 
 
@@ -31,10 +30,7 @@ def main() -> None:
     live["all_bad_counted"] = live["packets_bad"] == live["sent_malformed"]
     live["all_foreign_counted"] = live["packets_foreign"] == live["sent_well_formed"]
     res["live_plant"] = live
-    text = json.dumps(res, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    emit(res, args.json)
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hydrohil.bench import hil_scenario, machine
+from hydrohil.bench import emit, hil_scenario, machine
 from hydrohil.hil.run import read_csv_columns
 
 
@@ -88,10 +88,7 @@ def main() -> None:
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
     res = {"machine": machine(), "soak": soak(args.minutes)}
-    text = json.dumps(res, indent=2)
-    print(text)
-    if args.json:
-        args.json.write_text(text + "\n")
+    emit(res, args.json)
 
 
 if __name__ == "__main__":

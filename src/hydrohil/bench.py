@@ -228,6 +228,15 @@ def run_bench(*, seconds: float = 60.0, quick: bool = False,
     return res
 
 
+def emit(res: dict, path: Path | None = None) -> None:
+    """Print results as JSON (and write them to ``path``): the output of the benchmark scripts."""
+    import json
+    text = json.dumps(res, indent=2)
+    print(text)
+    if path:
+        path.write_text(text + "\n")
+
+
 def _f(v, fmt="{:.3g}") -> str:
     return "—" if v is None else fmt.format(v)
 

@@ -119,7 +119,6 @@ class PlantServer:
         self.log = CsvStream(log, LOG_COLUMNS, names={15: TRAVEL_NAMES, 16: FRICTION_NAMES, 17: SPOOL_NAMES},
                              ints={0, 6, 7, 8, 18, 21, 22}) if log is not None else None
         self.row = [0.0] * len(LOG_COLUMNS)
-        self.steps_done = 0
         self.stop_requested = False
         self.fault: str | None = None
         # latest command
@@ -217,7 +216,7 @@ class PlantServer:
         if not self.cmd_new:
             return None
         self.cmd_new = False
-        return min(max(self.cmd_u, -1.0), 1.0)
+        return self.cmd_u                      # the rig saturates it
 
     def run(self, progress=None) -> dict:
         """Serve until ``duration`` is simulated, the controller says BYE/stop, or a fault. Returns timing."""
@@ -272,7 +271,7 @@ class PlantServer:
                 end = time.perf_counter_ns()
                 self.jitter.add(late)          # 0 in lock-step: no clock to be late against
                 self.compute.add(end - start)
-                k_done = self.steps_done = k + 1
+                k_done = k + 1
                 self._log_row(k + 1, reading, (start - t0) / 1e9 if not self.lockstep else 0.0, late, end - start,
                               u)
                 if progress is not None and k % 200 == 0:

@@ -121,26 +121,25 @@ def step_friction_static(r: Reproduction) -> None:
     r.chain(identify_friction_static(r.save_data("friction_static.csv", d)))
 
 
-def fig10_measurement(truth: Parameters, duration: float) -> tuple[dict, np.ndarray, object]:
-    """The open-loop sine run on the continuous reference model ("the rig"): full-rate result and
-    10 ms samples with encoder quantisation and pressure noise."""
+def fig10_measurement(truth: Parameters, duration: float) -> tuple[dict, object]:
+    """The open-loop sine run on the continuous reference model ("the rig"): 10 ms samples with encoder
+    quantisation and pressure noise, and the full-rate result."""
     sc = load_scenario(EXPERIMENTS_DIR / "fig10_open_loop_sine.toml", solver="reference", duration=duration)
     ref = run_scenario(sc)
     every = int(round(0.01 / sc.scenario.solver.step))
-    rows = ref.log[::every]
     rng = np.random.default_rng(15)
     res = truth.sensors.encoder_resolution
-    meas = {"t": rows[:, 0], "u": ref.column("u")[::every],
-            "p1": ref.column("p1")[::every] + 2e3 * rng.standard_normal(len(rows)),
-            "p2": ref.column("p2")[::every] + 2e3 * rng.standard_normal(len(rows)),
-            "xp": np.round(ref.column("xp")[::every] / res) * res}
-    return meas, rows, ref
+    meas = {c: ref.column(c)[::every] for c in ("t", "u", "p1", "p2", "xp")}
+    meas["p1"] = meas["p1"] + 2e3 * rng.standard_normal(meas["t"].size)
+    meas["p2"] = meas["p2"] + 2e3 * rng.standard_normal(meas["t"].size)
+    meas["xp"] = np.round(meas["xp"] / res) * res
+    return meas, ref
 
 
 def step_friction_dynamic(r: Reproduction) -> None:
     from hydrohil.reproduce.figures import plot_fig10
     duration = 6.0
-    meas, _, ref = fig10_measurement(r.truth, duration)
+    meas, ref = fig10_measurement(r.truth, duration)
     path = r.save_data("friction_dynamic.csv", meas)
     horizontal = replace_values(r.identified, {"load.gravity_direction": 0})
     fit = identify_friction_dynamic(path, horizontal)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 
@@ -18,19 +17,15 @@ UNITS = {"t": "s", "u": "-", "ud": "-", "xs": "-", "vs": "1/s", "p1": "Pa", "p2"
 
 def write_table(path: Path, columns, arr: np.ndarray, *, names: dict[int, tuple] | None = None,
                 ints=frozenset()) -> None:
-    """Write the rows of ``arr`` as CSV with header ``columns``, atomically (``.part`` then rename).
-
-    Column i in ``names`` is written as ``names[i][int(v)]`` (mode names), in ``ints`` as an integer,
-    others as ``repr(float)`` (round-trip exact).
-    """
-    names = names or {}
+    """Write the rows of ``arr`` as CSV with header ``columns``, atomically (``.part`` then rename); the
+    cells are formatted as :class:`CsvStream` does (mode names, integers, round-trip exact floats)."""
     tmp = Path(str(path) + ".part")
-    with open(tmp, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(columns)
+    out = CsvStream(tmp, columns, names=names, ints=ints, flush_rows=10_000, flush_s=float("inf"))
+    try:
         for r in arr:
-            w.writerow([names[i][int(v)] if i in names else int(v) if i in ints else repr(float(v))
-                        for i, v in enumerate(r)])
+            out.write(r)
+    finally:
+        out.close()
     tmp.replace(path)
 
 

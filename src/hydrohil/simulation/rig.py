@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hydrohil.control import p_control
+from hydrohil.errors import HydrohilError
 from hydrohil.hil.protocol import (ST_AT_EXTEND, ST_AT_RETRACT, ST_FAULT_INJECTED, ST_SATURATED, ST_STICK,
                                    ST_WATCHDOG)
 from hydrohil.models.layout import AT_EXTEND, AT_RETRACT, PS, PT, STICK
@@ -26,6 +27,7 @@ from hydrohil.models.sensors import encoder_counts, pressure_reading
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.faults import FaultInjector
 from hydrohil.simulation.loop import NLOG, HybridPlant, write_row
+from hydrohil.simulation.run import SimulationResult
 from hydrohil.simulation.scenario import HilCfg
 
 
@@ -63,7 +65,6 @@ class VirtualRig:
         self.watchdog_trips = 0
         self.hold_x = 0.0
         self.commands_delivered = 0
-        self.last_u = 0.0
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) every kernel a step calls, then restore the initial state."""
@@ -98,7 +99,6 @@ class VirtualRig:
         else:
             u = self.u_held
         u = self.faults.valve_command(u)
-        self.last_u = u
         plant.step(u)
         self.faults.begin_step(k + 1, plant.p, plant.y)     # faults of t_(k+1): its sensor reading and step
         return u
@@ -131,8 +131,6 @@ def run_rig(sc, *, progress=None):
     closed loop = the P controller on the rig's encoder reading, exactly as the HIL controller process.
     Returns a :class:`~hydrohil.simulation.run.SimulationResult` with the extra columns
     :data:`RIG_COLUMNS` (what the sensors reported, active faults, watchdog)."""
-    from hydrohil.errors import HydrohilError
-    from hydrohil.simulation.run import SimulationResult
     s = sc.scenario
     h, n = s.solver.step, s.n_steps()
     rig = VirtualRig(sc.params, h, s.hil, s.faults, {"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1,
