@@ -11,7 +11,9 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 
-class _Strict(BaseModel):
+class StrictModel(BaseModel):
+    """Base of every user-facing file schema (parameters, scenarios, faults): unknown keys, NaN and Inf
+    are errors; validated objects are immutable."""
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
@@ -22,7 +24,7 @@ def _f(lo: float | None = None, hi: float | None = None, *, gt: float | None = N
                  json_schema_extra={"unit": unit})
 
 
-class Spool(_Strict):
+class Spool(StrictModel):
     wn: float = _f(gt=0, hi=1e5, unit="rad/s", doc="natural frequency")
     xi: float = _f(gt=0, hi=10, unit="-", doc="damping ratio")
     lv: float = _f(gt=0, hi=1e6, unit="1/s", doc="spool velocity limit")
@@ -30,13 +32,13 @@ class Spool(_Strict):
     delay: float = _f(0, 0.1, unit="s", doc="pure delay")
 
 
-class Valve(_Strict):
+class Valve(StrictModel):
     k: tuple[float, float, float, float, float] = Field(description="k1..k5 of eq 3 (l/min, bar)")
     kt: tuple[float, float, float, float, float] = Field(description="k1t..k5t of eq 3 (l/min, bar)")
     dp_laminar: float = _f(gt=0, hi=5e6, unit="Pa", doc="laminar transition pressure drop")
 
 
-class Supply(_Strict):
+class Supply(StrictModel):
     ps: float = _f(gt=1e5, hi=1e8, unit="Pa", doc="supply pressure (gauge)")
     pt: float = _f(-1e5, 5e6, unit="Pa", doc="tank pressure (gauge)")
 
@@ -47,7 +49,7 @@ class Supply(_Strict):
         return self
 
 
-class Cylinder(_Strict):
+class Cylinder(StrictModel):
     a1: float = _f(gt=0, hi=1.0, unit="m^2", doc="cap-side area A1")
     a2: float = _f(gt=0, hi=1.0, unit="m^2", doc="rod-side area A2")
     v01: float = _f(gt=0, hi=1.0, unit="m^3", doc="dead volume chamber 1")
@@ -61,7 +63,7 @@ class Cylinder(_Strict):
     beta2: float = _f(gt=1e6, hi=1e11, unit="Pa", doc="constant bulk modulus, chamber 2")
 
 
-class StaticFriction(_Strict):
+class StaticFriction(StrictModel):
     fc: float = _f(0, 1e6, unit="N", doc="Coulomb force")
     fs: float = _f(0, 1e6, unit="N", doc="breakaway force Fc + (Fs - Fc)")
     vs: float = _f(gt=0, hi=10, unit="m/s", doc="Stribeck velocity")
@@ -74,7 +76,7 @@ class StaticFriction(_Strict):
         return self
 
 
-class Friction(_Strict):
+class Friction(StrictModel):
     sigma0: float = _f(gt=0, hi=1e12, unit="N/m", doc="bristle stiffness")
     sigma1: float = _f(0, 1e8, unit="N.s/m", doc="bristle damping")
     asymmetric: bool = Field(description="use positive/negative sets instead of symmetric")
@@ -83,14 +85,14 @@ class Friction(_Strict):
     negative: StaticFriction
 
 
-class Load(_Strict):
+class Load(StrictModel):
     mass: float = _f(gt=0, hi=1e6, unit="kg", doc="moved mass")
     gravity_direction: Literal[-1, 0, 1] = Field(description="+1 gravity aids extension")
     gravity: float = _f(0, 30, unit="m/s^2", doc="gravity acceleration")
     force: float = _f(-1e7, 1e7, unit="N", doc="external force, positive opposes extension")
 
 
-class Linear(_Strict):
+class Linear(StrictModel):
     xp0: float = _f(0, 10, unit="m", doc="linearisation position")
     xs0: float = _f(-1, 1, unit="-", doc="equilibrium spool position")
     friction_factor: float = _f(0, 1e8, unit="N.s/m", doc="friction factor f")
@@ -100,14 +102,14 @@ class Linear(_Strict):
     pn: float = _f(gt=0, hi=1e8, unit="Pa", doc="nominal pressure drop")
 
 
-class Sensors(_Strict):
+class Sensors(StrictModel):
     encoder_resolution: float = _f(0, 1e-2, unit="m", doc="encoder count size (0 = ideal)")
     pressure_range: float = _f(gt=0, hi=1e9, unit="Pa", doc="transducer full scale")
     pressure_resolution: float = _f(0, 1e6, unit="Pa", doc="ADC quantum (0 = ideal)")
     pressure_noise: float = _f(0, 1e6, unit="Pa", doc="RMS noise (0 = none)")
 
 
-class Parameters(_Strict):
+class Parameters(StrictModel):
     """A complete, validated parameter set."""
 
     spool: Spool

@@ -38,16 +38,16 @@ from collections import deque
 from typing import Annotated, Literal, Union
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
 from hydrohil.models.layout import BURST1, BURST2, FLOAD, G_LKC, LV, MASS, PS, PT, VALVE_WEAR, VS, WN
+from hydrohil.parameters.schema import StrictModel
 
 SENSORS = ("position", "p1", "p2", "ps", "pt")
 Sensor = Literal["position", "p1", "p2", "ps", "pt"]
 
 
-class _Fault(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+class _Fault(StrictModel):
     start: float = Field(ge=0, le=3600, description="first instant the fault is active [s]")
     end: float | None = Field(None, gt=0, le=3600, description="instant it ends [s] (omit: to the end of the run)")
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 
 import numpy as np
@@ -51,7 +52,6 @@ class CsvStream:
 
     def __init__(self, path: Path, columns, *, names: dict[int, tuple] | None = None, ints=frozenset(),
                  flush_rows: int = 2000, flush_s: float = 0.5):
-        import time
         self._time = time.monotonic
         self.path = Path(path)
         self.fh = open(self.path, "w", newline="")

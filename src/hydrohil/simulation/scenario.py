@@ -14,31 +14,28 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from hydrohil.errors import InputError
 from hydrohil.parameters import Parameters, format_validation_error, load_parameters, read_toml
+from hydrohil.parameters.schema import StrictModel
 from hydrohil.simulation.faults import Fault
 from hydrohil.solvers.tableaus import FIXED_STEP_SOLVERS
 
 SOLVERS = (*FIXED_STEP_SOLVERS, "reference")
 
 
-class _S(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
-class SolverCfg(_S):
+class SolverCfg(StrictModel):
     method: Literal["euler", "heun", "rk3", "rk4", "reference"] = "rk3"
     step: float = Field(5e-4, gt=1e-9, le=0.01, description="fixed step / control sample time [s]")
     output_every: int = Field(1, ge=1, le=10**6, description="log one row every N steps")
     rtol: float = Field(1e-7, gt=0, lt=1e-2, description="reference solver relative tolerance")
 
 
-class Initial(_S):
+class Initial(StrictModel):
     xp: float = Field(description="piston position [m]")
     xs: float = Field(0.0, ge=-1, le=1, description="spool position [-]")
     p1: float | None = Field(None, ge=-1e5, le=1e8, description="chamber 1 pressure [Pa]")
     p2: float | None = Field(None, ge=-1e5, le=1e8, description="chamber 2 pressure [Pa]")
 
 
-class TableInput(_S):
+class TableInput(StrictModel):
     type: Literal["table"]
     t: list[float] = Field(min_length=1, description="times [s], non-decreasing")
     u: list[float] = Field(min_length=1, description="valve command [-], in [-1, 1]")
@@ -49,7 +46,7 @@ class TableInput(_S):
         return self
 
 
-class SineInput(_S):
+class SineInput(StrictModel):
     type: Literal["sine"]
     amplitude: float = Field(ge=0, le=1, description="[-]")
     frequency: float = Field(gt=0, le=1000, description="[Hz]")
@@ -63,12 +60,12 @@ class SineInput(_S):
         return self
 
 
-class PControllerCfg(_S):
+class PControllerCfg(StrictModel):
     type: Literal["p"]
     kp: float = Field(gt=0, le=1e5, description="proportional gain [1/m] on the valve command")
 
 
-class TableReference(_S):
+class TableReference(StrictModel):
     type: Literal["table"]
     t: list[float] = Field(min_length=1, description="times [s], non-decreasing")
     x: list[float] = Field(min_length=1, description="piston position reference [m]")
@@ -79,7 +76,7 @@ class TableReference(_S):
         return self
 
 
-class HilCfg(_S):
+class HilCfg(StrictModel):
     """``[hil]``: real-time settings and interface models of ``hydrohil hil`` (docs/protocol.md).
 
     The command transport delay acts in series with the spool delay, offline and in real time alike.
@@ -113,7 +110,7 @@ def _check_table(t, v, name, lo, hi):
         raise ValueError(f"{name} values must lie in [{lo}, {hi}]")
 
 
-class Scenario(_S):
+class Scenario(StrictModel):
     params: str = Field("ferreira2004", description="built-in parameter set name or TOML path")
     duration: float = Field(gt=0, le=3600, description="[s]")
     solver: SolverCfg = SolverCfg()
