@@ -144,3 +144,13 @@ def test_malformed_valve_datasheet_is_an_input_error(tmp_path, key, value):
         assert str(f) in str(exc) and key in str(exc)
         return
     assert np.all(np.isfinite(fit.values["k"] + fit.values["kt"]))
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+def test_non_finite_datasheet_value_is_rejected(tmp_path, value):
+    # NaN passed the range check (comparisons with NaN are false) and produced a "fit"; found by the review
+    d = read_toml(EXAMPLES / "identification" / "valve_datasheet.toml")
+    d["qn_lpm"] = value
+    f = _write(tmp_path, "datasheet.toml", d)
+    with pytest.raises(InputError, match="qn_lpm"):
+        identify("valve-static", f, load_parameters("ferreira2004"))

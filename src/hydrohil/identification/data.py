@@ -74,8 +74,8 @@ def read_table(path: str | Path, columns: tuple[Column, ...], *, min_rows: int) 
 
 
 def check_range(values: np.ndarray, col: Column, source: str) -> None:
-    """Raise if any value lies outside the column's plausible range."""
-    bad = (values < col.lo) | (values > col.hi)
+    """Raise if any value is not finite or lies outside the column's plausible range."""
+    bad = ~np.isfinite(values) | (values < col.lo) | (values > col.hi)
     if bad.any():
         i = int(np.argmax(bad))
         hint = f"; {col.hint}" if col.hint else ""

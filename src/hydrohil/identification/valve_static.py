@@ -117,7 +117,8 @@ def _least_squares_fallback(ds, x0):
     tg = _targets(ds)
 
     def res(theta):
-        c = characteristics(theta[:5], theta[5:], ps, ds["pn_bar"])
+        with np.errstate(invalid="ignore", divide="ignore"):   # 0/0 of a closed section: nan_to_num below
+            c = characteristics(theta[:5], theta[5:], ps, ds["pn_bar"])
         r = [(c[key] - v) / max(abs(v), 1e-3 * a) for key, v in tg.items() if key not in ("ql1_lpm", "ql0_lpm")]
         r += [(c["ql1_lpm"] - ds["ql1_lpm"]) / ds["qn_lpm"], c["d_as2_at_1"] / a, c["d_a1t_at_1"] / a,
               c["a1t_at_1"] / a]
