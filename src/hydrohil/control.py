@@ -9,7 +9,7 @@ from __future__ import annotations
 from hydrohil._jit import jit
 
 
-@jit
+@jit(inline=True)
 def p_control(kp, x_ref, x_meas):
     """Saturated P law: clamp(kp*(x_ref - x_meas), -1, 1)."""
     u = kp * (x_ref - x_meas)

@@ -35,13 +35,14 @@ from hydrohil.solvers.tableaus import MAX_STAGES, get_tableau
 RK_STEP = None  # bound per solver by continuous_loop
 
 
-def _continuous_run(y, p, h, n_steps, every, t_in, u_in, closed, kp, x_in, buf, pos, dl_n, dl_alpha, out):
+def _continuous_run(y, p, h, n_steps, every, t_in, u_in, closed, kp, x_in, buf, pos, dl_n, dl_alpha, out,
+                    work, m):
     """Integrate; record t, xp, p1, p2 every ``every`` steps into ``out``; input/reference sampled
-    from the tables (t_in, u_in / x_in) by zero-order hold at each step."""
-    work = np.empty((MAX_STAGES, NY))
-    ytmp = np.empty(NY)
-    y1 = np.empty(NY)
-    m = np.zeros(3, dtype=np.int64)
+    from the tables (t_in, u_in / x_in) by zero-order hold at each step. ``work``: (MAX_STAGES + 2, NY)
+    scratch, ``m``: unused mode vector (the kernel allocates nothing)."""
+    k_stages = work[:MAX_STAGES]
+    ytmp = work[MAX_STAGES]
+    y1 = work[MAX_STAGES + 1]
     row = 0
     j = 0
     for k in range(n_steps + 1):
@@ -61,7 +62,7 @@ def _continuous_run(y, p, h, n_steps, every, t_in, u_in, closed, kp, x_in, buf, 
             row += 1
         if k == n_steps:
             break
-        RK_STEP(y, h, ud, m, p, 0.0, 0.0, work, ytmp, y1)
+        RK_STEP(y, h, ud, m, p, 0.0, 0.0, k_stages, ytmp, y1)
         for i in range(NY):
             y[i] = y1[i]
         if diverged(y, p) or y[P1] > 1.5 * p[PS] or y[P2] > 1.5 * p[PS] or abs(y[XS]) > 2.0:
@@ -72,7 +73,7 @@ def _continuous_run(y, p, h, n_steps, every, t_in, u_in, closed, kp, x_in, buf, 
 @functools.cache
 def continuous_loop(solver: str):
     """Compiled fixed-step explicit loop of the continuous reference model (for the step comparison)."""
-    return specialize(_continuous_run, f"continuous_run_{solver}",
+    return specialize(_continuous_run, f"continuous_run_{solver}", nrt=False,
                       RK_STEP=make_rk_step(reference_rhs, get_tableau(solver)))
 
 
@@ -116,7 +117,8 @@ def check_step(sc: LoadedScenario, model: str, solver: str, h: float, ref_log: n
         every = max(1, int(round(h_out / h)))
         out = np.zeros((n // every + 2, 4))
         ok, rows = run(y, p, h, n, every, t_in, u_in, closed, kp, x_in, make_buffer(dl_n, y[XS]),
-                       np.zeros(1, np.int64), dl_n, alpha, out)
+                       np.zeros(1, np.int64), dl_n, alpha, out, np.empty((MAX_STAGES + 2, NY)),
+                       np.zeros(3, dtype=np.int64))
         if not ok:
             return {"stable": False, "reason": "diverged or unbounded", "wall_s": time.perf_counter() - t0}
         t, xp, p1, p2 = out[:rows, 0], out[:rows, 1], out[:rows, 2], out[:rows, 3]

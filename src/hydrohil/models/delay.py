@@ -35,7 +35,7 @@ def delay_push(buf, pos, u, n):
     return buf[(pos[0] - n) % size], buf[(pos[0] - n - 1) % size]
 
 
-@jit
+@jit(inline=True)
 def delay_push_read(buf, pos, u, n, alpha):
     """Push command u of the current step and return the delayed spool input for this step (the step
     average of the two held commands it straddles)."""

@@ -267,5 +267,6 @@ def _hybrid_step(y, m, p, ud, h, work):
 
 
 def make_hybrid_step(tab: Tableau):
-    """Compile ``hybrid_step(y, m, p, ud, h, work)`` for one fixed-step tableau."""
-    return specialize(_hybrid_step, f"hybrid_step_{tab.name}", RK_STEP=make_rk_step(hybrid_rhs, tab))
+    """Compile ``hybrid_step(y, m, p, ud, h, work)`` for one fixed-step tableau (an inlined, allocation-free
+    helper of the loops: see :func:`hydrohil._jit.jit`)."""
+    return specialize(_hybrid_step, f"hybrid_step_{tab.name}", inline=True, RK_STEP=make_rk_step(hybrid_rhs, tab))

@@ -6,13 +6,13 @@ import numpy as np
 from hydrohil._jit import jit
 
 
-@jit
+@jit(inline=True)
 def encoder_counts(xp, resolution):
     """Encoder reading [counts] of position xp [m] for a count size ``resolution`` [m] (nearest count)."""
     return np.floor(xp / resolution + 0.5)
 
 
-@jit
+@jit(inline=True)
 def encoder_position(xp, resolution):
     """Position [m] as the encoder reports it; ``resolution`` <= 0 means ideal."""
     if resolution <= 0.0:

@@ -63,9 +63,9 @@ def write_row(log, row, t, u, ud, y, m, p, events):
 HYBRID_STEP = None  # bound per solver by _make_kernels
 
 
-def _run_loop(y, m, p, h, n_steps, every, u_open, closed, kp, xref, buf, pos, dl_n, dl_alpha, log):
-    """Integrate n_steps fixed steps; returns (status, steps done, rows written); y, m in place."""
-    work = np.empty((MAX_STAGES + 3, y.shape[0]))
+def _run_loop(y, m, p, h, n_steps, every, u_open, closed, kp, xref, buf, pos, dl_n, dl_alpha, log, work):
+    """Integrate n_steps fixed steps; returns (status, steps done, rows written); y, m in place.
+    ``work``: scratch of :func:`work_array` (the kernel allocates nothing)."""
     row = 0
     events = 0
     for k in range(n_steps + 1):
@@ -106,8 +106,13 @@ def _make_kernels(solver: str):
     """Compile the loop and the per-step function of the hybrid model for one fixed-step solver."""
     hybrid_step = make_hybrid_step(get_tableau(solver))
     return Kernels(hybrid_step,
-                   specialize(_run_loop, f"run_loop_{solver}", HYBRID_STEP=hybrid_step),
-                   specialize(_plant_step, f"plant_step_{solver}", HYBRID_STEP=hybrid_step))
+                   specialize(_run_loop, f"run_loop_{solver}", nrt=False, HYBRID_STEP=hybrid_step),
+                   specialize(_plant_step, f"plant_step_{solver}", nrt=False, HYBRID_STEP=hybrid_step))
+
+
+def work_array() -> np.ndarray:
+    """Scratch memory of one hybrid step (RK stages, stage state, step result)."""
+    return np.empty((MAX_STAGES + 3, NY))
 
 
 class Kernels(NamedTuple):
@@ -166,7 +171,7 @@ class HybridPlant:
         self.p = pack(params)
         self.kernel = kernels(solver).plant_step
         self.dl_n, self.dl_alpha = split_delay(params.spool.delay, self.h)
-        self.work = np.empty((MAX_STAGES + 3, NY))
+        self.work = work_array()
         self.out = np.zeros(len(self.OUT_COLUMNS))
         self.reset(**initial)
 

@@ -12,7 +12,7 @@ from hydrohil.models.delay import make_buffer, split_delay
 from hydrohil.models.layout import pack
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.diagnostics import divergence_error
-from hydrohil.simulation.loop import LOG_COLUMNS, NLOG, STATUS_OK, initial_state, kernels
+from hydrohil.simulation.loop import LOG_COLUMNS, NLOG, STATUS_OK, initial_state, kernels, work_array
 from hydrohil.simulation.scenario import LoadedScenario
 from hydrohil.solvers.reference import solve_reference
 
@@ -96,10 +96,10 @@ def run_hybrid(params: Parameters, p: np.ndarray, y: np.ndarray, m: np.ndarray, 
     log = np.zeros((n // every + 1, NLOG))
     if warmup:  # compile (or load from cache) outside the timed region
         run_loop(y.copy(), m.copy(), p, h, 1, 1, u_open[:2], closed, kp, xref[:2], make_buffer(dl_n, y[0]),
-                 np.zeros(1, np.int64), dl_n, alpha, np.zeros((2, NLOG)))
+                 np.zeros(1, np.int64), dl_n, alpha, np.zeros((2, NLOG)), work_array())
     t0 = time.perf_counter()
     status, done, rows = run_loop(y, m, p, h, n, every, u_open, closed, kp, xref, make_buffer(dl_n, y[0]),
-                                  np.zeros(1, np.int64), dl_n, alpha, log)
+                                  np.zeros(1, np.int64), dl_n, alpha, log, work_array())
     return status, done, log[:rows], time.perf_counter() - t0
 
 
