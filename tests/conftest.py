@@ -18,7 +18,8 @@ def rms(e):
     return float(np.sqrt(np.mean(np.asarray(e) ** 2)))
 
 
-def hh(*args, cwd=None, timeout=300):
-    """Run the ``hydrohil`` CLI as a subprocess (what a user types)."""
+def hh(*args, cwd=None, timeout=300, env=None):
+    """Run the ``hydrohil`` CLI as a subprocess (what a user types); ``env``: extra environment variables."""
+    full_env = None if env is None else {**__import__("os").environ, **env}
     return subprocess.run([sys.executable, "-m", "hydrohil.cli", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, timeout=timeout)
+                          cwd=cwd, timeout=timeout, env=full_env)
