@@ -71,11 +71,16 @@ def run_scenario(sc: LoadedScenario, *, progress=None, warmup: bool = True) -> S
     every = s.solver.output_every
     if s.solver.method == "reference":
         t0 = time.perf_counter()
+        stats: dict = {}
         status, done, log, yend = solve_reference(p, y, h, n, u_open=None if closed else u_open, kp=kp, xref=xref,
-                                                  every=every, rtol=s.solver.rtol, progress=progress)
+                                                  every=every, rtol=s.solver.rtol, progress=progress, stats=stats)
         wall = time.perf_counter() - t0
-        div = None if status == STATUS_OK else divergence_error(done * h, yend, np.zeros(3, dtype=np.int64))
-        return SimulationResult(log, "reference", h, wall, div)
+        div = None
+        if status != STATUS_OK:
+            reason = stats.pop("failure", None) or "non-finite or unphysical state"
+            div = divergence_error(done * h, yend, np.zeros(3, dtype=np.int64), reason)
+        extra = {"reference_intervals": stats["intervals"], "reference_radau_fallbacks": stats["radau_fallbacks"]}
+        return SimulationResult(log, "reference", h, wall, div, extra=extra)
     status, done, log, wall = run_hybrid(params, p, y, m, h, n, every, u_open, closed=closed, kp=kp, xref=xref,
                                          solver=s.solver.method, warmup=warmup)
     div = None if status == STATUS_OK else divergence_error(done * h, y, m)
