@@ -62,7 +62,7 @@ def _continuous_run(y, p, h, n_steps, every, t_in, u_in, closed, kp, x_in, buf, 
             row += 1
         if k == n_steps:
             break
-        RK_STEP(y, h, ud, m, p, 0.0, 0.0, k_stages, ytmp, y1)
+        RK_STEP(y, h, ud, m, p, 1.0, 1.0, k_stages, ytmp, y1)
         for i in range(NY):
             y[i] = y1[i]
         if diverged(y, p) or y[P1] > 1.5 * p[PS] or y[P2] > 1.5 * p[PS] or abs(y[XS]) > 2.0:

@@ -30,22 +30,23 @@ def volumes(xp, p):
 
 
 @jit(inline=True)
-def chamber_pressure_rates(xs, p1, p2, xp, vp, p, dp_t1, dp_t2):
+def chamber_pressure_rates(xs, p1, p2, xp, vp, p, dp_t, c1, c2):
     """(dP1/dt, dP2/dt) [Pa/s] by continuity (SPEC §4) with the valve flows of SPEC §3.2.
 
     Q1 = q_s1 - q_1t, Q2 = q_s2 - q_2t; q_lkc = g_lkc*(P1 - P2) (eq 22);
-    dP1/dt = beta(P1)/V1*(Q1 - A1*vp - q_lkc), dP2/dt = beta(P2)/V2*(Q2 + A2*vp + q_lkc).
-    ``dp_t1``/``dp_t2`` are the laminar transition pressures of the orifices of chamber 1/2. A burst
+    dP1/dt = c1*beta(P1)/V1*(Q1 - A1*vp - q_lkc), dP2/dt = c2*beta(P2)/V2*(Q2 + A2*vp + q_lkc).
+    ``dp_t``: laminar transition pressure of the orifices; ``c1``/``c2``: capacitance scales of the
+    chambers (1 = physical; the hybrid model's stiff-chamber slowing, see hybrid.py). A burst
     hose (fault) drains chamber i to tank through the section p[BURSTi] (0 normally).
     """
     as1, as2, a1t, a2t = pseudo_sections(xs, p)
     ps, pt = p[PS], p[PT]
-    q1 = orifice_flow(as1, ps - p1, dp_t1) - orifice_flow(a1t + p[BURST1], p1 - pt, dp_t1)
-    q2 = orifice_flow(as2, ps - p2, dp_t2) - orifice_flow(a2t + p[BURST2], p2 - pt, dp_t2)
+    q1 = orifice_flow(as1, ps - p1, dp_t) - orifice_flow(a1t + p[BURST1], p1 - pt, dp_t)
+    q2 = orifice_flow(as2, ps - p2, dp_t) - orifice_flow(a2t + p[BURST2], p2 - pt, dp_t)
     q_lk = p[G_LKC] * (p1 - p2)
     v1, v2 = volumes(xp, p)
-    dp1 = bulk_modulus(p1, 1, p) / v1 * (q1 - p[A1] * vp - q_lk)
-    dp2 = bulk_modulus(p2, 2, p) / v2 * (q2 + p[A2] * vp + q_lk)
+    dp1 = c1 * bulk_modulus(p1, 1, p) / v1 * (q1 - p[A1] * vp - q_lk)
+    dp2 = c2 * bulk_modulus(p2, 2, p) / v2 * (q2 + p[A2] * vp + q_lk)
     return dp1, dp2
 
 

@@ -44,8 +44,8 @@ NP = 51
 REFERENCE_STOP_K = 1e10      # N/m
 REFERENCE_STOP_C = 1e10      # N.s/m
 REFERENCE_DP_LAMINAR = 1e3   # Pa (0.01 bar): keeps the Jacobian finite at dp = 0 for the stiff solver
-# Hybrid model: largest |lambda|*h allowed for the pressure relaxation of a chamber (see hybrid.py).
-HYBRID_LAMBDA_H_MAX = 1.0
+# Hybrid model: largest lambda*h allowed for the pressure relaxation of a chamber (see hybrid.py).
+HYBRID_LAMBDA_H_MAX = 1.5
 
 # 1 (l/min)/sqrt(bar) expressed in (m^3/s)/sqrt(Pa)
 LPM_PER_SQRT_BAR = 1.0 / 60000.0 / np.sqrt(1e5)

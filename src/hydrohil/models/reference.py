@@ -4,7 +4,7 @@ Continuous LuGre friction (SPEC §5) and end stops as unilateral spring-dampers 
 penetration, F = max(0, k*d + c*dd/dt): it pushes, never pulls); orifices with a narrow laminar region
 (0.01 bar) so the Jacobian stays finite. Stiff: solved by LSODA at tight tolerance
 (:mod:`hydrohil.solvers.reference`), or by an explicit fixed step for the max-stable-step comparison.
-The signature matches :func:`hydrohil.models.hybrid.hybrid_rhs` (modes and widths unused).
+The signature matches :func:`hydrohil.models.hybrid.hybrid_rhs` (modes and capacitance scales unused).
 """
 
 from __future__ import annotations
@@ -29,11 +29,11 @@ def end_stop_force(xp, vp, p):
 
 
 @jit(inline=True)
-def reference_rhs(y, ud, m, p, dp_t1, dp_t2, dy):
+def reference_rhs(y, ud, m, p, c1, c2, dy):
     """dy/dt of the continuous reference model; state layout as the hybrid model."""
     dy[XS], dy[VS], _ = spool_derivatives(y[XS], y[VS], ud, p)
     vp = y[VP]
-    dy[P1], dy[P2] = chamber_pressure_rates(y[XS], y[P1], y[P2], y[XP], vp, p, p[DP_LAM_REF], p[DP_LAM_REF])
+    dy[P1], dy[P2] = chamber_pressure_rates(y[XS], y[P1], y[P2], y[XP], vp, p, p[DP_LAM_REF], 1.0, 1.0)
     dz, ff = lugre(vp, y[Z], p)
     dy[Z] = dz
     dy[XP] = vp

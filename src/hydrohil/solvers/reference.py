@@ -80,7 +80,7 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, *, u_
     stats.update(intervals=0, radau_fallbacks=0)
 
     def f(yv, t, ud):
-        reference_rhs(yv, ud, m_dummy, p, 0.0, 0.0, dy)
+        reference_rhs(yv, ud, m_dummy, p, 1.0, 1.0, dy)
         return dy
 
     with warnings.catch_warnings():
