@@ -2,6 +2,7 @@
 
 import json
 import math
+import os
 import signal
 import socket
 import subprocess
@@ -252,8 +253,26 @@ def test_hil_real_time_short_run(tmp_path):
     assert t["mode"] == "realtime" and t["steps"] == 3000 and t["packets_bad"] == 0
     assert abs(t["drift_ms"]) < 5.0                       # no drift (loose: shared CI machine)
     assert math.isfinite(t["rtt_us_p50"])
+    if sys.platform.startswith("linux"):   # kernel receive stamps: the wire round trip, before the plant wakes
+        assert t["rtt_source"].startswith("kernel")
+        assert t["rtt_us_p50"] <= t["rtt_seen_us_p50"]
     c = json.loads((tmp_path / "out" / "comparison.json").read_text())
     assert c["xp_rms_mm"] < 0.5                          # the HIL-vs-offline bound
+
+
+def test_spinning_modes_pin_plant_and_controller_apart():
+    from hydrohil.simulation.scenario import HilCfg
+    assert HilCfg(wait="sleep").cpus() == (None, None)
+    assert HilCfg(wait="sleep", cpu_plant=1).cpus() == (1, None)
+    allowed = sorted(os.sched_getaffinity(0))
+    plant, ctrl = HilCfg().cpus()                       # default: spin-controller
+    if len(allowed) >= 2:
+        assert plant == allowed[-1] and ctrl == allowed[-2]
+    else:
+        assert (plant, ctrl) == (None, None)
+    assert HilCfg(cpu_plant=allowed[0]).cpus()[0] == allowed[0]
+    if len(allowed) >= 2:
+        assert HilCfg(cpu_plant=allowed[0]).cpus()[1] not in (None, allowed[0])
 
 
 def test_bind_non_loopback_needs_flag(tmp_path):

@@ -274,7 +274,7 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
         prm, hil = sc.params, s.hil
         step, duration = hil.step or s.solver.step, s.duration
         initial = {"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1, "p2": s.initial.p2}
-        cpu = hil.cpu_plant if cpu is None else cpu
+        cpu = hil.cpus()[0] if cpu is None else cpu
         faults = s.faults
     else:
         prm = load_parameters(params)
@@ -340,12 +340,12 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
         enc = sc.params.sensors.encoder_resolution
         rt, rx = np.asarray(s.reference.t), np.asarray(s.reference.x)
         ref = lambda t: float(np.interp(t, rt, rx))  # noqa: E731
-        cpu = s.hil.cpu_controller
-        spin = s.hil.wait == "spin"
+        import os
+        cpu = s.hil.cpus()[1]
+        spin = s.hil.wait != "sleep" and (os.cpu_count() or 1) > 1   # never spin on a single CPU
         busy_poll = (s.hil.busy_poll or spin) if busy_poll is None else busy_poll
         if cpu is not None:
             try:
-                import os
                 os.sched_setaffinity(0, {cpu})
             except OSError:
                 pass

@@ -2,7 +2,8 @@
 
 Timeline of step k (h = plant step, t0 = start instant, docs/protocol.md):
   * until t0 + k·h the plant waits on its socket (``select``; coarse sleep) and spins the last
-    ``spin_ns`` (150 µs, at most 30 % of h); every command that arrives is time-stamped on arrival;
+    ``spin_ns`` (150 µs, at most 30 % of h); every command is time-stamped by the kernel as it arrives
+    (:mod:`hydrohil.hil.netstamp`) and by the plant as it reads it: the round trip is reported both ways;
   * at t0 + k·h it takes the latest valid command (or the watchdog's safe command), advances the model
     one step and sends the sensor packet of the state at (k+1)·h; its answer is due before t0 + (k+1)·h.
 Jitter = start of step k − (t0 + k·h); an overrun is a step that starts after t0 + (k+1)·h.
@@ -23,6 +24,7 @@ from pathlib import Path
 
 from hydrohil.errors import HydrohilError, InputError
 from hydrohil.hil import protocol as pr
+from hydrohil.hil.netstamp import enable_kernel_timestamps, recv_stamped
 from hydrohil.hil.stats import LatencyHistogram
 from hydrohil.models.layout import FRICTION_NAMES, SPOOL_NAMES, TRAVEL_NAMES
 from hydrohil.parameters import Parameters
@@ -107,6 +109,7 @@ class PlantServer:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
         self.sock.bind(bind)
+        self.kernel_stamps = enable_kernel_timestamps(self.sock)
         self.address = self.sock.getsockname()
         self.peer = peer                      # configured controller address, else the first valid sender
         self.cpu = cpu
@@ -115,6 +118,7 @@ class PlantServer:
         self.spin_ns = int(self.h * 2e9) if self.spin else min(SPIN_NS, int(SPIN_FRACTION * self.h * 1e9))
         self.c = Counters()
         self.jitter, self.compute, self.rtt = LatencyHistogram(), LatencyHistogram(), LatencyHistogram()
+        self.rtt_seen = LatencyHistogram()    # until the plant process read the command (its wake-up included)
         self.overruns = 0
         self.log = CsvStream(log, LOG_COLUMNS, names={15: TRAVEL_NAMES, 16: FRICTION_NAMES, 17: SPOOL_NAMES},
                              ints={0, 6, 7, 8, 18, 21, 22}) if log is not None else None
@@ -135,7 +139,7 @@ class PlantServer:
         self.rig.warm_up()
 
     # -- receiving --------------------------------------------------------------------------------
-    def _receive(self, data: bytes, addr, t_arr: int) -> None:
+    def _receive(self, data: bytes, addr, t_arr: int, t_kernel: int | None) -> None:
         msg = pr.decode(data)
         if msg is None:
             self.c.packets_bad += 1
@@ -157,7 +161,8 @@ class PlantServer:
             self.cmd_new = True
             ts = self.sensor_t_send.pop(msg.header.echo_seq, None)
             if ts is not None:
-                self.rtt.add(t_arr - ts)
+                self.rtt_seen.add(t_arr - ts[0])
+                self.rtt.add(t_arr - ts[0] if t_kernel is None else t_kernel - ts[1])
             if msg.flags & pr.CMD_STOP:
                 self.stop_requested = True
         elif isinstance(msg, pr.Header) and msg.type == pr.T_BYE:
@@ -166,10 +171,10 @@ class PlantServer:
     def _drain(self) -> None:
         while True:
             try:
-                data, addr = self.sock.recvfrom(pr.MAX_DATAGRAM + 1)
+                data, addr, t_kernel = recv_stamped(self.sock, pr.MAX_DATAGRAM + 1)
             except BlockingIOError:
                 return
-            self._receive(data, addr, time.perf_counter_ns())
+            self._receive(data, addr, time.perf_counter_ns(), t_kernel)
 
     def _wait_until(self, deadline_ns: int) -> None:
         """Sleep on the socket (handling arrivals) until ``spin_ns`` before the deadline, then spin."""
@@ -182,22 +187,21 @@ class PlantServer:
             r, _, _ = select.select([sock], [], [], left / 1e9)
             if r:
                 self._drain()
-        recv = sock.recvfrom
         while time.perf_counter_ns() < deadline_ns:   # spin, still time-stamping arrivals
             try:
-                data, addr = recv(pr.MAX_DATAGRAM + 1)
+                data, addr, t_kernel = recv_stamped(sock, pr.MAX_DATAGRAM + 1)
             except BlockingIOError:
                 continue
-            self._receive(data, addr, time.perf_counter_ns())
+            self._receive(data, addr, time.perf_counter_ns(), t_kernel)
 
     # -- sending ----------------------------------------------------------------------------------
     def _send_sensor(self, k: int, status: int) -> Reading:
         r = self.rig.read()
         status |= r.status | (pr.ST_LOCKSTEP if self.lockstep else 0)
-        t_send = time.perf_counter_ns()
+        t_send, t_send_wall = time.perf_counter_ns(), time.time_ns()
         pkt = pr.encode_sensor(k, t_send, self.cmd_t_arrival or 0, max(self.cmd_seq, 0), r.t, k, r.encoder,
                                r.p1, r.p2, r.ps, r.pt, status, r.travel, r.friction, r.spool)
-        self.sensor_t_send[k] = t_send
+        self.sensor_t_send[k] = (t_send, t_send_wall)
         if len(self.sensor_t_send) > 64:
             self.sensor_t_send.pop(next(iter(self.sensor_t_send)))
         if self.peer is not None:
@@ -230,10 +234,10 @@ class PlantServer:
         t_connect = time.monotonic()
         while self.c.packets_rx == 0:
             try:
-                data, addr = self.sock.recvfrom(pr.MAX_DATAGRAM + 1)
+                data, addr, t_kernel = recv_stamped(self.sock, pr.MAX_DATAGRAM + 1)
             except socket.timeout:
                 raise HydrohilError(f"no controller packet within {CONNECT_TIMEOUT_S:g} s") from None
-            self._receive(data, addr, time.perf_counter_ns())
+            self._receive(data, addr, time.perf_counter_ns(), t_kernel)
             if time.monotonic() - t_connect > CONNECT_TIMEOUT_S:
                 raise HydrohilError(f"no controller packet within {CONNECT_TIMEOUT_S:g} s")
         self.sock.setblocking(False)
@@ -327,6 +331,8 @@ class PlantServer:
             "compute_us_p50": c.percentile(50), "compute_us_p99": c.percentile(99),
             "compute_us_max": c.max_ns / 1e3 if c.n else float("nan"),
             "rtt_us_p50": rtt.percentile(50), "rtt_us_p99": rtt.percentile(99),
+            "rtt_seen_us_p50": self.rtt_seen.percentile(50), "rtt_seen_us_p99": self.rtt_seen.percentile(99),
+            "rtt_source": "kernel receive timestamp (SO_TIMESTAMPNS)" if self.kernel_stamps else "plant process",
             "packets_rx": self.c.packets_rx, "packets_bad": self.c.packets_bad,
             "packets_foreign": self.c.packets_foreign, "packets_lost": self.c.packets_lost,
             "packets_reordered": self.c.packets_reordered, "late_commands": self.c.late_commands,

@@ -92,13 +92,32 @@ class HilCfg(StrictModel):
                                                         "packets or by its own clock")
     busy_poll: bool = Field(True, description="controller naps until 150 us before the next packet, then spins "
                             "on its socket (lower latency, ~1/3 of a core)")
-    wait: Literal["sleep", "spin"] = Field("sleep", description="sleep: plant (SCHED_FIFO) sleeps until 150 us "
-                                           "before each step, the controller naps; spin: both busy-wait the whole "
-                                           "period on their own CPU (normal policy, nice -20): no timer wake-ups, "
-                                           "two cores fully used")
+    wait: Literal["sleep", "spin-controller", "spin"] = Field(
+        "spin-controller", description="sleep: plant (SCHED_FIFO) sleeps until 150 us before each step, the "
+        "controller naps until 150 us before the next packet; spin-controller: the plant sleeps, the controller "
+        "busy-waits on its socket (one core); spin: both busy-wait (nice -20, two cores). Unless pinned by "
+        "cpu_plant / cpu_controller, the spinning modes pin plant and controller to the last two CPUs")
     seed: int = Field(0, ge=0, description="seed of the pressure-sensor noise")
     cpu_plant: int | None = Field(None, ge=0, description="pin the plant process to this CPU")
     cpu_controller: int | None = Field(None, ge=0, description="pin the controller process to this CPU")
+
+    def cpus(self) -> tuple[int | None, int | None]:
+        """(plant CPU, controller CPU): the configured ones; else, when a process spins and at least two
+        CPUs are allowed, the last two (so the spinning controller never shares the plant's CPU)."""
+        plant, ctrl = self.cpu_plant, self.cpu_controller
+        if self.wait != "sleep" and (plant is None or ctrl is None):
+            import os
+            try:
+                allowed = sorted(os.sched_getaffinity(0))
+            except (AttributeError, OSError):
+                allowed = []
+            free = [c for c in allowed if c not in (plant, ctrl)]
+            if len(allowed) >= 2 and len(free) >= (plant is None) + (ctrl is None):
+                if plant is None:
+                    plant = free.pop()
+                if ctrl is None:
+                    ctrl = free.pop()
+        return plant, ctrl
 
 
 def _check_table(t, v, name, lo, hi):

@@ -1,0 +1,42 @@
+"""Kernel receive timestamps of UDP datagrams (Linux ``SO_TIMESTAMPNS``).
+
+The plant's round-trip time is "sensor packet out -> answering command in". A process that sleeps
+between steps learns of the command only when the kernel wakes it, which on a virtual machine can be
+100+ µs later; that delay is the plant's own scheduling, not the round trip. The kernel stamps each
+datagram as it is queued on the socket (CLOCK_REALTIME, ns): :func:`recv_stamped` returns that stamp,
+so the plant can report both the wire round trip and the round trip as its process saw it.
+Where the option is missing (non-Linux), the stamp is ``None`` and only the latter exists.
+"""
+
+from __future__ import annotations
+
+import socket
+import struct
+import sys
+
+# <asm-generic/socket.h>: SO_TIMESTAMPNS_OLD = 35, delivered as SCM_TIMESTAMPNS (same number)
+SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35 if sys.platform.startswith("linux") else None)
+_TIMESPEC = struct.Struct("@qq")          # struct timespec {time_t tv_sec; long tv_nsec;} on 64-bit Linux
+_ANC_SIZE = socket.CMSG_SPACE(_TIMESPEC.size)
+
+
+def enable_kernel_timestamps(sock: socket.socket) -> bool:
+    """Ask the kernel to stamp every datagram received on ``sock``; False where unsupported."""
+    if SO_TIMESTAMPNS is None:
+        return False
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
+    except OSError:
+        return False
+    return True
+
+
+def recv_stamped(sock: socket.socket, bufsize: int) -> tuple[bytes, tuple, int | None]:
+    """(data, sender address, kernel arrival time [ns, CLOCK_REALTIME] or None) of one datagram.
+    Raises ``BlockingIOError`` on an empty non-blocking socket, like ``recvfrom``."""
+    data, anc, _flags, addr = sock.recvmsg(bufsize, _ANC_SIZE)
+    for level, kind, payload in anc:
+        if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS and len(payload) >= _TIMESPEC.size:
+            sec, nsec = _TIMESPEC.unpack_from(payload)
+            return data, addr, sec * 1_000_000_000 + nsec
+    return data, addr, None
