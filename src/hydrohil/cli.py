@@ -324,6 +324,8 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
                    reference: str = "0:0.03,0.5:0.03,1.5:0.15,3:0.15,4:0.03,6:0.03", log: Optional[Path] = None,
                    mode: str = "packet", allow_remote: bool = False, busy_poll: bool | None = None) -> dict:
     """The paper's P position controller as a separate process talking to a plant server."""
+    import os
+
     import numpy as np
     from hydrohil.hil.controller import PlantClient, run_p_controller, warm_up
     from hydrohil.hil.plant import parse_address
@@ -340,7 +342,6 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
         enc = sc.params.sensors.encoder_resolution
         rt, rx = np.asarray(s.reference.t), np.asarray(s.reference.x)
         ref = lambda t: float(np.interp(t, rt, rx))  # noqa: E731
-        import os
         cpu = s.hil.cpus()[1]
         spin = s.hil.wait != "sleep" and (os.cpu_count() or 1) > 1   # never spin on a single CPU
         busy_poll = (s.hil.busy_poll or spin) if busy_poll is None else busy_poll
@@ -360,7 +361,6 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
     for sig in (signal.SIGINT, signal.SIGTERM):      # finish the log and controller.json, then exit
         signal.signal(sig, lambda signum, frame: stop.append(signum))
     if spin:
-        import os
         try:
             os.setpriority(os.PRIO_PROCESS, 0, -20)
         except OSError:

@@ -6,6 +6,7 @@ the scenario file's folder.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any, Literal
 
@@ -106,7 +107,6 @@ class HilCfg(StrictModel):
         CPUs are allowed, the last two (so the spinning controller never shares the plant's CPU)."""
         plant, ctrl = self.cpu_plant, self.cpu_controller
         if self.wait != "sleep" and (plant is None or ctrl is None):
-            import os
             try:
                 allowed = sorted(os.sched_getaffinity(0))
             except (AttributeError, OSError):
