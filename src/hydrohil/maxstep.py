@@ -24,7 +24,7 @@ from hydrohil.models.delay import delay_push_read, make_buffer, split_delay
 from hydrohil.models.layout import ENC_RES, NY, P1, P2, PS, XP, XS, pack
 from hydrohil.models.reference import reference_rhs
 from hydrohil.models.sensors import encoder_position
-from hydrohil.simulation.loop import diverged, initial_state
+from hydrohil.simulation.loop import STATUS_OK, diverged, initial_state
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import LoadedScenario
 from hydrohil.solvers.fixed_step import make_rk_step
@@ -38,8 +38,9 @@ RK_STEP = None  # bound per solver by continuous_loop
 def _continuous_run(y, p, h, n_steps, every, t_in, u_in, closed, kp, x_in, buf, pos, dl_n, dl_alpha, out,
                     work, m):
     """Integrate; record t, xp, p1, p2 every ``every`` steps into ``out``; input/reference sampled
-    from the tables (t_in, u_in / x_in) by zero-order hold at each step. ``work``: (MAX_STAGES + 2, NY)
-    scratch, ``m``: unused mode vector (the kernel allocates nothing)."""
+    from the tables (t_in, u_in / x_in) by zero-order hold at each step. ``work``: (MAX_STAGES + 3, NY)
+    scratch (last row: the model's step constants 1, 1, 0, 0), ``m``: unused mode vector (the kernel
+    allocates nothing)."""
     k_stages = work[:MAX_STAGES]
     ytmp = work[MAX_STAGES]
     y1 = work[MAX_STAGES + 1]
@@ -62,7 +63,7 @@ def _continuous_run(y, p, h, n_steps, every, t_in, u_in, closed, kp, x_in, buf, 
             row += 1
         if k == n_steps:
             break
-        RK_STEP(y, h, ud, m, p, 1.0, 1.0, k_stages, ytmp, y1)
+        RK_STEP(y, h, ud, m, p, work[MAX_STAGES + 2], k_stages, ytmp, y1)
         for i in range(NY):
             y[i] = y1[i]
         if diverged(y, p) or y[P1] > 1.5 * p[PS] or y[P2] > 1.5 * p[PS] or abs(y[XS]) > 2.0:
@@ -75,6 +76,12 @@ def continuous_loop(solver: str):
     """Compiled fixed-step explicit loop of the continuous reference model (for the step comparison)."""
     return specialize(_continuous_run, f"continuous_run_{solver}", nrt=False,
                       RK_STEP=make_rk_step(reference_rhs, get_tableau(solver)))
+
+
+def _continuous_work() -> np.ndarray:
+    work = np.zeros((MAX_STAGES + 3, NY))
+    work[MAX_STAGES + 2, :2] = 1.0     # no stiff-chamber treatment in the continuous model
+    return work
 
 
 def _errors(t, xp, p1, p2, ref_log):
@@ -117,7 +124,7 @@ def check_step(sc: LoadedScenario, model: str, solver: str, h: float, ref_log: n
         every = max(1, int(round(h_out / h)))
         out = np.zeros((n // every + 2, 4))
         ok, rows = run(y, p, h, n, every, t_in, u_in, closed, kp, x_in, make_buffer(dl_n, y[XS]),
-                       np.zeros(1, np.int64), dl_n, alpha, out, np.empty((MAX_STAGES + 2, NY)),
+                       np.zeros(1, np.int64), dl_n, alpha, out, _continuous_work(),
                        np.zeros(3, dtype=np.int64))
         if not ok:
             return {"stable": False, "reason": "diverged or unbounded", "wall_s": time.perf_counter() - t0}
@@ -138,10 +145,15 @@ def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk
     p = pack(params)
     y0, _ = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
     closed = s.closed_loop
-    status, _, ref_log, _ = solve_reference(p, y0, s.solver.step, s.n_steps(),
-                                            u_open=None if closed else s.commands(),
-                                            kp=s.controller.kp if closed else 0.0,
-                                            xref=s.references() if closed else None)
+    stats: dict = {}
+    status, done, ref_log, y_end = solve_reference(p, y0, s.solver.step, s.n_steps(),
+                                                   u_open=None if closed else s.commands(),
+                                                   kp=s.controller.kp if closed else 0.0,
+                                                   xref=s.references() if closed else None, stats=stats)
+    if status != STATUS_OK:      # no trustworthy reference: no step can be judged against it
+        from hydrohil.simulation.diagnostics import divergence_error
+        raise divergence_error(done * s.solver.step, y_end, np.zeros(3, dtype=np.int64),
+                               "reference solution failed: " + stats.get("failure", "non-finite or unphysical state"))
     trials = []
 
     def test(h):

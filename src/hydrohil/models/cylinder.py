@@ -6,7 +6,7 @@ from hydrohil._jit import jit
 
 from hydrohil.models.layout import (A1, A2, BB, BC, BETA1, BETA2, BULK_CONST, BURST1, BURST2, FLOAD, G_LKC, GDIR,
                                     GRAV, MASS, PS, PT, STROKE, V01, V02)
-from hydrohil.models.valve import orifice_flow, pseudo_sections
+from hydrohil.models.valve import orifice_flow, pseudo_section_slopes, pseudo_sections
 
 P_MIN = -0.99e5  # Pa gauge: just above absolute zero; pressures are floored here (cavitation)
 P_ATM = 1e5      # Pa, the atmospheric pressure of eq 21
@@ -48,6 +48,23 @@ def chamber_pressure_rates(xs, p1, p2, xp, vp, p, dp_t, c1, c2):
     dp1 = c1 * bulk_modulus(p1, 1, p) / v1 * (q1 - p[A1] * vp - q_lk)
     dp2 = c2 * bulk_modulus(p2, 2, p) / v2 * (q2 + p[A2] * vp + q_lk)
     return dp1, dp2
+
+
+@jit(inline=True)
+def quasi_static_drift(xs, dxs, p1, p2, dvp, p, dp_t):
+    """Drive terms of the quasi-static chamber pressures (the hybrid model's stiff chambers, hybrid.py).
+
+    P_i* is the pressure at which chamber i's net inflow F_i (valve flow and leakage, SPEC §4) balances the
+    piston's displacement flow: F1(P1*) = A1*vp, F2(P2*) = -A2*vp. Differentiating, with g_i = -dF_i/dP_i:
+    dP1*/dt = (dF1/dxs*dxs/dt - A1*dvp/dt)/g1 and dP2*/dt = (dF2/dxs*dxs/dt + A2*dvp/dt)/g2. Returns the two
+    numerators [m^3/s^2]; flows are linear in the pseudo-sections, so dF/dxs is the orifice flow through the
+    section slopes (valve.pseudo_section_slopes).
+    """
+    das1, das2, da1t, da2t = pseudo_section_slopes(xs, p)
+    ps, pt = p[PS], p[PT]
+    dq1 = orifice_flow(das1, ps - p1, dp_t) - orifice_flow(da1t, p1 - pt, dp_t)
+    dq2 = orifice_flow(das2, ps - p2, dp_t) - orifice_flow(da2t, p2 - pt, dp_t)
+    return dq1 * dxs - p[A1] * dvp, dq2 * dxs + p[A2] * dvp
 
 
 @jit(inline=True)

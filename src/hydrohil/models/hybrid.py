@@ -25,15 +25,23 @@ Events are located by linear interpolation of g over the step (bounded, fixed wo
 redone to the event instant, the reset applied, and the rest of the step integrated in the new mode,
 at most ``MAX_EVENTS`` times a step (worst case 2*MAX_EVENTS + 1 RK substeps, a known bound).
 
-Stiff chambers (SPEC §3.2, §6.1 pitfall 2). A chamber's pressure relaxes at the rate
-lambda = beta/V * (dq_s/dp + dq_t/dp + g_lkc), unbounded as an orifice's pressure drop goes to zero and
+Stiff chambers (SPEC §3.2, §6.1 pitfall 2). A chamber's pressure relaxes towards its quasi-static value
+P* (where its net valve and leakage inflow balances the piston's displacement flow) at the rate
+lambda = beta/V * g, g = dq_s/dp + dq_t/dp + g_lkc: unbounded as an orifice's pressure drop goes to zero,
 large for a small chamber behind a wide-open valve. At the start of each step, where lambda*h exceeds
 LAMBDA_H_MAX (1.5: inside every tableau's real-axis stability interval, and RK3's step response stays
-monotone), that chamber's capacitance beta/V is scaled down for the step so that lambda*h = LAMBDA_H_MAX.
-Flows, equilibria and steady motion are exact (the orifice law is untouched above its physical 1 bar
-laminar region); only relaxations faster than ~1/h are slowed to ~h. An earlier version widened the
-orifices' laminar region instead: that distorted the flow itself up to ~10x the width and made steady
-speeds up to 7 % slow at low supply pressure (README, "the model").
+monotone), only that relaxation is slowed, to lambda*h = LAMBDA_H_MAX (factor c < 1), while P* itself
+moves as it physically does:
+
+    dP/dt = c * beta/V * (F(P) -/+ A*vp) + (1 - c) * dP*/dt,   dP*/dt = (dF/dxs*dxs/dt -/+ A*dvp/dt)/g
+
+(cylinder.quasi_static_drift; g taken at the step start). A deviation from P* decays at c*lambda instead of
+lambda; the pressure's response to the piston and the spool (the hydraulic spring and the valve's
+pressure gain) is physical, its lag behind a moving P* (-dP*/dt/lambda) exact, and flows, equilibria and
+steady motion exact (the orifice law is untouched above its 1 bar laminar region). Two earlier versions:
+widening the orifices' laminar region (distorted the flow itself up to ~10x the width: steady speeds up to
+7 % slow at low supply pressure) and scaling the whole capacitance beta/V by c (slowed the hydraulic
+spring A*vp term too) — README, "the model".
 """
 
 from __future__ import annotations
@@ -41,13 +49,14 @@ from __future__ import annotations
 import numpy as np
 from hydrohil._jit import jit, specialize
 
-from hydrohil.models.cylinder import P_MIN, bulk_modulus, chamber_pressure_rates, external_force, volumes
+from hydrohil.models.cylinder import (P_MIN, bulk_modulus, chamber_pressure_rates, external_force,
+                                      quasi_static_drift, volumes)
 from hydrohil.models.friction import slip_friction, stribeck, viscous
 from hydrohil.models.layout import (AT_EXTEND, AT_RETRACT, BURST1, BURST2, DP_LAM, FREE, FS_NEG, FS_POS, G_LKC, LA,
                                     LAMBDA_H_MAX, LV, M_FRICTION, M_SPOOL, M_TRAVEL, MASS, P1, P2, PS, PT, SIGMA0,
                                     SIGMA1, SLIP_NEG, SLIP_POS, SPOOL_ACC_LIMITED, SPOOL_AT_END, SPOOL_LINEAR,
                                     SPOOL_VEL_LIMITED, STICK, STROKE, VP, VS, WN, XI, XP, XS, Z)
-from hydrohil.models.valve import orifice_slope, pseudo_sections, spool_derivatives
+from hydrohil.models.valve import orifice_slope, pseudo_sections, spool_derivatives, spool_end_block
 from hydrohil.solvers.fixed_step import make_rk_step
 from hydrohil.solvers.tableaus import MAX_STAGES, Tableau
 
@@ -57,26 +66,32 @@ GUARD_NAMES = ("retract_stop", "extend_stop", "breakaway_pos", "breakaway_neg", 
 
 
 @jit(inline=True)
-def hybrid_rhs(y, ud, m, p, c1, c2, dy):
-    """dy/dt of the hybrid model in the modes ``m`` (SPEC §3-§6); c1, c2: capacitance scales of the step."""
-    dy[XS], dy[VS], _ = spool_derivatives(y[XS], y[VS], ud, p)
+def hybrid_rhs(y, ud, m, p, sc, dy):
+    """dy/dt of the hybrid model in the modes ``m`` (SPEC §3-§6); ``sc``: the step's stiff-chamber constants
+    (:func:`stiff_chamber_constants`)."""
+    dxs, dvs, _ = spool_derivatives(y[XS], y[VS], ud, p)
+    dy[XS], dy[VS] = spool_end_block(y[XS], y[VS], dxs, dvs)
     travel = m[M_TRAVEL]
     vp = y[VP] if travel == FREE else 0.0
-    dy[P1], dy[P2] = chamber_pressure_rates(y[XS], y[P1], y[P2], y[XP], vp, p, p[DP_LAM], c1, c2)
     if travel != FREE:
         dy[XP] = 0.0
         dy[VP] = 0.0
         dy[Z] = 0.0
-        return
-    fr = m[M_FRICTION]
-    if fr == STICK:
-        ff = p[SIGMA0] * y[Z] + (p[SIGMA1] + viscous(vp, p)) * vp
-        dy[Z] = vp
     else:
-        ff = slip_friction(vp, 1 if fr == SLIP_POS else -1, p)
-        dy[Z] = 0.0
-    dy[XP] = vp
-    dy[VP] = (external_force(y[P1], y[P2], p) - ff) / p[MASS]
+        fr = m[M_FRICTION]
+        if fr == STICK:
+            ff = p[SIGMA0] * y[Z] + (p[SIGMA1] + viscous(vp, p)) * vp
+            dy[Z] = vp
+        else:
+            ff = slip_friction(vp, 1 if fr == SLIP_POS else -1, p)
+            dy[Z] = 0.0
+        dy[XP] = vp
+        dy[VP] = (external_force(y[P1], y[P2], p) - ff) / p[MASS]
+    dy[P1], dy[P2] = chamber_pressure_rates(y[XS], y[P1], y[P2], y[XP], vp, p, p[DP_LAM], sc[0], sc[1])
+    if sc[2] != 0.0 or sc[3] != 0.0:      # a stiff chamber: its quasi-static pressure moves physically
+        d1, d2 = quasi_static_drift(y[XS], dy[XS], y[P1], y[P2], dy[VP], p, p[DP_LAM])
+        dy[P1] += sc[2] * d1
+        dy[P2] += sc[3] * d2
 
 
 @jit(inline=True)
@@ -89,8 +104,9 @@ def friction_force(y, m, p):
 
 
 @jit(inline=True)
-def capacitance_scales(y, p, h):
-    """(c1, c2) in (0, 1]: capacitance scale of each chamber for the next step of size h (module doc)."""
+def stiff_chamber_constants(y, p, h, sc):
+    """Fill ``sc`` for the next step of size h (module doc): [c1, c2, (1 - c1)/g1, (1 - c2)/g2], c_i in (0, 1]
+    the slowing of chamber i's relaxation, g_i = -dF_i/dP_i its conductance at the step start."""
     as1, as2, a1t, a2t = pseudo_sections(y[XS], p)
     v1, v2 = volumes(y[XP], p)
     ps, pt, dl = p[PS], p[PT], p[DP_LAM]
@@ -99,7 +115,12 @@ def capacitance_scales(y, p, h):
     l1 = bulk_modulus(y[P1], 1, p) / v1 * g1 * h
     l2 = bulk_modulus(y[P2], 2, p) / v2 * g2 * h
     lim = p[LAMBDA_H_MAX]
-    return min(1.0, lim / l1), min(1.0, lim / l2)
+    c1 = min(1.0, lim / l1)
+    c2 = min(1.0, lim / l2)
+    sc[0] = c1
+    sc[1] = c2
+    sc[2] = (1.0 - c1) / g1 if c1 < 1.0 else 0.0
+    sc[3] = (1.0 - c2) / g2 if c2 < 1.0 else 0.0
 
 
 @jit(inline=True)
@@ -195,6 +216,14 @@ def project(y, m, p):
         y[VS] = lv
     elif y[VS] < -lv:
         y[VS] = -lv
+    if y[XS] >= 1.0:              # the spool's mechanical ends (SPEC §3.1): plastic, velocity into it stopped
+        y[XS] = 1.0
+        if y[VS] > 0.0:
+            y[VS] = 0.0
+    elif y[XS] <= -1.0:
+        y[XS] = -1.0
+        if y[VS] < 0.0:
+            y[VS] = 0.0
     if y[P1] < P_MIN:
         y[P1] = P_MIN
     if y[P2] < P_MIN:
@@ -237,13 +266,14 @@ def _hybrid_step(y, m, p, ud, h, work):
     k = work[:MAX_STAGES]
     ytmp = work[MAX_STAGES]
     y1 = work[MAX_STAGES + 1]
-    c1, c2 = capacitance_scales(y, p, h)
+    sc = work[MAX_STAGES + 2]
+    stiff_chamber_constants(y, p, h, sc)
     t_left = h      # time still to integrate in this step
     hh = h          # size of the next RK (sub)step
     pending = G_NONE  # guard whose event instant the last substep was aimed at
     n_events = 0
     for _ in range(2 * MAX_EVENTS + 1):  # one call site: the stepper is inlined once
-        RK_STEP(y, hh, ud, m, p, c1, c2, k, ytmp, y1)
+        RK_STEP(y, hh, ud, m, p, sc, k, ytmp, y1)
         project(y1, m, p)
         if pending != G_NONE:  # arrived at a located event: reset, go on in the new mode
             _copy(y1, y)

@@ -44,6 +44,10 @@ NP = 51
 REFERENCE_STOP_K = 1e10      # N/m
 REFERENCE_STOP_C = 1e10      # N.s/m
 REFERENCE_DP_LAMINAR = 1e3   # Pa (0.01 bar): keeps the Jacobian finite at dp = 0 for the stiff solver
+# Spool end stops of the continuous reference model (the hybrid model clamps x̄s exactly): 100x the paper's
+# spool bandwidth, critically damped (omega = 1e5 rad/s), per unit x̄s.
+SPOOL_STOP_K = 1e10          # 1/s^2
+SPOOL_STOP_C = 2e5           # 1/s
 # Hybrid model: largest lambda*h allowed for the pressure relaxation of a chamber (see hybrid.py).
 HYBRID_LAMBDA_H_MAX = 1.5
 

@@ -6,6 +6,15 @@ import numpy as np
 from hydrohil._jit import jit
 
 
+IDEAL_COUNT = 1e-9   # m: the count of an ideal encoder (resolution 0) where counts must be integers (the wire)
+
+
+def count_size(resolution: float) -> float:
+    """Size [m] of one encoder count as the rig reports it: ``resolution``, or 1 nm for an ideal encoder
+    (``sensors.encoder_resolution = 0``), whose reading is then exact to 0.5 nm (docs/protocol.md)."""
+    return resolution if resolution > 0.0 else IDEAL_COUNT
+
+
 @jit(inline=True)
 def encoder_counts(xp, resolution):
     """Encoder reading [counts] of position xp [m] for a count size ``resolution`` [m] (nearest count)."""

@@ -11,7 +11,8 @@ import numpy as np
 from hydrohil._jit import jit
 
 from hydrohil.models.layout import (K1, K1T, LA, LPM_PER_SQRT_BAR, LV, SPOOL_ACC_LIMITED, SPOOL_AT_END,
-                                    SPOOL_LINEAR, SPOOL_VEL_LIMITED, VALVE_WEAR, WN, XI)
+                                    SPOOL_LINEAR, SPOOL_STOP_C, SPOOL_STOP_K, SPOOL_VEL_LIMITED, VALVE_WEAR, WN,
+                                    XI)
 
 
 def _section(x, k1, k2, k3, k4, k5):
@@ -33,6 +34,29 @@ def pseudo_sections(x, p):
     a1t = section(x, p[K1T], p[K1T + 1], p[K1T + 2], p[K1T + 3], p[K1T + 4]) + w
     a2t = section(-x, p[K1T], p[K1T + 1], p[K1T + 2], p[K1T + 3], p[K1T + 4]) + w
     return as1, as2, a1t, a2t
+
+
+@jit(inline=True)
+def section_slope(x, k1, k2, k3, k4, k5):
+    """d/dx of :func:`section` (0 where the section is floored at zero)."""
+    q = k3 * x * x + k4 * x + k5
+    r = np.sqrt(q) if q > 0.0 else 0.0
+    if k1 * x + k2 + r <= 0.0:
+        return 0.0
+    return k1 + (2.0 * k3 * x + k4) / (2.0 * r) if r > 0.0 else k1
+
+
+@jit(inline=True)
+def pseudo_section_slopes(x, p):
+    """(dAs1/dx, dAs2/dx, dA1t/dx, dA2t/dx) of eq 3 [(l/min)/sqrt(bar) per unit x̄s]; 0 beyond the clamp
+    at |x| = 1 (the worn-lands section is constant)."""
+    if x >= 1.0 or x <= -1.0:
+        return 0.0, 0.0, 0.0, 0.0
+    das2 = section_slope(x, p[K1], p[K1 + 1], p[K1 + 2], p[K1 + 3], p[K1 + 4])
+    das1 = -section_slope(-x, p[K1], p[K1 + 1], p[K1 + 2], p[K1 + 3], p[K1 + 4])
+    da1t = section_slope(x, p[K1T], p[K1T + 1], p[K1T + 2], p[K1T + 3], p[K1T + 4])
+    da2t = -section_slope(-x, p[K1T], p[K1T + 1], p[K1T + 2], p[K1T + 3], p[K1T + 4])
+    return das1, das2, da1t, da2t
 
 
 @jit(inline=True)
@@ -82,6 +106,28 @@ def spool_derivatives(xs, vs, ud, p):
     if xs >= 1.0 or xs <= -1.0:
         mode = SPOOL_AT_END
     return vs, a, mode
+
+
+@jit(inline=True)
+def spool_end_block(xs, vs, dxs, dvs):
+    """The spool's mechanical end (SPEC §3.1: x̄s clamped to [-1, 1]) in the hybrid model: at an end, motion
+    and acceleration into it are stopped (the step's projection then holds x̄s = ±1, v̄s = 0)."""
+    if xs >= 1.0 and vs >= 0.0:
+        return 0.0, min(dvs, 0.0)
+    if xs <= -1.0 and vs <= 0.0:
+        return 0.0, max(dvs, 0.0)
+    return dxs, dvs
+
+
+@jit(inline=True)
+def spool_stop_acceleration(xs, vs):
+    """The spool's mechanical end in the continuous reference model: a stiff unilateral spring-damper
+    (k = SPOOL_STOP_K, c = SPOOL_STOP_C, acting only on penetration beyond |x̄s| = 1) [1/s^2]."""
+    if xs > 1.0:
+        return -max(0.0, SPOOL_STOP_K * (xs - 1.0) + SPOOL_STOP_C * vs)
+    if xs < -1.0:
+        return max(0.0, SPOOL_STOP_K * (-1.0 - xs) - SPOOL_STOP_C * vs)
+    return 0.0
 
 
 # ---- array versions for identification and plots (eq 3-17) -----------------------------------

@@ -1,7 +1,7 @@
 """The one explicit Runge-Kutta stepper shared by every tableau and every model right-hand side.
 
 ``make_rk_step(rhs, tableau)`` compiles the generic stepper for a model right-hand side
-``rhs(y, ud, m, p, c1, c2, dy)`` (c1, c2: per-step model arguments) with the tableau as a compile-time
+``rhs(y, ud, m, p, sc, dy)`` (sc: an array of per-step model constants) with the tableau as a compile-time
 constant (the stage loops unroll; reading the tableau at run time, or dispatching on it, cost 1.7x per
 step on this machine).
 """
@@ -15,7 +15,7 @@ from hydrohil.solvers.tableaus import Tableau
 RHS = A = B = NS = None
 
 
-def _rk_step(y0, h, ud, m, p, c1, c2, k, ytmp, yout):
+def _rk_step(y0, h, ud, m, p, sc, k, ytmp, yout):
     """One explicit RK step of size h -> yout; k (>= stages x ny) and ytmp are caller-owned work arrays."""
     ny = y0.shape[0]
     for s in range(NS):
@@ -24,7 +24,7 @@ def _rk_step(y0, h, ud, m, p, c1, c2, k, ytmp, yout):
             for j in range(s):
                 acc += h * A[s, j] * k[j, i]
             ytmp[i] = acc
-        RHS(ytmp, ud, m, p, c1, c2, k[s])
+        RHS(ytmp, ud, m, p, sc, k[s])
     for i in range(ny):
         acc = y0[i]
         for s in range(NS):
@@ -33,6 +33,6 @@ def _rk_step(y0, h, ud, m, p, c1, c2, k, ytmp, yout):
 
 
 def make_rk_step(rhs, tab: Tableau):
-    """Return ``rk_step(y0, h, ud, m, p, c1, c2, k, ytmp, yout)`` for ``rhs`` and tableau ``tab``."""
+    """Return ``rk_step(y0, h, ud, m, p, sc, k, ytmp, yout)`` for ``rhs`` and tableau ``tab``."""
     return specialize(_rk_step, f"rk_step_{rhs.__name__}_{tab.name}", inline=True,
                       RHS=rhs, A=tab.a, B=tab.b, NS=tab.stages)

@@ -75,12 +75,13 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, *, u_
     y = np.array(y0, dtype=float)
     dy = np.empty(NY)
     m_dummy = np.zeros(3, dtype=np.int64)
+    sc_dummy = np.array([1.0, 1.0, 0.0, 0.0])
     log = np.zeros(((n_steps // every) + 1, NLOG))
     stats = {} if stats is None else stats
     stats.update(intervals=0, radau_fallbacks=0)
 
     def f(yv, t, ud):
-        reference_rhs(yv, ud, m_dummy, p, 1.0, 1.0, dy)
+        reference_rhs(yv, ud, m_dummy, p, sc_dummy, dy)
         return dy
 
     with warnings.catch_warnings():
