@@ -95,7 +95,9 @@ def maxstep_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
         sc = load_scenario(scenario, duration=duration)
         res = max_stable_step(sc, model, solver, tol_x=tol_x, tol_p=tol_p,
                               progress=lambda h, r: typer.echo(f"  h = {h:.3e} s: {r['reason']}", err=True))
-    except (HydrohilError, ValueError) as exc:
+    except HydrohilError as exc:
+        _fail(exc)
+    except ValueError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2)
     typer.echo(json.dumps(res, indent=2))
@@ -255,16 +257,22 @@ def _reference_table(text: str):
 def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", step: float = 5e-4,
                 duration: float = 10.0, log: Optional[Path] = None, lockstep: bool = False,
                 scenario: Optional[Path] = None, allow_remote: bool = False, cpu: Optional[int] = None,
-                peer: Optional[str] = None, ready=print) -> dict:
+                peer: Optional[str] = None, connect_timeout: Optional[float] = None, ready=print) -> dict:
     """Run the plant server until the run ends; streams ``log/plant_log.csv`` and writes ``log/timing.json``
-    (also on SIGINT/SIGTERM). With ``scenario`` the parameters, step, duration, initial state, [hil] settings
-    and [[faults]] come from it. ``peer``: the only controller address accepted (default: first sender)."""
+    with the run's verdict, whatever the end (also on SIGINT/SIGTERM, or when no controller spoke). With
+    ``scenario`` the parameters, step, duration, initial state, [hil] settings and [[faults]] come from it.
+    ``peer``: the only controller address accepted (default: first sender). ``ready`` prints
+    ``READY host:port`` once bound and ``PEER host:port`` once the controller has spoken (handshakes for
+    scripts). Returns the timing summary; :func:`hydrohil.hil.verdict.raise_for_outcome` maps it to an exit."""
     import signal
     from hydrohil.hil.plant import PlantServer, finite_or_none, parse_address
     from hydrohil.parameters import load_parameters
     from hydrohil.simulation.outputs import write_json
     from hydrohil.simulation.scenario import HilCfg, load_scenario
 
+    stop: list[int] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):      # first thing: a signal during start-up ends it cleanly too
+        signal.signal(sig, lambda signum, frame: stop.append(signum))
     host_port = parse_address(bind, allow_remote=allow_remote)
     peer_addr = parse_address(peer, allow_remote=allow_remote) if peer else None
     initial, hil, faults = {}, HilCfg(), []
@@ -278,17 +286,23 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
         faults = s.faults
     else:
         prm = load_parameters(params)
+    if connect_timeout is not None:
+        hil = hil.model_copy(update={"connect_timeout": connect_timeout})
     if log is not None:
         log.mkdir(parents=True, exist_ok=True)
     server = PlantServer(prm, step=step, duration=duration, bind=host_port, lockstep=lockstep, hil=hil,
                          initial=initial, cpu=cpu, faults=faults, peer=peer_addr,
                          log=(log / "plant_log.csv") if log is not None else None)
-    server.warm_up()
+    server.on_peer = lambda addr: ready(f"PEER {addr[0]}:{addr[1]}", flush=True)
 
     def _stop(signum, frame):
         server.stop_requested = True
-    signal.signal(signal.SIGINT, _stop)
-    signal.signal(signal.SIGTERM, _stop)
+        server.stop_signal = signum
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _stop)
+    if stop:
+        _stop(stop[0], None)
+    server.warm_up()
     host, port = server.address
     ready(f"READY {host}:{port}", flush=True)
     try:
@@ -311,32 +325,56 @@ def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (na
               allow_remote: bool = typer.Option(False, help="allow binding a non-loopback address"),
               cpu: Optional[int] = typer.Option(None, help="pin the plant to this CPU"),
               peer: Optional[str] = typer.Option(None, help="accept commands only from this HOST:PORT "
-                                                 "(default: the first valid sender)")):
-    """Serve the virtual rig over UDP (protocol: docs/protocol.md), locked to the wall clock."""
+                                                 "(default: the first valid sender)"),
+              connect_timeout: Optional[float] = typer.Option(None, help="wait this long for the controller's "
+                                                              "first packet [s] (default: [hil] connect_timeout, 30)")):
+    """Serve the virtual rig over UDP (protocol: docs/protocol.md), locked to the wall clock.
+
+    Ends with the run's verdict (VALID / INVALID and why) on stdout; exit 3 when INVALID, 4 when no
+    controller spoke, 130/143 when stopped by SIGINT/SIGTERM (logs and timing.json are written in every case).
+    """
+    from hydrohil.hil.verdict import raise_for_outcome, summary_line
     try:
-        t = serve_plant(params, bind, step, duration, log, lockstep, scenario, allow_remote, cpu, peer)
+        t = serve_plant(params, bind, step, duration, log, lockstep, scenario, allow_remote, cpu, peer,
+                        connect_timeout)
+        typer.echo(json.dumps(t), err=True)
+        typer.echo(f"verdict: {summary_line(t)}", err=False)
+        raise_for_outcome(t, "plant run")
     except HydrohilError as exc:
         _fail(exc)
-    typer.echo(json.dumps(t), err=True)
 
 
 def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50.0,
                    reference: str = "0:0.03,0.5:0.03,1.5:0.15,3:0.15,4:0.03,6:0.03", log: Optional[Path] = None,
-                   mode: str = "packet", allow_remote: bool = False, busy_poll: bool | None = None) -> dict:
-    """The paper's P position controller as a separate process talking to a plant server."""
+                   mode: str = "packet", allow_remote: bool = False, busy_poll: bool | None = None,
+                   local: Optional[str] = None, link_timeout: Optional[float] = None, ready=print) -> dict:
+    """The paper's P position controller as a separate process talking to a plant server.
+
+    ``local``: bind the controller's socket to HOST:PORT (the address a plant started with ``--peer``
+    expects). ``ready`` prints ``CONNECTED host:port`` at the plant's first sensor packet (a handshake for
+    scripts). Raises LinkError when no plant answers within ``link_timeout`` (default ``[hil]
+    link_timeout``, 5 s) or it goes silent; ``controller.json`` is written in every case (``error``)."""
+    import signal
+    stop: list[int] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):      # first thing: finish the log and controller.json, then exit
+        signal.signal(sig, lambda signum, frame: stop.append(signum))
     import os
 
     import numpy as np
+    from hydrohil.errors import LinkError
     from hydrohil.hil.controller import PlantClient, run_p_controller, warm_up
     from hydrohil.hil.plant import parse_address
     from hydrohil.simulation.outputs import write_json
+    from hydrohil.simulation.scenario import HilCfg
 
     addr = parse_address(connect, allow_remote=allow_remote)
-    enc, scale, sample, spin = 1e-6, 1.0, 5e-4, False
+    local_addr = parse_address(local, allow_remote=allow_remote) if local else None
+    enc, scale, sample, spin, hil = 1e-6, 1.0, 5e-4, False, HilCfg()
     if scenario is not None:
         from hydrohil.simulation.scenario import load_scenario
         sc = load_scenario(scenario)
         s = sc.scenario
+        hil = s.hil
         kp, mode, scale = s.controller.kp, s.hil.controller_mode, s.hil.command_scale
         sample = s.hil.step or s.solver.step
         enc = sc.params.sensors.encoder_resolution
@@ -352,26 +390,33 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
                 pass
     else:
         ref = _reference_table(reference)
+    timeout = hil.link_timeout if link_timeout is None else link_timeout
     busy_poll = bool(busy_poll)
     if log is not None:
         log.mkdir(parents=True, exist_ok=True)
     warm_up()
-    import signal
-    stop = []
-    for sig in (signal.SIGINT, signal.SIGTERM):      # finish the log and controller.json, then exit
-        signal.signal(sig, lambda signum, frame: stop.append(signum))
     if spin:
         try:
             os.setpriority(os.PRIO_PROCESS, 0, -20)
         except OSError:
             pass
-    with PlantClient(addr, timeout=10.0, command_scale=scale, busy_poll=busy_poll, period=sample,
-                     nap=not spin) as client:
-        summary = run_p_controller(client, kp, ref, encoder_resolution=enc, mode=mode, sample_time=sample,
-                                   log_path=(log / "controller_log.csv") if log else None,
-                                   should_stop=lambda: bool(stop))
-    if log is not None:
-        write_json(log / "controller.json", summary)
+    summary: dict = {"error": None}
+    try:
+        with PlantClient(addr, timeout=timeout, command_scale=scale, busy_poll=busy_poll, period=sample,
+                         nap=not spin, bind=local_addr,
+                         on_connect=lambda s: ready(f"CONNECTED {addr[0]}:{addr[1]}", flush=True)) as client:
+            try:
+                summary.update(run_p_controller(client, kp, ref, encoder_resolution=enc, mode=mode,
+                                                sample_time=sample,
+                                                log_path=(log / "controller_log.csv") if log else None,
+                                                should_stop=lambda: bool(stop)))
+            except LinkError as exc:
+                summary.update(error=str(exc), commands_sent=client.seq, sensor_packets=client.received)
+                raise
+    finally:
+        summary["stop_signal"] = stop[0] if stop else None
+        if log is not None:
+            write_json(log / "controller.json", summary)
     return summary
 
 
@@ -383,13 +428,25 @@ def controller_cmd(connect: str = typer.Option("127.0.0.1:47000", help="plant HO
                                                  help="trajectory t:x pairs [s:m], linear between points "
                                                  "(repeat a time for a step)"),
                    mode: str = typer.Option("packet", help="packet (answer each sensor packet) | clock"),
-                   log: Optional[Path] = typer.Option(None, help="folder for controller_log.csv")):
-    """Run the reference P position controller against a plant server."""
+                   log: Optional[Path] = typer.Option(None, help="folder for controller_log.csv"),
+                   local: Optional[str] = typer.Option(None, help="bind to this local HOST:PORT (the plant's "
+                                                       "--peer)"),
+                   link_timeout: Optional[float] = typer.Option(None, help="give up when the plant does not "
+                                                                "answer for this long [s] (default 5)")):
+    """Run the reference P position controller against a plant server.
+
+    Exit 4 when no plant answers within the link timeout (or it goes silent), 130/143 when stopped by
+    SIGINT/SIGTERM; controller_log.csv and controller.json are written in every case.
+    """
+    from hydrohil.errors import Interrupted
     try:
-        s = run_controller(connect, scenario, kp, reference, log, mode)
+        s = run_controller(connect, scenario, kp, reference, log, mode, local=local, link_timeout=link_timeout)
+        typer.echo(json.dumps(s), err=True)
+        if s.get("stop_signal"):
+            raise Interrupted(s["stop_signal"], f"controller stopped by signal after {s.get('commands_sent')} "
+                              "commands")
     except HydrohilError as exc:
         _fail(exc)
-    typer.echo(json.dumps(s), err=True)
 
 
 def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True):
@@ -414,16 +471,34 @@ def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True
 def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML (optional [hil] table)"),
             out: Path = typer.Option(Path("hydrohil-hil"), "--out", help="output folder"),
             lockstep: bool = typer.Option(False, help="deterministic lock-step exchange, as fast as possible")):
-    """Real-time HIL run: plant and controller as separate processes over UDP, then the report."""
+    """Real-time HIL run: plant and controller as separate processes over UDP, then the report.
+
+    Ends with the verdict: VALID, or INVALID with the reasons (exit 3; [hil] max_late_commands,
+    max_overruns, max_stall, max_watchdog_trips). Exit 4 when a process got no answer, 130 on Ctrl-C.
+    """
+    from hydrohil.errors import RunInvalid
+    from hydrohil.hil.verdict import BUSY_ADVICE, summary_line
     try:
         r = hil(scenario, out, lockstep)
+        t, c = r.timing, r.comparison
+        typer.echo(f"{t['steps']} steps ({t['mode']}): jitter p99 {_us(t['jitter_us_p99'])}, overruns "
+                   f"{_n(t['overruns'])}, rtt p99 {_us(t['rtt_us_p99'])}, late commands {t['late_commands']}, "
+                   f"watchdog trips {t['watchdog_trips']}; HIL vs offline xp RMS {c['xp_rms_mm']:.4f} mm; "
+                   f"wrote {out}/plant_log.csv, controller_log.csv, timing.json, report.png")
+        typer.echo(summary_line(t))
+        if not r.verdict["valid"]:
+            raise RunInvalid(f"the run is INVALID ({'; '.join(r.verdict['reasons'])}); {BUSY_ADVICE}",
+                             r.verdict["reasons"])
     except HydrohilError as exc:
         _fail(exc)
-    t, c = r.timing, r.comparison
-    typer.echo(f"{t['steps']} steps ({t['mode']}): jitter p99 {t['jitter_us_p99']:.1f} us, overruns "
-               f"{t['overruns']}, rtt p99 {t['rtt_us_p99']:.1f} us, late commands {t['late_commands']}, "
-               f"watchdog trips {t['watchdog_trips']}; HIL vs offline xp RMS {c['xp_rms_mm']:.4f} mm; "
-               f"wrote {out}/plant_log.csv, controller_log.csv, timing.json, report.png")
+
+
+def _us(v) -> str:
+    return "n/a" if v is None else f"{v:.1f} us"
+
+
+def _n(v) -> str:
+    return "n/a" if v is None else str(v)
 
 
 def demo(out: Path = Path("hydrohil-demo"), lockstep: bool = False, progress: bool = True) -> dict:
@@ -453,17 +528,25 @@ def demo(out: Path = Path("hydrohil-demo"), lockstep: bool = False, progress: bo
 @app.command("demo")
 def demo_cmd(out: Path = typer.Option(Path("hydrohil-demo"), "--out", help="report folder"),
              lockstep: bool = typer.Option(False, help="lock-step instead of real time")):
-    """The paper's Fig 11 and Fig 12 experiments as real-time HIL runs, with report and timing."""
+    """The paper's Fig 11 and Fig 12 experiments as real-time HIL runs, with report and timing.
+
+    Each run gets a verdict (VALID / INVALID); exit 3 when one is INVALID (the report says why and what to do).
+    """
+    from hydrohil.errors import RunInvalid
+    from hydrohil.hil.verdict import BUSY_ADVICE, summary_line
     try:
         res = demo(out, lockstep)
+        for name, r in res.items():
+            t, c = r["timing"], r["comparison"]
+            typer.echo(f"{name}: {t['steps']} steps, jitter p99 {_us(t['jitter_us_p99'])}, overruns "
+                       f"{_n(t['overruns'])}, rtt p99 {_us(t['rtt_us_p99'])}, HIL vs offline xp RMS "
+                       f"{c['xp_rms_mm']:.4f} mm, tracking RMS {c['hil_tracking_rms_mm']:.2f} mm: {summary_line(t)}")
+        typer.echo(f"report: {out}/report.md (figures {out}/fig11/report.png, {out}/fig12/report.png)")
+        bad = [n for n, r in res.items() if not r["timing"]["verdict"]["valid"]]
+        if bad:
+            raise RunInvalid(f"{', '.join(bad)} INVALID: {BUSY_ADVICE}", bad)
     except HydrohilError as exc:
         _fail(exc)
-    for name, r in res.items():
-        t, c = r["timing"], r["comparison"]
-        typer.echo(f"{name}: {t['steps']} steps, jitter p99 {t['jitter_us_p99']:.1f} us, overruns {t['overruns']}, "
-                   f"rtt p99 {t['rtt_us_p99']:.0f} us, HIL vs offline xp RMS {c['xp_rms_mm']:.4f} mm, "
-                   f"tracking RMS {c['hil_tracking_rms_mm']:.2f} mm")
-    typer.echo(f"report: {out}/report.md (figures {out}/fig11/report.png, {out}/fig12/report.png)")
 
 
 class _Stages:

@@ -1,4 +1,10 @@
-"""Exceptions with the context a user needs to fix the problem (file, key, expected range, state)."""
+"""Exceptions with the context a user needs to fix the problem (file, key, expected range, state).
+
+Exit codes of the CLI (README): 0 ok; 1 the simulation diverged (or another runtime failure); 2 bad input;
+3 a real-time run finished but is INVALID (timing criteria of ``[hil]``, the verdict says why); 4 no peer
+(no plant / controller answered within the timeout, or it went silent); 130 interrupted (Ctrl-C, SIGINT),
+143 terminated (SIGTERM).
+"""
 
 from __future__ import annotations
 
@@ -30,3 +36,29 @@ class SimulationDiverged(HydrohilError):
         st = ", ".join(f"{k}={v:.6g}" for k, v in state.items())
         md = ", ".join(f"{k}={v}" for k, v in modes.items())
         super().__init__(f"simulation diverged at t = {t:.6f} s ({reason}); modes: {md}; state: {st}")
+
+
+class RunInvalid(HydrohilError):
+    """A real-time run finished, but its timing does not meet the validity criteria (exit 3)."""
+
+    exit_code = 3
+
+    def __init__(self, message: str, reasons: list[str]):
+        self.reasons = list(reasons)
+        super().__init__(message)
+
+
+class LinkError(HydrohilError):
+    """The other end of the HIL link did not answer within the timeout, or went silent (exit 4)."""
+
+    exit_code = 4
+
+
+class Interrupted(HydrohilError):
+    """The run was stopped by a signal; its logs and summary were written (exit 128 + signal: 130, 143)."""
+
+    def __init__(self, signum: int, message: str = ""):
+        import signal
+        self.signum = signum
+        self.exit_code = 128 + int(signum)
+        super().__init__(message or f"stopped by {signal.Signals(signum).name}")

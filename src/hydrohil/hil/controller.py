@@ -18,19 +18,33 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 from hydrohil.control import PController
+from hydrohil.errors import LinkError
 from hydrohil.hil import protocol as pr
+from hydrohil.models.sensors import count_size
 from hydrohil.simulation.outputs import CsvStream
 
 
 SPIN_S = 150e-6
 
 
-class PlantClient:
-    """UDP client of a plant server: ``sensors()`` yields sensor packets, ``send(u)`` sends a command."""
+HELLO_EVERY_S = 0.2    # HELLO repeated while no plant has answered (it may start after the controller)
 
-    def __init__(self, address: tuple[str, int], *, timeout: float = 5.0, command_scale: float = 1.0,
-                 busy_poll: bool = False, period: float = 5e-4, nap: bool = True):
+
+class PlantClient:
+    """UDP client of a plant server: ``sensors()`` yields sensor packets, ``send(u)`` sends a command.
+
+    ``sensors()`` raises :class:`~hydrohil.errors.LinkError` when no plant answers within ``connect_timeout``
+    or the plant goes silent for ``timeout`` seconds before it ended the run: a controller never waits
+    forever, and never ends quietly with nothing done. ``bind`` fixes the local address (a plant started
+    with ``--peer`` accepts only that one); ``on_connect(sensor)`` is called at the first sensor packet.
+    """
+
+    def __init__(self, address: tuple[str, int], *, timeout: float = 5.0, connect_timeout: float | None = None,
+                 command_scale: float = 1.0, busy_poll: bool = False, period: float = 5e-4, nap: bool = True,
+                 bind: tuple[str, int] | None = None, on_connect: Callable[[pr.Sensor], None] | None = None):
         self.address = address
+        self.connect_timeout = timeout if connect_timeout is None else connect_timeout
+        self.on_connect = on_connect
         # busy_poll: sleep until SPIN_S before the next expected packet (one plant period after the last),
         # then spin on the socket: lower latency than waking up from select, ~1/3 of a core;
         # nap=False: never sleep (spin all the time, a whole core)
@@ -42,6 +56,8 @@ class PlantClient:
         self.scale = command_scale
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
+        if bind is not None:
+            self.sock.bind(bind)
         self.sock.connect(address)
         self.seq = 0
         self.bad = 0
@@ -50,7 +66,15 @@ class PlantClient:
         self.lost = 0
         self.finished = False
         self.status = 0
-        self.sock.send(pr.encode_simple(pr.T_HELLO, 0, time.perf_counter_ns()))
+        self.t_hello = 0.0
+        self._hello()
+
+    def _hello(self) -> None:
+        self.t_hello = time.monotonic()
+        try:
+            self.sock.send(pr.encode_simple(pr.T_HELLO, 0, time.perf_counter_ns()))
+        except OSError:
+            pass      # no plant listening yet (ICMP port unreachable): the next HELLO may reach it
 
     def __enter__(self):
         return self
@@ -66,12 +90,19 @@ class PlantClient:
         self.sock.close()
 
     def receive(self, timeout: float | None = None) -> pr.Sensor | None:
-        """Next valid sensor packet (None on timeout or when the plant said BYE)."""
+        """Next valid sensor packet, or None when none came within ``timeout`` seconds (0: only what has
+        arrived already) or the plant said BYE."""
         end = time.monotonic() + (self.timeout if timeout is None else timeout)
+        tried = False
         while not self.finished:
-            left = end - time.monotonic()
-            if left <= 0:
+            now = time.monotonic()
+            left = end - now
+            if left <= 0 and tried:
                 return None
+            tried = True
+            left = max(left, 0.0)
+            if self.received == 0 and now - self.t_hello > HELLO_EVERY_S:
+                self._hello()
             try:
                 if self.busy_poll:
                     if self.nap and self.last_arrival is not None:
@@ -80,14 +111,15 @@ class PlantClient:
                             select.select([self.sock], [], [], min(nap, left))
                     data = self.sock.recv(pr.MAX_DATAGRAM + 1, socket.MSG_DONTWAIT)
                 else:
-                    r, _, _ = select.select([self.sock], [], [], left)
+                    wait = min(left, HELLO_EVERY_S) if self.received == 0 else left
+                    r, _, _ = select.select([self.sock], [], [], wait)
                     if not r:
-                        return None
+                        continue
                     data = self.sock.recv(pr.MAX_DATAGRAM + 1)
             except BlockingIOError:
                 continue
             except (ConnectionRefusedError, OSError):
-                time.sleep(0.01)   # plant not up yet / gone: ICMP port unreachable
+                select.select([], [], [], min(0.01, left))   # plant not up yet / gone (ICMP port unreachable)
                 continue
             msg = pr.decode(data)
             if msg is None:
@@ -96,6 +128,8 @@ class PlantClient:
             if isinstance(msg, pr.Sensor):
                 self.last_arrival = time.perf_counter()
                 self.received += 1
+                if self.received == 1 and self.on_connect is not None:
+                    self.on_connect(msg)
                 if self.last_seq >= 0 and msg.header.seq > self.last_seq + 1:
                     self.lost += msg.header.seq - self.last_seq - 1
                 self.last_seq = max(self.last_seq, msg.header.seq)
@@ -108,11 +142,21 @@ class PlantClient:
         return None
 
     def sensors(self, timeout: float | None = None) -> Iterator[pr.Sensor]:
-        """Sensor packets until the plant ends the run or goes silent for ``timeout`` seconds."""
+        """Sensor packets until the plant ends the run. Raises LinkError when no plant answers within
+        ``connect_timeout`` or the plant goes silent for ``timeout`` seconds (default: the client's)."""
         while True:
-            s = self.receive(timeout)
+            first = self.received == 0
+            wait = self.connect_timeout if first and timeout is None else timeout
+            s = self.receive(wait)
             if s is None:
-                return
+                if self.finished:
+                    return
+                host, port = self.address
+                if first:
+                    raise LinkError(f"no answer from a plant at {host}:{port} within "
+                                    f"{self.connect_timeout if wait is None else wait:g} s (is it running?)")
+                raise LinkError(f"the plant at {host}:{port} went silent for "
+                                f"{self.timeout if timeout is None else timeout:g} s after step {self.last_seq}")
             yield s
             if self.finished:
                 return
@@ -147,7 +191,7 @@ def run_p_controller(client: PlantClient, kp: float, reference: Callable[[float]
     (CSV) while running. ``should_stop`` is polled every cycle (signal handlers set it). Returns a summary.
     """
     ctl = PController(kp)
-    res = encoder_resolution if encoder_resolution > 0 else 1e-6
+    res = count_size(encoder_resolution)
     log = CsvStream(log_path, CONTROLLER_LOG_COLUMNS, ints={0, 6}) if log_path is not None else None
     t_start = time.perf_counter()
 
@@ -166,23 +210,27 @@ def run_p_controller(client: PlantClient, kp: float, reference: Callable[[float]
                 if should_stop():
                     break
         else:
-            last = client.receive()
+            last = next(client.sensors(), None)      # LinkError when no plant answers
+            t_last = time.monotonic()
             next_t = time.perf_counter()
             while last is not None and not client.finished and not should_stop():
                 while True:   # take the newest packet available now
                     s = client.receive(timeout=0.0)
                     if s is None:
                         break
-                    last = s
+                    last, t_last = s, time.monotonic()
                 act(last)
                 next_t += sample_time
                 delay = next_t - time.perf_counter()
                 if delay > 0:
                     s = client.receive(timeout=delay)
                     if s is not None:
-                        last = s
+                        last, t_last = s, time.monotonic()
                     while time.perf_counter() < next_t:
                         pass
+                if not client.finished and time.monotonic() - t_last > client.timeout:
+                    raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} went silent for "
+                                    f"{client.timeout:g} s after step {client.last_seq}")
     finally:
         if log is not None:
             log.close()

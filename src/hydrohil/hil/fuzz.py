@@ -116,8 +116,7 @@ def fuzz_live_plant(n: int = 1_000_000, rate_hz: float = 20_000.0, seed: int = 0
                     out: Path | None = None, progress: Callable[[int, int], None] | None = None) -> dict:
     """Fuzz a real-time plant served by ``hydrohil plant`` (loopback) while the P controller runs
     against it; see the module docstring for what is checked. Returns the figures."""
-    import subprocess
-    import sys
+    from hydrohil.hil.processes import Child, cli, free_udp_port
     duration = n / rate_hz + 4.0
     tmp = tempfile.TemporaryDirectory() if out is None else None
     out = Path(tmp.name) if tmp else Path(out)
@@ -126,17 +125,13 @@ def fuzz_live_plant(n: int = 1_000_000, rate_hz: float = 20_000.0, seed: int = 0
     scen.write_text(f'params = "ferreira2004"\nduration = {duration}\n[solver]\nstep = {step}\n[initial]\nxp = 0.05\n'
                     '[controller]\ntype = "p"\nkp = 50.0\n[reference]\ntype = "table"\nt = [0.0, 1.0]\n'
                     'x = [0.05, 0.10]\n')
-    cli = [sys.executable, "-m", "hydrohil.cli"]
-    plant = subprocess.Popen([*cli, "plant", "--scenario", scen, "--bind", "127.0.0.1:0", "--log", out / "plant"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    line = plant.stdout.readline()
-    if not line.startswith("READY"):
-        plant.kill()
-        raise RuntimeError(f"plant did not start: {line} {plant.stderr.read()}")
-    host, port = line.split()[1].rsplit(":", 1)
-    ctl = subprocess.Popen([*cli, "controller", "--scenario", scen, "--connect", f"{host}:{port}", "--log",
-                            out / "controller"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(1.5)                                   # controller connected, loop running
+    ctl_address = f"127.0.0.1:{free_udp_port()}"
+    plant = Child(cli("plant", "--scenario", scen, "--bind", "127.0.0.1:0", "--log", out / "plant", "--peer",
+                      ctl_address), "plant")
+    host, port = plant.wait_line("READY ", 120.0).rsplit(":", 1)
+    ctl = Child(cli("controller", "--scenario", scen, "--connect", f"{host}:{port}", "--log", out / "controller",
+                    "--local", ctl_address), "controller")
+    plant.wait_line("PEER ", 120.0)                   # the controller is the peer: the fuzzer can only be foreign
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     target = (host, int(port))
     bad = good = 0
@@ -161,9 +156,10 @@ def fuzz_live_plant(n: int = 1_000_000, rate_hz: float = 20_000.0, seed: int = 0
     sock.close()
     ctl_rc = ctl.wait(timeout=duration + 60)
     plant_rc = plant.wait(timeout=60)
+    verdict = json.loads((out / "plant" / "timing.json").read_text())["verdict"]
     timing = json.loads((out / "plant" / "timing.json").read_text())
     res = {"datagrams": n, "sent_malformed": bad, "sent_well_formed": good, "fuzz_wall_s": fuzz_wall,
-           "plant_exit": plant_rc, "controller_exit": ctl_rc,
+           "plant_exit": plant_rc, "controller_exit": ctl_rc, "verdict": verdict,
            **{k: timing.get(k) for k in ("steps", "steps_planned", "packets_bad", "packets_foreign", "packets_rx",
                                          "packets_lost", "watchdog_trips", "late_commands", "overruns",
                                          "jitter_us_p50", "jitter_us_p99", "jitter_us_p999", "jitter_us_max",

@@ -34,7 +34,6 @@ from hydrohil.simulation.scenario import HilCfg
 
 SPIN_NS = 150_000            # busy-wait the last 150 us before a deadline ...
 SPIN_FRACTION = 0.3          # ... but at most 30 % of a step: spinning ~all the time trips the kernel's RT throttling
-CONNECT_TIMEOUT_S = 30.0     # wait this long for the controller's first packet
 LOG_COLUMNS = ("k", "t", "wall", "jitter_us", "compute_us", "u", "cmd_seq", "cmd_age", "watchdog", "xs", "p1",
                "p2", "xp", "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas",
                "p2_meas", "faults", "status")
@@ -124,7 +123,10 @@ class PlantServer:
                              ints={0, 6, 7, 8, 18, 21, 22}) if log is not None else None
         self.row = [0.0] * len(LOG_COLUMNS)
         self.stop_requested = False
+        self.stop_signal: int | None = None    # the signal that stopped the run (set by the CLI's handler)
         self.fault: str | None = None
+        self.link_error: str | None = None
+        self.on_peer = None                    # called with the controller's address once it has spoken
         # latest command
         self.cmd_u = 0.0
         self.cmd_new = False
@@ -230,16 +232,14 @@ class PlantServer:
             rt = realtime_setup(self.cpu, spin=self.spin)
         h_ns = int(round(self.h * 1e9))
         # wait for the controller (first valid packet fixes the peer unless configured)
-        self.sock.settimeout(CONNECT_TIMEOUT_S)
-        t_connect = time.monotonic()
-        while self.c.packets_rx == 0:
-            try:
-                data, addr, t_kernel = recv_stamped(self.sock, pr.MAX_DATAGRAM + 1)
-            except socket.timeout:
-                raise HydrohilError(f"no controller packet within {CONNECT_TIMEOUT_S:g} s") from None
-            self._receive(data, addr, time.perf_counter_ns(), t_kernel)
-            if time.monotonic() - t_connect > CONNECT_TIMEOUT_S:
-                raise HydrohilError(f"no controller packet within {CONNECT_TIMEOUT_S:g} s")
+        if not self._wait_for_controller():
+            self.link_error = (f"no controller packet within {self.hil.connect_timeout:g} s "
+                               f"({self.c.packets_bad} bad, {self.c.packets_foreign} foreign packets)")
+            if self.log is not None:
+                self.log.close()
+            return self._timing(0, time.perf_counter_ns(), time.perf_counter_ns(), rt, 0)
+        if self.on_peer is not None:
+            self.on_peer(self.peer)
         self.sock.setblocking(False)
         self.cmd_new = False             # HELLO / early packets are not commands for step 0
         gc.collect()
@@ -297,9 +297,25 @@ class PlantServer:
         drift_ns = last_start - (t0 + max(k_done - 1, 0) * h_ns)
         return self._timing(k_done, t0, t_end, rt, drift_ns)
 
+    def _wait_for_controller(self) -> bool:
+        """Block until a valid packet from the (configured or first) controller arrived, at most
+        ``[hil] connect_timeout``; stopping the run (a signal) ends the wait too."""
+        end = time.monotonic() + self.hil.connect_timeout
+        while self.c.packets_rx == 0 and not self.stop_requested:
+            left = end - time.monotonic()
+            if left <= 0:
+                return False
+            r, _, _ = select.select([self.sock], [], [], min(left, 0.2))
+            if r:
+                data, addr, t_kernel = recv_stamped(self.sock, pr.MAX_DATAGRAM + 1)
+                self._receive(data, addr, time.perf_counter_ns(), t_kernel)
+        return self.c.packets_rx > 0
+
     def _wait_lockstep(self, k: int) -> None:
-        """Block until the command answering sensor packet k arrives (or the watchdog timeout passes)."""
-        limit = time.perf_counter_ns() + int(self.hil.watchdog_timeout * 1e9)
+        """Block until the command answering sensor packet k arrives. Lock-step has no clock: a slow
+        controller (a loaded machine) is waited for, up to ``[hil] link_timeout``; only then does the step
+        go on without a command (the watchdog counts such steps as silence)."""
+        limit = time.perf_counter_ns() + int(self.hil.link_timeout * 1e9)
         while self.cmd_echo < k and not self.stop_requested:
             left = limit - time.perf_counter_ns()
             if left <= 0:
@@ -320,6 +336,9 @@ class PlantServer:
         self.log.write(row)
 
     def _timing(self, steps, t0, t_end, rt, drift_ns) -> dict:
+        """The run's summary (``timing.json``) with its verdict (:mod:`hydrohil.hil.verdict`). Lock-step runs
+        have no clock: their jitter, overrun, drift and round-trip figures are None (n/a)."""
+        from hydrohil.hil.verdict import judge
         j, c, rtt = self.jitter, self.compute, self.rtt
         sim_t = steps * self.h
         res = {
@@ -336,17 +355,24 @@ class PlantServer:
             "packets_rx": self.c.packets_rx, "packets_bad": self.c.packets_bad,
             "packets_foreign": self.c.packets_foreign, "packets_lost": self.c.packets_lost,
             "packets_reordered": self.c.packets_reordered, "late_commands": self.c.late_commands,
-            "watchdog_trips": self.rig.watchdog_trips, "commands_delivered": self.rig.commands_delivered,
+            "watchdog_trips": self.rig.watchdog_trips,
+            "watchdog_trips_unexplained": self.rig.watchdog_trips_unexplained,
+            "commands_delivered": self.rig.commands_delivered,
             "faults_injected": [f.type for f in self.rig.faults.faults],
             "simulated_s": sim_t, "wall_s": (t_end - t0) / 1e9,
             # wall clock at the last step's start minus its scheduled instant t0 + (steps-1)*h
             "drift_ms": drift_ns / 1e6 if not self.lockstep else None,
-            "fault": self.fault, "stopped_early": self.stop_requested,
+            "fault": self.fault, "link_error": self.link_error, "stopped_early": self.stop_requested,
+            "stop_signal": self.stop_signal,
             "statistics": "histograms, 1.2 % bins (bounded memory); max exact",
             **{f"os_{k}": v for k, v in rt.items()},
         }
         if self.lockstep:
             res["steps_per_s"] = steps / max((t_end - t0) / 1e9, 1e-9)
+            for k in ("overruns", "jitter_us_p50", "jitter_us_p99", "jitter_us_p999", "jitter_us_max", "rtt_us_p50",
+                      "rtt_us_p99", "rtt_seen_us_p50", "rtt_seen_us_p99"):
+                res[k] = None
+        res["verdict"] = judge(res, self.hil)
         return res
 
     def close(self) -> None:

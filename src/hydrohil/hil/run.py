@@ -1,17 +1,19 @@
 """``hydrohil hil``: plant and controller as two OS processes over UDP loopback, then the report.
 
-The plant process (``hydrohil plant --scenario ...``) prints ``READY host:port`` once bound; the
-controller process (``hydrohil controller --scenario ... --connect host:port``) then runs the
-scenario's P controller. Both are stopped with SIGINT on Ctrl-C (they finish their logs). Afterwards
-the same scenario runs offline (``hydrohil simulate``'s code path) for the comparison.
+The plant process (``hydrohil plant --scenario ... --peer 127.0.0.1:C``) prints ``READY host:port`` once
+bound; the controller process (``hydrohil controller --scenario ... --connect host:port --local
+127.0.0.1:C``) then runs the scenario's P controller from the one address the plant accepts. Each process
+ends by itself: the plant after the scenario's duration, the controller at the plant's final packet (or
+with an error when the plant goes silent for ``[hil] link_timeout``). Ctrl-C stops both with SIGINT (they
+finish their logs). Afterwards the same scenario runs offline (``hydrohil simulate``'s code path) for the
+comparison, and the plant's applied commands are replayed through the model (an exact check on any
+machine); the plant's verdict (:mod:`hydrohil.hil.verdict`) says whether the run is VALID.
 """
 
 from __future__ import annotations
 
 import json
 import signal
-import subprocess
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,10 +21,12 @@ from typing import Callable
 
 import numpy as np
 
-from hydrohil.errors import HydrohilError, InputError
+from hydrohil.errors import HydrohilError, InputError, Interrupted, LinkError
+from hydrohil.hil.processes import Child, cli, free_udp_port
 from hydrohil.simulation.scenario import load_scenario
 
 READY_TIMEOUT_S = 120.0    # first start compiles the model (numba cache) before binding
+EXIT_GRACE_S = 30.0        # after one process ended, the other gets its own timeout plus this to end
 
 
 @dataclass
@@ -32,80 +36,70 @@ class HilResult:
     controller: dict
     comparison: dict
 
-
-def _cli(*args) -> list[str]:
-    return [sys.executable, "-m", "hydrohil.cli", *map(str, args)]
-
-
-def _stop(proc: subprocess.Popen, grace: float = 10.0) -> None:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(grace)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    @property
+    def verdict(self) -> dict:
+        return self.timing["verdict"]
 
 
 def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
             progress: Callable[[float, float], None] | None = None, plot: bool = True) -> HilResult:
-    """Run a scenario as a HIL experiment; writes plant_log.csv, controller_log.csv, timing.json,
-    comparison.json and report.png into ``out``."""
+    """Run a scenario as a HIL experiment; writes plant_log.csv, controller_log.csv, timing.json (with the
+    verdict), comparison.json and report.png into ``out``. Raises LinkError / HydrohilError when a process
+    failed, Interrupted on Ctrl-C (after both processes finished their logs)."""
     scenario, out = Path(scenario), Path(out)
     sc = load_scenario(scenario)           # validate before starting anything
     if not sc.scenario.closed_loop:
         raise InputError("hydrohil hil needs a closed-loop scenario ([controller] + [reference])",
                          source=str(scenario))
     out.mkdir(parents=True, exist_ok=True)
-    plant_cmd = _cli("plant", "--scenario", scenario, "--bind", "127.0.0.1:0", "--log", out,
-                     *(["--lockstep"] if lockstep else []))
-    plant = subprocess.Popen(plant_cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    hil_cfg = sc.scenario.hil
+    ctl_address = f"127.0.0.1:{free_udp_port()}"
+    plant = Child(cli("plant", "--scenario", scenario, "--bind", "127.0.0.1:0", "--log", out, "--peer", ctl_address,
+                      *(["--lockstep"] if lockstep else [])), "plant")
     ctl = None
     try:
-        address = _wait_ready(plant)
-        ctl = subprocess.Popen(_cli("controller", "--scenario", scenario, "--connect", address, "--log", out),
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        duration = sc.scenario.duration
-        t0 = time.monotonic()
-        while plant.poll() is None or ctl.poll() is None:
-            if progress:
-                progress(min(time.monotonic() - t0, duration), duration)
-            time.sleep(0.1)
-            if plant.poll() is not None and ctl.poll() is None and time.monotonic() - t0 > duration + 30:
-                _stop(ctl)
-        if progress:
-            progress(duration, duration)
+        address = plant.wait_line("READY ", READY_TIMEOUT_S)
+        ctl = Child(cli("controller", "--scenario", scenario, "--connect", address, "--log", out, "--local",
+                        ctl_address), "controller")
+        _supervise(plant, ctl, sc.scenario.duration, hil_cfg, progress)
     except KeyboardInterrupt:
         for p in (ctl, plant):
             if p is not None:
-                _stop(p)
-        raise
+                p.stop()
+        raise Interrupted(signal.SIGINT, f"HIL run interrupted; logs so far in {out}") from None
     finally:
         for p in (ctl, plant):
             if p is not None and p.poll() is None:
-                _stop(p)
-    p_err = plant.stderr.read() if plant.stderr else ""
-    if plant.returncode != 0:
-        raise HydrohilError(f"plant process failed (exit {plant.returncode}): {p_err.strip()[-2000:]}")
-    c_err = ctl.stderr.read() if ctl and ctl.stderr else ""
-    if ctl is not None and ctl.returncode != 0:
-        raise HydrohilError(f"controller process failed (exit {ctl.returncode}): {c_err.strip()[-2000:]}")
+                p.stop()
+    for p, ok in ((ctl, (0,)), (plant, (0, 3))):    # plant 3: the run is INVALID, its logs and verdict complete
+        if p.returncode not in ok:
+            raise (LinkError if p.returncode == 4 else HydrohilError)(
+                f"{p.name} process failed (exit {p.returncode}): {p.stderr()[-2000:]}")
     timing = json.loads((out / "timing.json").read_text())
     controller = json.loads((out / "controller.json").read_text())
-    comparison = compare_offline(scenario, out, plot=plot)
+    comparison = compare_offline(scenario, out, plot=plot, verdict=timing.get("verdict"))
     return HilResult(out, timing, controller, comparison)
 
 
-def _wait_ready(plant: subprocess.Popen) -> str:
+def _supervise(plant: Child, ctl: Child, duration: float, hil_cfg, progress) -> None:
+    """Wait until both processes have ended by themselves. One that ends with an error stops the other;
+    once one has ended, the other gets its own timeout plus a grace period before it is stopped."""
     t0 = time.monotonic()
-    while time.monotonic() - t0 < READY_TIMEOUT_S:
-        line = plant.stdout.readline()
-        if line.startswith("READY "):
-            return line.split()[1]
-        if not line and plant.poll() is not None:
-            err = plant.stderr.read()
-            raise HydrohilError(f"plant process exited before binding (exit {plant.returncode}): {err.strip()}")
-    raise HydrohilError(f"plant did not report READY within {READY_TIMEOUT_S:g} s")
+    t_first_end = None
+    while plant.poll() is None or ctl.poll() is None:
+        if progress:
+            progress(min(time.monotonic() - t0, duration), duration)
+        if ctl.poll() not in (None, 0):            # the controller failed: no point in serving the plant on
+            plant.stop()
+            break
+        if (plant.poll() is None) != (ctl.poll() is None):
+            t_first_end = t_first_end or time.monotonic()
+            limit = (hil_cfg.link_timeout if plant.poll() is not None else hil_cfg.watchdog_timeout) + EXIT_GRACE_S
+            if time.monotonic() - t_first_end > limit:
+                (ctl if ctl.poll() is None else plant).stop()
+        time.sleep(0.05)
+    if progress:
+        progress(duration, duration)
 
 
 def read_csv_columns(path: Path) -> dict[str, np.ndarray]:
@@ -124,8 +118,24 @@ def read_csv_columns(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def compare_offline(scenario: Path, out: Path, *, plot: bool = True) -> dict:
-    """Offline run of the same scenario; position RMS/max difference to the HIL plant log."""
+def replay_commands(sc, hil: dict) -> np.ndarray:
+    """The plant log's applied valve commands (column ``u``) replayed open loop through the hybrid model:
+    the piston positions it gives. Equal to the log's ``xp`` bit for bit when the plant stepped the model
+    correctly, however late its commands came (scenarios without [[faults]])."""
+    from hydrohil.simulation.loop import HybridPlant
+    s = sc.scenario
+    plant = HybridPlant(sc.params, h=s.hil.step or s.solver.step, xp=s.initial.xp, xs=s.initial.xs,
+                        p1=s.initial.p1, p2=s.initial.p2)
+    xp = np.empty(len(hil["u"]))
+    xp[0] = plant.y[4]
+    for k, u in enumerate(hil["u"][1:]):
+        xp[k + 1] = plant.step(u)[5]
+    return xp
+
+
+def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: dict | None = None) -> dict:
+    """Offline run of the same scenario; position RMS/max difference to the HIL plant log; the replay of
+    the plant's applied commands (:func:`replay_commands`)."""
     from hydrohil.simulation.run import run_scenario
     sc = load_scenario(scenario)
     res = run_scenario(sc)
@@ -138,8 +148,10 @@ def compare_offline(scenario: Path, out: Path, *, plot: bool = True) -> dict:
            "p1_rms_bar": float(np.sqrt(np.mean((hil["p1"][:n] - res.column("p1")[:n]) ** 2)) / 1e5),
            "hil_tracking_rms_mm": float(np.sqrt(np.mean((hil["xp"][:n] - ref) ** 2)) * 1e3),
            "offline_tracking_rms_mm": float(np.sqrt(np.mean((res.column("xp")[:n] - ref) ** 2)) * 1e3)}
+    if not sc.scenario.faults and len(hil["u"]):
+        cmp["replay_xp_max_abs_m"] = float(np.max(np.abs(replay_commands(sc, hil) - hil["xp"])))
     (out / "comparison.json").write_text(json.dumps(cmp, indent=2) + "\n")
     if plot:
         from hydrohil.plotting import plot_hil
-        plot_hil(out / "report.png", hil, res, ref, title=f"{scenario.name}: HIL vs offline")
+        plot_hil(out / "report.png", hil, res, ref, title=f"{scenario.name}: HIL vs offline")  # verdict: after merge
     return cmp

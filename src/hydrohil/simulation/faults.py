@@ -231,6 +231,10 @@ class FaultInjector:
                     self.stuck_value.pop(i, None)
         return mask
 
+    def network_active(self) -> bool:
+        """True while a network or silence fault acts on the commands (this step)."""
+        return bool(self._of_type(*NETWORK))
+
     def deliver(self, u: float | None) -> float | None:
         """Network faults on the command sent for this step (None: nothing sent). Returns the command that
         reaches the plant this step, or None (the plant holds its last command)."""

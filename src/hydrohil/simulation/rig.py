@@ -8,7 +8,9 @@ identically offline, in lock-step and in real time.
 
 Watchdog: silence is counted in plant steps since the last command that reached the plant (network
 faults included): longer than ``[hil] watchdog_timeout`` -> safe state (``centre``: ū = 0; ``hold``: P
-control on the position held at the trip), left on the next command that arrives.
+control on the position held at the trip), left on the next command that arrives. A trip with no
+injected network or silence fault active during the silence is *unexplained* (the controller itself went
+quiet): it counts against the run's validity (:mod:`hydrohil.hil.verdict`).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from hydrohil.errors import HydrohilError
 from hydrohil.hil.protocol import (ST_AT_EXTEND, ST_AT_RETRACT, ST_FAULT_INJECTED, ST_SATURATED, ST_STICK,
                                    ST_WATCHDOG)
 from hydrohil.models.layout import AT_EXTEND, AT_RETRACT, PS, PT, STICK
-from hydrohil.models.sensors import encoder_counts, pressure_reading
+from hydrohil.models.sensors import count_size, encoder_counts, pressure_reading
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.faults import FaultInjector
 from hydrohil.simulation.loop import NLOG, HybridPlant, write_row
@@ -58,13 +60,15 @@ class VirtualRig:
         self.faults = FaultInjector(faults or [], self.plant.p, self.h, seed=self.hil.seed)
         self.faults.begin_step(0, self.plant.p, self.plant.y)
         self.noise = np.random.default_rng(self.hil.seed)
-        self.res = params.sensors.encoder_resolution if params.sensors.encoder_resolution > 0 else 1e-6
+        self.res = count_size(params.sensors.encoder_resolution)   # m per encoder count
         self.u_held = 0.0
         self.k_delivered = 0            # the watchdog counts from the start
         self.watchdog = False
         self.watchdog_trips = 0
         self.hold_x = 0.0
         self.commands_delivered = 0
+        self.k_interfered = -(1 << 62)    # last step an injected network / silence fault acted on the commands
+        self.watchdog_trips_unexplained = 0
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) every kernel a step calls, then restore the initial state."""
@@ -82,6 +86,8 @@ class VirtualRig:
         Returns the command that drove the valve."""
         plant = self.plant
         self.faults.begin_step(k, plant.p, plant.y)
+        if self.faults.network_active():
+            self.k_interfered = k
         u = self.faults.deliver(command)
         if u is not None:
             self.u_held = min(max(u, -1.0), 1.0)
@@ -91,6 +97,8 @@ class VirtualRig:
         if silent and not self.watchdog:
             self.watchdog = True
             self.watchdog_trips += 1
+            if (k - self.k_interfered) * self.h > self.hil.watchdog_timeout + 2 * self.h:
+                self.watchdog_trips_unexplained += 1      # no injected fault held the commands back
             self.hold_x = float(plant.out[5])
         elif not silent and self.watchdog:
             self.watchdog = False
