@@ -1,4 +1,10 @@
-"""Hybrid model (RK3, 0.5 ms) against the continuous stiff reference (LSODA), issue #2 limits."""
+"""Hybrid model (RK3, 0.5 ms) against the continuous stiff reference (LSODA).
+
+Each paper scenario has its own limits, about 3x what the model achieves (measured 2026-11-22 with
+benchmarks/accuracy.py, README table): a regression of the model shows up here. Fig 12's final ramp is a
+stick-slip hunting limit cycle where two correct models differ in phase (SPEC §6.1 pitfall 3): judged by
+its statistics (frequency, amplitude, mean), sample by sample before it.
+"""
 
 import numpy as np
 import pytest
@@ -7,37 +13,78 @@ from conftest import EXAMPLES, rms
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import load_scenario
 
-CASES = ["sine_open_loop.toml", "fig11_p_control.toml", "fig12_steps_ramps.toml", "end_stops_p_control.toml",
-         "maxstep_endstop.toml"]
+# case: (xp RMS [m], xp max [m], P1 RMS [Pa], P2 RMS [Pa]); measured: sine 2.6 um, 21 um, 0.13, 0.14 bar;
+# Fig 11 2.7 um, 14 um, 0.19, 0.14 bar; both stops 4.5 um, 59 um, 0.31, 0.25 bar; slammed stop 0.48 um,
+# 2.1 um, 0.017, 0.037 bar
+LIMITS = {"sine_open_loop.toml": (8e-6, 60e-6, 0.4e5, 0.4e5),
+          "fig11_p_control.toml": (8e-6, 45e-6, 0.55e5, 0.45e5),
+          "end_stops_p_control.toml": (14e-6, 180e-6, 0.95e5, 0.75e5),
+          "maxstep_endstop.toml": (1.5e-6, 6.5e-6, 0.055e5, 0.11e5)}
 
 
-@pytest.mark.parametrize("name", CASES)
-def test_hybrid_rk3_matches_reference(name):
-    hyb = run_scenario(load_scenario(EXAMPLES / name))
-    ref = run_scenario(load_scenario(EXAMPLES / name, solver="reference"))
+def hybrid_and_reference(scenario):
+    hyb = run_scenario(scenario)
+    ref = run_scenario(scenario.model_copy(update={"scenario": scenario.scenario.model_copy(
+        update={"solver": scenario.scenario.solver.model_copy(update={"method": "reference"})})}))
     assert hyb.diverged is None and ref.diverged is None
+    return hyb, ref
+
+
+@pytest.mark.parametrize("name", LIMITS)
+def test_hybrid_rk3_matches_reference(name):
+    hyb, ref = hybrid_and_reference(load_scenario(EXAMPLES / name))
+    x_rms, x_max, p1_rms, p2_rms = LIMITS[name]
     ex = hyb.column("xp") - ref.column("xp")
-    assert rms(ex) <= 0.5e-3
-    assert abs(ex).max() <= 2e-3
-    assert rms(hyb.column("p1") - ref.column("p1")) <= 3e5
-    assert rms(hyb.column("p2") - ref.column("p2")) <= 3e5
+    assert rms(ex) <= x_rms and abs(ex).max() <= x_max, (rms(ex), abs(ex).max())
+    assert rms(hyb.column("p1") - ref.column("p1")) <= p1_rms
+    assert rms(hyb.column("p2") - ref.column("p2")) <= p2_rms
+
+
+def _oscillation(v, window, n=40):
+    """The part of v faster than a 20 ms moving average (the limit cycle) in ``window`` and its dominant
+    frequency [Hz]."""
+    osc = (v - np.convolve(v, np.ones(n) / n, mode="same"))[window]
+    f = np.fft.rfftfreq(osc.size, 5e-4)
+    spec = np.abs(np.fft.rfft(osc))
+    spec[f < 5.0] = 0.0
+    return osc, f[np.argmax(spec)]
+
+
+def test_fig12_steps_ramps_and_stick_slip_hunting():
+    hyb, ref = hybrid_and_reference(load_scenario(EXAMPLES / "fig12_steps_ramps.toml"))
+    t = hyb.column("t")
+    # steps and ramps (t < 5 s), sample by sample; measured 30 um RMS, 0.17 mm max (the 50 mm step at
+    # 0.5 s: both saturated, 0.3 ms apart), 0.53 / 0.40 bar RMS
+    pre = t < 5.0
+    ex = (hyb.column("xp") - ref.column("xp"))[pre]
+    assert rms(ex) <= 90e-6 and abs(ex).max() <= 0.5e-3
+    assert rms((hyb.column("p1") - ref.column("p1"))[pre]) <= 1.6e5
+    assert rms((hyb.column("p2") - ref.column("p2"))[pre]) <= 1.2e5
+    # the slow final ramp hunts in a 70 Hz stick-slip limit cycle in both models (measured: same frequency
+    # bin, amplitudes 7 % apart, means 0.6 um and 0.06 bar apart)
+    w = (t >= 5.2) & (t < 5.98)
+    for col, mean_tol in (("xp", 3e-6), ("p1", 0.2e5), ("p2", 0.2e5)):
+        (oh, fh), (orf, fr) = (_oscillation(r.column(col), w) for r in (hyb, ref))
+        assert abs(fh - fr) <= 1.5 and fr > 20.0, (col, fh, fr)               # one FFT bin: 1.3 Hz
+        assert abs(oh.std() / orf.std() - 1) <= 0.2, (col, oh.std(), orf.std())
+        assert abs(hyb.column(col)[w].mean() - ref.column(col)[w].mean()) <= mean_tol, col
 
 
 def test_kp50_at_120_bar_and_kp100_at_70_bar():
+    # measured: 1.3 / 1.2 um RMS, 10 / 9 um max, P1 0.15 / 0.17 bar RMS
+    import tomllib
+    from hydrohil.parameters import load_parameters
+    from hydrohil.simulation.scenario import LoadedScenario, Scenario
     for over, kp in (({"supply.ps": 1.2e7}, 50.0), ({"supply.ps": 7e6}, 100.0)):
-        import tomllib
         data = tomllib.loads((EXAMPLES / "fig11_p_control.toml").read_text())
         data["overrides"] = over
         data["controller"]["kp"] = kp
-        from hydrohil.simulation.scenario import LoadedScenario, Scenario
-        from hydrohil.parameters import load_parameters
         sc = Scenario.model_validate(data)
-        ls = LoadedScenario(scenario=sc, params=load_parameters("ferreira2004", over), source="t")
-        hyb = run_scenario(ls)
-        ref = run_scenario(ls.model_copy(update={"scenario": sc.model_copy(
-            update={"solver": sc.solver.model_copy(update={"method": "reference"})})}))
-        assert rms(hyb.column("xp") - ref.column("xp")) <= 0.5e-3
-        assert rms(hyb.column("p1") - ref.column("p1")) <= 3e5
+        hyb, ref = hybrid_and_reference(LoadedScenario(scenario=sc, params=load_parameters("ferreira2004", over),
+                                                       source="t"))
+        ex = hyb.column("xp") - ref.column("xp")
+        assert rms(ex) <= 4e-6 and abs(ex).max() <= 30e-6
+        assert rms(hyb.column("p1") - ref.column("p1")) <= 0.5e5
 
 
 @pytest.mark.parametrize("solver", ["euler", "heun", "rk3", "rk4"])
@@ -106,10 +153,7 @@ def test_random_scenarios_match_reference(sc):
     # 0.5 mm RMS / 2 mm max; pressures within 3 bar RMS after a 20 ms moving average, since stick-slip
     # and hunting limit cycles make two correct models differ in phase (SPEC §6.1 pitfall 3; raw RMS
     # exceeded 3 bar in 5 of 120 hand-checked runs, all such limit cycles)
-    hyb = run_scenario(sc)
-    ref = run_scenario(sc.model_copy(update={"scenario": sc.scenario.model_copy(
-        update={"solver": sc.scenario.solver.model_copy(update={"method": "reference"})})}))
-    assert hyb.diverged is None and ref.diverged is None
+    hyb, ref = hybrid_and_reference(sc)
     ex = hyb.column("xp") - ref.column("xp")
     assert rms(ex) <= 0.5e-3 and abs(ex).max() <= 2e-3
     for c in ("p1", "p2"):

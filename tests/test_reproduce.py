@@ -71,9 +71,10 @@ def test_bench_quick_measures_every_section(tmp_path):
     for section in ("machine", "startup", "compiled_loop", "per_step_api", "reference_solver", "max_stable_step",
                     "realtime_0.5ms", "realtime_0.1ms", "udp_ping_pong", "lockstep", "identification", "ratios"):
         assert section in on_disk, section
-    assert 50 < res["compiled_loop"]["open_loop"]["ns_per_step"] < 1e5
+    # measured, not judged: how fast is the machine's business (benchmarks), not the suite's
+    assert res["compiled_loop"]["open_loop"]["ns_per_step"] > 0 and res["lockstep"]["steps_per_s"] > 0
     assert res["realtime_0.5ms"]["steps"] == 4000 and math.isfinite(res["realtime_0.5ms"]["jitter_us_p99"])
-    assert res["lockstep"]["steps_per_s"] > 500
+    assert res["realtime_0.5ms"]["verdict"] in ("VALID", "INVALID")
     assert res["ratios"]["hybrid_vs_continuous_step"] > 100
     table = (tmp_path / "bench.md").read_text()
     assert table.count("\n|") >= 14 and "None" not in table

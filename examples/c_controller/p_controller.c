@@ -3,15 +3,19 @@
  *   cc -O2 -o p_controller p_controller.c -lz
  *   hydrohil plant --bind 127.0.0.1:47000 --duration 6 &
  *   ./p_controller 127.0.0.1 47000 50 0.10      # Kp = 50 1/m, hold x_ref = 0.10 m
+ *   ./p_controller 127.0.0.1 47000 50 0.10 2    # give up after 2 s without a packet (default 5 s)
  *
+ * Exit codes as hydrohil's: 0 done, 2 bad arguments, 4 no plant answered (or it went silent).
  * Little-endian host assumed (x86, ARM); CRC-32 from zlib.
  */
 #include <arpa/inet.h>
+#include <errno.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <time.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -57,16 +61,22 @@ static int valid(const uint8_t *b, ssize_t n) {
 
 int main(int argc, char **argv) {
     if (argc < 5) {
-        fprintf(stderr, "usage: %s HOST PORT KP X_REF_M\n", argv[0]);
+        fprintf(stderr, "usage: %s HOST PORT KP X_REF_M [TIMEOUT_S]\n", argv[0]);
         return 2;
     }
     double kp = atof(argv[3]), x_ref = atof(argv[4]), resolution = 1e-6; /* 1 um encoder */
+    double timeout_s = argc > 5 ? atof(argv[5]) : 5.0;
     int s = socket(AF_INET, SOCK_DGRAM, 0);
     struct sockaddr_in a = {0};
     a.sin_family = AF_INET;
     a.sin_port = htons((uint16_t)atoi(argv[2]));
-    inet_pton(AF_INET, argv[1], &a.sin_addr);
+    if (timeout_s <= 0 || inet_pton(AF_INET, argv[1], &a.sin_addr) != 1) {
+        fprintf(stderr, "error: bad HOST %s or TIMEOUT_S\n", argv[1]);
+        return 2;
+    }
     connect(s, (struct sockaddr *)&a, sizeof a);
+    struct timeval poll_tv = {0, 200000};   /* wake every 0.2 s: say HELLO again until the plant answers */
+    setsockopt(s, SOL_SOCKET, SO_RCVTIMEO, &poll_tv, sizeof poll_tv);
 
     uint8_t out[COMMAND_LEN], in[512];
     uint32_t seq = 0;
@@ -76,9 +86,33 @@ int main(int argc, char **argv) {
     send(s, out, HELLO_LEN, 0);
 
     long packets = 0;
+    int64_t last_heard = now_ns();
     for (;;) {
         ssize_t n = recv(s, in, sizeof in, 0);
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == ECONNREFUSED || errno == EINTR)) {
+            if (now_ns() - last_heard > (int64_t)(timeout_s * 1e9)) {
+                if (packets == 0)
+                    fprintf(stderr, "error: no answer from a plant at %s:%s within %g s (is it running?)\n",
+                            argv[1], argv[2], timeout_s);
+                else
+                    fprintf(stderr, "error: the plant went silent for %g s after %ld packets\n", timeout_s, packets);
+                close(s);
+                return 4;
+            }
+            if (packets == 0) {     /* the plant may start after us: HELLO again */
+                if (errno == ECONNREFUSED) usleep(10000);
+                header(out, T_HELLO, seq, 0, 0);
+                seal(out, HELLO_LEN);
+                send(s, out, HELLO_LEN, 0);
+            }
+            continue;
+        }
         if (n <= 0 || !valid(in, n)) continue;
+        last_heard = now_ns();
+        if (packets == 0) {          /* from now on a silence of timeout_s is the plant's, not a slow start */
+            struct timeval tv = {(time_t)timeout_s, (suseconds_t)((timeout_s - (time_t)timeout_s) * 1e6)};
+            setsockopt(s, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+        }
         uint16_t type;
         memcpy(&type, in + 6, 2);
         if (type == T_BYE) break;

@@ -143,6 +143,8 @@ def hil(seconds: float, step: float, lockstep: bool = False) -> dict:
         t0 = time.perf_counter()
         r = run_hil(hil_scenario(tmp, seconds, step), tmp / "out", lockstep=lockstep, plot=False)
         res = {k: r.timing.get(k) for k in HIL_KEYS}
+        res["verdict"] = r.verdict["verdict"]
+        res["verdict_reasons"] = r.verdict["reasons"]
         if res["steps"]:
             res["overrun_fraction"] = (res["overruns"] or 0) / res["steps"]
         res.update({"step_s": step, "seconds": seconds, "xp_rms_vs_offline_mm": r.comparison["xp_rms_mm"],
@@ -265,6 +267,8 @@ def markdown(res: dict) -> str:
          f"{_f(rt5['jitter_us_max'])} µs", "p99 ≤ 50 µs"),
         ("real time 0.5 ms: overruns", f"{rt5['overruns']} of {rt5['steps']} ({rt5['overrun_fraction']:.3%})",
          "≤ 0.1 %"),
+        ("real time 0.5 ms: verdict (hil/verdict.py)",
+         rt5["verdict"] + (f" ({'; '.join(rt5['verdict_reasons'])})" if rt5["verdict_reasons"] else ""), "VALID"),
         ("real time 0.5 ms: drift (final wall − simulated time)", f"{_f(rt5['drift_ms'])} ms", "≤ 1 ms"),
         ("loopback RTT p50 / p99 (plant packet out → answering command in, kernel receive stamp)",
          f"{_f(rt5['rtt_us_p50'])} / {_f(rt5['rtt_us_p99'])} µs", "p99 ≤ 100 µs"),
