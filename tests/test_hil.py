@@ -325,3 +325,65 @@ def test_bind_non_loopback_needs_flag(tmp_path):
     assert r.returncode == 2 and "allow-remote" in r.stderr
     r = hh("hil", EXAMPLES / "sine_open_loop.toml", "--out", tmp_path / "x")
     assert r.returncode == 2 and "closed-loop" in r.stderr
+
+
+# ---- [hil] settings: safe state "hold", command scaling, clock-driven controller --------------------
+
+def _with_hil(tmp_path, name, hil_lines, duration=None):
+    text = (EXAMPLES / name).read_text()
+    if duration is not None:
+        text = text.replace("duration = 6.0", f"duration = {duration}")
+    path = tmp_path / f"hil_{name.replace('/', '_')}"
+    path.write_text(text + "\n[hil]\n" + "\n".join(hil_lines) + "\n")
+    return path
+
+
+def test_safe_state_hold_keeps_the_position_centre_does_not(tmp_path):
+    # the controller goes silent for 0.5 s during the move (t = 1.0-1.5 s): "centre" closes the valve and
+    # the closed-port pressures push the rod in; "hold" servoes on the position held at the trip
+    runs = {}
+    for state in ("centre", "hold"):
+        res = run_scenario(load_scenario(_with_hil(tmp_path, "faults/controller_silence.toml",
+                                                   [f'safe_state = "{state}"'])))
+        t, x, u = res.column("t"), res.column("xp"), res.column("u")
+        on = np.flatnonzero(res.column("watchdog") > 0)          # the flag a sensor reading of row k carried
+        trip, back = on[0] - 1, on[-1] - 1                       # the steps that tripped / last stepped safe
+        assert 1.04 < t[trip] < 1.06                              # trips 50 ms into the silence
+        held = x[trip]
+        runs[state] = np.max(np.abs(x[trip:back + 1] - held))
+        expected = np.clip(50.0 * (held - x[trip:back + 1]), -1, 1) if state == "hold" else 0.0
+        assert np.allclose(u[trip:back + 1], expected, rtol=0, atol=1e-12)   # the safe state's valve command
+    # measured: hold 0.38 mm (the piston was moving at the trip), centre 1.69 mm and still drifting
+    assert runs["hold"] < 1e-3 and runs["centre"] > 3 * runs["hold"]
+
+
+def test_command_scale_on_the_wire(tmp_path):
+    # [hil] command_scale = 10 (a +-10 V valve input): a command of 5.0 on the wire is u = 0.5 at the valve
+    scen = _with_hil(tmp_path, "fig11_p_control.toml", ["command_scale = 10.0"], duration=0.05)
+    plant, addr = start_plant(tmp_path, "--scenario", scen, "--lockstep")
+    with PlantClient(addr, timeout=10.0) as client:
+        for s in client.sensors():
+            client.send(5.0, answer=s)
+    finish(plant)
+    log = read_csv_columns(tmp_path / "plant_log.csv")
+    assert np.all(log["u"][1:] == 0.5)
+    # and the reference controller scales its commands the same way: lock-step HIL == offline
+    r = hh("hil", scen, "--out", tmp_path / "out", "--lockstep")
+    assert r.returncode == 0, r.stderr
+    hil = read_csv_columns(tmp_path / "out" / "plant_log.csv")
+    assert np.array_equal(hil["xp"], run_scenario(load_scenario(scen)).column("xp"))
+
+
+def test_clock_driven_controller_runs_the_loop(tmp_path):
+    # [hil] controller_mode = "clock": the controller acts on its own 0.5 ms clock on the newest packet
+    scen = _with_hil(tmp_path, "fig11_p_control.toml", ['controller_mode = "clock"'], duration=2.0)
+    r = hh("hil", scen, "--out", tmp_path / "out")
+    t = json.loads((tmp_path / "out" / "timing.json").read_text())
+    assert r.returncode == (0 if t["verdict"]["valid"] else 3), r.stderr
+    ctl = read_csv_columns(tmp_path / "out" / "controller_log.csv")
+    assert t["steps"] == 4000 and len(ctl["seq"]) > 1000       # it ran on its own clock
+    assert np.all(np.diff(ctl["seq"]) >= 0)                    # on the newest packet (the same one, if none came)
+    log = read_csv_columns(tmp_path / "out" / "plant_log.csv")
+    ref = np.interp(log["t"], [0.0, 0.5, 1.5, 2.0], [0.03, 0.03, 0.15, 0.15])
+    assert abs(log["xp"][-1] - 0.15) < 2e-3 and np.max(log["xp"]) < 0.16   # the loop closed and tracked
+    assert json.loads((tmp_path / "out" / "comparison.json").read_text())["replay_xp_max_abs_m"] == 0.0

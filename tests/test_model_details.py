@@ -1,0 +1,153 @@
+"""Parts of the hybrid model that the scenario tests do not reach on their own: the fractional delay, the
+orifice's laminar region, the event budget, the cavitation floor, the spool's limited modes and ends,
+and the reference solver's Radau fallback."""
+
+import numpy as np
+import pytest
+
+from hydrohil.models.cylinder import P_MIN
+from hydrohil.models.hybrid import MAX_EVENTS
+from hydrohil.models.layout import (AT_EXTEND, AT_RETRACT, FREE, LPM_PER_SQRT_BAR, P1, SPOOL_ACC_LIMITED,
+                                    SPOOL_AT_END, SPOOL_LINEAR, SPOOL_VEL_LIMITED, VP, VS, XP, XS)
+from hydrohil.models.valve import orifice_flow, orifice_slope
+from hydrohil.parameters import load_parameters
+from hydrohil.simulation.loop import HybridPlant
+
+
+# ---- fractional delay (SPEC §3.1: interpolated, not rounded) ---------------------------------------
+
+def _exact_delayed_average(u, h, delay, k, samples=20000):
+    """Mean over [k*h, (k+1)*h) of the zero-order-held sequence u delayed by ``delay``, by brute force."""
+    tau = k * h + (np.arange(samples) + 0.5) / samples * h - delay
+    j = np.floor(tau / h + 1e-12).astype(int)
+    return np.where(j < 0, u[0], u[np.clip(j, 0, len(u) - 1)]).mean()
+
+
+@pytest.mark.parametrize("delay", [7.625e-4, 1.0e-3, 2.2e-4])
+def test_fractional_delay_is_the_exact_shift_averaged_over_the_step(delay):
+    h = 5e-4
+    prm = load_parameters("ferreira2004", {"spool.delay": delay})
+    plant = HybridPlant(prm, h=h, xp=0.09)
+    u = np.random.default_rng(1).uniform(-0.2, 0.2, 60)
+    ud = np.array([plant.step(v)[13] for v in u])
+    exact = np.array([_exact_delayed_average(u, h, delay, k) for k in range(len(u))])
+    # the first steps average with the command held before t = 0 (the initial spool position, 0 here)
+    n0 = int(np.ceil(delay / h))
+    assert np.max(np.abs(ud[n0:] - exact[n0:])) < 2e-5        # brute-force quadrature error, 1/20000 of a jump
+
+
+# ---- orifice law (SPEC §3.2): turbulent exactly, C1 cubic inside the laminar region ---------------
+
+def test_orifice_laminar_region_value_and_slope():
+    area, dpt = 4.31, 1e5
+    k = area * LPM_PER_SQRT_BAR
+    for dp in (1e5, 3e5, 2e7, -1e5, -4e6):                     # at and beyond the transition: exactly turbulent
+        assert orifice_flow(area, dp, dpt) == np.sign(dp) * k * np.sqrt(abs(dp))
+    eps = 1e-3
+    for side in (1.0, -1.0):                                    # value and slope continuous at +-dp_t
+        lo, hi = orifice_flow(area, side * (dpt - eps), dpt), orifice_flow(area, side * (dpt + eps), dpt)
+        slope = orifice_slope(area, side * dpt, dpt)           # a jump would make this quotient huge
+        assert side * (hi - lo) / (2 * eps) == pytest.approx(slope, rel=1e-6)
+        assert orifice_slope(area, side * (dpt - eps), dpt) == pytest.approx(
+            orifice_slope(area, side * (dpt + eps), dpt), rel=1e-7)
+    assert orifice_flow(area, 0.0, dpt) == 0.0
+    assert orifice_slope(area, 0.0, dpt) == pytest.approx(1.25 * k / np.sqrt(dpt), rel=1e-12)   # finite at 0
+    for dp in np.linspace(-3e5, 3e5, 61):                        # slope = derivative of the flow everywhere
+        d = 1e-2
+        num = (orifice_flow(area, dp + d, dpt) - orifice_flow(area, dp - d, dpt)) / (2 * d)
+        assert orifice_slope(area, dp, dpt) == pytest.approx(num, rel=1e-6)
+    r = 0.5                                                     # inside: odd and below the square root
+    assert orifice_flow(area, -r * dpt, dpt) == -orifice_flow(area, r * dpt, dpt)
+    assert 0 < orifice_flow(area, r * dpt, dpt) < k * np.sqrt(r * dpt)
+
+
+# ---- event budget: more than MAX_EVENTS guard crossings in one step --------------------------------
+
+def test_event_budget_exhaustion_keeps_a_valid_state():
+    # a 0.5 kg piston driven at 20 Hz near the retract stop with a 2 ms step: stop impacts, stick-slip and
+    # leaving the stop crowd into single steps (found by search); the step must spend its budget, take the
+    # rest of the step in the mode it reached, and leave a state that is valid for that mode
+    prm = load_parameters("ferreira2004", {"load.mass": 0.5, "load.gravity_direction": 0})
+    h = 2e-3
+    plant = HybridPlant(prm, h=h, xp=0.002)
+    exhausted = 0
+    for k in range(8):          # (a 0.5 kg load at 2 ms is far outside the stable step: only the first steps)
+        out = plant.step(0.05 * np.sin(2 * np.pi * 20 * k * h))
+        exhausted += out[12] == MAX_EVENTS + 1
+        assert np.all(np.isfinite(plant.y))
+        travel = plant.m[0]
+        if travel == FREE:
+            assert 0.0 <= plant.y[XP] <= prm.cylinder.stroke
+        else:
+            assert plant.y[XP] == (0.0 if travel == AT_RETRACT else prm.cylinder.stroke) and plant.y[VP] == 0.0
+    assert exhausted >= 1
+
+
+# ---- cavitation floor (SPEC §4) ---------------------------------------------------------------------
+
+def test_pressure_floor_under_cavitation():
+    # valve centred with its lands sealed, a 20 kN force pulling the rod out: chamber 1 expands with no
+    # inflow and its pressure falls to the floor, never below
+    prm = load_parameters("ferreira2004", {"valve.k": [0, 0, 0, 0, 0], "valve.kt": [0, 0, 0, 0, 0],
+                                           "load.force": -2e4, "load.gravity_direction": 0, "cylinder.g_lkc": 0.0})
+    plant = HybridPlant(prm, xp=0.02, p1=5e5, p2=5e5)
+    p1 = np.array([plant.step(0.0)[3] for _ in range(60)])
+    assert (p1 >= P_MIN).all() and p1.min() == P_MIN
+    assert np.sum(p1 == P_MIN) >= 3                              # it stays on the floor while chamber 1 grows
+
+
+# ---- spool: linear, acceleration- and velocity-limited, at its ends (SPEC §3.1) ---------------------
+
+def test_spool_modes_and_mechanical_end(paper):
+    plant = HybridPlant(paper, xp=0.09)
+    small = [int(plant.step(0.02)[11]) for _ in range(40)]
+    assert set(small) == {SPOOL_LINEAR}                          # 2 %: far from every limit
+    plant = HybridPlant(paper, xp=0.09)
+    modes, xs, vs = [], [], []
+    for _ in range(40):
+        out = plant.step(1.0)
+        modes.append(int(out[11]))
+        xs.append(plant.y[XS])
+        vs.append(plant.y[VS])
+    modes, xs, vs = np.array(modes), np.array(xs), np.array(vs)
+    i_acc, i_vel, i_end = (np.argmax(modes == m) for m in (SPOOL_ACC_LIMITED, SPOOL_VEL_LIMITED, SPOOL_AT_END))
+    assert modes[i_acc] == SPOOL_ACC_LIMITED and modes[i_vel] == SPOOL_VEL_LIMITED and modes[i_end] == SPOOL_AT_END
+    assert i_acc < i_vel < i_end                                  # a full step: accelerate, slew, reach the end
+    assert np.max(np.abs(vs)) <= paper.spool.lv                   # velocity limit, no wind-up
+    assert xs.max() == 1.0 and np.all(vs[xs == 1.0] == 0.0)      # held at the end, not through it
+    assert np.all(modes[i_end:][xs[i_end:] == 1.0] == SPOOL_AT_END)
+
+
+def test_reference_spool_end_is_a_stiff_stop(paper):
+    from hydrohil.solvers.reference import solve_reference
+    from hydrohil.models.layout import pack
+    from hydrohil.simulation.loop import initial_state
+    p = pack(paper)
+    y0, _ = initial_state(paper, 0.09, p=p)
+    status, _, log, _ = solve_reference(p, y0, 5e-4, 80, u_open=np.full(81, 1.0))
+    xs = log[:, 3]
+    assert status == 0 and 0.999 < xs.max() <= 1.002           # penetration ~ Lv/omega = 1.3e-3 at most
+    assert abs(xs[-1] - 1.0) < 1e-4                             # resting on the stop
+
+
+# ---- the reference solver's Radau fallback -----------------------------------------------------------
+
+def test_reference_radau_fallback_and_failure(monkeypatch):
+    from conftest import EXAMPLES
+    from hydrohil.simulation.run import run_scenario
+    from hydrohil.simulation.scenario import load_scenario
+    from hydrohil.solvers import reference
+    sc = load_scenario(EXAMPLES / "fig11_p_control.toml", duration=0.05, solver="reference")
+    normal = run_scenario(sc)
+    assert normal.extra["reference_radau_fallbacks"] == 0
+    monkeypatch.setattr(reference, "LSODA_MXSTEP", 3)              # LSODA gives up on almost every interval
+    fallback = run_scenario(sc)
+    assert fallback.diverged is None
+    assert fallback.extra["reference_radau_fallbacks"] > 50
+    assert np.max(np.abs(fallback.column("xp") - normal.column("xp"))) < 1e-8   # same tolerances, same answer
+
+    class Failed:
+        success, message = False, "step size too small (forced by the test)"
+    monkeypatch.setattr(reference, "solve_ivp", lambda *a, **k: Failed())
+    failed = run_scenario(sc)
+    assert failed.diverged is not None and "Radau (step size too small" in str(failed.diverged)
