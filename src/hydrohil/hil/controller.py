@@ -104,7 +104,7 @@ class PlantClient:
             if self.received == 0 and now - self.t_hello > HELLO_EVERY_S:
                 self._hello()
             try:
-                if self.busy_poll:
+                if self.busy_poll and self.received:      # spin only once the plant streams (not while it starts)
                     if self.nap and self.last_arrival is not None:
                         nap = self.last_arrival + self.period - SPIN_S - time.perf_counter()
                         if nap > 0:
@@ -128,8 +128,11 @@ class PlantClient:
             if isinstance(msg, pr.Sensor):
                 self.last_arrival = time.perf_counter()
                 self.received += 1
-                if self.received == 1 and self.on_connect is not None:
-                    self.on_connect(msg)
+                if self.received == 1:
+                    if msg.status & pr.ST_LOCKSTEP:
+                        self.busy_poll = False      # no clock to keep: spinning would only starve the plant
+                    if self.on_connect is not None:
+                        self.on_connect(msg)
                 if self.last_seq >= 0 and msg.header.seq > self.last_seq + 1:
                     self.lost += msg.header.seq - self.last_seq - 1
                 self.last_seq = max(self.last_seq, msg.header.seq)

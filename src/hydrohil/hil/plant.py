@@ -51,17 +51,22 @@ def parse_address(text: str, *, allow_remote: bool = False) -> tuple[str, int]:
     return host, int(port)
 
 
+def _pin(cpu: int | None):
+    """Pin this process to ``cpu`` (None: leave it); returns what was granted, for ``timing.json``."""
+    if cpu is None:
+        return None
+    try:
+        os.sched_setaffinity(0, {cpu})
+        return cpu
+    except (OSError, AttributeError) as exc:
+        return f"not permitted ({exc.__class__.__name__})"
+
+
 def realtime_setup(cpu: int | None, *, spin: bool = False) -> dict:
     """Best effort: pin to ``cpu``, SCHED_FIFO priority (``spin``: normal policy at nice -20 instead: a FIFO
     task that never sleeps is stopped by the kernel's RT throttling), 1-ns timer slack, memory locked.
     Reports what was granted."""
-    rep = {"cpu": None, "rt_priority": "not requested", "timer_slack": "default", "memory_locked": False}
-    if cpu is not None:
-        try:
-            os.sched_setaffinity(0, {cpu})
-            rep["cpu"] = cpu
-        except (OSError, AttributeError) as exc:
-            rep["cpu"] = f"not permitted ({exc.__class__.__name__})"
+    rep = {"cpu": _pin(cpu), "rt_priority": "not requested", "timer_slack": "default", "memory_locked": False}
     try:
         if spin:
             os.setpriority(os.PRIO_PROCESS, 0, -20)
@@ -226,8 +231,8 @@ class PlantServer:
 
     def run(self, progress=None) -> dict:
         """Serve until ``duration`` is simulated, the controller says BYE/stop, or a fault. Returns timing."""
-        if self.lockstep:
-            rt = {"cpu": None, "rt_priority": "lock-step", "timer_slack": "default"}
+        if self.lockstep:      # no clock, no priority; pinned apart from a spinning controller all the same
+            rt = {"cpu": _pin(self.cpu), "rt_priority": "lock-step", "timer_slack": "default"}
         else:
             rt = realtime_setup(self.cpu, spin=self.spin)
         h_ns = int(round(self.h * 1e9))

@@ -165,7 +165,9 @@ def _hil(r: Reproduction, name: str, fname: str) -> None:
     res = run_hil(EXPERIMENTS_DIR / fname, r.out / name, lockstep=r.lockstep)
     keys = ("steps", "overruns", "jitter_us_p50", "jitter_us_p99", "jitter_us_max", "rtt_us_p50", "rtt_us_p99",
             "packets_lost", "watchdog_trips", "drift_ms")
-    r.results[name] = {"timing": {k: res.timing.get(k) for k in keys}, "comparison": res.comparison}
+    timing = {k: res.timing.get(k) for k in keys}
+    timing["verdict"] = " — ".join([res.verdict["verdict"], *res.verdict["reasons"]])
+    r.results[name] = {"timing": timing, "comparison": res.comparison}
     r.figures[name] = [f"{name}/report.png"]
 
 
