@@ -153,14 +153,16 @@ def fuzz_live_plant(n: int = 1_000_000, rate_hz: float = 20_000.0, seed: int = 0
             if wait > 0:
                 time.sleep(wait)
     fuzz_wall = time.perf_counter() - t0
+    sent_while_plant_ran = plant.poll() is None        # else the last datagrams found no socket (a slow sender)
     sock.close()
     ctl_rc = ctl.wait(timeout=duration + 60)
     plant_rc = plant.wait(timeout=60)
-    verdict = json.loads((out / "plant" / "timing.json").read_text())["verdict"]
     timing = json.loads((out / "plant" / "timing.json").read_text())
     res = {"datagrams": n, "sent_malformed": bad, "sent_well_formed": good, "fuzz_wall_s": fuzz_wall,
-           "plant_exit": plant_rc, "controller_exit": ctl_rc, "verdict": verdict,
+           "plant_exit": plant_rc, "controller_exit": ctl_rc, "verdict": timing["verdict"],
+           "sent_while_plant_ran": sent_while_plant_ran,
            **{k: timing.get(k) for k in ("steps", "steps_planned", "packets_bad", "packets_foreign", "packets_rx",
+                                         "packets_dropped_kernel",
                                          "packets_lost", "watchdog_trips", "late_commands", "overruns",
                                          "jitter_us_p50", "jitter_us_p99", "jitter_us_p999", "jitter_us_max",
                                          "rtt_us_p99", "drift_ms")}}

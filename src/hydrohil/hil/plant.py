@@ -95,6 +95,7 @@ class Counters:
     packets_lost: int = 0
     packets_reordered: int = 0
     late_commands: int = 0
+    packets_dropped_kernel: int = 0     # discarded by the kernel: the socket's receive buffer was full
 
 
 class PlantServer:
@@ -146,7 +147,9 @@ class PlantServer:
         self.rig.warm_up()
 
     # -- receiving --------------------------------------------------------------------------------
-    def _receive(self, data: bytes, addr, t_arr: int, t_kernel: int | None) -> None:
+    def _receive(self, data: bytes, addr, t_arr: int, t_kernel: int | None, drops: int | None = None) -> None:
+        if drops is not None:
+            self.c.packets_dropped_kernel = drops
         msg = pr.decode(data)
         if msg is None:
             self.c.packets_bad += 1
@@ -178,10 +181,10 @@ class PlantServer:
     def _drain(self) -> None:
         while True:
             try:
-                data, addr, t_kernel = recv_stamped(self.sock, pr.MAX_DATAGRAM + 1)
+                data, addr, t_kernel, drops = recv_stamped(self.sock, pr.MAX_DATAGRAM + 1)
             except BlockingIOError:
                 return
-            self._receive(data, addr, time.perf_counter_ns(), t_kernel)
+            self._receive(data, addr, time.perf_counter_ns(), t_kernel, drops)
 
     def _wait_until(self, deadline_ns: int) -> None:
         """Sleep on the socket (handling arrivals) until ``spin_ns`` before the deadline, then spin."""
@@ -196,10 +199,10 @@ class PlantServer:
                 self._drain()
         while time.perf_counter_ns() < deadline_ns:   # spin, still time-stamping arrivals
             try:
-                data, addr, t_kernel = recv_stamped(sock, pr.MAX_DATAGRAM + 1)
+                data, addr, t_kernel, drops = recv_stamped(sock, pr.MAX_DATAGRAM + 1)
             except BlockingIOError:
                 continue
-            self._receive(data, addr, time.perf_counter_ns(), t_kernel)
+            self._receive(data, addr, time.perf_counter_ns(), t_kernel, drops)
 
     # -- sending ----------------------------------------------------------------------------------
     def _send_sensor(self, k: int, status: int) -> Reading:
@@ -312,8 +315,8 @@ class PlantServer:
                 return False
             r, _, _ = select.select([self.sock], [], [], min(left, 0.2))
             if r:
-                data, addr, t_kernel = recv_stamped(self.sock, pr.MAX_DATAGRAM + 1)
-                self._receive(data, addr, time.perf_counter_ns(), t_kernel)
+                data, addr, t_kernel, drops = recv_stamped(self.sock, pr.MAX_DATAGRAM + 1)
+                self._receive(data, addr, time.perf_counter_ns(), t_kernel, drops)
         return self.c.packets_rx > 0
 
     def _wait_lockstep(self, k: int) -> None:
@@ -360,6 +363,7 @@ class PlantServer:
             "packets_rx": self.c.packets_rx, "packets_bad": self.c.packets_bad,
             "packets_foreign": self.c.packets_foreign, "packets_lost": self.c.packets_lost,
             "packets_reordered": self.c.packets_reordered, "late_commands": self.c.late_commands,
+            "packets_dropped_kernel": self.c.packets_dropped_kernel,
             "watchdog_trips": self.rig.watchdog_trips,
             "watchdog_trips_unexplained": self.rig.watchdog_trips_unexplained,
             "commands_delivered": self.rig.commands_delivered,
