@@ -197,7 +197,7 @@ def steady_sine_response(p, amplitude, freq, spp, tol, max_half_periods):
        radius of the Jacobian of H, by finite differences, < 1): a measurement never shows an unstable
        periodic response. Measured against a plain simulation from rest for 1500 periods (200 random
        points, ωn 500–2000 rad/s, ξ 0.3–1, Lv 50–400 1/s, La 2e4–3e5 1/s², 3–60 %, 10–300 Hz): the same
-       gain within 5e-9 dB and phase within 5e-8°, after a median 7 and at most 26 half periods.
+       gain within 5e-9 dB and phase within 7e-8°, after a median 7 and at most 26 half periods.
     2. Otherwise (no such fixed point within ACCEL_HALF_PERIODS, or a repelling one: lightly damped,
        strongly acceleration-limited spools can have several periodic responses, or a subharmonic one),
        the sine is simulated from rest period by period until two successive periods agree: the
