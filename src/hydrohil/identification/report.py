@@ -8,6 +8,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter  # noqa: E402
 import numpy as np  # noqa: E402
 
 from hydrohil.identification.bulk_modulus import beta_eq21  # noqa: E402
@@ -24,26 +25,34 @@ def _save(fig, path: Path) -> Path:
 
 
 def plot_spool(fit: Fit, out: Path) -> list[Path]:
-    """Fig 4: Bode gain and phase, datasheet points vs fitted model, per input amplitude."""
+    """Fig 4: Bode gain and phase per input amplitude on a log frequency axis: the datasheet points as
+    markers, the fitted model (periodic steady state, delay included) as curves on a dense log grid."""
     c = fit.curves
     fig, ax = plt.subplots(2, 1, figsize=(8, 8), sharex=True)
     for i, a in enumerate(np.unique(c["amplitude"])):
-        m = c["amplitude"] == a
-        o = np.argsort(c["frequency_hz"][m])
-        f = c["frequency_hz"][m][o]
         col = f"C{i}"
-        ax[0].plot(f, c["gain_db"][m][o], "o", color=col, ms=4, label=f"data {a:.0%}")
-        ax[0].plot(f, c["gain_fit"][m][o], "-", color=col, label=f"model {a:.0%}")
-        ax[1].plot(f, c["phase_deg"][m][o], "o", color=col, ms=4)
-        ax[1].plot(f, c["phase_fit"][m][o], "-", color=col)
+        m = c["amplitude"] == a
+        ax[0].plot(c["frequency_hz"][m], c["gain_db"][m], "o", color=col, ms=4, mfc="none", label=f"data {a:.0%}")
+        ax[1].plot(c["frequency_hz"][m], c["phase_deg"][m], "o", color=col, ms=4, mfc="none")
+        md = c["model_amplitude"] == a
+        o = np.argsort(c["model_frequency_hz"][md])
+        fd = c["model_frequency_hz"][md][o]
+        ax[0].plot(fd, c["model_gain_db"][md][o], "-", color=col, lw=1.2, label=f"model {a:.0%}")
+        ax[1].plot(fd, c["model_phase_deg"][md][o], "-", color=col, lw=1.2)
     v = fit.values
     ax[0].set_title(f"spool: ωn = {v['wn']:.1f} rad/s, ξ = {v['xi']:.3f}, Lv = {v['lv']:.1f} 1/s, "
-                    f"La = {v['la']:.4g} 1/s², Δt = {v['delay'] * 1e3:.3f} ms", fontsize=9)
+                    f"La = {v['la']:.4g} 1/s², Δt = {v['delay'] * 1e3:.3f} ms\n"
+                    f"gain RMS {fit.achieved['gain_rms_db']:.2f} dB, phase RMS {fit.achieved['phase_rms_deg']:.1f}°; "
+                    "model at its periodic steady state", fontsize=9)
     ax[0].set_ylabel("gain [dB]")
     ax[1].set_ylabel("phase [deg]")
     ax[1].set_xlabel("frequency [Hz]")
+    ax[1].set_xscale("log")
+    ax[1].xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0)))
+    ax[1].xaxis.set_major_formatter(ScalarFormatter())
+    ax[1].xaxis.set_minor_formatter(NullFormatter())
     for a in ax:
-        a.grid(alpha=0.3)
+        a.grid(alpha=0.3, which="both")
     ax[0].legend(fontsize=8, ncol=2)
     return [_save(fig, out / "fig4_spool_bode.png")]
 

@@ -130,7 +130,8 @@ def write_markdown(r: Reproduction) -> None:
         f"{platform.processor() or platform.platform()}, Python {platform.python_version()}), except the "
         "paper's values, quoted with their section. HIL runs: " + res["mode"]["hil"] + ".", "",
         "**Synthetic measurements.** We have no rig: the measured data of the paper are replaced by synthetic "
-        "data in `data/` (spool Bode curves from the spool model, acceleration amplitudes from the linear model, "
+        "data in `data/` (spool Bode curves from the spool model at its periodic steady state, acceleration "
+        "amplitudes from the linear model's frequency response, "
         "constant-velocity friction points from eq 25, a drift series, and the open-loop sine of Fig 10 run on "
         "the continuous reference model — LSODA, continuous LuGre, stiff end stops — with 1 µm encoder "
         "quantisation and 0.02 bar pressure noise), made with the paper's parameter set `ferreira2004`. "

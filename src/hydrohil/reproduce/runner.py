@@ -1,7 +1,8 @@
 """``hydrohil reproduce``: every figure and number of the paper that a model can produce, in one run.
 
 The rig's measurements are replaced by synthetic ones, labelled as such in the report:
-  * spool Bode "datasheet" curves: the spool model (eq 1-2) with the paper's values + 0.1 dB / 1° noise;
+  * spool Bode "datasheet" curves: the spool model (eq 1-2) with the paper's values at its periodic steady
+    state (SPEC §9.1) + 0.1 dB / 1° noise;
   * valve datasheet: the paper's own characteristics (§3.1.2), no synthetic data needed;
   * acceleration amplitudes (Fig 7): the linear model (eq 20) with βe from eq 21 (paper's B, C) + 1 % noise;
   * drift test: a 200 s position series with the paper's drift and P2 (§3.2.2) + 0.5 µm / 0.02 bar noise;
