@@ -14,10 +14,34 @@ import typer
 
 from hydrohil.errors import HydrohilError
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+# rich_markup_mode=None: help texts are plain text, so bracketed units such as "[s]", "[s:m]" and "[hil]"
+# are printed as written (rich markup would swallow them as style tags)
+app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                   help="hydrohil: hybrid valve-cylinder models, identification and real-time HIL simulation.")
-params_app = typer.Typer(no_args_is_help=True, help="Inspect parameter sets.")
+params_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None, help="Inspect parameter sets.")
 app.add_typer(params_app, name="params")
+
+
+def package_version() -> str:
+    """The installed distribution's version (what pip reports), else the package's ``__version__``."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("hydrohil")
+    except PackageNotFoundError:
+        from hydrohil import __version__
+        return __version__
+
+
+def _print_version(value: bool):
+    if value:
+        typer.echo(f"hydrohil {package_version()}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
+                                       help="print the version and exit")):
+    pass    # the app's help text is the one given to typer.Typer above
 
 
 def _fail(exc: HydrohilError):
