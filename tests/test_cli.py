@@ -103,3 +103,11 @@ def test_version():
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == f"hydrohil {version('hydrohil')}"
 
+
+def test_simulate_no_plot_reports_only_files_written(tmp_path):
+    r = hh("simulate", EXAMPLES / "sine_open_loop.toml", "--out", tmp_path, "--no-plot")
+    assert r.returncode == 0, r.stderr
+    assert not (tmp_path / "simulation.png").exists()
+    assert "simulation.png" not in r.stdout
+    assert "log.csv" in r.stdout and "summary.json" in r.stdout
+    assert (tmp_path / "log.csv").exists() and (tmp_path / "summary.json").exists()

@@ -100,9 +100,10 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
         s = simulate(scenario, out, solver, step, plot)
     except HydrohilError as exc:
         _fail(exc)
+    written = ", ".join(["log.csv", "summary.json"] + (["simulation.png"] if plot else []))
     typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']}: wall {s['wall_time_s']:.3f} s, "
                f"real-time factor {s['realtime_factor']:.0f}; final xp = {s['final_state']['xp'] * 1e3:.3f} mm; "
-               f"wrote {out}/log.csv, summary.json, simulation.png")
+               f"wrote {out}/{written}")
 
 
 @app.command("maxstep")
