@@ -30,3 +30,15 @@ class SimulationDiverged(HydrohilError):
         st = ", ".join(f"{k}={v:.6g}" for k, v in state.items())
         md = ", ".join(f"{k}={v}" for k, v in modes.items())
         super().__init__(f"simulation diverged at t = {t:.6f} s ({reason}); modes: {md}; state: {st}")
+
+
+def unknown_name(name: str, valid, what: str = "key", prefix: str = "") -> str:
+    """Message for a name that is not one of ``valid``, with the closest valid one (difflib) when there is
+    one: ``unknown key 'duraton' (did you mean 'duration'?)``, otherwise the valid names. ``prefix``
+    (``supply.``) is shown before the unknown name and the suggestion but takes no part in the matching."""
+    import difflib
+    valid = [str(v) for v in valid]
+    close = difflib.get_close_matches(str(name), valid, n=1, cutoff=0.6)
+    if close:
+        return f"unknown {what} '{prefix}{name}' (did you mean '{prefix}{close[0]}'?)"
+    return f"unknown {what} '{prefix}{name}' (valid: {', '.join(valid) if valid else 'none'})"
