@@ -251,3 +251,22 @@ def test_range_errors_state_bound_and_unit(tmp_path, edit, expected):
         load_scenario(f)
     assert str(e.value) == f"{f}: {expected}"
 
+
+def test_reference_beyond_stroke_warns_and_runs(tmp_path):
+    d = copy.deepcopy(FIG11)
+    d["reference"]["x"] = [0.03, 0.03, 0.25, 0.25, 0.03, 0.03]    # the stroke is 0.18 m
+    d["duration"] = 2.0
+    f = _write(tmp_path, "far.toml", d)
+    with pytest.warns(UserWarning, match=r"reference\.x = 0\.25 m .*outside the stroke \[0, 0\.18\] m"):
+        load_scenario(f)
+    r = hh("simulate", f, "--out", tmp_path / "out", "--no-plot")
+    assert r.returncode == 0, r.stderr
+    assert f"warning: {f}: reference.x = 0.25 m (at t = 1.5 s) lies outside the stroke [0, 0.18] m" in r.stderr
+    assert (tmp_path / "out" / "log.csv").exists()
+
+
+def test_reference_inside_stroke_does_not_warn():
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_scenario(EXAMPLES / "fig11_p_control.toml")

@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import json
 import sys
+import warnings
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-from hydrohil.errors import HydrohilError
+from hydrohil.errors import HydrohilError, InputWarning
 
 # rich_markup_mode=None: help texts are plain text, so bracketed units such as "[s]", "[s:m]" and "[hil]"
 # are printed as written (rich markup would swallow them as style tags)
@@ -573,7 +574,19 @@ def bench_cmd(json_path: Optional[Path] = typer.Option(None, "--json", help="wri
     typer.echo(markdown(res))
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Input warnings as one ``warning: ...`` line on stderr (no source location); others as Python's."""
+    if issubclass(category, InputWarning):
+        typer.echo(f"warning: {message}", err=True)
+    else:
+        _python_showwarning(message, category, filename, lineno, file, line)
+
+
+_python_showwarning = warnings.showwarning
+
+
 def main():
+    warnings.showwarning = _show_warning
     app()
 
 

@@ -20,6 +20,10 @@ class InputError(HydrohilError):
         super().__init__(f"{where}: {message}" if where else message)
 
 
+class InputWarning(UserWarning):
+    """Input that loads but is probably not what the user meant (the CLI prints it as ``warning: ...``)."""
+
+
 class SimulationDiverged(HydrohilError):
     """The integration produced a non-finite or unphysical state (exit 1)."""
 
