@@ -83,8 +83,8 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
         from hydrohil.plotting import plot_run
         plot_run(out / "simulation.png", res.column("t"), res.column("xp"), res.column("p1"), res.column("p2"),
                  res.column("u"), res.column("xs"), res.column("travel_mode"), res.column("friction_mode"),
-                 xref=extra.get("x_ref"), title=f"{scenario.name} — {res.solver}, h = {res.step:g} s",
-                 faults=res.columns.get("faults"))
+                 res.column("spool_mode"), xref=extra.get("x_ref"),
+                 title=f"{scenario.name} — {res.solver}, h = {res.step:g} s", faults=res.columns.get("faults"))
     if res.diverged:
         raise res.diverged
     return summary
