@@ -184,7 +184,8 @@ def test_misspelt_key_is_named_with_a_suggestion_exit_2_nothing_written(tmp_path
     (FIG11, ("solver", "method"), "methd", "unknown key 'solver.methd' (did you mean 'solver.method'?)"),
     (FIG11, ("controller", "kp"), "kpp", "unknown key 'controller.kpp' (did you mean 'controller.kp'?)"),
     (FIG11, ("reference", "x"), "xx", "unknown key 'reference.xx' (did you mean 'reference.x'?)"),
-    (SCENARIO, ("faults", 0, "section"), "sectoin", "unknown key 'faults.0.sectoin' (did you mean 'faults.0.section'?)"),
+    (SCENARIO, ("faults", 0, "section"), "sectoin",
+     "unknown key 'faults.0.sectoin' (did you mean 'faults.0.section'?)"),
     (SCENARIO, ("initial", "xp"), "x_p", "unknown key 'initial.x_p' (did you mean 'initial.xp'?)"),
 ])
 def test_misspelt_scenario_key_suggests_the_closest(tmp_path, base, path, typo, expected):

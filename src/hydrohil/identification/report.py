@@ -150,7 +150,8 @@ def plot_friction_dynamic(fit: Fit, out: Path) -> list[Path]:
     res = fig.add_subplot(gs[2], sharex=full)
     pos = fig.add_subplot(gs[3], sharex=full)
     full.plot(t, fh, lw=0.8, color="C0", label="measured Fh = P1·A1 − P2·A2")
-    full.plot(t, fit_fh, lw=0.8, color="C1", alpha=0.8, label=f"model, identified σ0 = {s0:.3g} N/m, σ1 = {s1:.3g} N·s/m")
+    full.plot(t, fit_fh, lw=0.8, color="C1", alpha=0.8,
+              label=f"model, identified σ0 = {s0:.3g} N/m, σ1 = {s1:.3g} N·s/m")
     w0, w1 = _busiest_window(t, fh, width=min(0.3, (t[-1] - t[0]) / 4), skip=0.2)
     full.axvspan(w0, w1, color="0.5", alpha=0.2, label="zoomed below")
     full.set_title("(a) hydraulic force over the run", fontsize=10, loc="left")
