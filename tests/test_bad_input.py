@@ -154,3 +154,120 @@ def test_non_finite_datasheet_value_is_rejected(tmp_path, value):
     f = _write(tmp_path, "datasheet.toml", d)
     with pytest.raises(InputError, match="qn_lpm"):
         identify("valve-static", f, load_parameters("ferreira2004"))
+
+
+FIG11 = read_toml(EXAMPLES / "fig11_p_control.toml")
+
+
+def _renamed(d, path, new):
+    """``d`` with the key at ``path`` renamed to ``new`` (a misspelling)."""
+    d = copy.deepcopy(d)
+    node = d
+    for part in path[:-1]:
+        node = node[part]
+    node[new] = node.pop(path[-1])
+    return d
+
+
+def test_misspelt_key_is_named_with_a_suggestion_exit_2_nothing_written(tmp_path):
+    f = _write(tmp_path, "typo.toml", _renamed(FIG11, ("duration",), "duraton"))
+    out = tmp_path / "out"
+    r = hh("simulate", f, "--out", out)
+    assert r.returncode == 2, r.stderr
+    line = r.stderr.strip().splitlines()[-1]
+    assert line == f"error: {f}: unknown key 'duraton' (did you mean 'duration'?)"
+    assert "missing key" not in r.stderr
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("base, path, typo, expected", [
+    (FIG11, ("solver", "method"), "methd", "unknown key 'solver.methd' (did you mean 'solver.method'?)"),
+    (FIG11, ("controller", "kp"), "kpp", "unknown key 'controller.kpp' (did you mean 'controller.kp'?)"),
+    (FIG11, ("reference", "x"), "xx", "unknown key 'reference.xx' (did you mean 'reference.x'?)"),
+    (SCENARIO, ("faults", 0, "section"), "sectoin",
+     "unknown key 'faults.0.sectoin' (did you mean 'faults.0.section'?)"),
+    (SCENARIO, ("initial", "xp"), "x_p", "unknown key 'initial.x_p' (did you mean 'initial.xp'?)"),
+])
+def test_misspelt_scenario_key_suggests_the_closest(tmp_path, base, path, typo, expected):
+    f = _write(tmp_path, "typo.toml", _renamed(base, path, typo))
+    with pytest.raises(InputError) as e:
+        load_scenario(f)
+    assert str(e.value) == f"{f}: {expected}"
+
+
+def test_misspelt_key_far_from_any_lists_the_valid_ones(tmp_path):
+    d = copy.deepcopy(FIG11)
+    d["solver"]["zzzzzz"] = 1
+    f = _write(tmp_path, "typo.toml", d)
+    with pytest.raises(InputError, match=r"unknown key 'solver.zzzzzz' \(valid: method, step, output_every, rtol\)"):
+        load_scenario(f)
+
+
+def test_misspelt_fault_type_suggests_the_closest(tmp_path):
+    d = copy.deepcopy(SCENARIO)
+    d["faults"][0]["type"] = "hose_brust"
+    f = _write(tmp_path, "typo.toml", d)
+    with pytest.raises(InputError) as e:
+        load_scenario(f)
+    assert str(e.value) == f"{f}: faults.0.type: unknown type 'hose_brust' (did you mean 'hose_burst'?)"
+
+
+def test_misspelt_parameter_key_suggests_the_closest(tmp_path):
+    f = _write(tmp_path, "params.toml", _renamed(PARAMS, ("cylinder", "stroke"), "strok"))
+    with pytest.raises(InputError) as e:
+        load_parameters(f)
+    assert str(e.value) == f"{f}: unknown key 'cylinder.strok' (did you mean 'cylinder.stroke'?)"
+
+
+@pytest.mark.parametrize("key, expected", [
+    ("supply.pss", "unknown parameter 'supply.pss' (did you mean 'supply.ps'?)"),
+    ("suply.ps", "unknown parameter group 'suply' (did you mean 'supply'?)"),
+    ("load.gravity_directon", "unknown parameter 'load.gravity_directon' (did you mean 'load.gravity_direction'?)"),
+])
+def test_misspelt_override_suggests_the_closest(tmp_path, key, expected):
+    d = copy.deepcopy(SCENARIO)
+    d["overrides"] = {key: 1}
+    f = _write(tmp_path, "typo.toml", d)
+    with pytest.raises(InputError) as e:
+        load_scenario(f)
+    assert str(e.value).startswith(f"{f}: overrides.{key}: {expected}")
+    r = hh("identify", "leakage", EXAMPLES / "identification" / "drift_test.toml", "--set", f"{key}=1")
+    assert r.returncode == 2 and expected in r.stderr, r.stderr       # the same for --set
+
+
+@pytest.mark.parametrize("edit, expected", [
+    (lambda d: d["solver"].update(step=-1), "solver.step: must be > 1e-09 [s], got -1"),
+    (lambda d: d.update(duration=7200.0), "duration: must be <= 3600 [s], got 7200.0"),
+    (lambda d: d.update(hil={"watchdog_timeout": 0}), "hil.watchdog_timeout: must be > 0 [s], got 0"),
+    (lambda d: d["faults"][0].update(section=-1.0), "faults.0.section: must be > 0 [(l/min)/sqrt(bar)], got -1.0"),
+    (lambda d: d["faults"][0].update(end=1e4), "faults.0.end: must be <= 3600 [s], got 10000.0"),
+    (lambda d: d.update(overrides={"cylinder.stroke": -0.1}), "overrides.cylinder.stroke: must be > 0 [m], got -0.1"),
+    (lambda d: d.update(overrides={"supply.ps": 70}), "overrides.supply.ps: must be > 100000 [Pa], got 70"),
+])
+def test_range_errors_state_bound_and_unit(tmp_path, edit, expected):
+    d = copy.deepcopy(SCENARIO)
+    edit(d)
+    f = _write(tmp_path, "bad.toml", d)
+    with pytest.raises(InputError) as e:
+        load_scenario(f)
+    assert str(e.value) == f"{f}: {expected}"
+
+
+def test_reference_beyond_stroke_warns_and_runs(tmp_path):
+    d = copy.deepcopy(FIG11)
+    d["reference"]["x"] = [0.03, 0.03, 0.25, 0.25, 0.03, 0.03]    # the stroke is 0.18 m
+    d["duration"] = 2.0
+    f = _write(tmp_path, "far.toml", d)
+    with pytest.warns(UserWarning, match=r"reference\.x = 0\.25 m .*outside the stroke \[0, 0\.18\] m"):
+        load_scenario(f)
+    r = hh("simulate", f, "--out", tmp_path / "out", "--no-plot")
+    assert r.returncode == 0, r.stderr
+    assert f"warning: {f}: reference.x = 0.25 m (at t = 1.5 s) lies outside the stroke [0, 0.18] m" in r.stderr
+    assert (tmp_path / "out" / "log.csv").exists()
+
+
+def test_reference_inside_stroke_does_not_warn():
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_scenario(EXAMPLES / "fig11_p_control.toml")

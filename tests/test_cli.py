@@ -83,3 +83,31 @@ def test_maxstep_hybrid_vs_continuous(tmp_path):
     assert hyb["max_stable_step"] >= 5e-4
     assert cont["max_stable_step"] < 1e-5
     assert hyb["max_stable_step"] / cont["max_stable_step"] >= 100
+
+
+def test_help_keeps_bracketed_units():
+    # rich markup used to swallow "[s]", "[hil]", "[s:m]", "[1/m]", "[m]" as style tags (issue #12)
+    expected = {"plant": ("[s]", "[hil]"), "controller": ("[hil]", "[s:m]", "[1/m]"), "hil": ("[hil]",),
+                "simulate": ("[s]",), "maxstep": ("[s]", "[m]", "[Pa]"), "bench": ("[s]",)}
+    for cmd, texts in expected.items():
+        r = hh(cmd, "--help")
+        assert r.returncode == 0, r.stderr
+        help_text = " ".join(r.stdout.split())          # undo the line wrapping
+        for text in texts:
+            assert text in help_text, f"`hydrohil {cmd} --help` lost {text}:\n{r.stdout}"
+
+
+def test_version():
+    from importlib.metadata import version
+    r = hh("--version")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == f"hydrohil {version('hydrohil')}"
+
+
+def test_simulate_no_plot_reports_only_files_written(tmp_path):
+    r = hh("simulate", EXAMPLES / "sine_open_loop.toml", "--out", tmp_path, "--no-plot")
+    assert r.returncode == 0, r.stderr
+    assert not (tmp_path / "simulation.png").exists()
+    assert "simulation.png" not in r.stdout
+    assert "log.csv" in r.stdout and "summary.json" in r.stdout
+    assert (tmp_path / "log.csv").exists() and (tmp_path / "summary.json").exists()

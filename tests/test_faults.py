@@ -284,11 +284,11 @@ def test_real_time_hil_with_controller_silence(tmp_path):
 
 
 @pytest.mark.parametrize("fault, message", [
-    ('type = "hose_burst"\nline = 3\nstart = 1.0', "faults.0.hose_burst.line"),
-    ('type = "sensor_stuck"\nsensor = "p9"\nstart = 1.0', "faults.0.sensor_stuck.sensor"),
-    ('type = "packet_loss"\nprobability = 1.5\nstart = 1.0', "faults.0.packet_loss.probability"),
+    ('type = "hose_burst"\nline = 3\nstart = 1.0', "faults.0.line"),
+    ('type = "sensor_stuck"\nsensor = "p9"\nstart = 1.0', "faults.0.sensor"),
+    ('type = "packet_loss"\nprobability = 1.5\nstart = 1.0', "faults.0.probability: must be <= 1, got 1.5"),
     ('type = "seal_wear"\ng_lkc = 1e-12\nstart = 2.0\nend = 1.0', "end"),
-    ('type = "meteor"\nstart = 1.0', "faults.0"),
+    ('type = "meteor"\nstart = 1.0', "faults.0.type: unknown type 'meteor'"),
     ('type = "load_change"\nstart = 1.0', "mass and/or force"),
     ('type = "spool_stuck"\nstart = 10.0', "after the end of the run"),
 ])

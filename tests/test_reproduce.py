@@ -8,6 +8,7 @@ import pytest
 from hydrohil.cli import bench, reproduce
 from hydrohil.parameters import load_parameters
 from hydrohil.reproduce.paper import PAPER
+from hydrohil.reproduce.report import FIGURES, figure_sections
 
 
 @pytest.fixture(scope="module")
@@ -26,6 +27,7 @@ def test_every_figure_and_file_written(repro):
         assert (out / rel).stat().st_size > 10_000, rel
     listed = [p for paths in res["figures"].values() for p in paths]
     assert set(expected) <= set(listed)
+    assert {path for _, path, _ in FIGURES} == set(listed)        # every figure has its own report heading
     for f in ("report.md", "results.json", "identified.toml", "data/spool_bode.csv", "data/friction_dynamic.csv",
               "fig11/plant_log.csv", "fig12/timing.json"):
         assert (out / f).stat().st_size > 0, f
@@ -40,7 +42,23 @@ def test_report_has_a_row_for_every_paper_number(repro):
         assert f"| {value:.4g} | {where} |" in text, key
     for title in ("Fig 4", "Fig 5a", "Fig 10", "Fig 11", "Fig 12", "Step size", "Identification round trips"):
         assert title in text
+    headings = [line for line in text.splitlines() if line.startswith("#")]
+    assert len(headings) == len(set(headings)), headings
     assert "nan" not in text.lower().replace("nanoseconds", "")
+
+
+def test_report_headings_one_per_figure():
+    # "Figs 7 and 8" and "Fig 10" used to head two different figures each
+    figures = {key: [] for key, _, _ in FIGURES}
+    for key, path, _ in FIGURES:
+        figures[key].append(path)
+    figures["extra"] = ["figures/new.png"]
+    sections = figure_sections(figures)
+    headings = [h for h, _ in sections]
+    assert len(headings) == len(set(headings)) == len(FIGURES) + 1
+    assert [p for _, p in sections] == [p for _, p, _ in FIGURES] + ["figures/new.png"]
+    for fig in ("Fig 7", "Fig 8"):
+        assert sum(h.startswith(fig + " ") for h in headings) == 1
 
 
 def test_key_numbers(repro):

@@ -7,17 +7,42 @@ from __future__ import annotations
 
 import json
 import sys
+import warnings
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-from hydrohil.errors import HydrohilError
+from hydrohil.errors import HydrohilError, InputWarning
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+# rich_markup_mode=None: help texts are plain text, so bracketed units such as "[s]", "[s:m]" and "[hil]"
+# are printed as written (rich markup would swallow them as style tags)
+app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                   help="hydrohil: hybrid valve-cylinder models, identification and real-time HIL simulation.")
-params_app = typer.Typer(no_args_is_help=True, help="Inspect parameter sets.")
+params_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None, help="Inspect parameter sets.")
 app.add_typer(params_app, name="params")
+
+
+def package_version() -> str:
+    """The installed distribution's version (what pip reports), else the package's ``__version__``."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("hydrohil")
+    except PackageNotFoundError:
+        from hydrohil import __version__
+        return __version__
+
+
+def _print_version(value: bool):
+    if value:
+        typer.echo(f"hydrohil {package_version()}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
+                                       help="print the version and exit")):
+    pass    # the app's help text is the one given to typer.Typer above
 
 
 def _fail(exc: HydrohilError):
@@ -58,8 +83,8 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
         from hydrohil.plotting import plot_run
         plot_run(out / "simulation.png", res.column("t"), res.column("xp"), res.column("p1"), res.column("p2"),
                  res.column("u"), res.column("xs"), res.column("travel_mode"), res.column("friction_mode"),
-                 xref=extra.get("x_ref"), title=f"{scenario.name} — {res.solver}, h = {res.step:g} s",
-                 faults=res.columns.get("faults"))
+                 res.column("spool_mode"), xref=extra.get("x_ref"),
+                 title=f"{scenario.name} — {res.solver}, h = {res.step:g} s", faults=res.columns.get("faults"))
     if res.diverged:
         raise res.diverged
     return summary
@@ -76,9 +101,10 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
         s = simulate(scenario, out, solver, step, plot)
     except HydrohilError as exc:
         _fail(exc)
+    written = ", ".join(["log.csv", "summary.json"] + (["simulation.png"] if plot else []))
     typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']}: wall {s['wall_time_s']:.3f} s, "
                f"real-time factor {s['realtime_factor']:.0f}; final xp = {s['final_state']['xp'] * 1e3:.3f} mm; "
-               f"wrote {out}/log.csv, summary.json, simulation.png")
+               f"wrote {out}/{written}")
 
 
 @app.command("maxstep")
@@ -631,7 +657,19 @@ def bench_cmd(json_path: Optional[Path] = typer.Option(None, "--json", help="wri
     typer.echo(markdown(res))
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Input warnings as one ``warning: ...`` line on stderr (no source location); others as Python's."""
+    if issubclass(category, InputWarning):
+        typer.echo(f"warning: {message}", err=True)
+    else:
+        _python_showwarning(message, category, filename, lineno, file, line)
+
+
+_python_showwarning = warnings.showwarning
+
+
 def main():
+    warnings.showwarning = _show_warning
     app()
 
 

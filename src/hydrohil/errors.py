@@ -26,6 +26,10 @@ class InputError(HydrohilError):
         super().__init__(f"{where}: {message}" if where else message)
 
 
+class InputWarning(UserWarning):
+    """Input that loads but is probably not what the user meant (the CLI prints it as ``warning: ...``)."""
+
+
 class SimulationDiverged(HydrohilError):
     """The integration produced a non-finite or unphysical state (exit 1)."""
 
@@ -62,3 +66,15 @@ class Interrupted(HydrohilError):
         self.signum = signum
         self.exit_code = 128 + int(signum)
         super().__init__(message or f"stopped by {signal.Signals(signum).name}")
+
+
+def unknown_name(name: str, valid, what: str = "key", prefix: str = "") -> str:
+    """Message for a name that is not one of ``valid``, with the closest valid one (difflib) when there is
+    one: ``unknown key 'duraton' (did you mean 'duration'?)``, otherwise the valid names. ``prefix``
+    (``supply.``) is shown before the unknown name and the suggestion but takes no part in the matching."""
+    import difflib
+    valid = [str(v) for v in valid]
+    close = difflib.get_close_matches(str(name), valid, n=1, cutoff=0.6)
+    if close:
+        return f"unknown {what} '{prefix}{name}' (did you mean '{prefix}{close[0]}'?)"
+    return f"unknown {what} '{prefix}{name}' (valid: {', '.join(valid) if valid else 'none'})"

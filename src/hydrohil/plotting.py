@@ -10,33 +10,52 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from hydrohil.models.layout import FRICTION_NAMES, TRAVEL_NAMES  # noqa: E402
+from hydrohil.models.layout import FRICTION_NAMES, SPOOL_NAMES, TRAVEL_NAMES  # noqa: E402
+
+# The three state machines of the hybrid model, one strip each: (label, state names, colour per state)
+MODE_STRIPS = (("travel", TRAVEL_NAMES, ("0.85", "tab:blue", "tab:red")),
+               ("friction", FRICTION_NAMES, ("0.35", "tab:green", "tab:purple")),
+               ("spool", SPOOL_NAMES, ("0.85", "tab:orange", "tab:red", "k")))
 
 
-def plot_run(path: Path, t, xp, p1, p2, u, xs, travel, friction, *, xref=None, title: str = "",
+def _stack(heights, figsize, banner: float = 0.0):
+    """A figure of axes stacked vertically with a shared time axis (tick labels on the last only), and
+    optionally a banner axis of relative height ``banner`` above them. Returns (fig, axes, banner_ax)."""
+    fig = plt.figure(figsize=figsize)
+    gs = fig.add_gridspec(len(heights) + bool(banner), 1, height_ratios=([banner] if banner else []) + list(heights))
+    top = fig.add_subplot(gs[0]) if banner else None
+    first = fig.add_subplot(gs[bool(banner)])
+    ax = [first] + [fig.add_subplot(gs[i + bool(banner)], sharex=first) for i in range(1, len(heights))]
+    for a in ax[:-1]:
+        a.tick_params(labelbottom=False)
+    return fig, ax, top
+
+
+def plot_run(path: Path, t, xp, p1, p2, u, xs, travel, friction, spool=None, *, xref=None, title: str = "",
              compare: dict | None = None, faults=None) -> None:
-    """Position (and reference), chamber pressures, command and spool, and the cylinder modes over time.
+    """Position (and reference), chamber pressures, command and spool, and the travel, friction and spool
+    modes over time (one strip each; ``spool`` may be omitted).
 
-    ``compare`` optionally holds another run (keys t, xp, p1, p2, label) drawn dashed; ``faults`` (the
+    ``compare`` optionally holds another run (keys t, xp, p1, p2, label) drawn dotted; ``faults`` (the
     per-row fault mask) shades the intervals with an injected fault.
     """
-    fig, ax = plt.subplots(4, 1, figsize=(10, 10), sharex=True,
-                           gridspec_kw={"height_ratios": [3, 3, 2, 1.5]})
+    modes = [m for m in (travel, friction, spool) if m is not None]
+    fig, ax, _ = _stack([3, 3, 2] + [0.45] * len(modes), (10, 10 + 0.4 * len(modes)))
     ax[0].plot(t, np.asarray(xp) * 1e3, label="piston xp")
     if xref is not None:
         ax[0].plot(t, np.asarray(xref) * 1e3, "k--", lw=1, label="reference")
-    ax[1].plot(t, np.asarray(p1) / 1e5, label="P1")
-    ax[1].plot(t, np.asarray(p2) / 1e5, label="P2")
+    ax[1].plot(t, np.asarray(p1) / 1e5, color="C0", label="P1")
+    ax[1].plot(t, np.asarray(p2) / 1e5, color="C1", label="P2")
     if compare:
         lab = compare.get("label", "other")
         ax[0].plot(compare["t"], np.asarray(compare["xp"]) * 1e3, ":", lw=1.5, label=f"xp ({lab})")
-        ax[1].plot(compare["t"], np.asarray(compare["p1"]) / 1e5, ":", lw=1.5, label=f"P1 ({lab})")
-        ax[1].plot(compare["t"], np.asarray(compare["p2"]) / 1e5, ":", lw=1.5, label=f"P2 ({lab})")
+        ax[1].plot(compare["t"], np.asarray(compare["p1"]) / 1e5, ":", color="C0", lw=1.5, label=f"P1 ({lab})")
+        ax[1].plot(compare["t"], np.asarray(compare["p2"]) / 1e5, ":", color="C1", lw=1.5, label=f"P2 ({lab})")
     ax[2].plot(t, u, lw=1, label="command ū")
     ax[2].plot(t, xs, lw=1, label="spool x̄s")
-    _mode_strip(ax[3], t, travel, friction)
+    _mode_strips(ax[3:], t, travel, friction, spool)
     _fault_spans(ax, t, faults)
-    _finish(fig, path, ax, ("position [mm]", "pressure [bar]", "valve [-]", "mode"), ax[:3], title)
+    _finish(fig, path, ax[:3], ("position [mm]", "pressure [bar]", "valve [-]"), title)
 
 
 def _fault_spans(ax, t, faults) -> None:
@@ -44,57 +63,135 @@ def _fault_spans(ax, t, faults) -> None:
     if faults is None:
         return
     t, on = np.asarray(t), np.asarray(faults) != 0
-    if not on.any():
-        return
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
     for a in ax:
-        for i, (k0, k1) in enumerate(zip(edges[::2], edges[1::2])):
-            a.axvspan(t[k0], t[min(k1, len(t) - 1)], color="red", alpha=0.08,
-                      label="fault injected" if (i == 0 and a is ax[0]) else None)
+        for i, (t0, t1) in enumerate(_runs(t, on)):
+            a.axvspan(t0, t1, color="red", alpha=0.08, label="fault injected" if (i == 0 and a is ax[0]) else None)
 
 
-def _mode_strip(ax, t, travel, friction) -> None:
-    """Cylinder state diagram (Fig 11b style): travel and friction mode codes over time."""
-    ax.step(t, np.asarray(travel), where="post", label="travel")
-    ax.step(t, np.asarray(friction) + 3, where="post", label="friction")
-    ax.set_yticks(range(6), [*TRAVEL_NAMES, *FRICTION_NAMES], fontsize=7)
+def _runs(t, on) -> list[tuple[float, float]]:
+    """(start, end) times of the runs of consecutive True in ``on`` (a run ends at the next sample)."""
+    t, on = np.asarray(t, float), np.asarray(on, bool)
+    if not on.any():
+        return []
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
+    return [(t[k0], t[min(k1, len(t) - 1)]) for k0, k1 in zip(edges[::2], edges[1::2])]
 
 
-def _finish(fig, path: Path, ax, ylabels, legend_axes, title: str) -> None:
-    """Axis labels (time on the last axis), grid and legend on ``legend_axes``, title; save and close."""
-    for a, label in zip(ax, ylabels):
+def _codes(values, names) -> np.ndarray:
+    """Mode codes from a log column: integer codes as they are, state names (the HIL plant log) looked up."""
+    v = np.asarray(values)
+    if v.dtype.kind in "US":
+        return np.array([names.index(x) for x in v])
+    return v.astype(int)
+
+
+def _mode_strips(ax, t, *columns) -> None:
+    """Cylinder state diagram (Fig 11b style): one strip per state machine (travel, friction, spool), each
+    state a colour, named in the strip's legend; ``None`` columns are skipped."""
+    t = np.asarray(t, float)
+    strips = [(m, c) for m, c in zip(MODE_STRIPS, columns) if c is not None]
+    for a, ((label, names, colours), col) in zip(ax, strips):
+        code = _codes(col, names)
+        for i, (name, colour) in enumerate(zip(names, colours)):
+            spans = [(t0, t1 - t0) for t0, t1 in _runs(t, code == i)]
+            a.broken_barh(spans, (0, 1), facecolors=colour, label=name if spans else f"{name} (never)")
+        a.set_ylim(0, 1)
+        a.set_yticks([])
+        a.set_ylabel(label, rotation=0, ha="right", va="center")
+        a.legend(loc="center left", bbox_to_anchor=(1.005, 0.5), fontsize=7, frameon=False, handlelength=1)
+
+
+def _finish(fig, path: Path, legend_axes, ylabels, title: str, banner=None) -> None:
+    """Axis labels, grid and legend (right of the axis) on ``legend_axes``, time label on the last axis,
+    title, ``banner`` axis widened to the full figure width; save and close."""
+    for a, label in zip(legend_axes, ylabels):
         a.set_ylabel(label)
-    ax[-1].set_xlabel("time [s]")
-    for a in legend_axes:
         a.grid(alpha=0.3)
-        a.legend(loc="best", fontsize=8)
-    if title:
+        if a.get_legend_handles_labels()[0]:
+            a.legend(loc="center left", bbox_to_anchor=(1.005, 0.5), fontsize=8, frameon=False)
+    fig.axes[-1].set_xlabel("time [s]")
+    if title and banner is not None:
+        banner.set_title(title)      # above the banner (a figure suptitle would overlap it)
+    elif title:
         fig.suptitle(title)
-    fig.tight_layout()
+    # keep 0.4 in free at the top for the suptitle (tight_layout alone let it overlap the first axis)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.4 / fig.get_figheight() if title and banner is None else 1))
+    if banner is not None:
+        box = banner.get_position()
+        banner.set_position([0.01, box.y0, 0.98, box.height])
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "") -> None:
-    """HIL report: reference vs HIL vs offline position, error, pressures, plant modes, step jitter."""
+def _verdict_banner(ax, verdict: dict) -> None:
+    """A full-width green "VALID real-time run" or red "INVALID: <reasons>" banner on axis ``ax``."""
+    import textwrap
+    ok = bool(verdict.get("valid"))
+    text = "VALID real-time run" if ok else "INVALID: " + "; ".join(verdict.get("reasons") or ["(no reason given)"])
+    ax.set_facecolor("#1a7f37" if ok else "#c62828")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for side in ax.spines.values():
+        side.set_visible(False)
+    ax.text(0.5, 0.5, textwrap.fill(text, 95), ha="center", va="center", color="white", fontsize=12,
+            fontweight="bold", transform=ax.transAxes)
+
+
+def _jitter_panel(ax, t, jitter_us) -> None:
+    """Step-start lateness on a log axis (so p99 and the rare spikes are both visible), with p50/p99/max."""
+    t, j = np.asarray(t, float), np.asarray(jitter_us, float)
+    h_us = float(np.median(np.diff(t))) * 1e6 if len(t) > 1 else None
+    if not np.any(j > 0):
+        ax.text(0.5, 0.5, "no wall-clock timing (lock-step run): jitter 0", ha="center", va="center",
+                transform=ax.transAxes)
+        ax.set_yticks([])
+        return
+    floor = 0.1
+    ax.plot(t, np.maximum(j, floor), ".", ms=1.5, color="0.3", label="step start lateness")
+    p50, p99, top = np.percentile(j, 50), np.percentile(j, 99), float(np.max(j))
+    for v, style, name in ((p50, ":", "p50"), (p99, "--", "p99"), (top, "-", "max")):
+        ax.axhline(max(v, floor), color="tab:blue", ls=style, lw=1, label=f"{name} = {v:.3g} µs")
+    if h_us:
+        ax.axhline(h_us, color="tab:red", lw=1, label=f"one step = {h_us:g} µs")
+    ax.set_yscale("log")
+    ax.set_ylim(floor / 2, max(top, h_us or 0) * 2)
+
+
+def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: dict | None = None) -> None:
+    """HIL report: reference vs HIL vs offline position, tracking error, HIL − offline, pressures, plant
+    modes, step jitter (log scale) and the watchdog. ``verdict`` (keys ``valid``: bool, ``reasons``: list of
+    str) adds a banner at the top: "VALID real-time run" in green or "INVALID: <reasons>" in red."""
     t = np.asarray(hil["t"])
     n = min(len(t), len(offline.log))
-    fig, ax = plt.subplots(5, 1, figsize=(10, 13), sharex=True,
-                           gridspec_kw={"height_ratios": [3, 2, 3, 1.5, 1.5]})
-    ax[0].plot(t[:n], np.asarray(xref[:n]) * 1e3, "k--", lw=1, label="reference")
+    to = offline.column("t")[:n]
+    xp, xo, xr = np.asarray(hil["xp"])[:n], offline.column("xp")[:n], np.asarray(xref)[:n]
+    rms = lambda e: float(np.sqrt(np.mean(np.square(e)))) if len(e) else float("nan")  # noqa: E731
+    heights = [3, 1.6, 1.6, 3, 0.45, 0.45, 0.45, 2, 0.45]
+    fig, ax, top = _stack(heights, (10, 17), banner=0.5 if verdict is not None else 0.0)
+    if top is not None:
+        _verdict_banner(top, verdict)
+    ax[0].plot(t[:n], xr * 1e3, "k--", lw=1, label="reference")
     ax[0].plot(t, np.asarray(hil["xp"]) * 1e3, lw=1.5, label="HIL (real-time plant)")
-    ax[0].plot(offline.column("t")[:n], offline.column("xp")[:n] * 1e3, ":", lw=1.5, label="offline simulation")
-    ax[1].plot(t[:n], (np.asarray(hil["xp"][:n]) - np.asarray(xref[:n])) * 1e3, lw=1, label="HIL − reference")
-    ax[1].plot(t[:n], (np.asarray(hil["xp"][:n]) - offline.column("xp")[:n]) * 1e3, lw=1, label="HIL − offline")
-    ax[2].plot(t, np.asarray(hil["p1"]) / 1e5, lw=1, label="P1 (HIL)")
-    ax[2].plot(t, np.asarray(hil["p2"]) / 1e5, lw=1, label="P2 (HIL)")
-    ax[2].plot(offline.column("t")[:n], offline.column("p1")[:n] / 1e5, ":", lw=1, label="P1 (offline)")
-    ax[2].plot(offline.column("t")[:n], offline.column("p2")[:n] / 1e5, ":", lw=1, label="P2 (offline)")
-    _mode_strip(ax[3], t, [TRAVEL_NAMES.index(v) for v in hil["travel_mode"]],
-                [FRICTION_NAMES.index(v) for v in hil["friction_mode"]])
-    ax[4].plot(t, np.asarray(hil["jitter_us"]), ".", ms=1, label="step start lateness (jitter)")
-    ax[4].plot(t, np.asarray(hil["watchdog"]) * max(1.0, float(np.max(hil["jitter_us"]))), lw=1,
-               label="watchdog active")
+    ax[0].plot(to, xo * 1e3, ":", lw=1.5, label="offline simulation")
+    ax[1].plot(t[:n], (xp - xr) * 1e3, lw=1, label=f"HIL − reference\n(RMS {rms(xp - xr) * 1e3:.2f} mm)")
+    ax[2].plot(t[:n], (xp - xo) * 1e3, lw=1, color="tab:red",
+               label=f"HIL − offline\n(RMS {rms(xp - xo) * 1e3:.3g} mm)")
+    for name, hil_c, off_c in (("p1", "C0", "navy"), ("p2", "C1", "saddlebrown")):   # offline under HIL
+        ax[3].plot(to, offline.column(name)[:n] / 1e5, ":", lw=1.5, color=off_c, label=f"{name.upper()} (offline)")
+        ax[3].plot(t, np.asarray(hil[name]) / 1e5, lw=1, color=hil_c, label=f"{name.upper()} (HIL)")
+    _mode_strips(ax[4:7], t, hil["travel_mode"], hil["friction_mode"], hil.get("spool_mode"))
+    _jitter_panel(ax[7], t, hil["jitter_us"])
+    wd = np.asarray(hil["watchdog"]) != 0
+    if wd.any():
+        ax[8].broken_barh([(t0, t1 - t0) for t0, t1 in _runs(t, wd)], (0, 1), facecolors="tab:red",
+                          label="active (safe state)")
+        ax[8].legend(loc="center left", bbox_to_anchor=(1.005, 0.5), fontsize=7, frameon=False, handlelength=1)
+    else:
+        ax[8].text(0.5, 0.5, "never active", ha="center", va="center", fontsize=8, transform=ax[8].transAxes)
+    ax[8].set_ylim(0, 1)
+    ax[8].set_yticks([])
+    ax[8].set_ylabel("watchdog", rotation=0, ha="right", va="center")
     _fault_spans(ax, t, hil.get("faults"))
-    _finish(fig, path, ax, ("position [mm]", "error [mm]", "pressure [bar]", "mode", "jitter [µs]"),
-            (ax[0], ax[1], ax[2], ax[4]), title)
+    _finish(fig, path, [ax[i] for i in (0, 1, 2, 3, 7)],
+            ("position [mm]", "tracking\nerror [mm]", "HIL − offline\n[mm]", "pressure [bar]", "jitter [µs]"), title,
+            banner=top)

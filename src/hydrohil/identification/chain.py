@@ -19,7 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable
 
-from hydrohil.errors import InputError
+from hydrohil.errors import InputError, unknown_name
 from hydrohil.identification import PROCEDURES, Fit, identify
 from hydrohil.parameters import Parameters, load_parameters, read_toml
 
@@ -32,8 +32,7 @@ def identify_all(config: str | Path, *, on_start: Callable[[str], None] | None =
     src = str(config)
     unknown = set(cfg) - set(PROCEDURES) - {"params"}
     if unknown:
-        raise InputError(f"unknown section(s) {', '.join(sorted(unknown))} (expected: params, "
-                         f"{', '.join(PROCEDURES)})", source=src)
+        raise InputError(unknown_name(sorted(unknown)[0], ("params", *PROCEDURES), "section"), source=src)
     steps = [name for name in PROCEDURES if name in cfg]
     if not steps:
         raise InputError(f"no procedure section (expected one or more of {', '.join(PROCEDURES)})", source=src)
@@ -47,8 +46,7 @@ def identify_all(config: str | Path, *, on_start: Callable[[str], None] | None =
             raise InputError("section needs a 'file' key (path of the input data)", source=src, key=f"{name}.file")
         extra = set(sec) - {"file", "conditions"}
         if extra:
-            raise InputError(f"unknown key(s) {', '.join(sorted(extra))} (expected: file, conditions)", source=src,
-                             key=name)
+            raise InputError(unknown_name(sorted(extra)[0], ("file", "conditions")), source=src, key=name)
         if on_start:
             on_start(name)
         fit = identify(name, config.parent / sec["file"], params, sec.get("conditions"), progress=progress)

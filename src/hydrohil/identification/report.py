@@ -134,23 +134,58 @@ def plot_friction_static(fit: Fit, out: Path) -> list[Path]:
     return [_save(fig, out / "fig9_friction_static.png")]
 
 
+def _busiest_window(t, y, width: float, skip: float) -> tuple[float, float]:
+    """(start, end) of the ``width``-second window, after the first ``skip`` seconds, where ``y`` varies
+    most (largest standard deviation): the stick-slip ringing of the open-loop sine."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    starts = t[(t >= t[0] + skip) & (t <= t[-1] - width)]
+    if len(starts) == 0:
+        return float(t[0]), float(t[-1])
+    best = max(starts, key=lambda a: float(np.std(y[(t >= a) & (t < a + width)])))
+    return float(best), float(best + width)
+
+
 def plot_friction_dynamic(fit: Fit, out: Path) -> list[Path]:
-    """Fig 10-style: measured vs simulated hydraulic force and position of the open-loop experiment."""
+    """Fig 10-style fit of eq 27: measured vs fitted hydraulic force over the run, a zoom on the stick-slip
+    ringing (where the samples can be told apart), the force residual, and the piston position."""
     c = fit.curves
-    fig, ax = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
-    ax[0].plot(c["t"], c["fh"], lw=1, label="measured Fh = P1·A1 − P2·A2")
-    ax[0].plot(c["t"], c["fh_fit"], lw=1,
-               label=f"model, σ0 = {fit.values['sigma0']:.3g}, σ1 = {fit.values['sigma1']:.3g}")
+    t, fh, fit_fh = np.asarray(c["t"], float), np.asarray(c["fh"], float), np.asarray(c["fh_fit"], float)
+    rms = lambda e: float(np.sqrt(np.mean(np.square(e))))  # noqa: E731
+    s0, s1 = fit.values["sigma0"], fit.values["sigma1"]
+    fig = plt.figure(figsize=(10, 11))
+    gs = fig.add_gridspec(4, 1, height_ratios=[2.2, 2.2, 1.6, 1.6])
+    full = fig.add_subplot(gs[0])
+    zoom = fig.add_subplot(gs[1])
+    res = fig.add_subplot(gs[2], sharex=full)
+    pos = fig.add_subplot(gs[3], sharex=full)
+    full.plot(t, fh, lw=0.8, color="C0", label="measured Fh = P1·A1 − P2·A2")
+    full.plot(t, fit_fh, lw=0.8, color="C1", alpha=0.8,
+              label=f"model, identified σ0 = {s0:.3g} N/m, σ1 = {s1:.3g} N·s/m")
+    w0, w1 = _busiest_window(t, fh, width=min(0.3, (t[-1] - t[0]) / 4), skip=0.2)
+    full.axvspan(w0, w1, color="0.5", alpha=0.2, label="zoomed below")
+    full.set_title("(a) hydraulic force over the run", fontsize=10, loc="left")
+    m = (t >= w0) & (t <= w1)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    zoom.plot(t[m], fh[m], "o-", ms=3, lw=0.8, color="C0", label=f"measured ({dt * 1e3:.3g} ms samples)")
+    zoom.plot(t[m], fit_fh[m], "s--", ms=3, lw=0.8, color="C1", label="model, identified σ0, σ1")
+    zoom.set_title(f"(b) zoom {w0:.2f}–{w1:.2f} s: stick-slip ringing", fontsize=10, loc="left")
+    zoom.set_xlabel("time [s]")
+    res.plot(t, fh - fit_fh, lw=0.8, color="C3", label=f"measured − model (RMS {rms(fh - fit_fh):.1f} N)")
     if c.get("fh_start") is not None:
-        ax[0].plot(c["t"], c["fh_start"], ":", lw=1, label="model with the starting σ0, σ1")
-    ax[1].plot(c["t"], np.asarray(c["xp"]) * 1e3, lw=1, label="measured xp")
-    ax[1].plot(c["t"], np.asarray(c["xp_fit"]) * 1e3, lw=1, label="model xp")
-    ax[0].set_ylabel("hydraulic force [N]")
-    ax[1].set_ylabel("position [mm]")
-    ax[1].set_xlabel("time [s]")
-    for a in ax:
+        res.plot([], [], " ", label=f"with the starting σ0, σ1: RMS {rms(fh - np.asarray(c['fh_start'])):.1f} N")
+    res.axhline(0, color="k", lw=0.5)
+    res.set_title("(c) force residual", fontsize=10, loc="left")
+    pos.plot(t, np.asarray(c["xp"]) * 1e3, lw=1, color="C0", label="measured xp")
+    pos.plot(t, np.asarray(c["xp_fit"]) * 1e3, "--", lw=1, color="C1", label="model xp")
+    pos.set_title("(d) piston position", fontsize=10, loc="left")
+    pos.set_xlabel("time [s]")
+    for a, label, where in ((full, "force [N]", "upper right"), (zoom, "force [N]", "upper right"),
+                            (res, "residual [N]", "upper right"), (pos, "position [mm]", "lower right")):
+        a.set_ylabel(label)
         a.grid(alpha=0.3)
-        a.legend(fontsize=8)
+        a.legend(fontsize=8, loc=where)
+    full.tick_params(labelbottom=False)
+    res.tick_params(labelbottom=False)
     return [_save(fig, out / "fig10_friction_dynamic.png")]
 
 

@@ -6,14 +6,17 @@ Built-in sets live beside this file as ``NAME.toml`` (``ferreira2004`` is the pa
 from __future__ import annotations
 
 import copy
+import re
 import tomllib
+import types
+import typing
 from pathlib import Path
 from typing import Any, Mapping
 
 import tomli_w
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
-from hydrohil.errors import InputError
+from hydrohil.errors import InputError, unknown_name
 from hydrohil.parameters.schema import Parameters
 
 BUILTIN_DIR = Path(__file__).parent
@@ -55,45 +58,109 @@ def apply_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: 
     for dotted, value in overrides.items():
         parts = dotted.split(".")
         node = out
-        for i, part in enumerate(parts[:-1]):
-            if not isinstance(node, dict) or part not in node:
-                raise InputError(f"unknown parameter group '{'.'.join(parts[:i + 1])}'", source=source, key=dotted)
-            node = node[part]
-        if not isinstance(node, dict) or parts[-1] not in node:
-            raise InputError("unknown parameter (see `hydrohil params show ferreira2004` for the keys)",
-                             source=source, key=dotted)
+        for i, part in enumerate(parts):
+            if not isinstance(node, dict):
+                raise InputError(f"'{'.'.join(parts[:i])}' is a parameter, not a group", source=source, key=dotted)
+            if part not in node:
+                what = "parameter group" if i < len(parts) - 1 else "parameter"
+                raise InputError(unknown_name(part, node, what, prefix="".join(p + "." for p in parts[:i]))
+                                 + " (all keys: `hydrohil params show ferreira2004`)", source=source, key=dotted)
+            if i < len(parts) - 1:
+                node = node[part]
         node[parts[-1]] = value
     return out
 
 
-def format_validation_error(exc: ValidationError, schema: type | None = None) -> tuple[str, str]:
-    """(dotted key, message with expected unit/range) of the first error of a pydantic exception."""
-    err = exc.errors()[0]
-    key = ".".join(str(x) for x in err["loc"]) or "(top level)"
-    msg = err["msg"]
+_BOUNDS = {"greater_than": ("gt", ">"), "greater_than_equal": ("ge", ">="), "less_than": ("lt", "<"),
+           "less_than_equal": ("le", "<=")}
+
+
+def format_validation_error(exc: ValidationError, schema: type | None = None) -> tuple[str | None, str]:
+    """(dotted key, message) for one error of a pydantic exception, as a user fixes it.
+
+    An unknown key is reported before anything else (a misspelt ``duraton`` also makes ``duration``
+    missing), named in full in the message: ``(None, "unknown key 'solver.methd' (did you mean
+    'solver.method'?)")``. Range errors state the bound and the field's unit (the
+    bracketed text of its description): ``("solver.step", "must be > 1e-09 [s], got -1")``."""
+    errors = exc.errors()
+    err = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
+    loc = tuple(err["loc"])
+    admitted, parts, field = _walk(schema, loc[:-1] if err["type"] == "extra_forbidden" else loc)
+    key = ".".join(parts) or None
     if err["type"] == "extra_forbidden":
-        msg = "unknown key"
-    elif err["type"] == "missing":
-        msg = "missing key"
-    unit = _unit_of(schema, err["loc"]) if schema else None
-    if unit:
-        msg += f" (unit: {unit})"
-    if "input" in err and err["type"] not in ("missing",) and not isinstance(err["input"], dict):
-        msg += f"; got {err['input']!r}"
-    return key, msg
+        valid = [name for m in _models(admitted) for name in m.model_fields]
+        return None, unknown_name(loc[-1], dict.fromkeys(valid), prefix="".join(p + "." for p in parts))
+    if err["type"] in ("union_tag_invalid", "union_tag_not_found") and "ctx" in err:
+        tags = [t.strip().strip("'") for t in err["ctx"].get("expected_tags", "").split(",") if t.strip()]
+        disc = err["ctx"].get("discriminator", "'type'").strip("'")
+        key = ".".join((*parts, disc))
+        if err["type"] == "union_tag_not_found":
+            return key, f"missing key (one of: {', '.join(tags)})"
+        return key, unknown_name(err["ctx"]["tag"], tags, what="type")
+    if err["type"] == "missing":
+        return key or "(top level)", "missing key"
+    unit = _unit_of(field)
+    if err["type"] in _BOUNDS and "ctx" in err:
+        name, op = _BOUNDS[err["type"]]
+        msg = f"must be {op} {err['ctx'][name]:g}" + (f" {unit}" if unit else "")
+    else:
+        msg = err["msg"].removeprefix("Value error, ") + (f" (unit: {unit})" if unit else "")
+    if "input" in err and not isinstance(err["input"], dict):
+        msg += f", got {err['input']!r}"
+    return key or "(top level)", msg
 
 
-def _unit_of(schema, loc) -> str | None:
-    model = schema
-    field = None
+def _flatten(annotation) -> list:
+    """The types an annotation admits: Annotated and unions unwrapped (``A | B | None`` -> [A, B, None])."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _flatten(typing.get_args(annotation)[0])
+    if origin in (typing.Union, types.UnionType):
+        return [t for a in typing.get_args(annotation) for t in _flatten(a)]
+    return [annotation]
+
+
+def _models(candidates) -> list:
+    """The pydantic models among the types ``candidates`` admit."""
+    return [t for c in candidates for t in _flatten(c) if isinstance(t, type) and issubclass(t, BaseModel)]
+
+
+def _tag(model) -> object:
+    """The value of a discriminated-union member's ``type`` Literal (``"sine"``, ``"hose_burst"``)."""
+    f = model.model_fields.get("type")
+    args = typing.get_args(f.annotation) if f is not None else ()
+    return args[0] if len(args) == 1 else None
+
+
+def _walk(schema, loc) -> tuple[list, list[str], object]:
+    """Follow a pydantic error location through ``schema``: (types admitted there, the dotted key as the
+    user wrote it (union tags such as ``sine`` dropped), the field's FieldInfo or None)."""
+    candidates, parts, field = ([schema] if schema is not None else []), [], None
     for part in loc:
-        fields = getattr(model, "model_fields", None)
-        if not fields or part not in fields:
-            return None
-        field = fields[part]
-        model = field.annotation
-    extra = field.json_schema_extra if field is not None else None
-    return extra.get("unit") if isinstance(extra, dict) else None
+        flat = [t for c in candidates for t in _flatten(c)]
+        models = _models(candidates)
+        owner = next((m for m in models if isinstance(part, str) and part in m.model_fields), None)
+        if owner is not None:
+            field = owner.model_fields[part]
+            candidates = [field.annotation]
+        elif isinstance(part, int):
+            candidates = [typing.get_args(t)[0] for t in flat if typing.get_origin(t) is list]
+            field = None
+        elif any(_tag(m) == part for m in models):
+            candidates = [m for m in models if _tag(m) == part]
+            continue
+        else:
+            candidates, field = [], None
+        parts.append(str(part))
+    return candidates, parts, field
+
+
+def _unit_of(field) -> str | None:
+    """The unit(s) a field's description gives in brackets, as written: "fixed step [s]" -> "[s]",
+    "[m] or [Pa]" -> "[m] or [Pa]"; None when there is none or the quantity is dimensionless ("[-]")."""
+    text = (field.description or "") if field is not None else ""
+    units = [u for u in re.findall(r"(?<!\[)\[[^\[\]]+\](?!\])", text) if u != "[-]"]
+    return " or ".join(units) if units else None
 
 
 def validate_parameters(data: Mapping[str, Any], source: str) -> Parameters:

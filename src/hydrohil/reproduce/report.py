@@ -11,17 +11,32 @@ from hydrohil.reproduce.paper import PAPER, SPEC_SANITY
 if TYPE_CHECKING:
     from hydrohil.reproduce.runner import Reproduction
 
-FIGURES = (
-    ("Fig 4 — spool Bode gain and phase at 5/25/50 %", "spool"),
-    ("Fig 5a–c — closed-port pressures, load flow near centre and over the stroke", "valve-static"),
-    ("Figs 7 and 8 — acceleration vs frequency (linear model) and βe vs pressure (eq 21)", "bulk-modulus"),
-    ("Drift test (eq 23)", "leakage"),
-    ("Fig 9 — static friction, symmetric vs asymmetric", "friction-static"),
-    ("Fig 10 — open-loop sine: force, pressures, spool, position, velocity", "friction-dynamic"),
-    ("Fig 11 — HIL, Kp = 50, 80 kg, point-to-point", "fig11"),
-    ("Fig 12 — HIL, Ps = 120 bar, Kp = 100, steps and ramps", "fig12"),
-    ("Step size — hybrid vs stiff end stops", "step-size"),
+FIGURES = (   # (result key, figure path in the report folder, heading): one heading per figure, each naming it
+    ("spool", "figures/fig4_spool_bode.png", "Fig 4 — spool Bode gain and phase at 5/25/50 %"),
+    ("valve-static", "figures/fig5_valve_static.png",
+     "Fig 5a–c — closed-port pressures, load flow near centre and over the stroke"),
+    ("bulk-modulus", "figures/fig7_acceleration.png",
+     "Fig 7 — acceleration amplitude vs frequency per supply pressure (linear-model fit)"),
+    ("bulk-modulus", "figures/fig8_bulk_modulus.png", "Fig 8 — effective bulk modulus βe vs pressure (eq 21)"),
+    ("leakage", "figures/leakage_drift.png", "Drift test (eq 23) — piston drift and internal leakage g_lkc"),
+    ("friction-static", "figures/fig9_friction_static.png", "Fig 9 — static friction, symmetric vs asymmetric"),
+    ("friction-dynamic", "figures/fig10_friction_dynamic.png",
+     "Fig 10, σ0/σ1 fit (eq 27) — measured vs fitted force, zoom on the ringing, residual, position"),
+    ("friction-dynamic", "figures/fig10_open_loop.png",
+     "Fig 10, open-loop sine — rig vs hybrid model: force, pressures, spool, position, velocity"),
+    ("fig11", "fig11/report.png", "Fig 11 — HIL, Kp = 50, 80 kg, point-to-point"),
+    ("fig12", "fig12/report.png", "Fig 12 — HIL, Ps = 120 bar, Kp = 100, steps and ramps"),
+    ("step-size", "figures/step_size.png", "Step size — hybrid vs stiff end stops"),
 )
+
+
+def figure_sections(figures: dict[str, list[str]]) -> list[tuple[str, str]]:
+    """(heading, path) for every figure written (``figures``: step -> paths), in :data:`FIGURES` order; a
+    figure not listed there comes last with its step and path as heading, so no two headings are the same."""
+    titles = {path: title for _, path, title in FIGURES}
+    known = [(title, path) for key, path, title in FIGURES if path in figures.get(key, [])]
+    rest = [(f"{key}: {path}", path) for key, paths in figures.items() for path in paths if path not in titles]
+    return known + rest
 
 
 def _g(v) -> str:
@@ -169,9 +184,8 @@ def write_markdown(r: Reproduction) -> None:
     lines += ["", "The paper gives these two experiments as plots only (real rig vs HIL); here the comparison is "
               "HIL vs the offline simulation of the same scenario file, and both vs the reference trajectory.", "",
               "## Figures", ""]
-    for title, key in FIGURES:
-        for path in r.figures.get(key, []):
-            lines += [f"### {title}", "", f"![{title}]({path})", ""]
+    for title, path in figure_sections(r.figures):
+        lines += [f"### {title}", "", f"![{title}]({path})", ""]
     lines += ["## Wall time per step", "", "| step | s |", "|---|---|"]
     lines += [f"| {k} | {v:.1f} |" for k, v in wall.items()]
     (r.out / "report.md").write_text("\n".join(lines) + "\n")

@@ -7,13 +7,14 @@ the scenario file's folder.
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from hydrohil.errors import InputError
+from hydrohil.errors import InputError, InputWarning
 from hydrohil.parameters import Parameters, format_validation_error, load_parameters, read_toml
 from hydrohil.parameters.schema import StrictModel
 from hydrohil.simulation.faults import Fault
@@ -198,6 +199,17 @@ class LoadedScenario(BaseModel):
     source: str
 
 
+def _warn_reference_beyond_stroke(ref: TableReference, stroke: float, path: Path) -> None:
+    """A position reference outside [0, stroke] cannot be reached: warn (the run is still valid)."""
+    x = np.asarray(ref.x)
+    beyond = np.maximum(-x, x - stroke)
+    i = int(np.argmax(beyond))
+    if beyond[i] > 0:
+        warnings.warn(f"{path}: reference.x = {x[i]:g} m (at t = {ref.t[i]:g} s) lies outside the stroke "
+                      f"[0, {stroke:g}] m (cylinder.stroke): the piston stops at the end stop there",
+                      InputWarning, stacklevel=3)
+
+
 def load_scenario(path: str | Path, *, solver: str | None = None, step: float | None = None,
                   duration: float | None = None) -> LoadedScenario:
     """Read, validate and resolve a scenario file (with optional CLI overrides of solver/step/duration)."""
@@ -231,4 +243,6 @@ def load_scenario(path: str | Path, *, solver: str | None = None, step: float | 
     L = params.cylinder.stroke
     if not 0.0 <= sc.initial.xp <= L:
         raise InputError(f"must lie in [0, {L}] m (cylinder.stroke)", source=str(path), key="initial.xp")
+    if sc.reference is not None:
+        _warn_reference_beyond_stroke(sc.reference, L, path)
     return LoadedScenario(scenario=sc, params=params, source=str(path))
