@@ -155,5 +155,5 @@ def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: di
     (out / "comparison.json").write_text(json.dumps(cmp, indent=2) + "\n")
     if plot:
         from hydrohil.plotting import plot_hil
-        plot_hil(out / "report.png", hil, res, ref, title=f"{scenario.name}: HIL vs offline")  # verdict: after merge
+        plot_hil(out / "report.png", hil, res, ref, title=f"{scenario.name}: HIL vs offline", verdict=verdict)
     return cmp
