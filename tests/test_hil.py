@@ -392,3 +392,43 @@ def test_clock_driven_controller_runs_the_loop(tmp_path):
     ref = np.interp(log["t"], [0.0, 0.5, 1.5, 2.0], [0.03, 0.03, 0.15, 0.15])
     assert abs(log["xp"][-1] - 0.15) < 2e-3 and np.max(log["xp"]) < 0.16   # the loop closed and tracked
     assert json.loads((tmp_path / "out" / "comparison.json").read_text())["replay_xp_max_abs_m"] == 0.0
+
+
+def test_ctrl_c_on_hil_exits_130_with_the_logs(tmp_path):
+    scen = short_scenario(tmp_path, 30.0)
+    hil = Child(cli("hil", scen, "--out", tmp_path / "out"), "hil")
+    wait_rows(tmp_path / "out" / "plant_log.csv", 500)
+    hil.send_signal(signal.SIGINT)                              # what Ctrl-C sends
+    hil.wait(60)
+    assert hil.returncode == 130, hil.stderr()
+    t = json.loads((tmp_path / "out" / "timing.json").read_text())
+    assert t["stopped_early"] and 0 < t["steps"] < t["steps_planned"]     # both children finished their logs
+    assert (tmp_path / "out" / "controller.json").exists()
+
+
+def test_ideal_encoder_is_exact_in_the_rig(tmp_path):
+    # sensors.encoder_resolution = 0 means ideal: the rig reports 1 nm counts (the wire needs integers),
+    # the compiled loop the exact position; both agree to half a count
+    from hydrohil.parameters import load_parameters
+    from hydrohil.simulation.rig import VirtualRig
+    prm = load_parameters("ferreira2004", {"sensors.encoder_resolution": 0.0})
+    rig = VirtualRig(prm, 5e-4, initial={"xp": 0.0123456789})
+    for k in range(200):
+        rig.step(k, 0.3)
+        r = rig.read()
+        assert abs(r.encoder * rig.res - rig.out[5]) <= 0.5e-9 and rig.res == 1e-9
+
+
+def test_maxstep_refuses_to_judge_against_a_failed_reference(monkeypatch):
+    from hydrohil import maxstep
+    from hydrohil.errors import SimulationDiverged
+    sc = load_scenario(EXAMPLES / "maxstep_endstop.toml")
+    real = maxstep.solve_reference
+
+    def failing(*args, stats=None, **kw):
+        status, done, log, y = real(*args, stats=stats, **kw)
+        stats["failure"] = "LSODA and Radau failed (forced by the test)"
+        return 1, done, log, y
+    monkeypatch.setattr(maxstep, "solve_reference", failing)
+    with pytest.raises(SimulationDiverged, match="reference solution failed: LSODA and Radau failed"):
+        maxstep.max_stable_step(sc)
