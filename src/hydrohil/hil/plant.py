@@ -241,8 +241,9 @@ class PlantServer:
         h_ns = int(round(self.h * 1e9))
         # wait for the controller (first valid packet fixes the peer unless configured)
         if not self._wait_for_controller():
-            self.link_error = (f"no controller packet within {self.hil.connect_timeout:g} s "
-                               f"({self.c.packets_bad} bad, {self.c.packets_foreign} foreign packets)")
+            if not self.stop_requested:      # (stopped by a signal before anyone spoke: that is the outcome)
+                self.link_error = (f"no controller packet within {self.hil.connect_timeout:g} s "
+                                   f"({self.c.packets_bad} bad, {self.c.packets_foreign} foreign packets)")
             if self.log is not None:
                 self.log.close()
             return self._timing(0, time.perf_counter_ns(), time.perf_counter_ns(), rt, 0)
