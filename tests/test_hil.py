@@ -245,12 +245,11 @@ def test_fuzzing_decoder_and_live_plant():
     d = fuzz_decoder(30_000, seed=5)
     assert d["rejected"] > 20_000 and d["accepted"] > 1_000          # both paths exercised, no exception
     r = fuzz_live_plant(8_000, 4_000.0, seed=6)
-    assert r["controller_exit"] == 0
-    assert r["plant_exit"] == (0 if r["verdict"]["valid"] else 3)    # timing may be INVALID on a busy machine
-    assert r["steps"] == r["steps_planned"]                            # the plant served the whole run
+    assert r["controller_exit"] == 0 and r["plant_exit"] == 130        # stopped once everything was sent
+    assert r["sent_while_plant_ran"] and 0 < r["steps"] < r["steps_planned"]
     # every datagram is accounted for: counted as malformed, as foreign, or dropped by the kernel when the
     # socket's buffer was full (a loaded machine: the sender bursts to catch up, the plant drains per step)
-    assert r["sent_malformed"] > 5_000 and r["sent_while_plant_ran"]
+    assert r["sent_malformed"] > 5_000
     assert r["packets_bad"] <= r["sent_malformed"] and r["packets_foreign"] <= r["sent_well_formed"]
     assert r["packets_bad"] + r["packets_foreign"] + r["packets_dropped_kernel"] >= r["sent_malformed"] + r["sent_well_formed"]
     if r["packets_dropped_kernel"] == 0:
