@@ -45,6 +45,14 @@ def _main(version: bool = typer.Option(False, "--version", callback=_print_versi
     pass    # the app's help text is the one given to typer.Typer above
 
 
+def _interruptible() -> None:
+    """Ctrl-C (SIGINT) raises KeyboardInterrupt here even when the process was started with SIGINT ignored
+    (a background job of a non-interactive shell inherits that): the commands that run a plant and a
+    controller must stop both cleanly on SIGINT, and exit 130."""
+    import signal
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def _fail(exc: HydrohilError):
     typer.echo(f"error: {exc}", err=True)
     raise typer.Exit(exc.exit_code)
@@ -504,6 +512,7 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
     """
     from hydrohil.errors import RunInvalid
     from hydrohil.hil.verdict import BUSY_ADVICE, summary_line
+    _interruptible()
     try:
         r = hil(scenario, out, lockstep)
         t, c = r.timing, r.comparison
@@ -560,6 +569,7 @@ def demo_cmd(out: Path = typer.Option(Path("hydrohil-demo"), "--out", help="repo
     """
     from hydrohil.errors import RunInvalid
     from hydrohil.hil.verdict import BUSY_ADVICE, summary_line
+    _interruptible()
     try:
         res = demo(out, lockstep)
         for name, r in res.items():
