@@ -29,6 +29,8 @@ def main() -> None:
     live = fuzz_live_plant(args.live, args.rate, args.seed + 1)
     live["all_bad_counted"] = live["packets_bad"] == live["sent_malformed"]
     live["all_foreign_counted"] = live["packets_foreign"] == live["sent_well_formed"]
+    live["all_accounted"] = (live["packets_bad"] + live["packets_foreign"] + live["packets_dropped_kernel"]
+                             >= live["sent_malformed"] + live["sent_well_formed"])
     res["live_plant"] = live
     emit(res, args.json)
 

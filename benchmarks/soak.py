@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 import time
@@ -19,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from hydrohil.bench import emit, hil_scenario, machine
+from hydrohil.hil.processes import Child, cli, free_udp_port
 from hydrohil.hil.run import read_csv_columns
 
 
@@ -37,17 +37,17 @@ def soak(minutes: float, step: float = 5e-4) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         scen = hil_scenario(tmp, seconds, step)
-        cli = [sys.executable, "-m", "hydrohil.cli"]
-        plant = subprocess.Popen([*cli, "plant", "--scenario", scen, "--bind", "127.0.0.1:0", "--log", tmp / "out"],
-                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        line = plant.stdout.readline()
-        addr = line.split()[1]
-        ctl = subprocess.Popen([*cli, "controller", "--scenario", scen, "--connect", addr, "--log", tmp / "out"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        ctl_address = f"127.0.0.1:{free_udp_port()}"
+        plant = Child(cli("plant", "--scenario", scen, "--bind", "127.0.0.1:0", "--log", tmp / "out", "--peer",
+                          ctl_address), "plant")
+        addr = plant.wait_line("READY ", 120.0)
+        ctl = Child(cli("controller", "--scenario", scen, "--connect", addr, "--log", tmp / "out", "--local",
+                        ctl_address), "controller")
+        plant.wait_line("PEER ", 120.0)
         mem = []
         t0 = time.monotonic()
         while plant.poll() is None:
-            m = rss_mb(plant.pid)
+            m = rss_mb(plant.proc.pid)
             if m is not None:
                 mem.append((time.monotonic() - t0, m))
             print(f"\r{time.monotonic() - t0:6.0f} s / {seconds:.0f} s, plant RSS {m or 0:.1f} MB", end="",
@@ -78,6 +78,7 @@ def soak(minutes: float, step: float = 5e-4) -> dict:
         **{key: timing.get(key) for key in ("overruns", "jitter_us_p50", "jitter_us_p99", "jitter_us_p999",
                                             "jitter_us_max", "rtt_us_p50", "rtt_us_p99", "late_commands",
                                             "watchdog_trips", "packets_lost", "drift_ms", "os_rt_priority")},
+        "verdict": timing["verdict"]["verdict"], "verdict_reasons": timing["verdict"]["reasons"],
         "per_minute": minutes_tab,
     }
 
