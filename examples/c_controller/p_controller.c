@@ -67,6 +67,10 @@ int main(int argc, char **argv) {
     double kp = atof(argv[3]), x_ref = atof(argv[4]), resolution = 1e-6; /* 1 um encoder */
     double timeout_s = argc > 5 ? atof(argv[5]) : 5.0;
     int s = socket(AF_INET, SOCK_DGRAM, 0);
+    if (s < 0) {
+        perror("socket");
+        return 4;
+    }
     struct sockaddr_in a = {0};
     a.sin_family = AF_INET;
     a.sin_port = htons((uint16_t)atoi(argv[2]));
@@ -74,7 +78,10 @@ int main(int argc, char **argv) {
         fprintf(stderr, "error: bad HOST %s or TIMEOUT_S\n", argv[1]);
         return 2;
     }
-    connect(s, (struct sockaddr *)&a, sizeof a);
+    if (connect(s, (struct sockaddr *)&a, sizeof a) < 0) {
+        perror("connect");
+        return 4;
+    }
     struct timeval poll_tv = {0, 200000};   /* wake every 0.2 s: say HELLO again until the plant answers */
     setsockopt(s, SOL_SOCKET, SO_RCVTIMEO, &poll_tv, sizeof poll_tv);
 
@@ -89,7 +96,7 @@ int main(int argc, char **argv) {
     int64_t last_heard = now_ns();
     for (;;) {
         ssize_t n = recv(s, in, sizeof in, 0);
-        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == ECONNREFUSED || errno == EINTR)) {
+        if (n < 0) {                /* timeout, plant not listening (ECONNREFUSED), a signal, or another error */
             if (now_ns() - last_heard > (int64_t)(timeout_s * 1e9)) {
                 if (packets == 0)
                     fprintf(stderr, "error: no answer from a plant at %s:%s within %g s (is it running?)\n",

@@ -46,11 +46,17 @@ def _main(version: bool = typer.Option(False, "--version", callback=_print_versi
 
 
 def _interruptible() -> None:
-    """Ctrl-C (SIGINT) raises KeyboardInterrupt here even when the process was started with SIGINT ignored
-    (a background job of a non-interactive shell inherits that): the commands that run a plant and a
-    controller must stop both cleanly on SIGINT, and exit 130."""
+    """SIGINT (Ctrl-C) and SIGTERM raise KeyboardInterrupt (with the signal's number as ``signum``), also when
+    the process was started with SIGINT ignored (a background job of a non-interactive shell inherits that):
+    the commands that run a plant and a controller must stop both cleanly, and exit 130 / 143."""
     import signal
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    def _raise(signum, frame):
+        exc = KeyboardInterrupt()
+        exc.signum = signum
+        raise exc
+    signal.signal(signal.SIGINT, _raise)
+    signal.signal(signal.SIGTERM, _raise)
 
 
 def _fail(exc: HydrohilError):
@@ -437,7 +443,7 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
     summary: dict = {"error": None}
     try:
         with PlantClient(addr, timeout=timeout, command_scale=scale, busy_poll=busy_poll, period=sample,
-                         nap=not spin, bind=local_addr,
+                         nap=not spin, bind=local_addr, should_stop=lambda: bool(stop),
                          on_connect=lambda s: ready(f"CONNECTED {addr[0]}:{addr[1]}", flush=True)) as client:
             try:
                 summary.update(run_p_controller(client, kp, ref, encoder_resolution=enc, mode=mode,
@@ -447,6 +453,9 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
             except LinkError as exc:
                 summary.update(error=str(exc), commands_sent=client.seq, sensor_packets=client.received)
                 raise
+    except OSError as exc:                        # e.g. the --local address taken by another process meanwhile
+        summary["error"] = f"cannot use the local address {local or 'any'}: {exc}"
+        raise LinkError(summary["error"]) from None
     finally:
         summary["stop_signal"] = stop[0] if stop else None
         if log is not None:

@@ -41,8 +41,10 @@ class PlantClient:
 
     def __init__(self, address: tuple[str, int], *, timeout: float = 5.0, connect_timeout: float | None = None,
                  command_scale: float = 1.0, busy_poll: bool = False, period: float = 5e-4, nap: bool = True,
-                 bind: tuple[str, int] | None = None, on_connect: Callable[[pr.Sensor], None] | None = None):
+                 bind: tuple[str, int] | None = None, on_connect: Callable[[pr.Sensor], None] | None = None,
+                 should_stop: Callable[[], bool] | None = None):
         self.address = address
+        self.should_stop = should_stop        # polled while waiting (a signal handler sets it): stop waiting
         self.connect_timeout = timeout if connect_timeout is None else connect_timeout
         self.on_connect = on_connect
         # busy_poll: sleep until SPIN_S before the next expected packet (one plant period after the last),
@@ -94,7 +96,7 @@ class PlantClient:
         arrived already) or the plant said BYE."""
         end = time.monotonic() + (self.timeout if timeout is None else timeout)
         tried = False
-        while not self.finished:
+        while not self.finished and not (self.should_stop is not None and self.should_stop()):
             now = time.monotonic()
             left = end - now
             if left <= 0 and tried:
@@ -152,7 +154,7 @@ class PlantClient:
             wait = self.connect_timeout if first and timeout is None else timeout
             s = self.receive(wait)
             if s is None:
-                if self.finished:
+                if self.finished or (self.should_stop is not None and self.should_stop()):
                     return
                 host, port = self.address
                 if first:

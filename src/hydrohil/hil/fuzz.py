@@ -131,40 +131,48 @@ def fuzz_live_plant(n: int = 1_000_000, rate_hz: float = 20_000.0, seed: int = 0
     ctl_address = f"127.0.0.1:{free_udp_port()}"
     plant = Child(cli("plant", "--scenario", scen, "--bind", "127.0.0.1:0", "--log", out / "plant", "--peer",
                       ctl_address), "plant")
-    host, port = plant.wait_line("READY ", 120.0).rsplit(":", 1)
-    ctl = Child(cli("controller", "--scenario", scen, "--connect", f"{host}:{port}", "--log", out / "controller",
-                    "--local", ctl_address), "controller")
-    plant.wait_line("PEER ", 120.0)                   # the controller is the peer: the fuzzer can only be foreign
-    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    target = (host, int(port))
-    bad = good = 0
-    burst = max(1, int(rate_hz / 1000))
-    t0 = time.perf_counter()
-    for i, d in enumerate(fuzz_stream(n, seed)):
-        if pr.decode(d) is None:
-            bad += 1
-        else:
-            good += 1
-        try:
-            sock.sendto(d, target)
-        except OSError:          # e.g. an empty datagram refused by the OS: still counted as sent
-            pass
-        if progress and i % 20_000 == 0:
-            progress(i, n)
-        if i % burst == burst - 1:            # paced in 1 ms bursts, sleeping between (no busy loop)
-            wait = t0 + (i + 1) / rate_hz - time.perf_counter()
-            if wait > 0:
-                time.sleep(wait)
-    fuzz_wall = time.perf_counter() - t0
-    sent_while_plant_ran = plant.poll() is None        # else the last datagrams found no socket (a slow sender)
-    sock.close()
-    plant.send_signal(signal.SIGINT)
-    plant_rc = plant.wait(timeout=60)
-    ctl_rc = ctl.wait(timeout=60)
+    ctl = None
+    try:
+        host, port = plant.wait_line("READY ", 120.0).rsplit(":", 1)
+        ctl = Child(cli("controller", "--scenario", scen, "--connect", f"{host}:{port}", "--log", out / "controller",
+                        "--local", ctl_address), "controller")
+        plant.wait_line("PEER ", 120.0)                   # the controller is the peer: the fuzzer can only be foreign
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        target = (host, int(port))
+        bad = good = refused = 0
+        burst = max(1, int(rate_hz / 1000))
+        t0 = time.perf_counter()
+        for i, d in enumerate(fuzz_stream(n, seed)):
+            try:
+                sock.sendto(d, target)
+            except OSError:          # refused by the OS: never reached the plant, counted apart
+                refused += 1
+                continue
+            if pr.decode(d) is None:
+                bad += 1
+            else:
+                good += 1
+            if progress and i % 20_000 == 0:
+                progress(i, n)
+            if i % burst == burst - 1:            # paced in 1 ms bursts, sleeping between (no busy loop)
+                wait = t0 + (i + 1) / rate_hz - time.perf_counter()
+                if wait > 0:
+                    time.sleep(wait)
+        fuzz_wall = time.perf_counter() - t0
+        sent_while_plant_ran = plant.poll() is None        # else the last datagrams found no socket (a slow sender)
+        sock.close()
+        plant.send_signal(signal.SIGINT)
+        plant_rc = plant.wait(timeout=60)
+        ctl_rc = ctl.wait(timeout=60)
+    except BaseException:                            # stop both children whatever went wrong
+        for c in (ctl, plant):
+            if c is not None:
+                c.stop()
+        raise
     timing = json.loads((out / "plant" / "timing.json").read_text())
     res = {"datagrams": n, "sent_malformed": bad, "sent_well_formed": good, "fuzz_wall_s": fuzz_wall,
            "plant_exit": plant_rc, "controller_exit": ctl_rc, "verdict": timing["verdict"],
-           "sent_while_plant_ran": sent_while_plant_ran,
+           "sent_while_plant_ran": sent_while_plant_ran, "send_refused": refused,
            **{k: timing.get(k) for k in ("steps", "steps_planned", "packets_bad", "packets_foreign", "packets_rx",
                                          "packets_dropped_kernel",
                                          "packets_lost", "watchdog_trips", "late_commands", "overruns",

@@ -326,12 +326,14 @@ class PlantServer:
 
     def _wait_lockstep(self, k: int) -> None:
         """Block until the command answering sensor packet k arrives. Lock-step has no clock: a slow
-        controller (a loaded machine) is waited for, up to ``[hil] link_timeout``; only then does the step
-        go on without a command (the watchdog counts such steps as silence)."""
+        controller (a loaded machine) is waited for, up to ``[hil] link_timeout``; a controller silent that
+        long is gone (crashed, killed): the run ends with a link error (exit 4), its logs written."""
         limit = time.perf_counter_ns() + int(self.hil.link_timeout * 1e9)
         while self.cmd_echo < k and not self.stop_requested:
             left = limit - time.perf_counter_ns()
             if left <= 0:
+                self.link_error = f"controller silent for {self.hil.link_timeout:g} s at step {k} (lock-step)"
+                self.stop_requested = True
                 return
             r, _, _ = select.select([self.sock], [], [], left / 1e9)
             if r:

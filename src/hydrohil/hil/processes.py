@@ -37,7 +37,8 @@ class Child:
     def __init__(self, args: list, name: str, **popen):
         self.name = name
         self.proc = subprocess.Popen([str(a) for a in args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     text=True, **popen)
+                                     text=True, errors="replace", **popen)
+        self.ended = False
         self.lines: queue.Queue[str | None] = queue.Queue()
         self.stderr_lines: list[str] = []
         self._threads = [threading.Thread(target=self._pump, args=(self.proc.stdout, self.lines.put, True),
@@ -60,10 +61,11 @@ class Child:
         end = time.monotonic() + timeout
         while True:
             try:
-                line = self.lines.get(timeout=max(end - time.monotonic(), 0.0))
+                line = None if self.ended else self.lines.get(timeout=max(end - time.monotonic(), 0.0))
             except queue.Empty:
                 raise HydrohilError(f"{self.name} did not say {prefix.strip()} within {timeout:g} s") from None
             if line is None:
+                self.ended = True
                 self.proc.wait()
                 raise HydrohilError(f"{self.name} exited (code {self.proc.returncode}) before saying "
                                     f"{prefix.strip()}: {self.stderr()[-2000:]}")

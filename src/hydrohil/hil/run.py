@@ -62,17 +62,19 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
         ctl = Child(cli("controller", "--scenario", scenario, "--connect", address, "--log", out, "--local",
                         ctl_address), "controller")
         _supervise(plant, ctl, sc.scenario.duration, hil_cfg, progress)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:         # Ctrl-C (or SIGTERM, see cli._interruptible)
         for p in (ctl, plant):
             if p is not None:
                 p.stop()
-        raise Interrupted(signal.SIGINT, f"HIL run interrupted; logs so far in {out}") from None
+        raise Interrupted(getattr(exc, "signum", signal.SIGINT), f"HIL run interrupted; logs so far in {out}") from None
     finally:
         for p in (ctl, plant):
             if p is not None and p.poll() is None:
                 p.stop()
-    for p, ok in ((ctl, (0,)), (plant, (0, 3))):    # plant 3: the run is INVALID, its logs and verdict complete
-        if p.returncode not in ok:
+    # a plant that crashed explains a controller that then found it silent: report the plant first
+    order = (plant, ctl) if plant.returncode not in (0, 3, 4, 130, 143) else (ctl, plant)
+    for p in order:
+        if p.returncode not in ((0, 3) if p is plant else (0,)):   # plant 3: INVALID, logs and verdict complete
             raise (LinkError if p.returncode == 4 else HydrohilError)(
                 f"{p.name} process failed (exit {p.returncode}): {p.stderr()[-2000:]}")
     timing = json.loads((out / "timing.json").read_text())

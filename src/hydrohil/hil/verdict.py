@@ -36,8 +36,8 @@ def judge(timing: dict, hil: HilCfg) -> dict:
             reasons.append(f"the plant stalled {stall_us / 1e3:.1f} ms (> {hil.max_stall * 1e3:g} ms)")
     trips = timing.get("watchdog_trips_unexplained") or 0
     if trips > hil.max_watchdog_trips:
-        reasons.append(f"{trips} watchdog trip(s) without an injected fault (controller silent; "
-                       f"allowed {hil.max_watchdog_trips})")
+        reasons.append(f"{trips} watchdog trip(s) without an injected fault (no command reached the plant for "
+                       f"{hil.watchdog_timeout * 1e3:g} ms; allowed {hil.max_watchdog_trips})")
     return {"valid": not reasons, "verdict": "INVALID" if reasons else "VALID", "reasons": reasons,
             "criteria": {"max_late_commands": hil.max_late_commands, "max_overruns": hil.max_overruns,
                          "max_stall_s": hil.max_stall, "max_watchdog_trips": hil.max_watchdog_trips}}

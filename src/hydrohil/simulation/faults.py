@@ -231,9 +231,9 @@ class FaultInjector:
                     self.stuck_value.pop(i, None)
         return mask
 
-    def network_active(self) -> bool:
-        """True while a network or silence fault acts on the commands (this step)."""
-        return bool(self._of_type(*NETWORK))
+    def silence_active(self) -> bool:
+        """True while an injected controller silence keeps every command from the plant (this step)."""
+        return bool(self._of_type("controller_silence"))
 
     def deliver(self, u: float | None) -> float | None:
         """Network faults on the command sent for this step (None: nothing sent). Returns the command that

@@ -67,7 +67,7 @@ class VirtualRig:
         self.watchdog_trips = 0
         self.hold_x = 0.0
         self.commands_delivered = 0
-        self.k_interfered = -(1 << 62)    # last step an injected network / silence fault acted on the commands
+        self.k_interfered = -(1 << 62)    # last step an injected fault held a command back
         self.watchdog_trips_unexplained = 0
 
     def warm_up(self) -> None:
@@ -86,9 +86,9 @@ class VirtualRig:
         Returns the command that drove the valve."""
         plant = self.plant
         self.faults.begin_step(k, plant.p, plant.y)
-        if self.faults.network_active():
-            self.k_interfered = k
         u = self.faults.deliver(command)
+        if (command is not None and u is None) or self.faults.silence_active():
+            self.k_interfered = k          # an injected fault held the controller's command back this step
         if u is not None:
             self.u_held = min(max(u, -1.0), 1.0)
             self.k_delivered = k
@@ -97,8 +97,8 @@ class VirtualRig:
         if silent and not self.watchdog:
             self.watchdog = True
             self.watchdog_trips += 1
-            if (k - self.k_interfered) * self.h > self.hil.watchdog_timeout + 2 * self.h:
-                self.watchdog_trips_unexplained += 1      # no injected fault held the commands back
+            if self.k_interfered <= self.k_delivered:
+                self.watchdog_trips_unexplained += 1      # no injected fault held a command back since
             self.hold_x = float(plant.out[5])
         elif not silent and self.watchdog:
             self.watchdog = False
