@@ -13,7 +13,7 @@ import pytest
 
 from hydrohil.errors import InputError
 from hydrohil.identification.spool import (STEADY_TOL, identify_spool, simulate_bode, spool_vector,
-                                           steady_sine_response, steps_per_period)
+                                           steady_sine_response)
 from hydrohil.models.valve import spool_derivatives
 
 AMPLITUDES = (0.05, 0.25, 0.5)
@@ -183,8 +183,7 @@ def test_spool_model_is_odd():
 
 def test_cap_is_bounded_and_reported(datasheets):
     f = 200.0
-    a_out, _, used, resid = steady_sine_response(spool_vector(850.0, 0.62, 160.0, 6.0e4), 0.5, f,
-                                                 steps_per_period(f), STEADY_TOL, 4)
+    a_out, _, used, resid = steady_sine_response(spool_vector(850.0, 0.62, 160.0, 6.0e4), 0.5, f, 4)
     assert used == 4 and resid > STEADY_TOL and a_out > 0
     d = datasheets["noisy"]["fast"]
     few = (d["amplitude"] == 0.5) & (d["frequency_hz"] >= 250.0)       # saturated: far from periodic in 2

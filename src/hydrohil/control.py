@@ -1,19 +1,17 @@
 """Reference position controller of the paper (§4): P control on the valve command, u = Kp*(x_ref - x).
 
-Kp is in 1/m (u is the normalised command ū in [-1, 1]). The same law runs in the compiled offline
-loop (:func:`p_control`), in the per-step Python loop and in the HIL controller process.
+Kp is in 1/m (u is the normalised command ū in [-1, 1]). The law is the core's (``core/control.c``): the
+same code runs in the sampled loop of offline runs, in the per-step Python loop and in the HIL controller.
 """
 
 from __future__ import annotations
 
-from hydrohil._jit import jit
+from hydrohil.core import lib
 
 
-@jit(inline=True)
-def p_control(kp, x_ref, x_meas):
+def p_control(kp: float, x_ref: float, x_meas: float) -> float:
     """Saturated P law: clamp(kp*(x_ref - x_meas), -1, 1)."""
-    u = kp * (x_ref - x_meas)
-    return min(max(u, -1.0), 1.0)
+    return lib.hh_p_control(kp, x_ref, x_meas)
 
 
 class PController:
@@ -25,4 +23,4 @@ class PController:
         self.kp = float(kp)
 
     def update(self, t: float, x_ref: float, x_meas: float) -> float:
-        return float(p_control(self.kp, x_ref, x_meas))
+        return lib.hh_p_control(self.kp, x_ref, x_meas)

@@ -13,75 +13,33 @@ until the bracket ratio is below ``1 + rel_tol``.
 
 from __future__ import annotations
 
-import functools
 import time
 
 import numpy as np
 
-from hydrohil._jit import specialize
-from hydrohil.control import p_control
-from hydrohil.models.delay import delay_push_read, make_buffer, split_delay
-from hydrohil.models.layout import ENC_RES, NY, P1, P2, PS, XP, XS, pack
-from hydrohil.models.reference import reference_rhs
-from hydrohil.models.sensors import encoder_position
-from hydrohil.simulation.loop import STATUS_OK, diverged, initial_state
+from hydrohil.models.layout import pack
+from hydrohil.simulation.loop import STATUS_OK, Sim, initial_state
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import LoadedScenario
-from hydrohil.solvers.fixed_step import make_rk_step
 from hydrohil.solvers.reference import solve_reference
-from hydrohil.solvers.tableaus import MAX_STAGES, get_tableau
 
 
-RK_STEP = None  # bound per solver by continuous_loop
-
-
-def _continuous_run(y, p, h, n_steps, every, t_in, u_in, closed, kp, x_in, buf, pos, dl_n, dl_alpha, out,
-                    work, m):
-    """Integrate; record t, xp, p1, p2 every ``every`` steps into ``out``; input/reference sampled
-    from the tables (t_in, u_in / x_in) by zero-order hold at each step. ``work``: (MAX_STAGES + 3, NY)
-    scratch (last row: the model's step constants 1, 1, 0, 0), ``m``: unused mode vector (the kernel
-    allocates nothing)."""
-    k_stages = work[:MAX_STAGES]
-    ytmp = work[MAX_STAGES]
-    y1 = work[MAX_STAGES + 1]
-    row = 0
-    j = 0
-    for k in range(n_steps + 1):
-        t = k * h
-        while j + 1 < t_in.shape[0] and t_in[j + 1] <= t + 1e-15:
-            j += 1
-        if closed:
-            u = p_control(kp, x_in[j], encoder_position(y[XP], p[ENC_RES]))
-        else:
-            u = u_in[j]
-        ud = delay_push_read(buf, pos, u, dl_n, dl_alpha)
-        if k % every == 0:
-            out[row, 0] = t
-            out[row, 1] = y[XP]
-            out[row, 2] = y[P1]
-            out[row, 3] = y[P2]
-            row += 1
-        if k == n_steps:
-            break
-        RK_STEP(y, h, ud, m, p, work[MAX_STAGES + 2], k_stages, ytmp, y1)
-        for i in range(NY):
-            y[i] = y1[i]
-        if diverged(y, p) or y[P1] > 1.5 * p[PS] or y[P2] > 1.5 * p[PS] or abs(y[XS]) > 2.0:
-            return False, row
-    return True, row
-
-
-@functools.cache
-def continuous_loop(solver: str):
-    """Compiled fixed-step explicit loop of the continuous reference model (for the step comparison)."""
-    return specialize(_continuous_run, f"continuous_run_{solver}", nrt=False,
-                      RK_STEP=make_rk_step(reference_rhs, get_tableau(solver)))
-
-
-def _continuous_work() -> np.ndarray:
-    work = np.zeros((MAX_STAGES + 3, NY))
-    work[MAX_STAGES + 2, :2] = 1.0     # no stiff-chamber treatment in the continuous model
-    return work
+def continuous_run(sc: LoadedScenario, solver: str, h: float):
+    """The continuous (stiff end-stop) model at the fixed explicit step h, driven like the scenario (its
+    commands or references sampled by zero-order hold at each step); the core's loop with maxstep's bounds
+    (|p| <= 1.5 Ps, |xs| <= 2). Returns (ok, log)."""
+    s, params = sc.scenario, sc.params
+    p = pack(params)
+    h_out = s.solver.step
+    y, m = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
+    sim = Sim(p, h, model="continuous", solver=solver, bounded=True)
+    sim.set_state(y, m)
+    t_in = np.arange(s.n_steps() + 1) * h_out
+    closed = s.closed_loop
+    every = max(1, int(round(h_out / h)))
+    status, _, log = sim.run(int(round(s.duration / h)), every, s.references() if closed else s.commands(),
+                             kp=s.controller.kp if closed else None, t_in=t_in)
+    return status == STATUS_OK, log
 
 
 def _errors(t, xp, p1, p2, ref_log):
@@ -97,9 +55,7 @@ def check_step(sc: LoadedScenario, model: str, solver: str, h: float, ref_log: n
                tol_x: float = 2e-3, tol_p: float = 10e5) -> dict:
     """Run one candidate step; returns {stable, reason, rms_x, rms_p, wall_s}."""
     s, params = sc.scenario, sc.params
-    p = pack(params)
     h_out = s.solver.step
-    n = int(round(s.duration / h))
     t0 = time.perf_counter()
     if model == "hybrid":
         scn = sc.model_copy(update={"scenario": s.model_copy(update={
@@ -113,22 +69,10 @@ def check_step(sc: LoadedScenario, model: str, solver: str, h: float, ref_log: n
         if not ok_bounds:
             return {"stable": False, "reason": "unbounded pressure", "wall_s": time.perf_counter() - t0}
     else:
-        run = continuous_loop(solver)
-        y, _ = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
-        t_in = np.arange(s.n_steps() + 1) * h_out
-        closed = s.closed_loop
-        u_in = np.zeros_like(t_in) if closed else s.commands()
-        x_in = s.references() if closed else np.zeros_like(t_in)
-        kp = s.controller.kp if closed else 0.0
-        dl_n, alpha = split_delay(params.spool.delay, h)
-        every = max(1, int(round(h_out / h)))
-        out = np.zeros((n // every + 2, 4))
-        ok, rows = run(y, p, h, n, every, t_in, u_in, closed, kp, x_in, make_buffer(dl_n, y[XS]),
-                       np.zeros(1, np.int64), dl_n, alpha, out, _continuous_work(),
-                       np.zeros(3, dtype=np.int64))
+        ok, log = continuous_run(sc, solver, h)
         if not ok:
             return {"stable": False, "reason": "diverged or unbounded", "wall_s": time.perf_counter() - t0}
-        t, xp, p1, p2 = out[:rows, 0], out[:rows, 1], out[:rows, 2], out[:rows, 3]
+        t, xp, p1, p2 = log[:, 0], log[:, 7], log[:, 5], log[:, 6]
     ex, ep = _errors(t, xp, p1, p2, ref_log)
     stable = ex <= tol_x and ep <= tol_p
     return {"stable": stable, "reason": "ok" if stable else "far from reference", "rms_x": ex, "rms_p": ep,

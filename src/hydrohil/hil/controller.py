@@ -182,7 +182,7 @@ CONTROLLER_LOG_COLUMNS = ("seq", "t", "wall", "x_meas", "x_ref", "u", "status")
 
 
 def warm_up() -> None:
-    """Compile / load the compiled control law before saying HELLO (a first packet must not wait for it)."""
+    """Run the control law once before saying HELLO (a first packet must not wait for its first call)."""
     PController(1.0).update(0.0, 0.0, 0.0)
 
 

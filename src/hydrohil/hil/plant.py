@@ -142,8 +142,7 @@ class PlantServer:
         self.sensor_t_send = {}
 
     def warm_up(self) -> None:
-        """Compile (or load from numba's cache) every kernel the loop calls: the first steps of a run must
-        not pay for compilation."""
+        """Touch every path a step takes once (the first steps of a run must not pay for page faults)."""
         self.rig.warm_up()
 
     # -- receiving --------------------------------------------------------------------------------

@@ -25,7 +25,7 @@ from hydrohil.errors import HydrohilError, InputError, Interrupted, LinkError
 from hydrohil.hil.processes import Child, cli, free_udp_port
 from hydrohil.simulation.scenario import load_scenario
 
-READY_TIMEOUT_S = 120.0    # first start compiles the model (numba cache) before binding
+READY_TIMEOUT_S = 120.0    # a child that has not bound its socket by then is stuck (a loaded machine: seconds)
 EXIT_GRACE_S = 30.0        # after one process ended, the other gets its own timeout plus this to end
 
 

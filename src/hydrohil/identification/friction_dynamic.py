@@ -83,7 +83,7 @@ class ForceSimulator:
         p[SIGMA0], p[SIGMA1] = sigma0, sigma1
         y, m = self.y0.copy(), self.m0.copy()
         status, done, log, _ = run_hybrid(self.params, p, y, m, self.h, self.n, self.every, self.u,
-                                          solver=self.solver, warmup=False)
+                                          solver=self.solver)
         self.evaluations += 1
         if status != STATUS_OK or log.shape[0] < self.n_samples:
             return None

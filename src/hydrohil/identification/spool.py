@@ -16,21 +16,20 @@ same weighted least squares on the phase in closed form.
 
 from __future__ import annotations
 
-import math
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numba import prange
 from scipy.optimize import least_squares
 
-from hydrohil._jit import jit
+from hydrohil.core import dptr, ffi, iptr, lib
 from hydrohil.errors import InputError
 from hydrohil.identification.data import Column, read_table
 from hydrohil.identification.result import Fit
-from hydrohil.models.layout import LA, LV, NP, SPOOL_AT_END, SPOOL_LINEAR, SPOOL_VEL_LIMITED, WN, XI
-from hydrohil.models.valve import spool_derivatives
+from hydrohil.models.layout import LA, LV, WN, XI, pack_defaults
 
 COLUMNS = (
     Column("amplitude", "fraction of full input", 1e-4, 1.0, "5 % of full input is 0.05, not 5"),
@@ -39,278 +38,66 @@ COLUMNS = (
     Column("phase_deg", "deg", -1080.0, 180.0),
 )
 SMALL_AMPLITUDE_WEIGHT = 4.0   # eq 2
-H_MAX = 2e-5                   # s, largest internal step of the sine-response simulation
-STEPS_PER_PERIOD_MIN = 200     # (made even: the steady state is computed half a period at a time)
-STEADY_TOL = 1e-9              # periodic when a half period ends where it began (sign flipped) within this,
-                               # relative to the output amplitude, in (x̄s, v̄s/ω)
-REFINE_DEPTH = 10              # a step holding a discontinuity of the model is cut down to h/2^10
+STEADY_TOL = lib.hh_spool_steady_tol   # periodic when a half period ends where it began (sign flipped) within
+                               # this, relative to the output amplitude, in (x̄s, v̄s/ω) (core/spool_bode.c)
 MAX_PERIODS = 200              # bounded worst case per point (default); a point that hits it is reported
-ACCEL_HALF_PERIODS = 100       # of which at most these for the accelerated half-period search (steady_sine_response)
-PLAIN_HALF_PERIODS = 6         # simulated as they come before the slow tail may be accelerated
-SLOW_CONTRACTION = 0.2         # tail accelerated when a half period shrinks the residual by less than 5x
 DENSE_POINTS = 80              # log-spaced model frequencies per amplitude drawn in the report (Fig 4)
 # Box of the search for (ωn [rad/s], ξ, Lv [1/s], La [1/s²]). ξ between 0.05 (no steady state without
-# damping) and 5; ωn up to 1.2e4 rad/s (1.9 kHz) keeps the RK4 step H_MAX stable (2ξωn·H_MAX <= 2.4 < 2.78).
+# damping) and 5; ωn up to 1.2e4 rad/s (1.9 kHz) keeps the RK4 step of the sine response (20 µs) stable
+# (2ξωn·h <= 2.4 < 2.78).
 SEARCH_BOUNDS = (np.array([1.0, 0.05, 1e-3, 1e-3]), np.array([1.2e4, 5.0, 1e6, 1e9]))
+THREADS = max(1, min(8, os.cpu_count() or 1))   # Bode points are independent: one C call each, GIL released
 
 
-@jit(inline=True)
-def _jumps(mode):
-    """Whether the right-hand side is discontinuous across entering/leaving ``mode``: the limited
-    integrator at ±Lv (the acceleration clamp at ±La is continuous) and the end of the spool travel."""
-    return mode == SPOOL_VEL_LIMITED or mode == SPOOL_AT_END
+def steady_sine_response(p: np.ndarray, amplitude: float, freq: float, max_half_periods: int):
+    """Periodic steady state of the spool model (SPEC §3.1) driven by u = amplitude·sin(2πft), as a datasheet
+    Bode point shows it (SPEC §9.1), by the core (``core/spool_bode.c``): (half peak-to-peak output, phase of
+    the fundamental [rad], half periods simulated, residual: the estimated distance to the periodic state,
+    relative to the output amplitude; > STEADY_TOL when ``max_half_periods`` was hit).
+
+    The model is odd and u(t + T/2) = −u(t), so a half-wave symmetric periodic response is a fixed point of
+    the half-period map H(s) = −Φ_{T/2}(s) of s = (x̄s, v̄s). From rest, half periods are simulated (RK4,
+    h <= 20 µs, steps holding the velocity limit's discontinuity refined to h/1024) until one ends where it
+    began within STEADY_TOL; the slow tail under velocity saturation is secant-extrapolated (Anderson-1),
+    a fixed point so reached accepted only if it attracts. Otherwise (several periodic responses, or a
+    subharmonic one) the sine is simulated period by period until two successive periods agree within a
+    contraction-corrected bound. Measured against a plain simulation from rest for 1500 periods (200 random
+    points, ωn 500–2000 rad/s, ξ 0.3–1, Lv 50–400 1/s, La 2e4–3e5 1/s², 3–60 %, 10–300 Hz): the same gain
+    within 5e-9 dB and phase within 7e-8°, after a median 7 and at most 26 half periods."""
+    work = np.empty(lib.hh_spool_bode_work(freq))
+    out = ffi.new("double[3]")
+    used = ffi.new("int64_t *")
+    lib.hh_steady_sine_response(dptr(p), amplitude, freq, int(max_half_periods), dptr(work), out, out + 1, used,
+                                out + 2)
+    return out[0], out[1], int(used[0]), out[2]
 
 
-@jit(inline=True)
-def _rk4_step(p, xs, vs, u0, um, u1, h, lv):
-    """One classic RK4 step of the spool model (SPEC §3.1) with the input at t, t + h/2, t + h; velocity held
-    in ±Lv after the step (the limited integrator). Also says whether the step holds a discontinuity of
-    the model (its four stages not all on the same side of one, or the velocity clamped at the end) and
-    whether any limit acted in it (else the step was linear)."""
-    d1x, d1v, m1 = spool_derivatives(xs, vs, u0, p)
-    d2x, d2v, m2 = spool_derivatives(xs + 0.5 * h * d1x, vs + 0.5 * h * d1v, um, p)
-    d3x, d3v, m3 = spool_derivatives(xs + 0.5 * h * d2x, vs + 0.5 * h * d2v, um, p)
-    d4x, d4v, m4 = spool_derivatives(xs + h * d3x, vs + h * d3v, u1, p)
-    xn = xs + h / 6.0 * (d1x + 2.0 * d2x + 2.0 * d3x + d4x)
-    vn = vs + h / 6.0 * (d1v + 2.0 * d2v + 2.0 * d3v + d4v)
-    clipped = vn > lv or vn < -lv
-    j1 = _jumps(m1)
-    switched = _jumps(m2) != j1 or _jumps(m3) != j1 or _jumps(m4) != j1 or clipped
-    limited = (m1 != SPOOL_LINEAR or m2 != SPOOL_LINEAR or m3 != SPOOL_LINEAR or m4 != SPOOL_LINEAR
-               or clipped)
-    return xn, min(max(vn, -lv), lv), switched, limited
-
-
-@jit(inline=True)
-def _refined_step(p, amplitude, w, t0, h, xs, vs, lv):
-    """The step [t0, t0 + h] that holds a discontinuity, as dyadic sub-steps: a sub-step that still holds one
-    is halved, down to h/2^REFINE_DEPTH. A fixed-step RK4 across the discontinuous right-hand side of the
-    velocity limit makes the state after the step jump by ~h²·La as the switching crosses a stage; this
-    leaves jumps ~4^−REFINE_DEPTH times smaller, so the steady state and the fit's cost are smooth."""
-    full = 1 << REFINE_DEPTH
-    pos = 0
-    level = 1
-    while pos < full:
-        size = full >> level
-        hs = h * size / full
-        ts = t0 + h * pos / full
-        u0 = amplitude * math.sin(w * ts)
-        um = amplitude * math.sin(w * (ts + 0.5 * hs))
-        u1 = amplitude * math.sin(w * (ts + hs))
-        xn, vn, switched, _ = _rk4_step(p, xs, vs, u0, um, u1, hs, lv)
-        if switched and level < REFINE_DEPTH:
-            level += 1
-            continue
-        xs, vs = xn, vn
-        pos += size
-        while level > 1 and pos % (2 * size) == 0:     # back to the coarser sub-step once aligned with it
-            level -= 1
-            size *= 2
-    return xs, vs
-
-
-@jit
-def _half_period(p, amplitude, sin_tab, w, h, xs, vs, xbuf):
-    """RK4 over half a period of u = amplitude·sin(ωt) from (xs, vs) at t = 0 (steps holding a discontinuity
-    of the model refined, :func:`_refined_step`); ``sin_tab[i]`` is sin(ωt) at t = i·h/2, ``xbuf[j]`` receives
-    x̄s at t = j·h (j = 0..n). Returns the end state, the largest |x̄s| sampled and whether any limit
-    acted (if none, the model was linear throughout)."""
-    lv = p[LV]
-    n = xbuf.shape[0] - 1
-    xbuf[0] = xs
-    peak = abs(xs)
-    nonlinear = False
-    for j in range(n):
-        xn, vn, switched, limited = _rk4_step(p, xs, vs, amplitude * sin_tab[2 * j], amplitude * sin_tab[2 * j + 1],
-                                              amplitude * sin_tab[2 * j + 2], h, lv)
-        if switched:
-            xn, vn = _refined_step(p, amplitude, w, j * h, h, xs, vs, lv)
-        nonlinear = nonlinear or limited
-        xs, vs = xn, vn
-        xbuf[j + 1] = xs
-        peak = max(peak, abs(xs))
-    return xs, vs, peak, nonlinear
-
-
-@jit(inline=True)
-def _period_sample(xa, xb, k):
-    """Sample k (cyclic) of one period made of the half period ``xa`` then the negation of ``xb``."""
-    n = xa.shape[0] - 1
-    k = k % (2 * n)
-    return xa[k] if k < n else -xb[k - n]
-
-
-@jit(inline=True)
-def _parabola_peak(ym, y0, yp):
-    """Extreme of the parabola through three equally spaced samples (y0 if they are collinear)."""
-    curv = ym - 2.0 * y0 + yp
-    if curv == 0.0:
-        return y0
-    return y0 - 0.125 * (ym - yp) * (ym - yp) / curv
-
-
-@jit
-def _amplitude_and_phase(xa, xb, sin_tab, cos_tab):
-    """(half peak-to-peak, phase of the fundamental [rad]) of x̄s over one period: the half period ``xa``
-    (samples at t = j·h, j = 0..n, in the frame of the input u = A·sin ωt) followed by the half period
-    ``xb`` simulated in the negated frame (its input was −u); for a half-wave symmetric response
-    ``xb`` is ``xa``. Maximum and minimum are refined by a parabola through the three samples around them."""
-    n = xa.shape[0] - 1
-    kmax = 0
-    kmin = 0
-    for k in range(1, 2 * n):
-        y = _period_sample(xa, xb, k)
-        if y > _period_sample(xa, xb, kmax):
-            kmax = k
-        if y < _period_sample(xa, xb, kmin):
-            kmin = k
-    hi = _parabola_peak(_period_sample(xa, xb, kmax - 1), _period_sample(xa, xb, kmax),
-                        _period_sample(xa, xb, kmax + 1))
-    lo = _parabola_peak(_period_sample(xa, xb, kmin - 1), _period_sample(xa, xb, kmin),
-                        _period_sample(xa, xb, kmin + 1))
-    c_sin = 0.0
-    c_cos = 0.0
-    for j in range(n):          # second half: (−xb)·(−sin), (−xb)·(−cos)
-        c_sin += (xa[j] + xb[j]) * sin_tab[2 * j]
-        c_cos += (xa[j] + xb[j]) * cos_tab[2 * j]
-    return 0.5 * (hi - lo), math.atan2(c_cos, c_sin)
-
-
-@jit
-def steady_sine_response(p, amplitude, freq, spp, tol, max_half_periods):
-    """Periodic steady state of the spool model (SPEC §3.1) driven by u = amplitude·sin(2πft), as a
-    datasheet Bode point shows it (SPEC §9.1): (half peak-to-peak output, phase of the fundamental [rad],
-    half periods simulated, residual: the estimated distance to the periodic state, relative to the output
-    amplitude; > tol when ``max_half_periods`` was hit).
-
-    The model is odd (``spool_derivatives(−x, −v, −u) = −spool_derivatives(x, v, u)``: symmetric limits) and
-    u(t + T/2) = −u(t), so one period is two applications of the half-period map H(s) = −Φ_{T/2}(s) of the
-    state s = (x̄s, v̄s), and a half-wave symmetric periodic response is a fixed point of H.
-
-    1. From rest, half periods are simulated until one ends where it began (sign flipped):
-       |H(s) − s| <= tol·A_out in (x̄s, v̄s/ω). The first PLAIN_HALF_PERIODS run as they come (the sine
-       switched on at rest). Under velocity saturation the rest of the transient decays over tens to
-       hundreds of periods (the offset is only corrected while the spool is not saturated): once a half
-       period shrinks the residual by less than 1/SLOW_CONTRACTION, each next start is extrapolated by a
-       secant step through the last two iterates (Anderson mixing, memory 1). A fixed point reached by
-       plain simulation attracts; one reached by extrapolation is accepted only if it does (spectral
-       radius of the Jacobian of H, by finite differences, < 1): a measurement never shows an unstable
-       periodic response. Measured against a plain simulation from rest for 1500 periods (200 random
-       points, ωn 500–2000 rad/s, ξ 0.3–1, Lv 50–400 1/s, La 2e4–3e5 1/s², 3–60 %, 10–300 Hz): the same
-       gain within 5e-9 dB and phase within 7e-8°, after a median 7 and at most 26 half periods.
-    2. Otherwise (no such fixed point within ACCEL_HALF_PERIODS, or a repelling one: lightly damped,
-       strongly acceleration-limited spools can have several periodic responses, or a subharmonic one),
-       the sine is simulated from rest period by period until two successive periods agree: the
-       difference d_k of the states at successive period starts, with the contraction λ = d_k/d_{k−1},
-       bounds the distance to the periodic state by d_k·max(1, λ/(1 − λ)) <= tol.
-    The amplitude and phase are those of the last simulated (half) period."""
-    n = spp // 2
-    h = 1.0 / (freq * spp)
-    w = 2.0 * math.pi * freq
-    sin_tab = np.empty(spp + 1)
-    cos_tab = np.empty(spp + 1)
-    for i in range(spp + 1):
-        sin_tab[i] = math.sin(math.pi * i / spp)
-        cos_tab[i] = math.cos(math.pi * i / spp)
-    xa = np.empty(n + 1)
-    xb = np.empty(n + 1)
-    lv = p[LV]
-    # 1. the sine from rest, half period by half period; the slow tail secant-accelerated
-    x = 0.0
-    v = 0.0
-    px = pv = pfx = pfv = 0.0
-    r_prev = math.inf
-    accel = False
-    used = 0
-    for it in range(1, min(ACCEL_HALF_PERIODS, max_half_periods - 2) + 1):
-        ex, ev, peak, nonlinear = _half_period(p, amplitude, sin_tab, w, h, x, v, xa)
-        used += 1
-        gx, gv = -ex, -ev
-        fx = gx - x
-        fv = (gv - v) / w
-        resid = math.sqrt(fx * fx + fv * fv) / max(peak, 1e-300)
-        if resid <= tol:
-            a_out, ph = _amplitude_and_phase(xa, xa, sin_tab, cos_tab)
-            if not (accel and nonlinear):          # reached by simulation, or the model was linear
-                return a_out, ph, used, resid
-            d = 1e-6 * peak                        # Jacobian of H in (x, v/ω), forward differences
-            e1x, e1v, _, _ = _half_period(p, amplitude, sin_tab, w, h, x + d, v, xb)
-            e2x, e2v, _, _ = _half_period(p, amplitude, sin_tab, w, h, x, v + d * w, xb)
-            used += 2
-            j11 = (-e1x - gx) / d
-            j21 = (-e1v - gv) / (w * d)
-            j12 = (-e2x - gx) / d
-            j22 = (-e2v - gv) / (w * d)
-            tr = j11 + j22
-            det = j11 * j22 - j12 * j21
-            disc = tr * tr - 4.0 * det
-            rho = 0.5 * (abs(tr) + math.sqrt(disc)) if disc >= 0.0 else math.sqrt(abs(det))
-            if rho < 1.0:
-                return a_out, ph, used, resid
-            break
-        if it >= PLAIN_HALF_PERIODS and resid > SLOW_CONTRACTION * r_prev:
-            accel = True
-        nx, nv = gx, gv
-        if accel:                       # secant (Anderson-1) step on f(s) = H(s) − s, scaled (x, v/ω)
-            dfx = fx - pfx
-            dfv = fv - pfv
-            den = dfx * dfx + dfv * dfv
-            if den > 0.0:
-                gam = (fx * dfx + fv * dfv) / den
-                nx = gx - gam * ((x - px) + dfx)
-                nv = gv - gam * ((v - pv) + dfv * w)
-        px, pv, pfx, pfv = x, v, fx, fv
-        r_prev = resid
-        x = nx
-        v = min(max(nv, -lv), lv)
-    # 2. plain simulation from rest, period by period, until two successive periods agree
-    x = 0.0
-    v = 0.0
-    d_prev = math.inf
-    a_out = 0.0
-    ph = 0.0
-    err = math.inf
-    while used + 2 <= max_half_periods:
-        mx, mv, _, _ = _half_period(p, amplitude, sin_tab, w, h, x, v, xa)
-        ex, ev, _, _ = _half_period(p, amplitude, sin_tab, w, h, -mx, -mv, xb)   # = H(H(s)) negated
-        ex, ev = -ex, -ev
-        used += 2
-        a_out, ph = _amplitude_and_phase(xa, xb, sin_tab, cos_tab)
-        dx = ex - x
-        dv = (ev - v) / w
-        d = math.sqrt(dx * dx + dv * dv) / max(a_out, 1e-300)
-        lam = d / d_prev
-        err = math.inf if lam >= 1.0 else d * max(1.0, lam / (1.0 - lam))
-        if err <= tol:
-            break
-        d_prev = d
-        x, v = ex, ev
-    return a_out, ph, used, err
-
-
-@jit(inline=True)
-def steps_per_period(freq):
-    """RK4 steps per period at ``freq`` [Hz]: h <= H_MAX, at least STEPS_PER_PERIOD_MIN, even."""
-    spp = max(STEPS_PER_PERIOD_MIN, int(math.ceil(1.0 / (freq * H_MAX))))
-    return spp + (spp & 1)
-
-
-@jit(parallel=True)
 def bode_points(p, amplitude, freq, max_periods, out_gain, out_phase, out_half_periods, out_resid):
     """Steady-state gain [dB] and phase [deg, wrapped] of the undelayed spool model at each
-    (amplitude, freq), with the half periods simulated and the periodicity residual of each point."""
-    for i in prange(amplitude.shape[0]):
-        f = freq[i]
-        spp = steps_per_period(f)
-        a_out, ph, n_half, resid = steady_sine_response(p, amplitude[i], f, spp, STEADY_TOL, 2 * max_periods)
-        out_gain[i] = 20.0 * math.log10(max(a_out, 1e-12) / amplitude[i])
-        out_phase[i] = ph * 180.0 / math.pi
-        out_half_periods[i] = n_half
-        out_resid[i] = resid
+    (amplitude, freq), with the half periods simulated and the periodicity residual of each point; the
+    points are shared out to THREADS threads (the C calls release the GIL)."""
+    n = amplitude.shape[0]
+    threads = min(THREADS, n)
+
+    def run(i):                      # every threads-th point from i: costs vary with the frequency
+        idx = np.arange(i, n, threads)
+        a, f = np.ascontiguousarray(amplitude[idx], float), np.ascontiguousarray(freq[idx], float)
+        g, ph, res = np.empty(len(idx)), np.empty(len(idx)), np.empty(len(idx))
+        used = np.empty(len(idx), np.int64)
+        work = np.empty(max(lib.hh_spool_bode_work(float(v)) for v in f))
+        lib.hh_spool_bode(dptr(p), len(idx), dptr(a), dptr(f), int(max_periods), dptr(work), dptr(g), dptr(ph),
+                          iptr(used), dptr(res))
+        out_gain[idx], out_phase[idx], out_half_periods[idx], out_resid[idx] = g, ph, used, res
+
+    if threads <= 1:
+        run(0)
+    else:
+        with ThreadPoolExecutor(threads) as pool:
+            list(pool.map(run, range(threads)))
 
 
 def spool_vector(wn: float, xi: float, lv: float, la: float) -> np.ndarray:
-    p = np.zeros(NP)
+    p = pack_defaults()
     p[WN], p[XI], p[LV], p[LA] = wn, xi, lv, la
     return p
 

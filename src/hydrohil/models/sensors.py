@@ -1,12 +1,16 @@
-"""Sensor interface models shared by offline simulation and the HIL plant (SPEC §8 'sensors', §10)."""
+"""Sensor interface models shared by offline simulation and the HIL plant (SPEC §8 'sensors', §10).
+
+The encoder is the core's (``core/sensors.c``, used by its sampled loop); the pressure transducers, whose
+noise comes from the rig's random generator, are modelled here for the rig (:mod:`hydrohil.simulation.rig`).
+"""
 
 from __future__ import annotations
 
 import numpy as np
-from hydrohil._jit import jit
 
+from hydrohil.core import lib
 
-IDEAL_COUNT = 1e-9   # m: the count of an ideal encoder (resolution 0) where counts must be integers (the wire)
+IDEAL_COUNT = lib.HH_IDEAL_COUNT   # m: the count of an ideal encoder (resolution 0) where counts must be integers
 
 
 def count_size(resolution: float) -> float:
@@ -15,18 +19,14 @@ def count_size(resolution: float) -> float:
     return resolution if resolution > 0.0 else IDEAL_COUNT
 
 
-@jit(inline=True)
-def encoder_counts(xp, resolution):
+def encoder_counts(xp: float, resolution: float) -> float:
     """Encoder reading [counts] of position xp [m] for a count size ``resolution`` [m] (nearest count)."""
-    return np.floor(xp / resolution + 0.5)
+    return lib.hh_encoder_counts(xp, resolution)
 
 
-@jit(inline=True)
-def encoder_position(xp, resolution):
+def encoder_position(xp: float, resolution: float) -> float:
     """Position [m] as the encoder reports it; ``resolution`` <= 0 means ideal."""
-    if resolution <= 0.0:
-        return xp
-    return encoder_counts(xp, resolution) * resolution
+    return lib.hh_encoder_position(xp, resolution)
 
 
 def pressure_reading(pressure, full_scale, resolution, noise):

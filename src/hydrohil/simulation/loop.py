@@ -1,157 +1,143 @@
-"""Compiled simulation loops of the hybrid model and the per-step plant API (``HybridPlant.step``).
+"""The core's sampled loop from Python: :class:`Sim` (one ``hh_sim`` of ``core/hh.h``), the offline run
+:func:`run_loop` and the per-step API :class:`HybridPlant`.
 
-The plant input is a zero-order-held command u_k, either given (open loop) or computed at t_k by the
-P controller from the encoder reading (closed loop, :mod:`hydrohil.control`), exactly as a sampled
-controller would. One log row per output interval; columns :data:`LOG_COLUMNS`.
+The plant input is a zero-order-held command u_k, given (open loop) or computed at t_k by the P controller
+from the encoder reading (closed loop), exactly as a sampled controller would; it reaches the spool through
+the fractional input delay. One log row per output interval; columns :data:`LOG_COLUMNS`. The loop itself
+(controller -> delay -> step -> log) is C (``core/loop.c``): simulate, maxstep, the stiff reference and the
+rig all run it.
 """
 
 from __future__ import annotations
 
-import functools
-from typing import NamedTuple
+import math
 
 import numpy as np
-from hydrohil._jit import jit, specialize
 
-from hydrohil.control import p_control
-from hydrohil.models.cylinder import external_force
-from hydrohil.models.delay import delay_push_read, make_buffer, split_delay
-from hydrohil.models.hybrid import friction_force, make_hybrid_step
-from hydrohil.models.layout import (AT_EXTEND, AT_RETRACT, ENC_RES, FREE, FS_NEG, FS_POS, M_FRICTION,
-                                    M_SPOOL, M_TRAVEL, NM, NY, P1, P2, SIGMA0, SPOOL_LINEAR, STICK, STROKE, VP,
-                                    VS, XP, XS, Z, pack)
-from hydrohil.models.sensors import encoder_position
-from hydrohil.models.valve import closed_port_pressures
+from hydrohil.core import dptr, ffi, iptr, lib, method_code, view
+from hydrohil.models.layout import NM, NY, XS, pack
 from hydrohil.parameters import Parameters
-from hydrohil.solvers.tableaus import MAX_STAGES, get_tableau
 
 LOG_COLUMNS = ("t", "u", "ud", "xs", "vs", "p1", "p2", "xp", "vp", "z", "ff", "travel_mode", "friction_mode",
                "spool_mode", "events")
-NLOG = len(LOG_COLUMNS)
-STATUS_OK, STATUS_DIVERGED = 0, 1
+NLOG = lib.HH_NLOG
+assert len(LOG_COLUMNS) == NLOG
+STATUS_OK, STATUS_DIVERGED = lib.HH_OK, lib.HH_DIVERGED
+MODELS = {"hybrid": lib.HH_MODEL_HYBRID, "continuous": lib.HH_MODEL_CONTINUOUS, "external": lib.HH_MODEL_EXTERNAL}
 
 
-@jit(inline=True)
-def diverged(y, p):
-    """True when the state is non-finite or far outside any physical range."""
-    for i in range(y.shape[0]):
-        if not np.isfinite(y[i]):
-            return True
-    return (abs(y[P1]) > 1e9 or abs(y[P2]) > 1e9 or abs(y[VP]) > 100.0 or abs(y[XS]) > 10.0
-            or y[XP] < -p[STROKE] or y[XP] > 2.0 * p[STROKE])
-
-
-@jit(inline=True)
-def write_row(log, row, t, u, ud, y, m, p, events):
-    log[row, 0] = t
-    log[row, 1] = u
-    log[row, 2] = ud
-    log[row, 3] = y[XS]
-    log[row, 4] = y[VS]
-    log[row, 5] = y[P1]
-    log[row, 6] = y[P2]
-    log[row, 7] = y[XP]
-    log[row, 8] = y[VP]
-    log[row, 9] = y[Z]
-    log[row, 10] = friction_force(y, m, p)
-    log[row, 11] = m[M_TRAVEL]
-    log[row, 12] = m[M_FRICTION]
-    log[row, 13] = m[M_SPOOL]
-    log[row, 14] = events
-
-
-HYBRID_STEP = None  # bound per solver by _make_kernels
-
-
-def _run_loop(y, m, p, h, n_steps, every, u_open, closed, kp, xref, buf, pos, dl_n, dl_alpha, log, work):
-    """Integrate n_steps fixed steps; returns (status, steps done, rows written); y, m in place.
-    ``work``: scratch of :func:`work_array` (the kernel allocates nothing)."""
-    row = 0
-    events = 0
-    for k in range(n_steps + 1):
-        t = k * h
-        if closed:
-            u = p_control(kp, xref[k], encoder_position(y[XP], p[ENC_RES]))
-        else:
-            u = u_open[k]
-        ud = delay_push_read(buf, pos, u, dl_n, dl_alpha)
-        if k % every == 0:
-            write_row(log, row, t, u, ud, y, m, p, events)
-            row += 1
-            events = 0
-        if k == n_steps:
-            break
-        events += HYBRID_STEP(y, m, p, ud, h, work)
-        if diverged(y, p):
-            return STATUS_DIVERGED, k + 1, row
-    return STATUS_OK, n_steps, row
-
-def _plant_step(y, m, p, buf, pos, dl_n, dl_alpha, u, h, work, out):
-    """One step of the per-step API: delay the command, advance, fill ``out`` (see HybridPlant)."""
-    ud = delay_push_read(buf, pos, u, dl_n, dl_alpha)
-    ev = HYBRID_STEP(y, m, p, ud, h, work)
-    out[0] = (np.floor(out[0] / h + 0.5) + 1.0) * h   # t = k*h exactly as the offline loop (no sum drift)
-    for i in range(NY):
-        out[1 + i] = y[i]
-    out[8] = friction_force(y, m, p)
-    out[9] = m[M_TRAVEL]
-    out[10] = m[M_FRICTION]
-    out[11] = m[M_SPOOL]
-    out[12] = ev
-    out[13] = ud
-    return diverged(y, p)
-
-
-def _make_kernels(solver: str):
-    """Compile the loop and the per-step function of the hybrid model for one fixed-step solver."""
-    hybrid_step = make_hybrid_step(get_tableau(solver))
-    return Kernels(hybrid_step,
-                   specialize(_run_loop, f"run_loop_{solver}", nrt=False, HYBRID_STEP=hybrid_step),
-                   specialize(_plant_step, f"plant_step_{solver}", nrt=False, HYBRID_STEP=hybrid_step))
-
-
-def work_array() -> np.ndarray:
-    """Scratch memory of one hybrid step (RK stages, stage state, step result)."""
-    return np.empty((MAX_STAGES + 3, NY))
-
-
-class Kernels(NamedTuple):
-    hybrid_step: object
-    run_loop: object
-    plant_step: object
-
-
-@functools.cache
-def kernels(solver: str = "rk3") -> Kernels:
-    """The compiled kernels of a fixed-step solver (built on first use, cached on disk by numba)."""
-    return _make_kernels(solver)
+def split_delay(delay: float, h: float) -> tuple[int, float]:
+    """(whole steps n, fraction alpha) with delay = (n + alpha)*h (core/delay.c)."""
+    alpha = ffi.new("double *")
+    n = lib.hh_delay_steps(delay, h, alpha)
+    return n, alpha[0]
 
 
 def initial_state(params: Parameters, xp: float, xs: float = 0.0, vs: float = 0.0,
                   p1: float | None = None, p2: float | None = None, vp: float = 0.0,
                   p: np.ndarray | None = None):
-    """(y, m) at rest: pressures default to the closed-port equilibrium at ``xs`` (SPEC §3.2); the
-    friction state balances the net force up to breakaway (a quiet start)."""
+    """(y, m) at rest (core): pressures default to the closed-port equilibrium at ``xs`` (SPEC §3.2); on a
+    stop when pressed onto it, else free with the friction state balancing the net force up to breakaway."""
     p = pack(params) if p is None else p
-    ps, pt = params.supply.ps, params.supply.pt
-    r1, r2 = closed_port_pressures(xs, params.valve.k, params.valve.kt)
-    p1 = pt + (ps - pt) * float(r1) if p1 is None else float(p1)
-    p2 = pt + (ps - pt) * float(r2) if p2 is None else float(p2)
-    y = np.array([xs, vs, p1, p2, xp, vp, 0.0])
+    y = np.zeros(NY)
     m = np.zeros(NM, dtype=np.int64)
-    m[M_SPOOL] = SPOOL_LINEAR
-    L = params.cylinder.stroke
-    f = external_force(p1, p2, p)
-    if xp <= 0.0 and f <= 0.0:
-        y[XP], y[VP], m[M_TRAVEL] = 0.0, 0.0, AT_RETRACT
-    elif xp >= L and f >= 0.0:
-        y[XP], y[VP], m[M_TRAVEL] = L, 0.0, AT_EXTEND
-    else:
-        y[XP] = min(max(xp, 0.0), L)
-        m[M_TRAVEL] = FREE
-        y[Z] = min(max(f, -p[FS_NEG]), p[FS_POS]) / p[SIGMA0]
-    m[M_FRICTION] = STICK
+    lib.hh_initial_state(dptr(p), float(xp), float(xs), float(vs), math.nan if p1 is None else float(p1),
+                         math.nan if p2 is None else float(p2), float(vp), dptr(y), iptr(m))
     return y, m
+
+
+class Sim:
+    """One instance of the core's loop state (``hh_sim``): parameters ``p``, state ``y``, modes ``m`` and the
+    last step's outputs ``out`` are NumPy views of the C struct (edit ``p`` in place, e.g. fault injection).
+
+    ``model``: "hybrid" (fixed-step hybrid model), "continuous" (the reference model at a fixed explicit
+    step, maxstep) or "external" (a Python step behind a callback, the SciPy reference)."""
+
+    def __init__(self, p: np.ndarray, h: float, *, model: str = "hybrid", solver: str = "rk3",
+                 bounded: bool = False):
+        if not h > 0:
+            raise ValueError(f"step h must be > 0 s, got {h}")
+        self.h = float(h)
+        self.model = model
+        self._sim = ffi.new("hh_sim *")
+        self.dl_n, self.dl_alpha = split_delay(float(p[lib.HH_SPOOL_DELAY]), self.h)
+        self._buf = np.zeros(self.dl_n + 2)
+        lib.hh_sim_init(self._sim, dptr(np.ascontiguousarray(p, dtype=float)), MODELS[model],
+                        method_code(solver) if model != "external" else lib.HH_RK3, self.h, dptr(self._buf),
+                        self.dl_n, self.dl_alpha)
+        self._sim.bounded = int(bounded)
+        self.p = view(self._sim.p, np.float64, lib.HH_NP)
+        self.y = view(self._sim.y, np.float64, NY)
+        self.m = view(self._sim.m, np.int64, NM)
+        self.out = view(self._sim.out, np.float64, lib.HH_NOUT)
+
+    def set_state(self, y: np.ndarray, m: np.ndarray | None = None) -> None:
+        """Start from (y, m): k = 0, delay line filled with the command y[XS] held before t = 0."""
+        self.y[:] = y
+        if m is not None:
+            self.m[:] = m
+        lib.hh_sim_reset(self._sim)
+
+    def step(self, u: float) -> int:
+        return lib.hh_sim_step(self._sim, u)
+
+    def run(self, n_steps: int, every: int, values: np.ndarray, *, kp: float | None = None,
+            t_in: np.ndarray | None = None, progress=None):
+        """Run n_steps from the current state; returns (status, steps done, log rows).
+
+        ``values``: commands u (open loop) or, with ``kp``, positions x_ref for the P controller; value k
+        holds over step k (n_steps + 1 values), or with ``t_in`` a table sampled by zero-order hold."""
+        values = np.ascontiguousarray(values, dtype=float)
+        drive = ffi.new("hh_drive *")
+        drive.kind = lib.HH_DRIVE_OPEN if kp is None else lib.HH_DRIVE_P
+        drive.kp = 0.0 if kp is None else float(kp)
+        drive.v_in = dptr(values)
+        if t_in is None:
+            if len(values) < n_steps + 1:
+                raise ValueError(f"{n_steps + 1} drive values needed, got {len(values)}")
+            drive.t_in = ffi.NULL
+        else:
+            t_in = np.ascontiguousarray(t_in, dtype=float)
+            if len(t_in) != len(values) or len(t_in) == 0:
+                raise ValueError("t_in and values differ in length (or are empty)")
+            drive.t_in = dptr(t_in)
+        drive.n_in = len(values)
+        log = np.zeros((n_steps // every + 1, NLOG))
+        done = ffi.new("int64_t *")
+        rows = ffi.new("int64_t *")
+        handle = None
+        if progress is not None:
+            handle = ffi.new_handle(progress)
+            self._sim.ctx = handle
+            self._sim.progress = lib.hh_py_progress
+        try:
+            status = lib.hh_sim_run(self._sim, drive, int(n_steps), int(every), dptr(log), done, rows)
+        finally:
+            if progress is not None:
+                self._sim.progress = ffi.NULL
+        return status, int(done[0]), log[:rows[0]]
+
+    def log_row(self, t: float, u: float, ud: float, y: np.ndarray, m: np.ndarray, events: float,
+                row: np.ndarray) -> None:
+        """Write one log row (the rig's Python loop; the same columns as :meth:`run`)."""
+        lib.hh_log_row(self._sim, t, u, ud, dptr(y), iptr(m), float(events), dptr(row))
+
+
+@ffi.def_extern()
+def hh_py_progress(ctx, k):
+    ffi.from_handle(ctx)(int(k))
+
+
+def run_loop(params: Parameters, p: np.ndarray, y: np.ndarray, m: np.ndarray, h: float, n: int, every: int,
+             values: np.ndarray, *, kp: float | None = None, solver: str = "rk3"):
+    """Run the hybrid model n steps from (y, m), both updated in place; open loop with commands ``values``
+    (n + 1), or the P controller (``kp``) on the positions ``values``. Returns (status, steps done, log)."""
+    sim = Sim(p, h, solver=solver)
+    sim.set_state(y, m)
+    status, done, log = sim.run(n, every, values, kp=kp)
+    y[:] = sim.y
+    m[:] = sim.m
+    return status, done, log
 
 
 class HybridPlant:
@@ -168,27 +154,20 @@ class HybridPlant:
         if not h > 0:
             raise ValueError(f"step h must be > 0 s, got {h}")
         self.params, self.h = params, float(h)
-        self.p = pack(params)
-        self.kernel = kernels(solver).plant_step
-        self.dl_n, self.dl_alpha = split_delay(params.spool.delay, self.h)
-        self.work = work_array()
-        self.out = np.zeros(len(self.OUT_COLUMNS))
+        self.sim = Sim(pack(params), self.h, solver=solver)
+        self.p, self.y, self.m, self.out = self.sim.p, self.sim.y, self.sim.m, self.sim.out
+        self._step = lib.hh_sim_step
+        self._c = self.sim._sim
         self.reset(**initial)
 
     def reset(self, xp: float | None = None, **kw) -> np.ndarray:
         xp = self.params.linear.xp0 if xp is None else xp
-        self.y, self.m = initial_state(self.params, xp, p=self.p, **kw)
-        self.buf = make_buffer(self.dl_n, self.y[XS])
-        self.pos = np.zeros(1, dtype=np.int64)
-        self.out[:] = 0.0
-        self.out[1:8] = self.y
-        self.out[8:12] = (0.0, *self.m)
+        y, m = initial_state(self.params, xp, p=self.p, **kw)
+        self.sim.set_state(y, m)
         return self.out
 
     def step(self, u: float) -> np.ndarray:
-        bad = self.kernel(self.y, self.m, self.p, self.buf, self.pos, self.dl_n, self.dl_alpha, float(u),
-                         self.h, self.work, self.out)
-        if bad:
+        if self._step(self._c, u):
             from hydrohil.simulation.diagnostics import divergence_error
             raise divergence_error(self.out[0], self.y, self.m)
         return self.out
@@ -196,3 +175,8 @@ class HybridPlant:
     @property
     def t(self) -> float:
         return float(self.out[0])
+
+
+def write_row(sim: Sim, log: np.ndarray, row: int, t, u, ud, y, m, events) -> None:
+    """Fill ``log[row]`` (the rig's loop; :meth:`Sim.log_row`)."""
+    sim.log_row(t, u, ud, y, m, events, log[row])

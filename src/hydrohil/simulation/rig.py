@@ -28,7 +28,7 @@ from hydrohil.models.layout import AT_EXTEND, AT_RETRACT, PS, PT, STICK
 from hydrohil.models.sensors import count_size, encoder_counts, pressure_reading
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.faults import FaultInjector
-from hydrohil.simulation.loop import NLOG, HybridPlant, write_row
+from hydrohil.simulation.loop import NLOG, HybridPlant
 from hydrohil.simulation.run import SimulationResult
 from hydrohil.simulation.scenario import HilCfg
 
@@ -71,11 +71,10 @@ class VirtualRig:
         self.watchdog_trips_unexplained = 0
 
     def warm_up(self) -> None:
-        """Compile (or load from numba's cache) every kernel a step calls, then restore the initial state."""
+        """Run one step and restore the initial state: pages in the code and data a step touches, so the
+        first step of a real-time run does not pay for it."""
         self.plant.step(0.0)
         self.plant.reset(**self.initial)
-        encoder_counts(0.0, 1e-6)
-        p_control(1.0, 0.0, 0.0)
 
     @property
     def out(self) -> np.ndarray:
@@ -143,7 +142,6 @@ def run_rig(sc, *, progress=None):
     h, n = s.solver.step, s.n_steps()
     rig = VirtualRig(sc.params, h, s.hil, s.faults, {"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1,
                                                     "p2": s.initial.p2})
-    rig.warm_up()
     closed = s.closed_loop
     drive = s.references() if closed else s.commands()
     kp = s.controller.kp if closed else 0.0
@@ -171,7 +169,7 @@ def run_rig(sc, *, progress=None):
         else:
             u_valve, ud = u, float(plant.out[13])
         if record:
-            write_row(log, rows, k * h, u_valve, ud, y_prev, m_prev, plant.p, int(plant.out[12]))
+            plant.sim.log_row(k * h, u_valve, ud, y_prev, m_prev, plant.out[12], log[rows])
             extra[rows] = (r.faults, x, r.p1, r.p2, r.ps, r.status & ST_WATCHDOG)
             rows += 1
         if progress is not None and k % 2000 == 0:

@@ -8,11 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hydrohil.errors import SimulationDiverged
-from hydrohil.models.delay import make_buffer, split_delay
 from hydrohil.models.layout import pack
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.diagnostics import divergence_error
-from hydrohil.simulation.loop import LOG_COLUMNS, NLOG, STATUS_OK, initial_state, kernels, work_array
+from hydrohil.simulation.loop import LOG_COLUMNS, STATUS_OK, initial_state, run_loop
 from hydrohil.simulation.scenario import LoadedScenario
 from hydrohil.solvers.reference import solve_reference
 
@@ -22,7 +21,7 @@ class SimulationResult:
     log: np.ndarray                 # rows x LOG_COLUMNS, SI units, mode codes
     solver: str
     step: float
-    wall_time_s: float              # integration loop only (JIT compilation excluded)
+    wall_time_s: float              # integration loop only
     diverged: SimulationDiverged | None = None
     extra: dict = field(default_factory=dict)
     columns: dict = field(default_factory=dict)   # extra per-row columns (rig runs: faults, x_meas, watchdog)
@@ -55,7 +54,7 @@ class SimulationResult:
         return out
 
 
-def run_scenario(sc: LoadedScenario, *, progress=None, warmup: bool = True) -> SimulationResult:
+def run_scenario(sc: LoadedScenario, *, progress=None) -> SimulationResult:
     """Simulate a loaded scenario; returns the log (also when the run diverged: see ``.diverged``)."""
     s, params = sc.scenario, sc.params
     if s.faults:
@@ -82,29 +81,19 @@ def run_scenario(sc: LoadedScenario, *, progress=None, warmup: bool = True) -> S
         extra = {"reference_intervals": stats["intervals"], "reference_radau_fallbacks": stats["radau_fallbacks"]}
         return SimulationResult(log, "reference", h, wall, div, extra=extra)
     status, done, log, wall = run_hybrid(params, p, y, m, h, n, every, u_open, closed=closed, kp=kp, xref=xref,
-                                         solver=s.solver.method, warmup=warmup)
+                                         solver=s.solver.method)
     div = None if status == STATUS_OK else divergence_error(done * h, y, m)
     return SimulationResult(log, s.solver.method, h, wall, div)
 
 
 def run_hybrid(params: Parameters, p: np.ndarray, y: np.ndarray, m: np.ndarray, h: float, n: int, every: int,
                u_open: np.ndarray, *, closed: bool = False, kp: float = 0.0, xref: np.ndarray | None = None,
-               solver: str = "rk3", warmup: bool = True):
-    """Run the compiled loop of the hybrid model for n steps from (y, m), both updated in place.
+               solver: str = "rk3"):
+    """Run the core's loop with the hybrid model for n steps from (y, m), both updated in place.
 
     Open loop: ``u_open[k]`` is the command held over step k (n + 1 values). Closed loop: the P
-    controller on ``xref``. Returns (status, steps done, log rows, wall time of the loop [s]).
-    """
-    xref = np.zeros(n + 1) if xref is None else xref
-    run_loop = kernels(solver).run_loop
-    dl_n, alpha = split_delay(params.spool.delay, h)
-    log = np.zeros((n // every + 1, NLOG))
-    if warmup:  # compile (or load from cache) outside the timed region
-        run_loop(y.copy(), m.copy(), p, h, 1, 1, u_open[:2], closed, kp, xref[:2], make_buffer(dl_n, y[0]),
-                 np.zeros(1, np.int64), dl_n, alpha, np.zeros((2, NLOG)), work_array())
+    controller on ``xref``. Returns (status, steps done, log rows, wall time of the loop [s])."""
     t0 = time.perf_counter()
-    status, done, rows = run_loop(y, m, p, h, n, every, u_open, closed, kp, xref, make_buffer(dl_n, y[0]),
-                                  np.zeros(1, np.int64), dl_n, alpha, log, work_array())
-    return status, done, log[:rows], time.perf_counter() - t0
-
-
+    status, done, log = run_loop(params, p, y, m, h, n, every, xref if closed else u_open,
+                                 kp=kp if closed else None, solver=solver)
+    return status, done, log, time.perf_counter() - t0

@@ -18,9 +18,9 @@ from hydrohil.errors import InputError, InputWarning
 from hydrohil.parameters import Parameters, format_validation_error, load_parameters, read_toml
 from hydrohil.parameters.schema import StrictModel
 from hydrohil.simulation.faults import Fault
-from hydrohil.solvers.tableaus import FIXED_STEP_SOLVERS
+from hydrohil.core import METHODS
 
-SOLVERS = (*FIXED_STEP_SOLVERS, "reference")
+SOLVERS = (*METHODS, "reference")
 
 
 class SolverCfg(StrictModel):

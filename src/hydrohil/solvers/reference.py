@@ -18,14 +18,9 @@ import warnings
 
 from scipy.integrate import ODEintWarning, odeint, solve_ivp
 
-from hydrohil.control import p_control
-from hydrohil.models.delay import delay_push, make_buffer, split_delay
-from hydrohil.models.layout import (DELAY, ENC_RES, NY, SLIP_NEG, SLIP_POS, STICK, STROKE, VP,
-                                    XP, XS, Z, AT_EXTEND, AT_RETRACT, FREE)
-from hydrohil.models.reference import reference_rhs
-from hydrohil.models.friction import lugre
-from hydrohil.models.sensors import encoder_position
-from hydrohil.simulation.loop import NLOG, diverged
+from hydrohil.core import dptr, ffi, lib
+from hydrohil.models.layout import NY
+from hydrohil.simulation.loop import STATUS_DIVERGED, Sim
 
 DEFAULT_RTOL = 1e-7
 # absolute tolerances per state: xs, vs, p1, p2 [Pa], xp [m], vp [m/s], z [m]
@@ -51,11 +46,50 @@ def advance(f, y, t0: float, t1: float, ud: float, rtol: float, atol, stats: dic
     return r.y[:, -1]
 
 
-def _derived_modes(y, p):
-    """Modes read off the continuous state, for plots only: penetration -> stop; |vp| < 1 mm/s -> stick."""
-    travel = AT_RETRACT if y[XP] < 0 else AT_EXTEND if y[XP] > p[STROKE] else FREE
-    fric = STICK if abs(y[VP]) < 1e-3 else SLIP_POS if y[VP] > 0 else SLIP_NEG
-    return travel, fric
+def reference_rhs(p: np.ndarray):
+    """``f(y, t, ud) -> dy/dt`` of the core's continuous reference model (core/reference.c) for SciPy; the
+    returned array is reused between calls."""
+    dy = np.empty(NY)
+    pp, dyp = dptr(p), dptr(dy)
+    rhs = lib.hh_reference_rhs
+
+    def f(yv, t, ud):
+        if not yv.flags.c_contiguous:       # Radau's finite-difference Jacobian passes column views
+            yv = np.ascontiguousarray(yv)
+        rhs(ffi.from_buffer("double[]", yv), ud, pp, dyp)
+        return dy
+
+    return f
+
+
+class _Stepper:
+    """The core loop's external step: y over [t, t + h], spool input u_old for alpha*h then u_new."""
+
+    def __init__(self, f, rtol, atol, stats):
+        self.f, self.rtol, self.atol, self.stats = f, rtol, atol, stats
+        self.error: Exception | None = None
+
+    def __call__(self, t, h, alpha, u_old, u_new, y) -> int:
+        yv = np.frombuffer(ffi.buffer(y, NY * 8), dtype=np.float64)
+        try:
+            t_switch = t + alpha * h
+            out = yv.copy()
+            if alpha > 1e-12:
+                out = advance(self.f, out, t, t_switch, u_old, self.rtol, self.atol, self.stats)
+            out = advance(self.f, out, t_switch, t + h, u_new, self.rtol, self.atol, self.stats)
+        except ReferenceSolverFailed as e:
+            self.stats["failure"] = str(e)
+            return 1
+        except BaseException as e:     # noqa: BLE001 - re-raised after the C loop returns
+            self.error = e
+            return 1
+        yv[:] = out
+        return 0
+
+
+@ffi.def_extern()
+def hh_py_advance(ctx, t, h, alpha, u_old, u_new, y):
+    return ffi.from_handle(ctx)(t, h, alpha, u_old, u_new, y)
 
 
 def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, *, u_open=None, kp: float = 0.0,
@@ -64,62 +98,27 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, *, u_
     """Integrate the reference model over n_steps samples of h; returns (status, steps done, log, final y).
 
     ``u_open`` (n_steps + 1 commands) for open loop, or ``kp`` and ``xref`` (n_steps + 1 positions) for the
-    sampled P loop. ``progress(k)`` is called now and then. Log columns as the hybrid loop's. ``stats``
+    sampled P loop. The sampled loop is the core's (controller, delay, log); each step is LSODA (Radau
+    where LSODA gives up) on the core's right-hand side. ``progress(k)`` is called now and then. Log columns
+    as the hybrid loop's (modes read off the state: penetration -> stop, |vp| < 1 mm/s -> stick). ``stats``
     (optional dict) receives ``intervals``, ``radau_fallbacks`` and, on a solver failure, ``failure``
     (the run then ends with the divergence status).
     """
-    closed = u_open is None
-    dl_n, alpha = split_delay(p[DELAY], h)
-    buf = make_buffer(dl_n, y0[XS])
-    pos = np.zeros(1, dtype=np.int64)
-    y = np.array(y0, dtype=float)
-    dy = np.empty(NY)
-    m_dummy = np.zeros(3, dtype=np.int64)
-    sc_dummy = np.array([1.0, 1.0, 0.0, 0.0])
-    log = np.zeros(((n_steps // every) + 1, NLOG))
     stats = {} if stats is None else stats
     stats.update(intervals=0, radau_fallbacks=0)
-
-    def f(yv, t, ud):
-        reference_rhs(yv, ud, m_dummy, p, sc_dummy, dy)
-        return dy
-
+    sim = Sim(p, h, model="external")
+    sim.set_state(np.asarray(y0, dtype=float))
+    stepper = _Stepper(reference_rhs(sim.p), rtol, atol, stats)
+    handle = ffi.new_handle(stepper)
+    sim._sim.advance = lib.hh_py_advance
+    sim._sim.ctx = handle
+    closed = u_open is None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ODEintWarning)   # LSODA giving up is handled in advance()
-        return _integrate(f, y, p, h, n_steps, closed, u_open, kp, xref, buf, pos, dl_n, alpha, every, log,
-                          rtol, atol, progress, stats)
-
-
-def _integrate(f, y, p, h, n_steps, closed, u_open, kp, xref, buf, pos, dl_n, alpha, every, log, rtol, atol,
-               progress, stats):
-    from hydrohil.simulation.loop import STATUS_DIVERGED, STATUS_OK
-
-    row = 0
-    for k in range(n_steps + 1):
-        t = k * h
-        if closed:
-            u = p_control(kp, xref[k], encoder_position(y[XP], p[ENC_RES]))
-        else:
-            u = float(u_open[k])
-        u_new, u_old = delay_push(buf, pos, u, dl_n)
-        if k % every == 0:
-            travel, fric = _derived_modes(y, p)
-            _, ff = lugre(y[VP], y[Z], p)
-            log[row, :11] = (t, u, (1 - alpha) * u_new + alpha * u_old, *y, ff)
-            log[row, 11:] = (travel, fric, 0, 0)
-            row += 1
-        if k == n_steps:
-            break
-        t_switch = t + alpha * h
-        try:
-            if alpha > 1e-12:
-                y = advance(f, y, t, t_switch, u_old, rtol, atol, stats)
-            y = advance(f, y, t_switch, t + h, u_new, rtol, atol, stats)
-        except ReferenceSolverFailed as e:
-            stats["failure"] = str(e)
-            return STATUS_DIVERGED, k + 1, log[:row], y
-        if diverged(y, p):
-            return STATUS_DIVERGED, k + 1, log[:row], y
-        if progress is not None and k % 500 == 0:
-            progress(k)
-    return STATUS_OK, n_steps, log[:row], y
+        status, done, log = sim.run(n_steps, every, xref if closed else u_open, kp=kp if closed else None,
+                                    progress=progress)
+    if stepper.error is not None:
+        raise stepper.error
+    if status != STATUS_DIVERGED:
+        stats.pop("failure", None)
+    return status, done, log, sim.y.copy()

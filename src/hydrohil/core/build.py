@@ -1,0 +1,75 @@
+"""Build of the core's Python binding (cffi, out-of-line API mode), run by ``pip install``.
+
+Writes ``hh_params.h`` from the pydantic schema (:mod:`hydrohil.core.layout`, loaded by path: the package
+is not importable yet), derives cffi's declarations from ``hh.h`` (the one header of the interface) and
+compiles ``hh_core.c`` into the extension ``hydrohil.core._hh``. The C calls release the GIL.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+import sys
+from pathlib import Path
+
+from cffi import FFI
+
+HERE = Path(__file__).resolve().parent
+CFLAGS = ["-std=c99", "-O3", "-ffp-contract=off", "-fno-math-errno"]
+
+
+def _load(name: str, path: Path):
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def write_params_header(directory: Path = HERE) -> Path:
+    """(Re)write ``hh_params.h`` in ``directory`` from the schema; returns its path."""
+    schema = _load("_hh_schema", HERE.parent / "parameters" / "schema.py")
+    layout = _load("_hh_layout", HERE / "layout.py")
+    path = directory / "hh_params.h"
+    text = layout.c_header(schema.Parameters)
+    if not path.exists() or path.read_text() != text:
+        path.write_text(text)
+    return path
+
+
+def _macros(text: str) -> dict[str, str]:
+    return dict(re.findall(r"^#define\s+(HH_\w+)\s+(\d+)\b", text, flags=re.M))
+
+
+def cdef_text() -> str:
+    """The declarations of ``hh.h`` as cffi reads them: preprocessor lines and C++ guards dropped, the
+    integer macros of ``hh.h``/``hh_params.h`` kept as constants and substituted in array sizes."""
+    header = (HERE / "hh.h").read_text()
+    macros = _macros((HERE / "hh_params.h").read_text())
+    macros.update(_macros(header))
+    body = re.sub(r"#ifdef __cplusplus.*?#endif", "", header, flags=re.S)
+    body = "\n".join(line for line in body.splitlines() if not line.lstrip().startswith("#"))
+    body = re.sub(r"/\*.*?\*/", "", body, flags=re.S)
+    body = re.sub(r"\[(HH_\w+)\]", lambda m: f"[{macros.get(m.group(1), m.group(1))}]", body)
+    consts = "\n".join(f"#define {k} {v}" for k, v in macros.items())
+    reals = [k for k in re.findall(r"^#define\s+(HH_\w+)\s+\S", header, flags=re.M)
+             if k not in macros and not k.endswith("_H")]
+    consts += "\n" + "\n".join(f"static const double {k};" for k in reals)
+    return consts + "\n" + body + """
+extern "Python" int hh_py_advance(void *, double, double, double, double, double, double *);
+extern "Python" void hh_py_progress(void *, int64_t);
+"""
+
+
+write_params_header()
+ffibuilder = FFI()
+ffibuilder.cdef(cdef_text())
+_rel = Path(os.path.relpath(HERE))          # setuptools wants paths relative to setup.py's folder
+ffibuilder.set_source("hydrohil.core._hh", '#include "hh.h"\n', sources=[(_rel / "hh_core.c").as_posix()],
+                      include_dirs=[_rel.as_posix()], extra_compile_args=CFLAGS, libraries=["m"],
+                      depends=[(_rel / p.name).as_posix()
+                               for p in sorted(HERE.glob("*.[ch]"))])
+
+if __name__ == "__main__":
+    ffibuilder.compile(verbose=True)

@@ -1,0 +1,23 @@
+/* core.h: what the parts of the core share inside it (not part of the public interface, hh.h).
+ *
+ * The core is compiled as one translation unit (hh_core.c includes every part in dependency order), so
+ * the small per-equation functions below are `static` and the compiler inlines them into the step: no
+ * link-time optimisation needed, the same code in the Python extension, the FMU and the standalone plant.
+ */
+#ifndef HH_CORE_H
+#define HH_CORE_H
+
+#include <math.h>
+#include "hh.h"
+
+#if defined(__GNUC__)
+#define HH_INLINE static inline __attribute__((always_inline))
+#else
+#define HH_INLINE static inline
+#endif
+
+HH_INLINE double hh_min(double a, double b) { return a < b ? a : b; }
+HH_INLINE double hh_max(double a, double b) { return a > b ? a : b; }
+HH_INLINE double hh_clamp(double x, double lo, double hi) { return hh_min(hh_max(x, lo), hi); }
+
+#endif

@@ -1,0 +1,34 @@
+/* delay.c: fractional input delay (see delay.h). */
+#include "delay.h"
+
+int hh_delay_steps(double delay, double h, double *alpha)
+{
+    double r = delay / h;
+    int n = (int)floor(r + 1e-9);
+    *alpha = hh_max(0.0, r - n);
+    return n;
+}
+
+void hh_delay_init(hh_delay *d, double *buf, int n, double alpha, double u0)
+{
+    int i;
+    d->buf = buf;
+    d->size = n + 2;
+    d->pos = 0;
+    d->n = n;
+    d->alpha = alpha;
+    for (i = 0; i < d->size; i++)
+        buf[i] = u0;
+}
+
+/* Push the command u of this step; returns the delayed spool input of the step (the step average of the
+ * two held commands it straddles, u_{k-n} and u_{k-n-1}, also returned). */
+static double delay_push(hh_delay *d, double u, double *u_new, double *u_old)
+{
+    int size = d->size;
+    d->pos = (d->pos + 1) % size;
+    d->buf[d->pos] = u;
+    *u_new = d->buf[((d->pos - d->n) % size + size) % size];
+    *u_old = d->buf[((d->pos - d->n - 1) % size + size) % size];
+    return (1.0 - d->alpha) * *u_new + d->alpha * *u_old;
+}

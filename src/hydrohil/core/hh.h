@@ -1,0 +1,164 @@
+/* hh.h: the public interface of the hydrohil C core (C99, libm only).
+ *
+ * The core is the one source of the plant's physics (SPEC §3-§6): the servo-solenoid valve, the
+ * differential cylinder, LuGre friction, the hybrid statechart, the continuous reference model's
+ * right-hand side, the fixed-step Runge-Kutta tableaus, the fractional input delay, the sensor models,
+ * the built-in controllers and the one sampled loop (controller -> delay -> step -> log).
+ *
+ * Every function works on memory the caller owns: no allocation, no global state, so any number of
+ * instances run in one process and in parallel threads. The parameter vector p[HH_NP] is laid out by
+ * hh_params.h, generated from the pydantic schema at build time.
+ */
+#ifndef HH_H
+#define HH_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "hh_params.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- state vector y[HH_NY] ------------------------------------------------------------------ */
+enum { HH_XS, HH_VS, HH_P1, HH_P2, HH_XP, HH_VP, HH_Z, HH_NY };
+/* spool position [-], spool velocity [1/s], chamber pressures [Pa gauge], piston [m, m/s], bristle [m] */
+
+/* ---- modes m[HH_NM] ------------------------------------------------------------------------- */
+enum { HH_M_TRAVEL, HH_M_FRICTION, HH_M_SPOOL, HH_NM };
+enum { HH_FREE, HH_AT_RETRACT, HH_AT_EXTEND };
+enum { HH_STICK, HH_SLIP_POS, HH_SLIP_NEG };
+enum { HH_SPOOL_LINEAR, HH_SPOOL_ACC_LIMITED, HH_SPOOL_VEL_LIMITED, HH_SPOOL_AT_END };
+
+/* ---- guards of the hybrid statechart (hybrid.c) --------------------------------------------- */
+enum { HH_G_NONE = -1, HH_G_RETRACT, HH_G_EXTEND, HH_G_BREAK_POS, HH_G_BREAK_NEG, HH_G_REVERSE, HH_G_LEAVE };
+#define HH_MAX_EVENTS 3
+
+/* ---- fixed-step methods (rk.c) and models --------------------------------------------------- */
+enum { HH_EULER, HH_HEUN, HH_RK3, HH_RK4, HH_NMETHODS };
+enum { HH_MODEL_HYBRID, HH_MODEL_CONTINUOUS, HH_MODEL_EXTERNAL };
+/* HH_MODEL_EXTERNAL: the loop's step is a callback that advances y over [t, t + h] with the spool input
+ * u_old over the first alpha*h and u_new after it (the SciPy LSODA/Radau reference); nonzero: failed. */
+typedef int (*hh_advance_fn)(void *ctx, double t, double h, double alpha, double u_old, double u_new, double *y);
+typedef void (*hh_progress_fn)(void *ctx, int64_t k);
+
+/* ---- constants ------------------------------------------------------------------------------ */
+#define HH_P_MIN (-0.99e5)              /* Pa gauge: pressures are floored here (cavitation) */
+#define HH_P_ATM 1e5                    /* Pa: the atmospheric pressure of eq 21 */
+#define HH_LPM_PER_SQRT_BAR (1.0 / 60000.0 / 316.22776601683796)  /* (l/min)/sqrt(bar) in (m^3/s)/sqrt(Pa) */
+#define HH_IDEAL_COUNT 1e-9             /* m: count size of an ideal encoder where counts must be integers */
+
+/* ---- log / per-step output columns ---------------------------------------------------------- */
+enum { HH_LOG_T, HH_LOG_U, HH_LOG_UD, HH_LOG_XS, HH_LOG_VS, HH_LOG_P1, HH_LOG_P2, HH_LOG_XP, HH_LOG_VP,
+       HH_LOG_Z, HH_LOG_FF, HH_LOG_TRAVEL, HH_LOG_FRICTION, HH_LOG_SPOOL, HH_LOG_EVENTS, HH_NLOG };
+/* out[] of hh_sim_step: t, the state (7), ff, three modes, events of the step, delayed input */
+enum { HH_OUT_T, HH_OUT_Y, HH_OUT_FF = HH_OUT_Y + HH_NY, HH_OUT_TRAVEL, HH_OUT_FRICTION, HH_OUT_SPOOL,
+       HH_OUT_EVENTS, HH_OUT_UD, HH_NOUT };
+
+enum { HH_OK = 0, HH_DIVERGED = 1 };
+
+/* ---- parameters (params.c) ------------------------------------------------------------------ */
+/* Fill the model slots (friction set per direction from friction.asymmetric; reference-model and
+ * stiff-chamber constants; fault slots 0) from the schema slots. */
+void hh_params_derive(double *p);
+/* Check the schema slots against the schema's ranges and cross-field rules. Returns -1 when all hold,
+ * else the index of the first bad slot, with a message in msg (msg_size bytes, always terminated). */
+int hh_params_check(const double *p, char *msg, size_t msg_size);
+const char *hh_param_name(int index);           /* "spool.wn"; NULL beyond HH_NP */
+const char *hh_param_unit(int index);
+
+/* ---- model pieces (for tests, identification and the SciPy reference) ----------------------- */
+double hh_orifice_flow(double area, double dp, double dp_t);
+double hh_orifice_slope(double area, double dp, double dp_t);
+int hh_spool_derivatives(double xs, double vs, double ud, const double *p, double *dxs, double *dvs);
+void hh_reference_rhs(const double *y, double ud, const double *p, double *dy);
+double hh_lugre_force(double v, double z, const double *p);
+double hh_external_force(double p1, double p2, const double *p);
+double hh_friction_force(const double *y, const int64_t *m, const double *p);
+/* State at rest (SPEC §6, scenarios): chamber pressures NaN -> closed-port equilibrium at xs; the piston
+ * on a stop when pressed onto it, else free with the bristles balancing the net force up to breakaway. */
+void hh_initial_state(const double *p, double xp, double xs, double vs, double p1, double p2, double vp,
+                      double *y, int64_t *m);
+/* One fixed step h of the hybrid model (y, m in place) with spool input ud; returns the events. */
+int hh_hybrid_step(int method, double *y, int64_t *m, const double *p, double ud, double h);
+double hh_encoder_counts(double xp, double resolution);
+double hh_encoder_position(double xp, double resolution);
+double hh_p_control(double kp, double x_ref, double x_meas);
+
+/* ---- the sampled loop (loop.c) -------------------------------------------------------------- */
+/* Input delay (SPEC §3.1) as a ring of zero-order-held commands; buf holds n + 2 doubles. */
+typedef struct {
+    double *buf;
+    int size;            /* n + 2 */
+    int pos;
+    int n;               /* whole steps */
+    double alpha;        /* fraction of a step */
+} hh_delay;
+
+int hh_delay_steps(double delay, double h, double *alpha);   /* n with delay = (n + alpha)*h */
+void hh_delay_init(hh_delay *d, double *buf, int n, double alpha, double u0);
+
+typedef struct {
+    double p[HH_NP];
+    double y[HH_NY];
+    int64_t m[HH_NM];
+    double out[HH_NOUT];        /* the last step's outputs (hh_sim_step) */
+    int model;                  /* HH_MODEL_HYBRID | HH_MODEL_CONTINUOUS */
+    int method;                 /* HH_EULER .. HH_RK4 */
+    double h;                   /* fixed step [s] */
+    int64_t k;                  /* steps done */
+    hh_delay delay;
+    int bounded;                /* also stop when a pressure > 1.5 Ps or |xs| > 2 (maxstep's bounds) */
+    hh_advance_fn advance;      /* HH_MODEL_EXTERNAL */
+    void *ctx;                  /* passed to advance and progress */
+    hh_progress_fn progress;    /* called every 500 steps of hh_sim_run when set */
+} hh_sim;
+
+/* Drive of a run: open loop (values are commands u) or the sampled P controller on the encoder reading
+ * (values are positions x_ref [m]). t_in == NULL: value k holds over step k; else a table (t_in, v_in,
+ * n_in) sampled by zero-order hold at t_k. */
+enum { HH_DRIVE_OPEN, HH_DRIVE_P };
+typedef struct {
+    int kind;
+    double kp;                  /* 1/m */
+    const double *t_in;
+    const double *v_in;
+    int64_t n_in;
+} hh_drive;
+
+/* Set up sim (state from hh_initial_state's arguments) with a delay buffer of hh_delay_steps + 2. */
+void hh_sim_init(hh_sim *sim, const double *p, int model, int method, double h, double *delay_buf,
+                 int delay_n, double delay_alpha);
+void hh_sim_reset(hh_sim *sim);   /* k = 0, delay line filled with y[XS], out from the state */
+/* One step of the per-step API with command u: fills sim->out; returns HH_OK or HH_DIVERGED. */
+int hh_sim_step(hh_sim *sim, double u);
+/* n_steps steps from the current state; a log row (HH_NLOG columns) every `every` steps, the first at
+ * the start. Returns HH_OK / HH_DIVERGED; *steps_done and *rows written. */
+int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t every, double *log,
+               int64_t *steps_done, int64_t *rows);
+/* One log row of the state (y, m) at time t with command u and spool input ud (the rig's Python loop). */
+void hh_log_row(const hh_sim *sim, double t, double u, double ud, const double *y, const int64_t *m,
+                double events, double *row);
+/* Whether y is non-finite or far outside any physical range (divergence, hybrid.h). */
+int hh_diverged(const double *y, const double *p);
+
+/* ---- steady-state sine response of the spool (spool_bode.c) --------------------------------- */
+/* Periodic when a half period ends where it began (sign flipped) within this, relative to the output amplitude. */
+extern const double hh_spool_steady_tol;
+/* Work doubles needed by hh_spool_bode_point at this frequency. */
+int64_t hh_spool_bode_work(double freq);
+/* The periodic steady state under u = amplitude*sin(2 pi f t) (spool_bode.c): output half peak-to-peak,
+ * phase of the fundamental [rad], half periods simulated (at most max_half_periods), residual. */
+void hh_steady_sine_response(const double *p, double amplitude, double freq, int64_t max_half_periods,
+                             double *work, double *a_out, double *phase, int64_t *half_periods, double *residual);
+/* Periodic steady state of the spool model (SPEC §3.1, §9.1) under u = amplitude*sin(2 pi f t):
+ * gain [dB], phase [deg, wrapped], half periods simulated, periodicity residual. */
+void hh_spool_bode_point(const double *p, double amplitude, double freq, int max_periods, double *work,
+                         double *gain_db, double *phase_deg, int64_t *half_periods, double *residual);
+void hh_spool_bode(const double *p, int64_t n, const double *amplitude, const double *freq, int max_periods,
+                   double *work, double *gain_db, double *phase_deg, int64_t *half_periods, double *residual);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,204 @@
+/* loop.c: the sampled loop and the per-step API (see loop.h and hh.h). */
+#include "loop.h"
+
+void hh_initial_state(const double *p, double xp, double xs, double vs, double p1, double p2, double vp,
+                      double *y, int64_t *m)
+{
+    double ps = p[HH_SUPPLY_PS], pt = p[HH_SUPPLY_PT], L = p[HH_CYLINDER_STROKE], x, f;
+    double as1, a1t, as2, a2t;
+    int i;
+    /* closed-port equilibrium (SPEC §3.2): Q1 = Q2 = 0 with the sections of eq 3 (no fault wear) */
+    x = hh_clamp(xs, -1.0, 1.0);
+    as1 = section(-x, p + HH_VALVE_K1);
+    as2 = section(x, p + HH_VALVE_K1);
+    a1t = section(x, p + HH_VALVE_KT1);
+    a2t = section(-x, p + HH_VALVE_KT1);
+    if (isnan(p1))
+        p1 = pt + (ps - pt) * (as1 * as1 / (as1 * as1 + a1t * a1t));
+    if (isnan(p2))
+        p2 = pt + (ps - pt) * (as2 * as2 / (as2 * as2 + a2t * a2t));
+    y[HH_XS] = xs;
+    y[HH_VS] = vs;
+    y[HH_P1] = p1;
+    y[HH_P2] = p2;
+    y[HH_XP] = xp;
+    y[HH_VP] = vp;
+    y[HH_Z] = 0.0;
+    for (i = 0; i < HH_NM; i++)
+        m[i] = 0;
+    m[HH_M_SPOOL] = HH_SPOOL_LINEAR;
+    f = external_force(p1, p2, p);
+    if (xp <= 0.0 && f <= 0.0) {
+        y[HH_XP] = 0.0;
+        y[HH_VP] = 0.0;
+        m[HH_M_TRAVEL] = HH_AT_RETRACT;
+    } else if (xp >= L && f >= 0.0) {
+        y[HH_XP] = L;
+        y[HH_VP] = 0.0;
+        m[HH_M_TRAVEL] = HH_AT_EXTEND;
+    } else {
+        y[HH_XP] = hh_min(hh_max(xp, 0.0), L);
+        m[HH_M_TRAVEL] = HH_FREE;
+        y[HH_Z] = hh_min(hh_max(f, -p[HH_FS_NEG]), p[HH_FS_POS]) / p[HH_FRICTION_SIGMA0];
+    }
+    m[HH_M_FRICTION] = HH_STICK;
+}
+
+/* Non-finite or far outside any physical range. */
+int hh_diverged(const double *y, const double *p)
+{
+    int i;
+    for (i = 0; i < HH_NY; i++)
+        if (!isfinite(y[i]))
+            return 1;
+    return fabs(y[HH_P1]) > 1e9 || fabs(y[HH_P2]) > 1e9 || fabs(y[HH_VP]) > 100.0 || fabs(y[HH_XS]) > 10.0
+           || y[HH_XP] < -p[HH_CYLINDER_STROKE] || y[HH_XP] > 2.0 * p[HH_CYLINDER_STROKE];
+}
+
+HH_INLINE int sim_diverged(const hh_sim *sim)
+{
+    const double *y = sim->y, *p = sim->p;
+    if (hh_diverged(y, p))
+        return 1;
+    return sim->bounded && (y[HH_P1] > 1.5 * p[HH_SUPPLY_PS] || y[HH_P2] > 1.5 * p[HH_SUPPLY_PS]
+                            || fabs(y[HH_XS]) > 2.0);
+}
+
+void hh_log_row(const hh_sim *sim, double t, double u, double ud, const double *y, const int64_t *m,
+                double events, double *row)
+{
+    const double *p = sim->p;
+    int i;
+    row[HH_LOG_T] = t;
+    row[HH_LOG_U] = u;
+    row[HH_LOG_UD] = ud;
+    for (i = 0; i < HH_NY; i++)
+        row[HH_LOG_XS + i] = y[i];
+    if (sim->model == HH_MODEL_HYBRID) {
+        row[HH_LOG_FF] = friction_force(y, m, p);
+        row[HH_LOG_TRAVEL] = (double)m[HH_M_TRAVEL];
+        row[HH_LOG_FRICTION] = (double)m[HH_M_FRICTION];
+        row[HH_LOG_SPOOL] = (double)m[HH_M_SPOOL];
+    } else {   /* continuous models: modes read off the state, for plots only */
+        double dz;
+        row[HH_LOG_FF] = lugre(y[HH_VP], y[HH_Z], p, &dz);
+        row[HH_LOG_TRAVEL] = y[HH_XP] < 0.0 ? HH_AT_RETRACT : y[HH_XP] > p[HH_CYLINDER_STROKE] ? HH_AT_EXTEND : HH_FREE;
+        row[HH_LOG_FRICTION] = fabs(y[HH_VP]) < 1e-3 ? HH_STICK : y[HH_VP] > 0.0 ? HH_SLIP_POS : HH_SLIP_NEG;
+        row[HH_LOG_SPOOL] = 0.0;
+    }
+    row[HH_LOG_EVENTS] = events;
+}
+
+void hh_sim_init(hh_sim *sim, const double *p, int model, int method, double h, double *delay_buf,
+                 int delay_n, double delay_alpha)
+{
+    int i;
+    for (i = 0; i < HH_NP; i++)
+        sim->p[i] = p[i];
+    sim->model = model;
+    sim->method = method;
+    sim->h = h;
+    sim->k = 0;
+    sim->bounded = 0;
+    sim->advance = 0;
+    sim->ctx = 0;
+    sim->progress = 0;
+    sim->delay.buf = delay_buf;
+    sim->delay.n = delay_n;
+    sim->delay.alpha = delay_alpha;
+    sim->delay.size = delay_n + 2;
+    hh_initial_state(sim->p, 0.0, 0.0, 0.0, NAN, NAN, 0.0, sim->y, sim->m);
+    hh_sim_reset(sim);
+}
+
+void hh_sim_reset(hh_sim *sim)
+{
+    int i;
+    sim->k = 0;
+    hh_delay_init(&sim->delay, sim->delay.buf, sim->delay.n, sim->delay.alpha, sim->y[HH_XS]);
+    for (i = 0; i < HH_NOUT; i++)
+        sim->out[i] = 0.0;
+    for (i = 0; i < HH_NY; i++)
+        sim->out[HH_OUT_Y + i] = sim->y[i];
+    sim->out[HH_OUT_TRAVEL] = (double)sim->m[HH_M_TRAVEL];
+    sim->out[HH_OUT_FRICTION] = (double)sim->m[HH_M_FRICTION];
+    sim->out[HH_OUT_SPOOL] = (double)sim->m[HH_M_SPOOL];
+}
+
+/* Advance the model one step h from t with the delay line's two commands; returns events, or -1 when an
+ * external step failed. */
+HH_INLINE int sim_advance(hh_sim *sim, double t, double u_new, double u_old, double ud)
+{
+    switch (sim->model) {
+    case HH_MODEL_HYBRID:
+        return hybrid_step(sim->method, sim->y, sim->m, sim->p, ud, sim->h);
+    case HH_MODEL_CONTINUOUS:
+        continuous_step(sim->method, sim->y, sim->p, ud, sim->h);
+        return 0;
+    default:
+        return sim->advance(sim->ctx, t, sim->h, sim->delay.alpha, u_old, u_new, sim->y) ? -1 : 0;
+    }
+}
+
+int hh_sim_step(hh_sim *sim, double u)
+{
+    double u_new, u_old, ud;
+    int ev, i;
+    ud = delay_push(&sim->delay, u, &u_new, &u_old);
+    ev = sim_advance(sim, (double)sim->k * sim->h, u_new, u_old, ud);
+    sim->k++;
+    sim->out[HH_OUT_T] = (double)sim->k * sim->h;   /* t = k*h exactly as the loop (no sum drift) */
+    for (i = 0; i < HH_NY; i++)
+        sim->out[HH_OUT_Y + i] = sim->y[i];
+    sim->out[HH_OUT_FF] = sim->model == HH_MODEL_HYBRID ? friction_force(sim->y, sim->m, sim->p) : 0.0;
+    sim->out[HH_OUT_TRAVEL] = (double)sim->m[HH_M_TRAVEL];
+    sim->out[HH_OUT_FRICTION] = (double)sim->m[HH_M_FRICTION];
+    sim->out[HH_OUT_SPOOL] = (double)sim->m[HH_M_SPOOL];
+    sim->out[HH_OUT_EVENTS] = ev;
+    sim->out[HH_OUT_UD] = ud;
+    return ev < 0 || sim_diverged(sim) ? HH_DIVERGED : HH_OK;
+}
+
+int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t every, double *log,
+               int64_t *steps_done, int64_t *rows)
+{
+    const double *p = sim->p;
+    double h = sim->h, t, u, ud, u_new, u_old, events = 0.0;
+    int64_t k, j = 0, row = 0, k0 = sim->k;
+    int ev;
+    for (k = 0; k <= n_steps; k++) {
+        double v;
+        t = (double)(k0 + k) * h;
+        if (drive->t_in == 0) {
+            v = drive->v_in[k];
+        } else {
+            while (j + 1 < drive->n_in && drive->t_in[j + 1] <= t + 1e-15)
+                j++;
+            v = drive->v_in[j];
+        }
+        u = drive->kind == HH_DRIVE_P ? p_control(drive->kp, v, encoder_position(sim->y[HH_XP],
+                                                                                  p[HH_SENSORS_ENCODER_RESOLUTION]))
+                                      : v;
+        ud = delay_push(&sim->delay, u, &u_new, &u_old);
+        if (k % every == 0) {
+            hh_log_row(sim, t, u, ud, sim->y, sim->m, events, log + row * HH_NLOG);
+            row++;
+            events = 0.0;
+        }
+        if (k == n_steps)
+            break;
+        ev = sim_advance(sim, t, u_new, u_old, ud);
+        sim->k++;
+        events += ev;
+        if (ev < 0 || sim_diverged(sim)) {
+            *steps_done = k + 1;
+            *rows = row;
+            return HH_DIVERGED;
+        }
+        if (sim->progress != 0 && k % 500 == 0)
+            sim->progress(sim->ctx, k);
+    }
+    *steps_done = n_steps;
+    *rows = row;
+    return HH_OK;
+}

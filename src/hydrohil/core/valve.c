@@ -1,0 +1,121 @@
+/* valve.c: servo-solenoid valve, SPEC §3 (see valve.h). */
+#include "valve.h"
+
+/* One pseudo-section of eq 3: k1*x + k2 + sqrt(k3*x^2 + k4*x + k5), floored at zero. */
+HH_INLINE double section_(double x, double k1, double k2, double k3, double k4, double k5)
+{
+    return hh_max(k1 * x + k2 + sqrt(hh_max(k3 * x * x + k4 * x + k5, 0.0)), 0.0);
+}
+
+HH_INLINE double section(double x, const double *k) { return section_(x, k[0], k[1], k[2], k[3], k[4]); }
+
+/* (As1, As2, A1t, A2t) at spool position x (clamped to [-1, 1]), eq 3, plus the worn-lands leakage
+ * section p[HH_VALVE_WEAR] on each (0 unless a valve-leakage fault is active). */
+HH_INLINE hh_sections pseudo_sections(double x, const double *p)
+{
+    const double *k = p + HH_VALVE_K1, *kt = p + HH_VALVE_KT1;
+    double w = p[HH_VALVE_WEAR];
+    hh_sections s;
+    x = hh_clamp(x, -1.0, 1.0);
+    s.as2 = section(x, k) + w;
+    s.as1 = section(-x, k) + w;
+    s.a1t = section(x, kt) + w;
+    s.a2t = section(-x, kt) + w;
+    return s;
+}
+
+/* d/dx of one section (0 where it is floored at zero). */
+HH_INLINE double section_slope(double x, const double *k)
+{
+    double q = k[2] * x * x + k[3] * x + k[4];
+    double r = q > 0.0 ? sqrt(q) : 0.0;
+    if (k[0] * x + k[1] + r <= 0.0)
+        return 0.0;
+    return r > 0.0 ? k[0] + (2.0 * k[2] * x + k[3]) / (2.0 * r) : k[0];
+}
+
+/* (dAs1/dx, dAs2/dx, dA1t/dx, dA2t/dx) of eq 3; 0 beyond the clamp at |x| = 1 (wear is constant). */
+HH_INLINE hh_sections pseudo_section_slopes(double x, const double *p)
+{
+    const double *k = p + HH_VALVE_K1, *kt = p + HH_VALVE_KT1;
+    hh_sections s = {0.0, 0.0, 0.0, 0.0};
+    if (x >= 1.0 || x <= -1.0)
+        return s;
+    s.as2 = section_slope(x, k);
+    s.as1 = -section_slope(-x, k);
+    s.a1t = section_slope(x, kt);
+    s.a2t = -section_slope(-x, kt);
+    return s;
+}
+
+/* Flow [m^3/s] through a pseudo-section `area` [(l/min)/sqrt(bar)] under dp [Pa] (SPEC §3.2): turbulent
+ * q = K*sign(dp)*sqrt(|dp|) for |dp| >= dp_t exactly; below, the odd cubic K*sqrt(dp_t)*r*(5 - r^2)/4,
+ * r = dp/dp_t, which meets it with the same value and slope (C1), slope 1.25*K/sqrt(dp_t) at 0. */
+HH_INLINE double orifice_flow(double area, double dp, double dp_t)
+{
+    double k = area * HH_LPM_PER_SQRT_BAR, r;
+    if (dp >= dp_t)
+        return k * sqrt(dp);
+    if (dp <= -dp_t)
+        return -k * sqrt(-dp);
+    r = dp / dp_t;
+    return k * sqrt(dp_t) * r * (1.25 - 0.25 * r * r);
+}
+
+/* d(orifice_flow)/d(dp) [m^3/s/Pa] (>= 0). */
+HH_INLINE double orifice_slope(double area, double dp, double dp_t)
+{
+    double k = area * HH_LPM_PER_SQRT_BAR, a = fabs(dp), r;
+    if (a >= dp_t)
+        return 0.5 * k / sqrt(a);
+    r = dp / dp_t;
+    return k / sqrt(dp_t) * (1.25 - 0.75 * r * r);
+}
+
+/* (dxs/dt, dvs/dt) of the limited second-order spool (SPEC §3.1, eq 1, Fig 3); returns the spool mode. */
+HH_INLINE int spool_derivatives(double xs, double vs, double ud, const double *p, double *dxs, double *dvs)
+{
+    double wn = p[HH_SPOOL_WN], la = p[HH_SPOOL_LA], lv = p[HH_SPOOL_LV];
+    double a = wn * wn * (ud - xs) - 2.0 * p[HH_SPOOL_XI] * wn * vs;
+    int mode = HH_SPOOL_LINEAR;
+    if (a > la) {
+        a = la;
+        mode = HH_SPOOL_ACC_LIMITED;
+    } else if (a < -la) {
+        a = -la;
+        mode = HH_SPOOL_ACC_LIMITED;
+    }
+    if ((vs >= lv && a > 0.0) || (vs <= -lv && a < 0.0)) {   /* limited integrator: no wind-up beyond +-Lv */
+        a = 0.0;
+        mode = HH_SPOOL_VEL_LIMITED;
+    }
+    if (xs >= 1.0 || xs <= -1.0)
+        mode = HH_SPOOL_AT_END;
+    *dxs = vs;
+    *dvs = a;
+    return mode;
+}
+
+/* The spool's mechanical end in the hybrid model (SPEC §3.1: x̄s in [-1, 1]): at an end, motion and
+ * acceleration into it are stopped (the step's projection then holds x̄s = ±1, v̄s = 0). */
+HH_INLINE void spool_end_block(double xs, double vs, double *dxs, double *dvs)
+{
+    if (xs >= 1.0 && vs >= 0.0) {
+        *dxs = 0.0;
+        *dvs = hh_min(*dvs, 0.0);
+    } else if (xs <= -1.0 && vs <= 0.0) {
+        *dxs = 0.0;
+        *dvs = hh_max(*dvs, 0.0);
+    }
+}
+
+/* The spool's end in the continuous reference model: a stiff unilateral spring-damper on penetration
+ * beyond |x̄s| = 1 (HH_SPOOL_STOP_K, HH_SPOOL_STOP_C) [1/s^2]. */
+HH_INLINE double spool_stop_acceleration(double xs, double vs, const double *p)
+{
+    if (xs > 1.0)
+        return -hh_max(0.0, p[HH_SPOOL_STOP_K] * (xs - 1.0) + p[HH_SPOOL_STOP_C] * vs);
+    if (xs < -1.0)
+        return hh_max(0.0, p[HH_SPOOL_STOP_K] * (-1.0 - xs) - p[HH_SPOOL_STOP_C] * vs);
+    return 0.0;
+}
