@@ -4,6 +4,7 @@ Sections (each a function returning a dict; medians over repeats, ratios compute
   machine           CPU model, cores, Python/numpy/cffi versions, C compiler, real-time permissions
   startup           `hydrohil simulate` as a new process (first and following runs), `import hydrohil`
   compiled_loop     ns per hybrid RK3 step in the C core's loop (open and closed loop), real-time factor
+  instructions      machine instructions per RK3 step of the C core (valgrind/callgrind)
   per_step_api      µs per ``HybridPlant.step(u)`` call from Python
   reference_solver  wall time of the LSODA reference per simulated second, ratio to the hybrid loop
   max_stable_step   largest stable RK3 step, hybrid vs continuous stiff-stop model, ratio
@@ -81,7 +82,7 @@ def per_step_api(n: int = 20000, repeats: int = 5) -> dict:
     from hydrohil.parameters import load_parameters
     from hydrohil.simulation.loop import HybridPlant
     plant = HybridPlant(load_parameters("ferreira2004", {"load.gravity_direction": 0}), xp=0.09)
-    u = 0.3 * np.sin(2 * np.pi * 0.5 * np.arange(n) * 5e-4)
+    u = (0.3 * np.sin(2 * np.pi * 0.5 * np.arange(n) * 5e-4)).tolist()    # Python floats, as a controller sends
     res = []
     for _ in range(repeats):
         plant.reset(xp=0.09)
@@ -91,6 +92,37 @@ def per_step_api(n: int = 20000, repeats: int = 5) -> dict:
             step(uk)
         res.append((time.perf_counter() - t0) / n * 1e6)
     return {"us_per_call": statistics.median(res)}
+
+
+def instructions(steps: int = 4000) -> dict:
+    """Machine instructions per hybrid RK3 step of the C core's loop, counted by valgrind/callgrind inside
+    ``hh_sim_run`` (Fig 10's open-loop sine, the first ``steps`` steps): independent of machine load. The
+    driver (``core/tools/step_count.c``) is compiled with the extension's flags; None without valgrind/cc."""
+    import shutil
+    import subprocess
+    import sysconfig
+    from hydrohil.core import build as core_build
+    from hydrohil.models.layout import pack
+    cc = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    if shutil.which("valgrind") is None or shutil.which(cc) is None:
+        return {"per_step": None, "reason": "valgrind or a C compiler not found"}
+    core = Path(core_build.__file__).resolve().parent
+    sc = _scenario("fig10_open_loop_sine.toml", steps * 5e-4)
+    with tempfile.TemporaryDirectory() as tmp:
+        t = Path(tmp)
+        pack(sc.params).tofile(t / "p.bin")
+        np.ascontiguousarray(sc.scenario.commands()[:steps + 1], float).tofile(t / "u.bin")
+        subprocess.run([cc, *core_build.CFLAGS, "-I", str(core), str(core / "tools" / "step_count.c"),
+                        str(core / "hh_core.c"), "-lm", "-o", str(t / "step_count")], check=True, capture_output=True)
+        subprocess.run(["valgrind", "--tool=callgrind", "--toggle-collect=hh_sim_run",
+                        f"--callgrind-out-file={t / 'cg.out'}", str(t / "step_count"), str(t / "p.bin"),
+                        str(t / "u.bin"), str(steps), "2", "5e-4", str(sc.scenario.initial.xp)],
+                       check=True, capture_output=True)
+        total = 0
+        for line in (t / "cg.out").read_text().splitlines():
+            if line.startswith("totals:") or line.startswith("summary:"):
+                total = int(line.split()[1])
+    return {"per_step": total / steps, "steps": steps, "tool": "valgrind --tool=callgrind"}
 
 
 def reference_solver(duration: float = 6.0, repeats: int = 3) -> dict:
@@ -129,8 +161,10 @@ def startup(repeats: int = 5) -> dict:
                "--out", out, "--no-plot"]
         walls = [wall(cmd) for _ in range(repeats + 1)]
     bare = statistics.median(wall([sys.executable, "-c", "pass"]) for _ in range(repeats))
-    imp = statistics.median(wall([sys.executable, "-c", "import hydrohil.simulation.run"]) for _ in range(repeats))
-    return {"cold_s": walls[0], "warm_s": statistics.median(walls[1:]), "import_s": imp - bare}
+    imp = statistics.median(wall([sys.executable, "-c", "import hydrohil"]) for _ in range(repeats))
+    sim = statistics.median(wall([sys.executable, "-c", "import hydrohil.simulation.run"]) for _ in range(repeats))
+    return {"cold_s": walls[0], "warm_s": statistics.median(walls[1:]), "import_s": imp - bare,
+            "import_simulation_s": sim - bare}
 
 
 def hil_scenario(tmp: Path, seconds: float, step: float) -> Path:
@@ -220,6 +254,7 @@ def run_bench(*, seconds: float = 60.0, quick: bool = False,
     sections: list[tuple[str, Callable[[], dict]]] = [
         ("startup", lambda: startup(1 if quick else 3)),
         ("compiled_loop", lambda: compiled_loop(6.0 if quick else 60.0, 2 if quick else 7)),
+        ("instructions", lambda: instructions(1000 if quick else 4000)),
         ("per_step_api", lambda: per_step_api(2000 if quick else 20000, 2 if quick else 5)),
         ("reference_solver", lambda: reference_solver(1.0 if quick else 6.0, 1 if quick else 3)),
         ("max_stable_step", max_stable_step),
@@ -265,10 +300,13 @@ def markdown(res: dict) -> str:
          f"{c['open_loop']['ns_per_step']:.0f} / {c['closed_loop']['ns_per_step']:.0f} ns "
          f"(real-time factor {c['open_loop']['realtime_factor']:.0f} / {c['closed_loop']['realtime_factor']:.0f})",
          "≤ 100 ns"),
+        ("… machine instructions per RK3 step (callgrind, independent of load)",
+         _f(res.get("instructions", {}).get("per_step"), "{:.0f}"), "—"),
         ("`hydrohil simulate` as a new process: first / following runs",
          f"{res['startup']['cold_s']:.2f} s / {res['startup']['warm_s']:.2f} s", "≤ 1.5 s"),
-        ("`import hydrohil` (fresh process, less the interpreter's start)",
-         f"{res['startup'].get('import_s', float('nan')):.2f} s", "≤ 0.3 s"),
+        ("`import hydrohil` / `import hydrohil.simulation.run` (fresh process, less the interpreter's start)",
+         f"{res['startup'].get('import_s', float('nan')):.3f} s / "
+         f"{res['startup'].get('import_simulation_s', float('nan')):.2f} s", "≤ 0.3 s"),
         ("per-step API `plant.step(u)` from Python", f"{res['per_step_api']['us_per_call']:.2f} µs", "≤ 0.5 µs"),
         ("LSODA reference, wall per simulated second",
          f"{res['reference_solver']['lsoda_s_per_simulated_s']:.3g} s ({res['reference_solver']['ratio']:.0f}× "

@@ -62,14 +62,17 @@ extern "Python" void hh_py_progress(void *, int64_t);
 """
 
 
-write_params_header()
-ffibuilder = FFI()
-ffibuilder.cdef(cdef_text())
-_rel = Path(os.path.relpath(HERE))          # setuptools wants paths relative to setup.py's folder
-ffibuilder.set_source("hydrohil.core._hh", '#include "hh.h"\n', sources=[(_rel / "hh_core.c").as_posix()],
-                      include_dirs=[_rel.as_posix()], extra_compile_args=CFLAGS, libraries=["m"],
-                      depends=[(_rel / p.name).as_posix()
-                               for p in sorted(HERE.glob("*.[ch]"))])
+def ffibuilder() -> FFI:
+    """The cffi builder of ``hydrohil.core._hh`` (setup.py's ``cffi_modules`` calls this)."""
+    write_params_header()
+    ffi = FFI()
+    ffi.cdef(cdef_text())
+    rel = Path(os.path.relpath(HERE))          # setuptools wants paths relative to setup.py's folder
+    ffi.set_source("hydrohil.core._hh", '#include "hh.h"\n', sources=[(rel / "hh_core.c").as_posix()],
+                   include_dirs=[rel.as_posix()], extra_compile_args=CFLAGS, libraries=["m"],
+                   depends=[(rel / p.name).as_posix() for p in sorted(HERE.glob("*.[ch]"))])
+    return ffi
+
 
 if __name__ == "__main__":
-    ffibuilder.compile(verbose=True)
+    ffibuilder().compile(verbose=True)

@@ -16,8 +16,6 @@ from __future__ import annotations
 import numpy as np
 import warnings
 
-from scipy.integrate import ODEintWarning, odeint, solve_ivp
-
 from hydrohil.core import dptr, ffi, lib
 from hydrohil.models.layout import NY
 from hydrohil.simulation.loop import STATUS_DIVERGED, Sim
@@ -34,6 +32,7 @@ class ReferenceSolverFailed(RuntimeError):
 
 def advance(f, y, t0: float, t1: float, ud: float, rtol: float, atol, stats: dict) -> np.ndarray:
     """State at t1 from ``y`` at t0 under spool input ``ud``: LSODA, Radau where LSODA gives up."""
+    from scipy.integrate import odeint, solve_ivp     # here: SciPy's import costs 0.5 s at start-up
     out, info = odeint(f, y, [t0, t1], args=(ud,), rtol=rtol, atol=atol, mxstep=LSODA_MXSTEP, full_output=True)
     stats["intervals"] += 1
     if info["message"] == "Integration successful.":
@@ -113,6 +112,7 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, *, u_
     sim._sim.advance = lib.hh_py_advance
     sim._sim.ctx = handle
     closed = u_open is None
+    from scipy.integrate import ODEintWarning
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ODEintWarning)   # LSODA giving up is handled in advance()
         status, done, log = sim.run(n_steps, every, xref if closed else u_open, kp=kp if closed else None,
