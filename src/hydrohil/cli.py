@@ -185,6 +185,31 @@ def linear_cmd(params: str = typer.Option("ferreira2004", help="built-in name or
                            "damping": lm.damping, "A": lm.A.tolist(), "B": lm.B.tolist()}, indent=2))
 
 
+export_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
+                         help="Generate real-time code of the plant from the C core.")
+app.add_typer(export_app, name="export")
+
+
+def export_fmu(out: Path, params: str = "ferreira2004", fmi: int = 2, step: float = 5e-4) -> Path:
+    """Write a Co-Simulation FMU (FMI 2.0 or 3.0) of the plant with the parameter set ``params``."""
+    from hydrohil.export.fmu import export_fmu as build
+    from hydrohil.parameters import load_parameters
+    return build(load_parameters(params), out, fmi=fmi, step=step)
+
+
+@export_app.command("fmu")
+def export_fmu_cmd(out: Path = typer.Option(..., "--out", help="FMU file to write (.fmu)"),
+                   params: str = typer.Option("ferreira2004", "--params", help="parameter set (name or path)"),
+                   fmi: int = typer.Option(2, "--fmi", help="FMI version: 2 or 3"),
+                   step: float = typer.Option(5e-4, "--step", help="internal fixed step [s]")):
+    """Co-Simulation FMU of the plant (C sources + a binary built here); see the README."""
+    try:
+        path = export_fmu(out, params, fmi, step)
+    except HydrohilError as exc:
+        _fail(exc)
+    typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation, internal step {step:g} s)")
+
+
 def _parse_sets(items: list[str]) -> dict:
     """``key=value`` pairs from repeated ``--set`` options; values are TOML literals (``0`` is an
     integer, ``7e6`` a float, ``true`` a boolean), exactly as in a scenario's ``[overrides]``."""

@@ -30,9 +30,20 @@ class ReferenceSolverFailed(RuntimeError):
     """Neither LSODA nor Radau could integrate an interval of the reference model."""
 
 
+def odeint(*args, **kwargs):
+    """scipy.integrate.odeint, imported on first use (SciPy's import costs 0.5 s of every start-up)."""
+    from scipy.integrate import odeint as lsoda
+    return lsoda(*args, **kwargs)
+
+
+def solve_ivp(*args, **kwargs):
+    """scipy.integrate.solve_ivp, imported on first use."""
+    from scipy.integrate import solve_ivp as ivp
+    return ivp(*args, **kwargs)
+
+
 def advance(f, y, t0: float, t1: float, ud: float, rtol: float, atol, stats: dict) -> np.ndarray:
     """State at t1 from ``y`` at t0 under spool input ``ud``: LSODA, Radau where LSODA gives up."""
-    from scipy.integrate import odeint, solve_ivp     # here: SciPy's import costs 0.5 s at start-up
     out, info = odeint(f, y, [t0, t1], args=(ud,), rtol=rtol, atol=atol, mxstep=LSODA_MXSTEP, full_output=True)
     stats["intervals"] += 1
     if info["message"] == "Integration successful.":

@@ -1,0 +1,287 @@
+/* fmi2Functions.c: FMI 2.0 Co-Simulation interface of the exported plant (plant_fmu.h). Every function of
+ * the standard's header is defined; Model Exchange ones and input/output derivatives answer fmi2Error. */
+#include <stdlib.h>
+#include <string.h>
+#include "fmi2Functions.h"
+#include "plant_fmu.h"
+
+typedef struct {
+    plant *pl;
+    fmi2CallbackFunctions cb;
+    int logging;
+} fmu2;
+
+static void log2(void *env, const char *instance, int status, const char *category, const char *msg)
+{
+    fmu2 *f = env;
+    if (!f->cb.logger || (status == PLANT_OK && !f->logging))
+        return;
+    f->cb.logger(f->cb.componentEnvironment, instance, status == PLANT_ERROR ? fmi2Error
+                 : status == PLANT_WARNING ? fmi2Warning : fmi2OK, category, "%s", msg);
+}
+
+static fmi2Status st(int s) { return s == PLANT_OK ? fmi2OK : s == PLANT_WARNING ? fmi2Warning : fmi2Error; }
+#define PL(c) (((fmu2 *)(c))->pl)
+#define UNSUPPORTED(c, what) (plant_logf(PL(c), PLANT_ERROR, "%s is not supported", what), fmi2Error)
+
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                               const fmi2String categories[])
+{
+    (void)nCategories;
+    (void)categories;
+    ((fmu2 *)c)->logging = loggingOn;
+    return fmi2OK;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn)
+{
+    fmu2 *f;
+    (void)fmuResourceLocation;
+    (void)visible;
+    if (!functions || fmuType != fmi2CoSimulation || !fmuGUID || strcmp(fmuGUID, PLANT_TOKEN) != 0) {
+        if (functions && functions->logger)
+            functions->logger(functions->componentEnvironment, instanceName, fmi2Error, "logStatusError",
+                              "hydrohil_plant: a Co-Simulation FMU of token %s (got type %d, token %s)", PLANT_TOKEN,
+                              (int)fmuType, fmuGUID ? fmuGUID : "none");
+        return NULL;
+    }
+    f = calloc(1, sizeof *f);
+    if (!f)
+        return NULL;
+    f->cb = *functions;
+    f->logging = loggingOn;
+    f->pl = plant_new(instanceName, log2, f);
+    if (!f->pl) {
+        free(f);
+        return NULL;
+    }
+    return f;
+}
+
+void fmi2FreeInstance(fmi2Component c)
+{
+    if (c) {
+        plant_free(PL(c));
+        free(c);
+    }
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime)
+{
+    (void)toleranceDefined;
+    (void)tolerance;
+    (void)stopTimeDefined;
+    (void)stopTime;
+    PL(c)->t0 = startTime;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) { return st(plant_enter_init(PL(c), PL(c)->t0)); }
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) { return st(plant_exit_init(PL(c))); }
+
+fmi2Status fmi2Terminate(fmi2Component c)
+{
+    PL(c)->mode = PLANT_TERMINATED;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component c)
+{
+    plant_defaults(PL(c));
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[])
+{
+    size_t i;
+    for (i = 0; i < nvr; i++)
+        if (plant_get_real(PL(c), vr[i], &value[i]) != PLANT_OK)
+            return fmi2Error;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[])
+{
+    size_t i;
+    for (i = 0; i < nvr; i++)
+        if (plant_get_integer(PL(c), vr[i], &value[i]) != PLANT_OK)
+            return fmi2Error;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[])
+{
+    (void)vr;
+    (void)value;
+    return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2GetBoolean (the FMU has no Boolean variable)");
+}
+
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[])
+{
+    (void)vr;
+    (void)value;
+    return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2GetString (the FMU has no String variable)");
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[])
+{
+    size_t i;
+    for (i = 0; i < nvr; i++)
+        if (plant_set_real(PL(c), vr[i], value[i]) != PLANT_OK)
+            return fmi2Error;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[])
+{
+    (void)vr;
+    (void)value;
+    return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2SetInteger (the FMU's Integer variables are outputs)");
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[])
+{
+    (void)vr;
+    (void)value;
+    return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2SetBoolean (the FMU has no Boolean variable)");
+}
+
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[])
+{
+    (void)vr;
+    (void)value;
+    return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2SetString (the FMU has no String variable)");
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state)
+{
+    size_t n = plant_state_size(PL(c));
+    void *bytes = *state ? realloc(*state, sizeof(size_t) + n) : malloc(sizeof(size_t) + n);
+    if (!bytes)
+        return fmi2Error;
+    memcpy(bytes, &n, sizeof n);
+    plant_state_write(PL(c), (char *)bytes + sizeof(size_t));
+    *state = bytes;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
+{
+    size_t n;
+    if (!state)
+        return fmi2Error;
+    memcpy(&n, state, sizeof n);
+    return st(plant_state_read(PL(c), (const char *)state + sizeof(size_t), n));
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state)
+{
+    (void)c;
+    free(*state);
+    *state = NULL;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size)
+{
+    (void)c;
+    memcpy(size, state, sizeof(size_t));
+    *size += sizeof(size_t);
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte serialized[], size_t size)
+{
+    size_t n;
+    memcpy(&n, state, sizeof n);
+    if (size != n + sizeof(size_t))
+        return UNSUPPORTED(c, "fmi2SerializeFMUstate with a buffer of another size");
+    memcpy(serialized, state, size);
+    return fmi2OK;
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serialized[], size_t size, fmi2FMUstate *state)
+{
+    void *bytes = malloc(size);
+    (void)c;
+    if (!bytes)
+        return fmi2Error;
+    memcpy(bytes, serialized, size);
+    free(*state);
+    *state = bytes;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
+                                        const fmi2ValueReference vKnown_ref[], size_t nKnown,
+                                        const fmi2Real dvKnown[], fmi2Real dvUnknown[])
+{
+    (void)vUnknown_ref; (void)nUnknown; (void)vKnown_ref; (void)nKnown; (void)dvKnown; (void)dvUnknown;
+    return UNSUPPORTED(c, "fmi2GetDirectionalDerivative");
+}
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[])
+{
+    (void)vr; (void)nvr; (void)order; (void)value;
+    return UNSUPPORTED(c, "fmi2SetRealInputDerivatives");
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                        const fmi2Integer order[], fmi2Real value[])
+{
+    (void)vr; (void)nvr; (void)order; (void)value;
+    return UNSUPPORTED(c, "fmi2GetRealOutputDerivatives");
+}
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint)
+{
+    (void)noSetFMUStatePriorToCurrentPoint;
+    return st(plant_do_step(PL(c), currentCommunicationPoint, communicationStepSize));
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) { return UNSUPPORTED(c, "fmi2CancelStep (doStep is synchronous)"); }
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
+{
+    (void)s;
+    *value = PL(c)->mode == PLANT_FAILED ? fmi2Error : fmi2OK;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
+{
+    if (s != fmi2LastSuccessfulTime)
+        return UNSUPPORTED(c, "fmi2GetRealStatus of this kind");
+    *value = PL(c)->t0 + (double)PL(c)->sim.k * PL(c)->sim.h;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value)
+{
+    (void)s; (void)value;
+    return UNSUPPORTED(c, "fmi2GetIntegerStatus");
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
+{
+    (void)s;
+    if (s == fmi2Terminated) {
+        *value = fmi2False;
+        return fmi2OK;
+    }
+    return UNSUPPORTED(c, "fmi2GetBooleanStatus of this kind");
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value)
+{
+    (void)s; (void)value;
+    return UNSUPPORTED(c, "fmi2GetStringStatus");
+}

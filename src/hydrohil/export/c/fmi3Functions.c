@@ -1,0 +1,485 @@
+/* fmi3Functions.c: FMI 3.0 Co-Simulation interface of the exported plant (plant_fmu.h). Every function of
+ * the standard's header is defined; what a Co-Simulation FMU without clocks, events or derivatives does
+ * not offer answers fmi3Error with a message. */
+#include <stdlib.h>
+#include <string.h>
+#include "fmi3Functions.h"
+#include "plant_fmu.h"
+
+#define VR_TIME 999
+
+typedef struct {
+    plant *pl;
+    fmi3InstanceEnvironment env;
+    fmi3LogMessageCallback log;
+    int logging;
+} fmu3;
+
+static void log3(void *env, const char *instance, int status, const char *category, const char *msg)
+{
+    fmu3 *f = env;
+    (void)instance;
+    if (!f->log || (status == PLANT_OK && !f->logging))
+        return;
+    f->log(f->env, status == PLANT_ERROR ? fmi3Error : status == PLANT_WARNING ? fmi3Warning : fmi3OK, category, msg);
+}
+
+static fmi3Status st(int s) { return s == PLANT_OK ? fmi3OK : s == PLANT_WARNING ? fmi3Warning : fmi3Error; }
+#define PL(c) (((fmu3 *)(c))->pl)
+static fmi3Status unsupported(fmi3Instance c, const char *what)
+{
+    plant_logf(PL(c), PLANT_ERROR, "%s is not supported by this FMU", what);
+    return fmi3Error;
+}
+
+const char *fmi3GetVersion(void) { return fmi3Version; }
+
+fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean loggingOn, size_t nCategories, const fmi3String categories[])
+{
+    (void)nCategories;
+    (void)categories;
+    ((fmu3 *)c)->logging = loggingOn;
+    return fmi3OK;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
+                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment, fmi3LogMessageCallback logMessage)
+{
+    (void)instanceName; (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
+    if (logMessage)
+        logMessage(instanceEnvironment, fmi3Error, "logStatusError", "hydrohil_plant is a Co-Simulation FMU only");
+    return NULL;
+}
+
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
+                                         fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                         fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
+                                         const fmi3ValueReference requiredIntermediateVariables[],
+                                         size_t nRequiredIntermediateVariables,
+                                         fmi3InstanceEnvironment instanceEnvironment,
+                                         fmi3LogMessageCallback logMessage,
+                                         fmi3IntermediateUpdateCallback intermediateUpdate)
+{
+    fmu3 *f;
+    (void)resourcePath; (void)visible; (void)earlyReturnAllowed; (void)requiredIntermediateVariables;
+    (void)nRequiredIntermediateVariables; (void)intermediateUpdate;
+    if (!instantiationToken || strcmp(instantiationToken, PLANT_TOKEN) != 0 || eventModeUsed) {
+        if (logMessage)
+            logMessage(instanceEnvironment, fmi3Error, "logStatusError",
+                       eventModeUsed ? "hydrohil_plant: event mode is not supported"
+                                     : "hydrohil_plant: instantiation token of another export");
+        return NULL;
+    }
+    f = calloc(1, sizeof *f);
+    if (!f)
+        return NULL;
+    f->env = instanceEnvironment;
+    f->log = logMessage;
+    f->logging = loggingOn;
+    f->pl = plant_new(instanceName, log3, f);
+    if (!f->pl) {
+        free(f);
+        return NULL;
+    }
+    return f;
+}
+
+fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
+                                               fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                               fmi3InstanceEnvironment instanceEnvironment,
+                                               fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
+                                               fmi3LockPreemptionCallback lockPreemption,
+                                               fmi3UnlockPreemptionCallback unlockPreemption)
+{
+    (void)instanceName; (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
+    (void)clockUpdate; (void)lockPreemption; (void)unlockPreemption;
+    if (logMessage)
+        logMessage(instanceEnvironment, fmi3Error, "logStatusError", "hydrohil_plant is a Co-Simulation FMU only");
+    return NULL;
+}
+
+void fmi3FreeInstance(fmi3Instance c)
+{
+    if (c) {
+        plant_free(PL(c));
+        free(c);
+    }
+}
+
+fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean toleranceDefined, fmi3Float64 tolerance,
+                                       fmi3Float64 startTime, fmi3Boolean stopTimeDefined, fmi3Float64 stopTime)
+{
+    (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
+    return st(plant_enter_init(PL(c), startTime));
+}
+
+fmi3Status fmi3ExitInitializationMode(fmi3Instance c) { return st(plant_exit_init(PL(c))); }
+fmi3Status fmi3EnterEventMode(fmi3Instance c) { return unsupported(c, "fmi3EnterEventMode"); }
+
+fmi3Status fmi3Terminate(fmi3Instance c)
+{
+    PL(c)->mode = PLANT_TERMINATED;
+    return fmi3OK;
+}
+
+fmi3Status fmi3Reset(fmi3Instance c)
+{
+    plant_defaults(PL(c));
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Float64 values[],
+                          size_t nValues)
+{
+    size_t i;
+    if (nValues != nvr)
+        return unsupported(c, "arrays (nValues != nValueReferences)");
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] == VR_TIME) {
+            values[i] = PL(c)->t0 + (double)PL(c)->sim.k * PL(c)->sim.h;
+            continue;
+        }
+        if (plant_get_real(PL(c), vr[i], &values[i]) != PLANT_OK)
+            return fmi3Error;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Float64 values[],
+                          size_t nValues)
+{
+    size_t i;
+    if (nValues != nvr)
+        return unsupported(c, "arrays (nValues != nValueReferences)");
+    for (i = 0; i < nvr; i++)
+        if (plant_set_real(PL(c), vr[i], values[i]) != PLANT_OK)
+            return fmi3Error;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int32 values[], size_t nValues)
+{
+    size_t i;
+    if (nValues != nvr)
+        return unsupported(c, "arrays (nValues != nValueReferences)");
+    for (i = 0; i < nvr; i++) {
+        int v;
+        if (plant_get_integer(PL(c), vr[i], &v) != PLANT_OK)
+            return fmi3Error;
+        values[i] = v;
+    }
+    return fmi3OK;
+}
+
+/* getters and setters of the types this FMU has no variable of */
+#define NO_GET(NAME, T)                                                                                         \
+    fmi3Status NAME(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, T values[], size_t nValues)     \
+    {                                                                                                            \
+        (void)vr; (void)values; (void)nValues;                                                                  \
+        return nvr == 0 ? fmi3OK : unsupported(c, #NAME " (no variable of that type)");                         \
+    }
+#define NO_SET(NAME, T)                                                                                         \
+    fmi3Status NAME(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const T values[], size_t nValues) \
+    {                                                                                                            \
+        (void)vr; (void)values; (void)nValues;                                                                  \
+        return nvr == 0 ? fmi3OK : unsupported(c, #NAME " (no settable variable of that type)");                \
+    }
+NO_GET(fmi3GetFloat32, fmi3Float32)
+NO_GET(fmi3GetInt8, fmi3Int8)
+NO_GET(fmi3GetUInt8, fmi3UInt8)
+NO_GET(fmi3GetInt16, fmi3Int16)
+NO_GET(fmi3GetUInt16, fmi3UInt16)
+NO_GET(fmi3GetUInt32, fmi3UInt32)
+NO_GET(fmi3GetInt64, fmi3Int64)
+NO_GET(fmi3GetUInt64, fmi3UInt64)
+NO_GET(fmi3GetBoolean, fmi3Boolean)
+NO_GET(fmi3GetString, fmi3String)
+NO_SET(fmi3SetFloat32, fmi3Float32)
+NO_SET(fmi3SetInt8, fmi3Int8)
+NO_SET(fmi3SetUInt8, fmi3UInt8)
+NO_SET(fmi3SetInt16, fmi3Int16)
+NO_SET(fmi3SetUInt16, fmi3UInt16)
+NO_SET(fmi3SetInt32, fmi3Int32)
+NO_SET(fmi3SetUInt32, fmi3UInt32)
+NO_SET(fmi3SetInt64, fmi3Int64)
+NO_SET(fmi3SetUInt64, fmi3UInt64)
+NO_SET(fmi3SetBoolean, fmi3Boolean)
+NO_SET(fmi3SetString, fmi3String)
+
+fmi3Status fmi3GetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, size_t valueSizes[],
+                         fmi3Binary values[], size_t nValues)
+{
+    (void)vr; (void)valueSizes; (void)values; (void)nValues;
+    return nvr == 0 ? fmi3OK : unsupported(c, "fmi3GetBinary");
+}
+
+fmi3Status fmi3SetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const size_t valueSizes[],
+                         const fmi3Binary values[], size_t nValues)
+{
+    (void)vr; (void)valueSizes; (void)values; (void)nValues;
+    return nvr == 0 ? fmi3OK : unsupported(c, "fmi3SetBinary");
+}
+
+fmi3Status fmi3GetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Clock values[])
+{
+    (void)vr; (void)values;
+    return nvr == 0 ? fmi3OK : unsupported(c, "fmi3GetClock");
+}
+
+fmi3Status fmi3SetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Clock values[])
+{
+    (void)vr; (void)values;
+    return nvr == 0 ? fmi3OK : unsupported(c, "fmi3SetClock");
+}
+
+fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance c, fmi3ValueReference valueReference,
+                                               size_t *nDependencies)
+{
+    (void)valueReference; (void)nDependencies;
+    return unsupported(c, "fmi3GetNumberOfVariableDependencies");
+}
+
+fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference dependent,
+                                       size_t elementIndicesOfDependent[], fmi3ValueReference independents[],
+                                       size_t elementIndicesOfIndependents[], fmi3DependencyKind dependencyKinds[],
+                                       size_t nDependencies)
+{
+    (void)dependent; (void)elementIndicesOfDependent; (void)independents; (void)elementIndicesOfIndependents;
+    (void)dependencyKinds; (void)nDependencies;
+    return unsupported(c, "fmi3GetVariableDependencies");
+}
+
+fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *state)
+{
+    size_t n = plant_state_size(PL(c));
+    void *bytes = *state ? realloc(*state, sizeof(size_t) + n) : malloc(sizeof(size_t) + n);
+    if (!bytes)
+        return fmi3Error;
+    memcpy(bytes, &n, sizeof n);
+    plant_state_write(PL(c), (char *)bytes + sizeof(size_t));
+    *state = bytes;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState state)
+{
+    size_t n;
+    if (!state)
+        return fmi3Error;
+    memcpy(&n, state, sizeof n);
+    return st(plant_state_read(PL(c), (const char *)state + sizeof(size_t), n));
+}
+
+fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *state)
+{
+    (void)c;
+    free(*state);
+    *state = NULL;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState state, size_t *size)
+{
+    (void)c;
+    memcpy(size, state, sizeof(size_t));
+    *size += sizeof(size_t);
+    return fmi3OK;
+}
+
+fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState state, fmi3Byte serialized[], size_t size)
+{
+    size_t n;
+    memcpy(&n, state, sizeof n);
+    if (size != n + sizeof(size_t))
+        return unsupported(c, "fmi3SerializeFMUState with a buffer of another size");
+    memcpy(serialized, state, size);
+    return fmi3OK;
+}
+
+fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serialized[], size_t size, fmi3FMUState *state)
+{
+    void *bytes = malloc(size);
+    (void)c;
+    if (!bytes)
+        return fmi3Error;
+    memcpy(bytes, serialized, size);
+    free(*state);
+    *state = bytes;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                        const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                        size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity)
+{
+    (void)unknowns; (void)nUnknowns; (void)knowns; (void)nKnowns; (void)seed; (void)nSeed; (void)sensitivity;
+    (void)nSensitivity;
+    return unsupported(c, "fmi3GetDirectionalDerivative");
+}
+
+fmi3Status fmi3GetAdjointDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                    const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                    size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity)
+{
+    (void)unknowns; (void)nUnknowns; (void)knowns; (void)nKnowns; (void)seed; (void)nSeed; (void)sensitivity;
+    (void)nSensitivity;
+    return unsupported(c, "fmi3GetAdjointDerivative");
+}
+
+fmi3Status fmi3EnterConfigurationMode(fmi3Instance c) { return unsupported(c, "fmi3EnterConfigurationMode"); }
+fmi3Status fmi3ExitConfigurationMode(fmi3Instance c) { return unsupported(c, "fmi3ExitConfigurationMode"); }
+
+fmi3Status fmi3GetIntervalDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Float64 intervals[],
+                                  fmi3IntervalQualifier qualifiers[])
+{
+    (void)vr; (void)nvr; (void)intervals; (void)qualifiers;
+    return unsupported(c, "clocks (fmi3GetIntervalDecimal)");
+}
+
+fmi3Status fmi3GetIntervalFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3UInt64 counters[],
+                                   fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[])
+{
+    (void)vr; (void)nvr; (void)counters; (void)resolutions; (void)qualifiers;
+    return unsupported(c, "clocks (fmi3GetIntervalFraction)");
+}
+
+fmi3Status fmi3GetShiftDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Float64 shifts[])
+{
+    (void)vr; (void)nvr; (void)shifts;
+    return unsupported(c, "clocks (fmi3GetShiftDecimal)");
+}
+
+fmi3Status fmi3GetShiftFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3UInt64 counters[],
+                                fmi3UInt64 resolutions[])
+{
+    (void)vr; (void)nvr; (void)counters; (void)resolutions;
+    return unsupported(c, "clocks (fmi3GetShiftFraction)");
+}
+
+fmi3Status fmi3SetIntervalDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                  const fmi3Float64 intervals[])
+{
+    (void)vr; (void)nvr; (void)intervals;
+    return unsupported(c, "clocks (fmi3SetIntervalDecimal)");
+}
+
+fmi3Status fmi3SetIntervalFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                   const fmi3UInt64 counters[], const fmi3UInt64 resolutions[])
+{
+    (void)vr; (void)nvr; (void)counters; (void)resolutions;
+    return unsupported(c, "clocks (fmi3SetIntervalFraction)");
+}
+
+fmi3Status fmi3SetShiftDecimal(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Float64 shifts[])
+{
+    (void)vr; (void)nvr; (void)shifts;
+    return unsupported(c, "clocks (fmi3SetShiftDecimal)");
+}
+
+fmi3Status fmi3SetShiftFraction(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                const fmi3UInt64 counters[], const fmi3UInt64 resolutions[])
+{
+    (void)vr; (void)nvr; (void)counters; (void)resolutions;
+    return unsupported(c, "clocks (fmi3SetShiftFraction)");
+}
+
+fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance c) { return unsupported(c, "fmi3EvaluateDiscreteStates"); }
+
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesNeedUpdate,
+                                    fmi3Boolean *terminateSimulation, fmi3Boolean *nominalsOfContinuousStatesChanged,
+                                    fmi3Boolean *valuesOfContinuousStatesChanged, fmi3Boolean *nextEventTimeDefined,
+                                    fmi3Float64 *nextEventTime)
+{
+    (void)discreteStatesNeedUpdate; (void)terminateSimulation; (void)nominalsOfContinuousStatesChanged;
+    (void)valuesOfContinuousStatesChanged; (void)nextEventTimeDefined; (void)nextEventTime;
+    return unsupported(c, "fmi3UpdateDiscreteStates");
+}
+
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) { return unsupported(c, "Model Exchange"); }
+
+fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation)
+{
+    (void)noSetFMUStatePriorToCurrentPoint; (void)enterEventMode; (void)terminateSimulation;
+    return unsupported(c, "Model Exchange");
+}
+
+fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 time)
+{
+    (void)time;
+    return unsupported(c, "Model Exchange");
+}
+
+fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 x[], size_t n)
+{
+    (void)x; (void)n;
+    return unsupported(c, "Model Exchange");
+}
+
+fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 d[], size_t n)
+{
+    (void)d; (void)n;
+    return unsupported(c, "Model Exchange");
+}
+
+fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 e[], size_t n)
+{
+    (void)e; (void)n;
+    return unsupported(c, "Model Exchange");
+}
+
+fmi3Status fmi3GetContinuousStates(fmi3Instance c, fmi3Float64 x[], size_t n)
+{
+    (void)x; (void)n;
+    return unsupported(c, "Model Exchange");
+}
+
+fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Float64 x[], size_t n)
+{
+    (void)x; (void)n;
+    return unsupported(c, "Model Exchange");
+}
+
+fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n)
+{
+    (void)c;
+    *n = 0;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *n)
+{
+    (void)c;
+    *n = 0;
+    return fmi3OK;
+}
+
+fmi3Status fmi3EnterStepMode(fmi3Instance c) { return unsupported(c, "fmi3EnterStepMode (no event mode)"); }
+
+fmi3Status fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr,
+                                    const fmi3Int32 orders[], fmi3Float64 values[], size_t nValues)
+{
+    (void)vr; (void)nvr; (void)orders; (void)values; (void)nValues;
+    return unsupported(c, "fmi3GetOutputDerivatives");
+}
+
+fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi3Float64 communicationStepSize,
+                      fmi3Boolean noSetFMUStatePriorToCurrentPoint, fmi3Boolean *eventHandlingNeeded,
+                      fmi3Boolean *terminateSimulation, fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime)
+{
+    fmi3Status s;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    s = st(plant_do_step(PL(c), currentCommunicationPoint, communicationStepSize));
+    *eventHandlingNeeded = fmi3False;
+    *terminateSimulation = fmi3False;
+    *earlyReturn = fmi3False;
+    *lastSuccessfulTime = PL(c)->t0 + (double)PL(c)->sim.k * PL(c)->sim.h;
+    return s;
+}
+
+fmi3Status fmi3ActivateModelPartition(fmi3Instance c, fmi3ValueReference clockReference, fmi3Float64 activationTime)
+{
+    (void)clockReference; (void)activationTime;
+    return unsupported(c, "Scheduled Execution");
+}
