@@ -11,7 +11,7 @@ typedef struct {
     int logging;
 } fmu2;
 
-static void log2(void *env, const char *instance, int status, const char *category, const char *msg)
+static void forward_log2(void *env, const char *instance, int status, const char *category, const char *msg)
 {
     fmu2 *f = env;
     if (!f->cb.logger || (status == PLANT_OK && !f->logging))
@@ -55,7 +55,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         return NULL;
     f->cb = *functions;
     f->logging = loggingOn;
-    f->pl = plant_new(instanceName, log2, f);
+    f->pl = plant_new(instanceName, forward_log2, f);
     if (!f->pl) {
         free(f);
         return NULL;
@@ -159,26 +159,8 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2SetString (the FMU has no String variable)");
 }
 
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state)
-{
-    size_t n = plant_state_size(PL(c));
-    void *bytes = *state ? realloc(*state, sizeof(size_t) + n) : malloc(sizeof(size_t) + n);
-    if (!bytes)
-        return fmi2Error;
-    memcpy(bytes, &n, sizeof n);
-    plant_state_write(PL(c), (char *)bytes + sizeof(size_t));
-    *state = bytes;
-    return fmi2OK;
-}
-
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
-{
-    size_t n;
-    if (!state)
-        return fmi2Error;
-    memcpy(&n, state, sizeof n);
-    return st(plant_state_read(PL(c), (const char *)state + sizeof(size_t), n));
-}
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) { return st(plant_state_get(PL(c), state)); }
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) { return st(plant_state_set(PL(c), state)); }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state)
 {
@@ -191,31 +173,19 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state)
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size)
 {
     (void)c;
-    memcpy(size, state, sizeof(size_t));
-    *size += sizeof(size_t);
+    *size = plant_state_block_size(state);
     return fmi2OK;
 }
 
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte serialized[], size_t size)
 {
-    size_t n;
-    memcpy(&n, state, sizeof n);
-    if (size != n + sizeof(size_t))
-        return UNSUPPORTED(c, "fmi2SerializeFMUstate with a buffer of another size");
-    memcpy(serialized, state, size);
-    return fmi2OK;
+    return st(plant_state_serialize(PL(c), state, serialized, size));
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serialized[], size_t size, fmi2FMUstate *state)
 {
-    void *bytes = malloc(size);
     (void)c;
-    if (!bytes)
-        return fmi2Error;
-    memcpy(bytes, serialized, size);
-    free(*state);
-    *state = bytes;
-    return fmi2OK;
+    return st(plant_state_deserialize(serialized, size, state));
 }
 
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,

@@ -15,7 +15,7 @@ typedef struct {
     int logging;
 } fmu3;
 
-static void log3(void *env, const char *instance, int status, const char *category, const char *msg)
+static void forward_log3(void *env, const char *instance, int status, const char *category, const char *msg)
 {
     fmu3 *f = env;
     (void)instance;
@@ -77,7 +77,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     f->env = instanceEnvironment;
     f->log = logMessage;
     f->logging = loggingOn;
-    f->pl = plant_new(instanceName, log3, f);
+    f->pl = plant_new(instanceName, forward_log3, f);
     if (!f->pl) {
         free(f);
         return NULL;
@@ -250,26 +250,8 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference depend
     return unsupported(c, "fmi3GetVariableDependencies");
 }
 
-fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *state)
-{
-    size_t n = plant_state_size(PL(c));
-    void *bytes = *state ? realloc(*state, sizeof(size_t) + n) : malloc(sizeof(size_t) + n);
-    if (!bytes)
-        return fmi3Error;
-    memcpy(bytes, &n, sizeof n);
-    plant_state_write(PL(c), (char *)bytes + sizeof(size_t));
-    *state = bytes;
-    return fmi3OK;
-}
-
-fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState state)
-{
-    size_t n;
-    if (!state)
-        return fmi3Error;
-    memcpy(&n, state, sizeof n);
-    return st(plant_state_read(PL(c), (const char *)state + sizeof(size_t), n));
-}
+fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *state) { return st(plant_state_get(PL(c), state)); }
+fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState state) { return st(plant_state_set(PL(c), state)); }
 
 fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *state)
 {
@@ -282,31 +264,19 @@ fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *state)
 fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState state, size_t *size)
 {
     (void)c;
-    memcpy(size, state, sizeof(size_t));
-    *size += sizeof(size_t);
+    *size = plant_state_block_size(state);
     return fmi3OK;
 }
 
 fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState state, fmi3Byte serialized[], size_t size)
 {
-    size_t n;
-    memcpy(&n, state, sizeof n);
-    if (size != n + sizeof(size_t))
-        return unsupported(c, "fmi3SerializeFMUState with a buffer of another size");
-    memcpy(serialized, state, size);
-    return fmi3OK;
+    return st(plant_state_serialize(PL(c), state, serialized, size));
 }
 
 fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serialized[], size_t size, fmi3FMUState *state)
 {
-    void *bytes = malloc(size);
     (void)c;
-    if (!bytes)
-        return fmi3Error;
-    memcpy(bytes, serialized, size);
-    free(*state);
-    *state = bytes;
-    return fmi3OK;
+    return st(plant_state_deserialize(serialized, size, state));
 }
 
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,

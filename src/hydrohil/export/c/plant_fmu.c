@@ -221,21 +221,40 @@ int plant_do_step(plant *pl, double t, double dt)
     return PLANT_OK;
 }
 
-size_t plant_state_size(const plant *pl) { return sizeof(plant) + sizeof(double) * (size_t)pl->dbuf_size; }
-
-void plant_state_write(const plant *pl, void *bytes)
+static size_t plant_state_size(const plant *pl)
 {
-    memcpy(bytes, pl, sizeof(plant));
-    if (pl->dbuf_size > 0)
-        memcpy((char *)bytes + sizeof(plant), pl->dbuf, sizeof(double) * (size_t)pl->dbuf_size);
+    return sizeof(plant) + sizeof(double) * (size_t)pl->dbuf_size;
 }
 
-int plant_state_read(plant *pl, const void *bytes, size_t size)
+int plant_state_get(plant *pl, void **state)
 {
+    size_t n = plant_state_size(pl);
+    char *bytes = *state ? realloc(*state, sizeof(size_t) + n) : malloc(sizeof(size_t) + n);
+    if (!bytes) {
+        plant_logf(pl, PLANT_ERROR, "out of memory for an FMU state");
+        return PLANT_ERROR;
+    }
+    memcpy(bytes, &n, sizeof n);
+    memcpy(bytes + sizeof n, pl, sizeof(plant));
+    if (pl->dbuf_size > 0)
+        memcpy(bytes + sizeof n + sizeof(plant), pl->dbuf, sizeof(double) * (size_t)pl->dbuf_size);
+    *state = bytes;
+    return PLANT_OK;
+}
+
+int plant_state_set(plant *pl, const void *state)
+{
+    const char *bytes = state;
     plant saved;
     double *buf = pl->dbuf;
-    memcpy(&saved, bytes, sizeof(plant));
-    if (size != plant_state_size(&saved) || saved.dbuf_size != pl->dbuf_size) {
+    size_t n;
+    if (!state) {
+        plant_logf(pl, PLANT_ERROR, "no FMU state given");
+        return PLANT_ERROR;
+    }
+    memcpy(&n, bytes, sizeof n);
+    memcpy(&saved, bytes + sizeof n, sizeof(plant));
+    if (n != plant_state_size(&saved) || saved.dbuf_size != pl->dbuf_size) {
         plant_logf(pl, PLANT_ERROR, "FMU state of another configuration (delay line %d vs %d steps)",
                    saved.dbuf_size, pl->dbuf_size);
         return PLANT_ERROR;
@@ -247,6 +266,34 @@ int plant_state_read(plant *pl, const void *bytes, size_t size)
     saved.sim.delay.buf = buf;
     *pl = saved;
     if (pl->dbuf_size > 0)
-        memcpy(buf, (const char *)bytes + sizeof(plant), sizeof(double) * (size_t)pl->dbuf_size);
+        memcpy(buf, bytes + sizeof n + sizeof(plant), sizeof(double) * (size_t)pl->dbuf_size);
+    return PLANT_OK;
+}
+
+size_t plant_state_block_size(const void *state)
+{
+    size_t n;
+    memcpy(&n, state, sizeof n);
+    return n + sizeof n;
+}
+
+int plant_state_serialize(plant *pl, const void *state, void *bytes, size_t size)
+{
+    if (!state || size != plant_state_block_size(state)) {
+        plant_logf(pl, PLANT_ERROR, "serialising an FMU state into a buffer of another size");
+        return PLANT_ERROR;
+    }
+    memcpy(bytes, state, size);
+    return PLANT_OK;
+}
+
+int plant_state_deserialize(const void *bytes, size_t size, void **state)
+{
+    void *copy = malloc(size);
+    if (!copy)
+        return PLANT_ERROR;
+    memcpy(copy, bytes, size);
+    free(*state);
+    *state = copy;
     return PLANT_OK;
 }

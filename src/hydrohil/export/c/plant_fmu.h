@@ -38,10 +38,13 @@ int plant_get_integer(plant *pl, unsigned vr, int *v);
 int plant_enter_init(plant *pl, double t0);
 int plant_exit_init(plant *pl);                 /* checks the parameters, sets the initial state */
 int plant_do_step(plant *pl, double t, double dt);
-/* FMU state: a complete copy (serialisable: plain bytes, the delay line appended) */
-size_t plant_state_size(const plant *pl);
-void plant_state_write(const plant *pl, void *bytes);
-int plant_state_read(plant *pl, const void *bytes, size_t size);
+/* FMU state: a complete copy as one block of plain bytes (its size first, then the instance, then the delay
+ * line), so serialising it is a copy. get: (re)allocates *state; set: restores it; size: of the block. */
+int plant_state_get(plant *pl, void **state);
+int plant_state_set(plant *pl, const void *state);
+size_t plant_state_block_size(const void *state);
+int plant_state_serialize(plant *pl, const void *state, void *bytes, size_t size);
+int plant_state_deserialize(const void *bytes, size_t size, void **state);
 void plant_logf(plant *pl, int status, const char *fmt, ...);
 
 #endif
