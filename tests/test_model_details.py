@@ -6,13 +6,15 @@ import numpy as np
 import pytest
 
 from hydrohil.models.cylinder import P_MIN
-from hydrohil.models.layout import (MAX_EVENTS, AT_EXTEND, AT_RETRACT, FREE, LPM_PER_SQRT_BAR, P1, SPOOL_ACC_LIMITED,
+from hydrohil.models.layout import (MAX_EVENTS, AT_EXTEND, AT_RETRACT, FREE, P1, SPOOL_ACC_LIMITED,
                                     SPOOL_AT_END, SPOOL_LINEAR, SPOOL_VEL_LIMITED, VP, VS, XP, XS)
 from hydrohil.models.valve import orifice_flow, orifice_slope
 from hydrohil.parameters import load_parameters
 from hydrohil.simulation.loop import HybridPlant
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import LoadedScenario, Scenario
+
+LPM_PER_SQRT_BAR = 1.0 / 60000.0 / np.sqrt(1e5)   # 1 (l/min)/sqrt(bar) in (m^3/s)/sqrt(Pa), computed here
 
 
 # ---- fractional delay (SPEC §3.1: interpolated, not rounded) ---------------------------------------

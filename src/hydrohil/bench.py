@@ -48,8 +48,8 @@ def machine() -> dict:
     except OSError:
         pass
     import cffi
-    import sysconfig
-    cc = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    from hydrohil.core.build import c_compiler
+    cc = c_compiler()
     try:
         import subprocess
         cc_version = subprocess.run([cc, "--version"], capture_output=True, text=True).stdout.splitlines()[0]
@@ -100,10 +100,9 @@ def instructions(steps: int = 4000) -> dict:
     driver (``core/tools/step_count.c``) is compiled with the extension's flags; None without valgrind/cc."""
     import shutil
     import subprocess
-    import sysconfig
     from hydrohil.core import build as core_build
     from hydrohil.models.layout import pack
-    cc = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    cc = core_build.c_compiler()
     if shutil.which("valgrind") is None or shutil.which(cc) is None:
         return {"per_step": None, "reason": "valgrind or a C compiler not found"}
     core = Path(core_build.__file__).resolve().parent

@@ -19,6 +19,13 @@ HERE = Path(__file__).resolve().parent
 CFLAGS = ["-std=c99", "-O3", "-ffp-contract=off", "-fno-math-errno"]
 
 
+def c_compiler() -> str:
+    """The C compiler of this Python's build configuration (``CC``, else ``cc``), used for the FMU's binary and
+    bench's instruction-count driver."""
+    import sysconfig
+    return (sysconfig.get_config_var("CC") or "cc").split()[0]
+
+
 def _load(name: str, path: Path):
     spec = importlib.util.spec_from_file_location(name, path)
     mod = importlib.util.module_from_spec(spec)

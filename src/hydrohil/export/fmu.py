@@ -15,7 +15,6 @@ from __future__ import annotations
 import hashlib
 import shutil
 import subprocess
-import sysconfig
 import tempfile
 import uuid
 import zipfile
@@ -40,12 +39,11 @@ FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.
 METHOD_RK3 = 2
 
 # value references beyond the schema's parameters (those are 0 .. n-1, in schema order)
-EXTRA_PARAMETERS = (   # name, unit, description, start, min, max
+EXTRA_PARAMETERS = (   # name, unit, description, min, max (start values: _extra_starts)
     ("step", "s", "internal fixed step of the hybrid model (RK3); communication steps are whole multiples",
-     5e-4, 1e-7, 0.01),
-    ("xp0", "m", "initial piston position (at rest; chamber pressures at the closed-port equilibrium)",
-     None, 0.0, None),
-    ("xs0", "", "initial spool position (normalised)", 0.0, -1.0, 1.0),
+     1e-7, 0.01),
+    ("xp0", "m", "initial piston position (at rest; chamber pressures at the closed-port equilibrium)", 0.0, None),
+    ("xs0", "", "initial spool position (normalised)", -1.0, 1.0),
 )
 INPUTS = (("u", "", "normalised valve command, in [-1, 1]", 200, -1.0, 1.0),
           ("F_load", "N", "external load force on the piston, positive opposes extension (replaces load.force)",
@@ -61,6 +59,11 @@ INT_OUTPUTS = (("travel_mode", "0 free, 1 at the retract stop, 2 at the extend s
                ("encoder", "encoder reading [counts] (sensors.encoder_resolution; 0: ideal, 1 nm counts)", 313))
 
 
+def _extra_starts(params: Parameters, step: float) -> dict[str, float]:
+    """Start values of EXTRA_PARAMETERS for this export."""
+    return {"step": step, "xp0": params.linear.xp0, "xs0": 0.0}
+
+
 def _schema_slots():
     return [s for s in SLOTS if s.schema]
 
@@ -74,7 +77,7 @@ def config_h(params: Parameters, step: float, token: str) -> str:
     slots = _schema_slots()
     p = pack(params)
     starts = [p[i] for i in range(len(slots))]
-    extras = {"step": step, "xp0": params.linear.xp0, "xs0": 0.0}
+    extras = _extra_starts(params, step)
     starts += [extras[name] for name, *_ in EXTRA_PARAMETERS]
     names = [s.key for s in slots] + [name for name, *_ in EXTRA_PARAMETERS]
     n = len(slots)
@@ -117,11 +120,11 @@ def model_description(params: Parameters, fmi: int, step: float, token: str) -> 
         vars_.append(dict(name=s.key, vr=i, causality="parameter", variability="fixed", initial="exact",
                           desc=desc, unit=s.unit, start=p[i], lo=s.lo, hi=s.hi, kind="real"))
     n = len(slots)
-    extras = {"step": step, "xp0": params.linear.xp0}
-    for k, (name, unit, desc, start, lo, hi) in enumerate(EXTRA_PARAMETERS):
+    extras = _extra_starts(params, step)
+    for k, (name, unit, desc, lo, hi) in enumerate(EXTRA_PARAMETERS):
         hi = params.cylinder.stroke if name == "xp0" else hi
         vars_.append(dict(name=name, vr=n + k, causality="parameter", variability="fixed", initial="exact",
-                          desc=desc, unit=unit, start=extras.get(name, start), lo=lo, hi=hi, kind="real"))
+                          desc=desc, unit=unit, start=extras[name], lo=lo, hi=hi, kind="real"))
     starts = {"u": 0.0, "F_load": params.load.force, "ps": params.supply.ps}
     for name, unit, desc, vr, lo, hi in INPUTS:
         vars_.append(dict(name=name, vr=vr, causality="input", variability="continuous", initial=None, desc=desc,
@@ -212,10 +215,10 @@ def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-
     if out.suffix != ".fmu":
         raise InputError(f"the output file must end in .fmu, got {out.name}", key="out")
     token = "{" + str(uuid.UUID(hashlib.md5(f"{params.model_dump_json()}|{fmi}|{step}".encode()).hexdigest())) + "}"
-    cc = cc or (sysconfig.get_config_var("CC") or "cc").split()[0]
+    from hydrohil.core.build import CFLAGS, c_compiler, write_params_header
+    cc = cc or c_compiler()
     if shutil.which(cc) is None:
-        raise InputError(f"no C compiler '{cc}' found (set CC): the FMU's binary is built on the spot")
-    from hydrohil.core.build import CFLAGS, write_params_header
+        raise InputError(f"no C compiler '{cc}' found: the FMU's binary is built on the spot")
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp) / "fmu"
         src = root / "sources"

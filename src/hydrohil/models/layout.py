@@ -49,9 +49,6 @@ ENC_RES = INDEX["sensors.encoder_resolution"]
 VALVE_WEAR, BURST1, BURST2 = INDEX["model.valve_wear"], INDEX["model.burst1"], INDEX["model.burst2"]
 STOP_K, STOP_C = INDEX["model.stop_k"], INDEX["model.stop_c"]
 
-# 1 (l/min)/sqrt(bar) expressed in (m^3/s)/sqrt(Pa)
-LPM_PER_SQRT_BAR = 1.0 / 60000.0 / np.sqrt(1e5)
-
 
 def _value(tree: dict, key: str):
     name, _, item = key.partition("[")

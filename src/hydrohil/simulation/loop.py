@@ -58,7 +58,6 @@ class Sim:
         if not h > 0:
             raise ValueError(f"step h must be > 0 s, got {h}")
         self.h = float(h)
-        self.model = model
         self._sim = ffi.new("hh_sim *")
         self.dl_n, self.dl_alpha = split_delay(float(p[lib.HH_SPOOL_DELAY]), self.h)
         self._buf = np.zeros(self.dl_n + 2)
@@ -151,10 +150,8 @@ class HybridPlant:
                    "spool_mode", "events", "ud")
 
     def __init__(self, params: Parameters, h: float = 5e-4, solver: str = "rk3", **initial):
-        if not h > 0:
-            raise ValueError(f"step h must be > 0 s, got {h}")
-        self.params, self.h = params, float(h)
-        self.sim = Sim(pack(params), self.h, solver=solver)
+        self.sim = Sim(pack(params), h, solver=solver)          # checks h > 0
+        self.params, self.h = params, self.sim.h
         self.p, self.y, self.m, self.out = self.sim.p, self.sim.y, self.sim.m, self.sim.out
         self._step = lib.hh_sim_step
         self._c = self.sim._sim
@@ -175,8 +172,3 @@ class HybridPlant:
     @property
     def t(self) -> float:
         return float(self.out[0])
-
-
-def write_row(sim: Sim, log: np.ndarray, row: int, t, u, ud, y, m, events) -> None:
-    """Fill ``log[row]`` (the rig's loop; :meth:`Sim.log_row`)."""
-    sim.log_row(t, u, ud, y, m, events, log[row])
