@@ -3,7 +3,8 @@
  * The core is the one source of the plant's physics (SPEC §3-§6): the servo-solenoid valve, the
  * differential cylinder, LuGre friction, the hybrid statechart, the continuous reference model's
  * right-hand side, the fixed-step Runge-Kutta tableaus, the fractional input delay, the sensor models,
- * the built-in controllers and the one sampled loop (controller -> delay -> step -> log).
+ * the built-in controllers, the one sampled loop (controller -> delay -> step -> log) and the rig's
+ * command path (watchdog, safe state) and transducers shared by the Python and the C plant.
  *
  * Every function works on memory the caller owns: no allocation, no global state, so any number of
  * instances run in one process and in parallel threads. The parameter vector p[HH_NP] is laid out by
@@ -141,6 +142,26 @@ void hh_log_row(const hh_sim *sim, double t, double u, double ud, const double *
                 double events, double *row);
 /* Whether y is non-finite or far outside any physical range (divergence, hybrid.h). */
 int hh_diverged(const double *y, const double *p);
+
+/* ---- the rig: command path, watchdog, pressure transducers, noise (rig.c) ------------------- */
+typedef struct { uint64_t s[4]; } hh_rng;         /* xoshiro256** state */
+void hh_rng_seed(hh_rng *r, uint64_t seed);
+double hh_rng_uniform(hh_rng *r);                  /* (0, 1] */
+void hh_rng_normals(hh_rng *r, int n, double *out);   /* n standard normal samples */
+double hh_pressure_reading(double p, double full_scale, double resolution, double noise, int *saturated);
+typedef struct {
+    double u_held;              /* the last command that reached the valve, saturated to [-1, 1] */
+    int64_t k_delivered;        /* the step it arrived */
+    int64_t k_interfered;       /* the last step an injected fault held a command back */
+    int64_t delivered;          /* commands that reached the valve */
+    int active;                 /* safe state on */
+    int64_t trips;              /* safe-state entries */
+    int64_t trips_unexplained;  /* ... with no injected fault to explain the silence */
+    double hold_x;              /* position held by the 'hold' safe state [m] */
+} hh_watchdog;
+void hh_watchdog_init(hh_watchdog *w);
+double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, double h, double timeout, int hold,
+                           double hold_kp, double xp);
 
 /* ---- steady-state sine response of the spool (spool_bode.c) --------------------------------- */
 /* Periodic when a half period ends where it began (sign flipped) within this, relative to the output amplitude. */

@@ -10,6 +10,7 @@
 #include "control.c"
 #include "delay.c"
 #include "loop.c"
+#include "rig.c"
 #include "params.c"
 #include "spool_bode.c"
 

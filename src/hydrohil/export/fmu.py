@@ -32,7 +32,7 @@ CORE = HERE.parent / "core"
 CORE_SOURCES = ("hh.h", "core.h", "hh_params.h", "hh_core.c", "valve.c", "valve.h", "friction.c", "friction.h",
                 "cylinder.c", "cylinder.h", "rk.c", "rk.h", "hybrid.c", "hybrid.h", "reference.c", "reference.h",
                 "sensors.c", "sensors.h", "control.c", "control.h", "delay.c", "delay.h", "loop.c", "loop.h",
-                "params.c", "spool_bode.c")
+                "rig.c", "params.c", "spool_bode.c")
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}

@@ -1,14 +1,12 @@
 """Sensor interface models shared by offline simulation and the HIL plant (SPEC §8 'sensors', §10).
 
-The encoder is the core's (``core/sensors.c``, used by its sampled loop); the pressure transducers, whose
-noise comes from the rig's random generator, are modelled here for the rig (:mod:`hydrohil.simulation.rig`).
+The models are the core's (``core/sensors.c``, ``core/rig.c``), shared by the sampled loop, the Python rig
+(:mod:`hydrohil.simulation.rig`) and the standalone C plant.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from hydrohil.core import lib
+from hydrohil.core import ffi, lib
 
 IDEAL_COUNT = lib.HH_IDEAL_COUNT   # m: the count of an ideal encoder (resolution 0) where counts must be integers
 
@@ -29,12 +27,10 @@ def encoder_position(xp: float, resolution: float) -> float:
     return lib.hh_encoder_position(xp, resolution)
 
 
-def pressure_reading(pressure, full_scale, resolution, noise):
-    """Pressure [Pa] as a transducer + ADC reports it: true value + ``noise`` (a sample, Pa), clipped to
-    [0, full_scale] gauge, quantised to ``resolution`` (<= 0: none). Returns (reading, saturated)."""
-    v = pressure + noise
-    sat = v < 0.0 or v > full_scale
-    v = min(max(v, 0.0), full_scale)
-    if resolution > 0.0:
-        v = np.floor(v / resolution + 0.5) * resolution
-    return v, sat
+def pressure_reading(pressure: float, full_scale: float, resolution: float, noise: float) -> tuple[float, bool]:
+    """Pressure [Pa] as a transducer + ADC reports it (the core's ``hh_pressure_reading``): true value +
+    ``noise`` (a sample, Pa), clipped to [0, full_scale] gauge, quantised to ``resolution`` (<= 0: none).
+    Returns (reading, saturated)."""
+    sat = ffi.new("int *")
+    v = lib.hh_pressure_reading(pressure, full_scale, resolution, noise, sat)
+    return v, bool(sat[0])

@@ -21,11 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from hydrohil.control import p_control
+from hydrohil.core import ffi, lib
 from hydrohil.errors import HydrohilError
 from hydrohil.hil.protocol import (ST_AT_EXTEND, ST_AT_RETRACT, ST_FAULT_INJECTED, ST_SATURATED, ST_STICK,
                                    ST_WATCHDOG)
 from hydrohil.models.layout import AT_EXTEND, AT_RETRACT, PS, PT, STICK
-from hydrohil.models.sensors import count_size, encoder_counts, pressure_reading
+from hydrohil.models.sensors import count_size, encoder_counts
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.faults import FaultInjector
 from hydrohil.simulation.loop import NLOG, HybridPlant
@@ -59,16 +60,30 @@ class VirtualRig:
         self.plant = HybridPlant(params, h=self.h, **self.initial)
         self.faults = FaultInjector(faults or [], self.plant.p, self.h, seed=self.hil.seed)
         self.faults.begin_step(0, self.plant.p, self.plant.y)
-        self.noise = np.random.default_rng(self.hil.seed)
+        self.noise = ffi.new("hh_rng *")                    # the core's generator: the C plant draws the same
+        lib.hh_rng_seed(self.noise, self.hil.seed)
+        self._nz = ffi.new("double[4]")
+        self._sat = ffi.new("int *")
         self.res = count_size(params.sensors.encoder_resolution)   # m per encoder count
-        self.u_held = 0.0
-        self.k_delivered = 0            # the watchdog counts from the start
-        self.watchdog = False
-        self.watchdog_trips = 0
-        self.hold_x = 0.0
-        self.commands_delivered = 0
-        self.k_interfered = -(1 << 62)    # last step an injected fault held a command back
-        self.watchdog_trips_unexplained = 0
+        self.link = ffi.new("hh_watchdog *")                # command path: saturation, watchdog, safe state
+        lib.hh_watchdog_init(self.link)
+        self._hold = self.hil.safe_state == "hold"
+
+    @property
+    def watchdog(self) -> bool:
+        return bool(self.link.active)
+
+    @property
+    def watchdog_trips(self) -> int:
+        return int(self.link.trips)
+
+    @property
+    def watchdog_trips_unexplained(self) -> int:
+        return int(self.link.trips_unexplained)
+
+    @property
+    def commands_delivered(self) -> int:
+        return int(self.link.delivered)
 
     def warm_up(self) -> None:
         """Run one step and restore the initial state: pages in the code and data a step touches, so the
@@ -87,24 +102,9 @@ class VirtualRig:
         self.faults.begin_step(k, plant.p, plant.y)
         u = self.faults.deliver(command)
         if (command is not None and u is None) or self.faults.silence_active():
-            self.k_interfered = k          # an injected fault held the controller's command back this step
-        if u is not None:
-            self.u_held = min(max(u, -1.0), 1.0)
-            self.k_delivered = k
-            self.commands_delivered += 1
-        silent = (k - self.k_delivered) * self.h > self.hil.watchdog_timeout + 1e-12
-        if silent and not self.watchdog:
-            self.watchdog = True
-            self.watchdog_trips += 1
-            if self.k_interfered <= self.k_delivered:
-                self.watchdog_trips_unexplained += 1      # no injected fault held a command back since
-            self.hold_x = float(plant.out[5])
-        elif not silent and self.watchdog:
-            self.watchdog = False
-        if self.watchdog:
-            u = p_control(self.hil.hold_kp, self.hold_x, float(plant.out[5])) if self.hil.safe_state == "hold" else 0.0
-        else:
-            u = self.u_held
+            self.link.k_interfered = k     # an injected fault held the controller's command back this step
+        u = lib.hh_watchdog_command(self.link, k, u is not None, 0.0 if u is None else u, self.h,
+                                    self.hil.watchdog_timeout, self._hold, self.hil.hold_kp, float(plant.out[5]))
         u = self.faults.valve_command(u)
         plant.step(u)
         self.faults.begin_step(k + 1, plant.p, plant.y)     # faults of t_(k+1): its sensor reading and step
@@ -116,13 +116,16 @@ class VirtualRig:
         out, s, p, f = self.plant.out, self.params.sensors, self.plant.p, self.faults
         t = float(out[0])
         enc = int(f.sense_position(float(encoder_counts(out[5], self.res)), self.res, t))
-        nz = self.noise.standard_normal(4) * s.pressure_noise if s.pressure_noise > 0 else (0.0, 0.0, 0.0, 0.0)
+        nz = self._nz
+        if s.pressure_noise > 0:
+            lib.hh_rng_normals(self.noise, 4, nz)
+        noise = [nz[i] * s.pressure_noise for i in range(4)] if s.pressure_noise > 0 else (0.0, 0.0, 0.0, 0.0)
         true = (out[3], out[4], p[PS], p[PT])
         vals, sat = [], False
-        for name, v, n in zip(("p1", "p2", "ps", "pt"), true, nz):
-            r, sv = pressure_reading(f.sense_pressure(name, float(v), t), s.pressure_range, s.pressure_resolution, n)
-            vals.append(r)
-            sat |= sv
+        for name, v, n in zip(("p1", "p2", "ps", "pt"), true, noise):
+            vals.append(lib.hh_pressure_reading(f.sense_pressure(name, float(v), t), s.pressure_range,
+                                                s.pressure_resolution, n, self._sat))
+            sat |= bool(self._sat[0])
         travel, friction = int(out[9]), int(out[10])
         status = (ST_SATURATED if sat else 0) | (ST_WATCHDOG if self.watchdog else 0)
         status |= ST_AT_RETRACT if travel == AT_RETRACT else ST_AT_EXTEND if travel == AT_EXTEND else 0
