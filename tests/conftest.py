@@ -23,3 +23,16 @@ def hh(*args, cwd=None, timeout=300, env=None):
     full_env = None if env is None else {**__import__("os").environ, **env}
     return subprocess.run([sys.executable, "-m", "hydrohil.cli", *map(str, args)], capture_output=True, text=True,
                           cwd=cwd, timeout=timeout, env=full_env)
+
+
+@pytest.fixture(scope="session")
+def c_plant():
+    """The standalone C plant (``hydrohil export c``) of the paper's set, built once (cached)."""
+    from hydrohil.export.cplant import cached_plant
+    return cached_plant(load_parameters("ferreira2004"), step=5e-4, duration=10.0, label="ferreira2004")
+
+
+def plant_cmd(kind: str, c_plant, *args) -> list:
+    """The command line of a plant server: ``hydrohil plant`` or the standalone C plant, same options."""
+    from hydrohil.hil.processes import cli
+    return cli("plant", *args) if kind == "python" else [c_plant, *args]

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import EXAMPLES, hh
+from conftest import EXAMPLES, hh, plant_cmd
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.controller import PlantClient
 from hydrohil.hil.processes import Child, cli
@@ -65,8 +65,17 @@ def test_protocol_any_single_byte_mutation_is_caught(pos, val):
 
 # ---- live plant ----------------------------------------------------------------------------------
 
-def start_plant(tmp_path, *args):
-    p = Child(cli("plant", "--bind", "127.0.0.1:0", "--log", tmp_path, *args), "plant")
+PLANTS = ["python", "c"]
+
+
+@pytest.fixture(params=PLANTS)
+def kind(request):
+    """Each live-plant test runs against both plant servers: ``hydrohil plant`` and the standalone C plant."""
+    return request.param
+
+
+def start_plant(tmp_path, *args, kind="python", c_plant=None):
+    p = Child(plant_cmd(kind, c_plant, "--bind", "127.0.0.1:0", "--log", tmp_path, *args), f"{kind} plant")
     host, port = p.wait_line("READY ", 120).split(":")
     return p, (host, int(port))
 
@@ -76,8 +85,8 @@ def finish(p, timeout=60, code=0):
     assert p.returncode == code, p.stderr()
 
 
-def test_lockstep_bad_foreign_and_lost_packets_counted(tmp_path):
-    plant, addr = start_plant(tmp_path, "--lockstep", "--duration", "0.2")
+def test_lockstep_bad_foreign_and_lost_packets_counted(tmp_path, kind, c_plant):
+    plant, addr = start_plant(tmp_path, "--lockstep", "--duration", "0.2", kind=kind, c_plant=c_plant)
     intruder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     garbage = [b"", b"hello", b"HHIL" + b"\0" * 48, pr.encode_command(5, 0, 0, 0, 0.1)[:-2],
                pr.encode_command(6, 0, 0, 0, float("nan"))]
@@ -103,8 +112,8 @@ def test_lockstep_bad_foreign_and_lost_packets_counted(tmp_path):
     assert len(log["t"]) == 401 and np.all(log["u"] == 0.0)          # the foreign u = 1 was never applied
 
 
-def test_watchdog_trips_to_centre_and_recovers(tmp_path):
-    plant, addr = start_plant(tmp_path, "--duration", "0.6")          # real time, 50 ms watchdog
+def test_watchdog_trips_to_centre_and_recovers(tmp_path, kind, c_plant):
+    plant, addr = start_plant(tmp_path, "--duration", "0.6", kind=kind, c_plant=c_plant)   # real time, 50 ms watchdog
     flags = []
     with PlantClient(addr, timeout=10.0) as client:
         for s in client.sensors():
@@ -146,8 +155,8 @@ def wait_rows(path, rows, timeout=120):
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
-def test_plant_sigint_sigterm_finish_log_and_timing(tmp_path, sig):
-    plant, addr = start_plant(tmp_path, "--duration", "60")
+def test_plant_sigint_sigterm_finish_log_and_timing(tmp_path, sig, kind, c_plant):
+    plant, addr = start_plant(tmp_path, "--duration", "60", kind=kind, c_plant=c_plant)
     ctl = start_controller(tmp_path, addr)
     wait_rows(tmp_path / "plant_log.csv", 200)
     plant.send_signal(sig)
@@ -177,8 +186,8 @@ def test_controller_sigterm_finishes_its_log(tmp_path):
     assert len(log["seq"]) >= 100 and np.all(np.diff(log["seq"]) == 1)
 
 
-def test_sigkill_leaves_readable_logs_up_to_the_last_flush(tmp_path):
-    plant, addr = start_plant(tmp_path, "--duration", "60")
+def test_sigkill_leaves_readable_logs_up_to_the_last_flush(tmp_path, kind, c_plant):
+    plant, addr = start_plant(tmp_path, "--duration", "60", kind=kind, c_plant=c_plant)
     ctl = start_controller(tmp_path, addr)
     seen = {name: wait_rows(tmp_path / name, 2000) for name in ("plant_log.csv", "controller_log.csv")}
     ctl.kill()
@@ -194,8 +203,8 @@ def test_sigkill_leaves_readable_logs_up_to_the_last_flush(tmp_path):
     assert not (tmp_path / "timing.json").exists()
 
 
-def test_no_controller_plant_still_writes_timing_and_logs(tmp_path):
-    plant, addr = start_plant(tmp_path, "--duration", "1", "--connect-timeout", "1.5")
+def test_no_controller_plant_still_writes_timing_and_logs(tmp_path, kind, c_plant):
+    plant, addr = start_plant(tmp_path, "--duration", "1", "--connect-timeout", "1.5", kind=kind, c_plant=c_plant)
     stranger = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     stranger.sendto(b"not a packet", addr)
     finish(plant, timeout=60, code=4)
@@ -218,12 +227,12 @@ def test_controller_with_no_plant_fails_clearly(tmp_path):
             next(client.sensors())
 
 
-def test_configured_peer_ignores_everyone_else(tmp_path):
+def test_configured_peer_ignores_everyone_else(tmp_path, kind, c_plant):
     me = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     me.bind(("127.0.0.1", 0))
     intruder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     plant, addr = start_plant(tmp_path, "--lockstep", "--duration", "0.05", "--peer",
-                              f"127.0.0.1:{me.getsockname()[1]}")
+                              f"127.0.0.1:{me.getsockname()[1]}", kind=kind, c_plant=c_plant)
     for _ in range(3):                                           # a stranger speaks first: not adopted
         intruder.sendto(pr.encode_simple(pr.T_HELLO, 0, 0), addr)
         intruder.sendto(pr.encode_command(1, 0, 0, 0, 1.0), addr)

@@ -210,6 +210,44 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", help="FMU file to writ
     typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation, internal step {step:g} s)")
 
 
+def export_c(out: Path, params: str = "ferreira2004", step: float = 5e-4, duration: float = 10.0,
+             scenario: Optional[Path] = None, make: bool = True) -> Path:
+    """Write the standalone real-time C plant (sources + Makefile) into the folder ``out`` and, with
+    ``make``, build it there; returns the folder. ``scenario``: take the parameters, step, duration,
+    initial state and [hil] settings from it."""
+    from hydrohil.export.cplant import build, export_c as write
+    from hydrohil.parameters import load_parameters
+    if scenario is not None:
+        from hydrohil.simulation.scenario import load_scenario
+        sc = load_scenario(scenario)
+        s = sc.scenario
+        folder = write(sc.params, out, step=s.hil.step or s.solver.step, duration=s.duration, hil=s.hil,
+                       initial={"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1, "p2": s.initial.p2},
+                       label=scenario.name)
+    else:
+        folder = write(load_parameters(params), out, step=step, duration=duration, label=str(params))
+    if make:
+        build(folder)
+    return folder
+
+
+@export_app.command("c")
+def export_c_cmd(out: Path = typer.Option(..., "--out", help="folder to write the sources and Makefile into"),
+                 params: str = typer.Option("ferreira2004", "--params", help="parameter set (name or path)"),
+                 step: float = typer.Option(5e-4, "--step", help="default plant step [s]"),
+                 duration: float = typer.Option(10.0, "--duration", help="default simulated time to serve [s]"),
+                 scenario: Optional[Path] = typer.Option(None, "--scenario", help="take parameters, step, duration, "
+                                                         "initial state and [hil] settings from a scenario"),
+                 make: bool = typer.Option(True, "--make/--no-make", help="build it here with make (CC honoured)")):
+    """Standalone real-time C plant (no Python on the target): sources + Makefile; see the README."""
+    try:
+        folder = export_c(out, params, step, duration, scenario, make)
+    except HydrohilError as exc:
+        _fail(exc)
+    typer.echo(f"wrote {folder} (C sources, Makefile" + (f"; built {folder / 'hydrohil_plant'})" if make else
+               "; build with: make -C " + str(folder) + ")"))
+
+
 def _parse_sets(items: list[str]) -> dict:
     """``key=value`` pairs from repeated ``--set`` options; values are TOML literals (``0`` is an
     integer, ``7e6`` a float, ``true`` a boolean), exactly as in a scenario's ``[overrides]``."""
@@ -517,7 +555,7 @@ def controller_cmd(connect: str = typer.Option("127.0.0.1:47000", help="plant HO
         _fail(exc)
 
 
-def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True):
+def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True, plant: str = "python"):
     """Run a closed-loop scenario as HIL: plant and controller processes; returns ``HilResult``."""
     from hydrohil.hil.run import run_hil
     bar = None
@@ -529,7 +567,7 @@ def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True
         task = bar.add_task(f"HIL {scenario.name}" + (" (lock-step)" if lockstep else " (real time)"), total=1)
         cb = lambda t, n: bar.update(task, completed=t, total=n)  # noqa: E731
     try:
-        return run_hil(scenario, out, lockstep=lockstep, progress=cb)
+        return run_hil(scenario, out, lockstep=lockstep, progress=cb, plant=plant)
     finally:
         if bar:
             bar.stop()
@@ -538,7 +576,9 @@ def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True
 @app.command("hil")
 def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML (optional [hil] table)"),
             out: Path = typer.Option(Path("hydrohil-hil"), "--out", help="output folder"),
-            lockstep: bool = typer.Option(False, help="deterministic lock-step exchange, as fast as possible")):
+            lockstep: bool = typer.Option(False, help="deterministic lock-step exchange, as fast as possible"),
+            plant: str = typer.Option("python", "--plant", help="python: `hydrohil plant`; c: the standalone C "
+                                      "plant of `hydrohil export c`, built on first use (cached)")):
     """Real-time HIL run: plant and controller as separate processes over UDP, then the report.
 
     Ends with the verdict: VALID, or INVALID with the reasons (exit 3; [hil] max_late_commands,
@@ -548,7 +588,7 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
     from hydrohil.hil.verdict import BUSY_ADVICE, summary_line
     _interruptible()
     try:
-        r = hil(scenario, out, lockstep)
+        r = hil(scenario, out, lockstep, plant=plant)
         t, c = r.timing, r.comparison
         typer.echo(f"{t['steps']} steps ({t['mode']}): jitter p99 {_us(t['jitter_us_p99'])}, overruns "
                    f"{_n(t['overruns'])}, rtt p99 {_us(t['rtt_us_p99'])}, late commands {t['late_commands']}, "

@@ -26,6 +26,11 @@ def c_compiler() -> str:
     return (sysconfig.get_config_var("CC") or "cc").split()[0]
 
 
+def core_sources() -> list[Path]:
+    """The core's C sources and headers (what the binding, the FMU and the standalone plant compile)."""
+    return sorted(p for p in HERE.glob("*.[ch]") if p.name != "_hh.c")
+
+
 def _load(name: str, path: Path):
     spec = importlib.util.spec_from_file_location(name, path)
     mod = importlib.util.module_from_spec(spec)

@@ -29,10 +29,6 @@ from hydrohil.parameters import Parameters
 MODEL_IDENTIFIER = "hydrohil_plant"
 HERE = Path(__file__).resolve().parent
 CORE = HERE.parent / "core"
-CORE_SOURCES = ("hh.h", "core.h", "hh_params.h", "hh_core.c", "valve.c", "valve.h", "friction.c", "friction.h",
-                "cylinder.c", "cylinder.h", "rk.c", "rk.h", "hybrid.c", "hybrid.h", "reference.c", "reference.h",
-                "sensors.c", "sensors.h", "control.c", "control.h", "delay.c", "delay.h", "loop.c", "loop.h",
-                "rig.c", "params.c", "spool_bode.c")
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
@@ -215,7 +211,7 @@ def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-
     if out.suffix != ".fmu":
         raise InputError(f"the output file must end in .fmu, got {out.name}", key="out")
     token = "{" + str(uuid.UUID(hashlib.md5(f"{params.model_dump_json()}|{fmi}|{step}".encode()).hexdigest())) + "}"
-    from hydrohil.core.build import CFLAGS, c_compiler, write_params_header
+    from hydrohil.core.build import CFLAGS, c_compiler, core_sources, write_params_header
     cc = cc or c_compiler()
     if shutil.which(cc) is None:
         raise InputError(f"no C compiler '{cc}' found: the FMU's binary is built on the spot")
@@ -224,10 +220,10 @@ def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-
         src = root / "sources"
         src.mkdir(parents=True)
         write_params_header(CORE)
-        for name in CORE_SOURCES:
-            shutil.copy2(CORE / name, src / name)
+        for path in core_sources():
+            shutil.copy2(path, src / path.name)
         for name in ("plant_fmu.h", "plant_fmu.c", f"fmi{fmi}Functions.c"):
-            shutil.copy2(HERE / "c" / name, src / name)
+            shutil.copy2(HERE / "c" / "fmu" / name, src / name)
         for h in _fmi_headers(fmi):
             shutil.copy2(h, src / h.name)
         (src / "config.h").write_text(config_h(params, step, token))

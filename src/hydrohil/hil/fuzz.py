@@ -5,7 +5,10 @@ overwrites, truncation, extension, header fields rewritten with a correct CRC, N
 pure random bytes) through :func:`~hydrohil.hil.protocol.decode`: it must return a message or None,
 never raise; the malformed ones must be None.
 
-``fuzz_live_plant(n)``: a real-time plant (its own process, loopback) with the P controller running,
+``fuzz_c_decoder(n)``: the same datagrams through the standalone C plant's decoder (``protocol.c`` of
+``hydrohil export c``) and the Python one: they must agree on every datagram and on every field read.
+
+``fuzz_live_plant(n)``: a real-time plant (``hydrohil plant`` or the C plant) (its own process, loopback) with the P controller running,
 while a third process-side socket sends n fuzz datagrams at a steady rate; once all are sent the plant
 is stopped (SIGINT: it drains its socket, finishes its log and ``timing.json``). Checks afterwards: the
 plant was alive all along and served every step, every datagram is accounted for (``packets_bad`` for the
@@ -115,11 +118,74 @@ def fuzz_decoder(n: int = 1_000_000, seed: int = 0, progress: Callable[[int, int
     return {"datagrams": n, "accepted": accepted, "rejected": rejected, "wall_s": time.perf_counter() - t0}
 
 
+def c_decoder():
+    """(ffi, lib) of the standalone C plant's ``protocol.c`` (``hydrohil export c``) built as a shared library
+    with this Python's compiler (cached beside the C plant's builds), for differential fuzzing."""
+    import hashlib
+    import os
+    import re
+    import subprocess
+    from cffi import FFI
+    from hydrohil.core.build import c_compiler
+    from hydrohil.export.cplant import RT, cache_dir
+    header, source = (RT / "protocol.h").read_text(), (RT / "protocol.c").read_text()
+    lib_path = cache_dir() / f"protocol-{hashlib.sha256((header + source).encode()).hexdigest()[:16]}.so"
+    if not lib_path.exists():
+        lib_path.parent.mkdir(parents=True, exist_ok=True)
+        part = lib_path.with_suffix(f".part{os.getpid()}")
+        subprocess.run([c_compiler(), "-std=c99", "-O2", "-shared", "-fPIC", "-I", str(RT), str(RT / "protocol.c"),
+                        "-lm", "-o", str(part)], check=True, capture_output=True)
+        part.replace(lib_path)
+    decl = re.sub(r"/\*.*?\*/", "", header, flags=re.S)
+    decl = "\n".join(line for line in decl.splitlines() if not line.lstrip().startswith("#"))
+    ffi = FFI()
+    ffi.cdef(decl)
+    return ffi, ffi.dlopen(str(lib_path))
+
+
+def _same(a: float, b: float) -> bool:
+    return a == b or (a != a and b != b)
+
+
+def fuzz_c_decoder(n: int = 1_000_000, seed: int = 0, progress: Callable[[int, int], None] | None = None) -> dict:
+    """The fuzz datagrams through the C plant's decoder and the Python one: both must accept the same
+    datagrams and read the same fields from them (AssertionError with the datagram otherwise)."""
+    ffi, lib = c_decoder()
+    msg = ffi.new("hhil_message *")
+    accepted = rejected = 0
+    t0 = time.perf_counter()
+    for i, d in enumerate(fuzz_stream(n, seed)):
+        py = pr.decode(d)
+        ok = lib.hhil_decode(d, len(d), msg)
+        assert bool(ok) == (py is not None), f"C decoder {'accepts' if ok else 'rejects'} datagram {i}: {d.hex()}"
+        if py is None:
+            rejected += 1
+        else:
+            accepted += 1
+            h = msg.header
+            hdr = py if isinstance(py, pr.Header) else py.header
+            assert (h.type, h.seq, h.t_send_ns, h.echo_t_ns, h.echo_seq) == tuple(hdr), f"header of {i}: {d.hex()}"
+            if isinstance(py, pr.Sensor):
+                c = msg.sensor
+                got = (c.t_sim, c.step, c.encoder_counts, c.p1, c.p2, c.ps, c.pt, c.status, c.travel_mode,
+                       c.friction_mode, c.spool_mode)
+                assert all(_same(a, b) for a, b in zip(got, py[1:])), f"sensor fields of {i}: {d.hex()}"
+            elif isinstance(py, pr.Command):
+                assert (msg.command.u, msg.command.flags) == (py.u, py.flags), f"command of {i}: {d.hex()}"
+        if progress and i % 50_000 == 0:
+            progress(i, n)
+    return {"datagrams": n, "accepted": accepted, "rejected": rejected, "wall_s": time.perf_counter() - t0}
+
+
 def fuzz_live_plant(n: int = 1_000_000, rate_hz: float = 20_000.0, seed: int = 0, *, step: float = 5e-4,
-                    out: Path | None = None, progress: Callable[[int, int], None] | None = None) -> dict:
-    """Fuzz a real-time plant served by ``hydrohil plant`` (loopback) while the P controller runs
-    against it; see the module docstring for what is checked. Returns the figures."""
+                    out: Path | None = None, progress: Callable[[int, int], None] | None = None,
+                    plant: str = "python") -> dict:
+    """Fuzz a real-time plant (loopback) while the P controller runs against it: ``hydrohil plant``, or
+    with ``plant="c"`` the standalone C plant; see the module docstring for what is checked. Returns the
+    figures."""
     from hydrohil.hil.processes import Child, cli, free_udp_port
+    from hydrohil.hil.run import plant_command
+    from hydrohil.simulation.scenario import load_scenario
     duration = n / rate_hz + 120.0      # an upper bound: the plant is stopped once everything is sent
     tmp = tempfile.TemporaryDirectory() if out is None else None
     out = Path(tmp.name) if tmp else Path(out)
@@ -129,8 +195,8 @@ def fuzz_live_plant(n: int = 1_000_000, rate_hz: float = 20_000.0, seed: int = 0
                     '[controller]\ntype = "p"\nkp = 50.0\n[reference]\ntype = "table"\nt = [0.0, 1.0]\n'
                     'x = [0.05, 0.10]\n')
     ctl_address = f"127.0.0.1:{free_udp_port()}"
-    plant = Child(cli("plant", "--scenario", scen, "--bind", "127.0.0.1:0", "--log", out / "plant", "--peer",
-                      ctl_address), "plant")
+    (out / "plant").mkdir(exist_ok=True)
+    plant = Child(plant_command(load_scenario(scen), scen, out / "plant", ctl_address, plant=plant), "plant")
     ctl = None
     try:
         host, port = plant.wait_line("READY ", 120.0).rsplit(":", 1)

@@ -381,6 +381,7 @@ class PlantServer:
             "stop_signal": self.stop_signal,
             "statistics": "histograms, 1.2 % bins (bounded memory); max exact",
             **{f"os_{k}": v for k, v in rt.items()},
+            "plant": "python", "log_rows_dropped": 0,     # (the log is written in the loop: no row is dropped)
         }
         if self.lockstep:
             res["steps_per_s"] = steps / max((t_end - t0) / 1e9, 1e-9)

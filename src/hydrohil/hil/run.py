@@ -41,21 +41,46 @@ class HilResult:
         return self.timing["verdict"]
 
 
+PLANTS = ("python", "c")
+
+
+def plant_command(sc, scenario: Path, out: Path, peer: str, *, lockstep: bool = False, plant: str = "python") -> list:
+    """The command line of the plant process: ``hydrohil plant`` (``plant="python"``) or the standalone C
+    plant of :mod:`hydrohil.export.cplant` built for this scenario (cached), with the same options."""
+    tail = ["--bind", "127.0.0.1:0", "--log", out, "--peer", peer, *(["--lockstep"] if lockstep else [])]
+    if plant == "python":
+        return cli("plant", "--scenario", scenario, *tail)
+    if plant != "c":
+        raise InputError(f"--plant must be one of {', '.join(PLANTS)}, got {plant!r}", key="plant")
+    s = sc.scenario
+    if s.faults:
+        raise InputError("the C plant does not inject [[faults]]: run this scenario with --plant python",
+                         source=str(scenario), key="faults")
+    from hydrohil.export.cplant import cached_plant
+    initial = {"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1, "p2": s.initial.p2}
+    exe = cached_plant(sc.params, step=s.hil.step or s.solver.step, duration=s.duration, hil=s.hil, initial=initial,
+                       label=scenario.name)
+    cpu = s.hil.cpus()[0]
+    return [exe, *tail, *(["--cpu", cpu] if cpu is not None else [])]
+
+
 def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
-            progress: Callable[[float, float], None] | None = None, plot: bool = True) -> HilResult:
+            progress: Callable[[float, float], None] | None = None, plot: bool = True,
+            plant: str = "python") -> HilResult:
     """Run a scenario as a HIL experiment; writes plant_log.csv, controller_log.csv, timing.json (with the
-    verdict), comparison.json and report.png into ``out``. Raises LinkError / HydrohilError when a process
-    failed, Interrupted on Ctrl-C (after both processes finished their logs)."""
+    verdict), comparison.json and report.png into ``out``. ``plant``: "python" (``hydrohil plant``) or "c"
+    (the standalone C plant, built and cached on first use). Raises LinkError / HydrohilError when a
+    process failed, Interrupted on Ctrl-C (after both processes finished their logs)."""
     scenario, out = Path(scenario), Path(out)
     sc = load_scenario(scenario)           # validate before starting anything
     if not sc.scenario.closed_loop:
         raise InputError("hydrohil hil needs a closed-loop scenario ([controller] + [reference])",
                          source=str(scenario))
-    out.mkdir(parents=True, exist_ok=True)
     hil_cfg = sc.scenario.hil
     ctl_address = f"127.0.0.1:{free_udp_port()}"
-    plant = Child(cli("plant", "--scenario", scenario, "--bind", "127.0.0.1:0", "--log", out, "--peer", ctl_address,
-                      *(["--lockstep"] if lockstep else [])), "plant")
+    command = plant_command(sc, scenario, out, ctl_address, lockstep=lockstep, plant=plant)
+    out.mkdir(parents=True, exist_ok=True)
+    plant = Child(command, "plant")
     ctl = None
     try:
         address = plant.wait_line("READY ", READY_TIMEOUT_S)

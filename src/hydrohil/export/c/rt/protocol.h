@@ -1,0 +1,62 @@
+/* protocol.h: hydrohil HIL wire protocol, version 1 (docs/protocol.md), in C for the standalone plant.
+ *
+ * Every datagram = 32-byte header | payload | CRC-32 (IEEE 802.3, zlib's, over everything before it), all
+ * little-endian whatever the host (bytes are written one by one), length fixed by the type. hhil_decode
+ * accepts exactly what hydrohil.hil.protocol.decode accepts; nothing here trusts network input.
+ */
+#ifndef HHIL_PROTOCOL_H
+#define HHIL_PROTOCOL_H
+#include <stddef.h>
+#include <stdint.h>
+
+#define HHIL_VERSION 1
+enum { HHIL_SENSOR = 1, HHIL_COMMAND = 2, HHIL_HELLO = 3, HHIL_BYE = 4 };
+enum { HHIL_HEADER_LEN = 32, HHIL_SENSOR_LEN = 100, HHIL_COMMAND_LEN = 52, HHIL_SIMPLE_LEN = 36,
+       HHIL_MAX_DATAGRAM = 512 };
+
+/* status bits of a SENSOR packet */
+enum {
+    HHIL_ST_WATCHDOG = 1 << 0, HHIL_ST_LOCKSTEP = 1 << 1, HHIL_ST_AT_RETRACT = 1 << 2, HHIL_ST_AT_EXTEND = 1 << 3,
+    HHIL_ST_STICK = 1 << 4, HHIL_ST_OVERRUN = 1 << 5, HHIL_ST_SATURATED = 1 << 6, HHIL_ST_LATE_COMMAND = 1 << 7,
+    HHIL_ST_FAULT = 1 << 8, HHIL_ST_FINAL = 1 << 9, HHIL_ST_FAULT_INJECTED = 1 << 10
+};
+enum { HHIL_CMD_STOP = 1 << 0 };   /* COMMAND flags */
+
+typedef struct {
+    uint16_t type;
+    uint32_t seq;            /* sender's sequence number; SENSOR: the plant step k */
+    int64_t t_send_ns;       /* sender's monotonic clock at sending */
+    int64_t echo_t_ns;
+    uint32_t echo_seq;
+} hhil_header;
+
+typedef struct {
+    double t_sim;
+    uint64_t step;
+    int64_t encoder_counts;
+    double p1, p2, ps, pt;   /* Pa gauge, as the sensors report */
+    uint32_t status;
+    uint8_t travel_mode, friction_mode, spool_mode;
+} hhil_sensor;
+
+typedef struct {
+    double u;                /* valve command in the configured unit */
+    uint32_t flags;
+} hhil_command;
+
+typedef struct {
+    hhil_header header;
+    hhil_sensor sensor;      /* valid when header.type == HHIL_SENSOR */
+    hhil_command command;    /* valid when header.type == HHIL_COMMAND */
+} hhil_message;
+
+uint32_t hhil_crc32(const uint8_t *data, size_t n);
+/* Encoders write a whole datagram into buf (at least its length) and return the length. */
+size_t hhil_encode_sensor(uint8_t *buf, const hhil_header *h, const hhil_sensor *s);
+size_t hhil_encode_command(uint8_t *buf, const hhil_header *h, const hhil_command *c);
+size_t hhil_encode_simple(uint8_t *buf, const hhil_header *h);   /* HELLO or BYE */
+/* 1 and *msg filled for a valid datagram of n bytes; 0 for anything malformed, truncated, corrupted, of
+ * another version or type, or a command whose u is NaN/Inf (the receiver counts it as bad). */
+int hhil_decode(const uint8_t *buf, size_t n, hhil_message *msg);
+
+#endif

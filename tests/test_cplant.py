@@ -1,0 +1,156 @@
+"""The standalone C plant (``hydrohil export c``): export, make with the user's compiler, runs against the
+Python controller in real time and lock-step, equals the Python plant bit for bit, refuses bad input, and
+its decoder agrees with the Python one on the fuzz corpus. (The live-plant tests of test_hil.py also run
+against it: watchdog, signals, SIGKILL, peer rules, counters.)"""
+
+import json
+import math
+import os
+import stat
+import subprocess
+
+import numpy as np
+import pytest
+
+from conftest import EXAMPLES, hh
+from hydrohil.hil.run import read_csv_columns
+from hydrohil.hil.verdict import judge
+from hydrohil.simulation.scenario import HilCfg
+
+TIMING_COLUMNS = ("wall", "jitter_us", "compute_us")     # the only plant_log columns that depend on the clock
+
+
+def scenario(tmp_path, duration, name="fig11_p_control.toml", extra=""):
+    text = (EXAMPLES / name).read_text().replace("duration = 6.0", f"duration = {duration}")
+    path = tmp_path / f"short_{name}"
+    path.write_text(text + extra)
+    return path
+
+
+def test_export_and_make_with_the_users_compiler(tmp_path):
+    out = tmp_path / "plant"
+    r = hh("export", "c", "--out", out, "--no-make", "--params", "ferreira2004")
+    assert r.returncode == 0, r.stderr
+    for f in ("Makefile", "rt_plant.c", "protocol.c", "latency.c", "hh_core.c", "rig.c", "hh_params.h",
+              "plant_config.h"):
+        assert (out / f).is_file(), f
+    assert not (out / "hydrohil_plant").exists()
+    # make honours CC (what `make CC=aarch64-linux-gnu-gcc` relies on): a wrapper records its calls
+    calls = tmp_path / "calls.txt"
+    wrapper = tmp_path / "my-cc"
+    wrapper.write_text(f'#!/bin/sh\necho "$@" >> {calls}\nexec cc "$@"\n')
+    wrapper.chmod(wrapper.stat().st_mode | stat.S_IEXEC)
+    m = subprocess.run(["make", "-C", str(out), f"CC={wrapper}"], capture_output=True, text=True)
+    assert m.returncode == 0, m.stderr
+    lines = calls.read_text().splitlines()
+    assert len(lines) == 5 and any("-ffp-contract=off" in c and "hh_core.c" in c for c in lines)   # 4 objects + link
+    exe = out / "hydrohil_plant"
+    lst = subprocess.run([exe, "--list"], capture_output=True, text=True)
+    assert lst.returncode == 0 and "load.mass" in lst.stdout and "watchdog_timeout" in lst.stdout
+    row = next(line for line in lst.stdout.splitlines() if line.split()[:1] == ["load.mass"])
+    assert row.split()[1] == "80" and "[kg]" in row
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--set", "load.mass=-3"], "parameter load.mass = -3 [kg]: must be > 0"),
+    (["--set", "load.masss=3"], "no parameter 'load.masss'"),
+    (["--set", "cylinder.bulk_modulus=soft"], "expects a number [-] or one of pressure|constant"),
+    (["--hil", "watchdog_timeout=0"], "watchdog_timeout must be > 0 and <= 10 [s]"),
+    (["--hil", "safe_state=brake"], "safe_state is one of centre|hold"),
+    (["--step", "0.05"], "--step 0.05: the plant step must be > 1e-06 and <= 0.01 [s]"),
+    (["--bind", "10.0.0.1:47000"], "pass --allow-remote"),
+    (["--initial", "xp=0.5"], "need 0 <= xp <= cylinder.stroke (0.18 m)"),
+    (["--frobnicate"], "unknown option"),
+])
+def test_bad_arguments_are_refused_with_the_key_and_range(c_plant, args, message):
+    r = subprocess.run([c_plant, *args], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 2 and message in r.stderr, r.stderr
+
+
+def test_hil_real_time_c_plant_against_the_python_controller(tmp_path):
+    # 2 s in real time: what any machine can promise (the timing figures live in the benchmark): the run
+    # has a verdict, the logs are whole, the plant stepped the model exactly with the commands it applied,
+    # and the trajectory is the offline one (late commands on a busy machine move it by micrometres)
+    scen = scenario(tmp_path, 2.0)
+    r = hh("hil", scen, "--out", tmp_path / "c", "--plant", "c")
+    t = json.loads((tmp_path / "c" / "timing.json").read_text())
+    assert r.returncode == (0 if t["verdict"]["valid"] else 3), r.stderr
+    assert t["plant"] == "c" and t["mode"] == "realtime" and t["steps"] == 4000
+    assert t["packets_bad"] == t["packets_foreign"] == 0 and t["log_rows_dropped"] == 0
+    assert t["rtt_source"].startswith("kernel") and math.isfinite(t["rtt_us_p50"])
+    assert t["verdict"] == judge(t, HilCfg())                # the C plant's verdict is hydrohil.hil.verdict's
+    log = read_csv_columns(tmp_path / "c" / "plant_log.csv")
+    assert np.array_equal(log["k"], np.arange(4001)) and np.array_equal(log["t"], np.arange(4001) * 5e-4)
+    ctl = json.loads((tmp_path / "c" / "controller.json").read_text())
+    assert t["commands_delivered"] <= ctl["commands_sent"]
+    c = json.loads((tmp_path / "c" / "comparison.json").read_text())
+    assert c["replay_xp_max_abs_m"] == 0.0 and c["xp_rms_mm"] <= 0.5
+    # the same keys as the Python plant's timing.json (a lock-step run of it is enough to list them)
+    py = hh("hil", scen, "--out", tmp_path / "py", "--lockstep")
+    assert py.returncode == 0, py.stderr
+    keys_py = set(json.loads((tmp_path / "py" / "timing.json").read_text()))
+    assert keys_py - {"steps_per_s"} | {"os_memory_locked"} == set(t)
+
+
+def test_lockstep_c_plant_equals_python_plant_bit_for_bit(tmp_path):
+    # noisy, quantised, clipping pressure sensors and a coarse encoder: every reading the controller gets
+    # and every state the plant logs are the same numbers from both plants (one core, one noise source)
+    sensors = ('"sensors.pressure_noise" = 2.0e4\n"sensors.pressure_resolution" = 1.0e3\n'
+               '"sensors.pressure_range" = 4.4e6\n"sensors.encoder_resolution" = 5.0e-6\n')
+    text = (EXAMPLES / "fig12_steps_ramps.toml").read_text().replace("duration = 6.0", "duration = 1.5")
+    assert text.count("[overrides]\n") == 1
+    scen = tmp_path / "noisy.toml"
+    scen.write_text(text.replace("[overrides]\n", "[overrides]\n" + sensors) + "\n[hil]\nseed = 7\n")
+    logs = {}
+    for kind in ("python", "c"):
+        r = hh("hil", scen, "--out", tmp_path / kind, "--lockstep", "--plant", kind)
+        assert r.returncode == 0, r.stderr
+        logs[kind] = read_csv_columns(tmp_path / kind / "plant_log.csv")
+    py, c = logs["python"], logs["c"]
+    assert list(py) == list(c) and len(py["k"]) == 3001
+    for col in py:
+        if col not in TIMING_COLUMNS:
+            assert np.array_equal(py[col], c[col]), col
+    assert np.any(py["status"].astype(int) & 64) and np.unique(py["p1_meas"] % 1e3).size == 1   # clipped, quantised
+    assert np.std(py["p1_meas"] - py["p1"]) > 5e3                                              # noisy
+    tp, tc = (json.loads((tmp_path / k / "timing.json").read_text()) for k in ("python", "c"))
+    for key in ("steps", "packets_rx", "packets_lost", "late_commands", "commands_delivered", "watchdog_trips"):
+        assert tp[key] == tc[key], key
+
+
+def test_hil_with_the_c_plant_refuses_fault_scenarios(tmp_path):
+    r = hh("hil", EXAMPLES / "faults" / "sensor_noise.toml", "--out", tmp_path, "--plant", "c")
+    assert r.returncode == 2 and "does not inject [[faults]]" in r.stderr and "--plant python" in r.stderr
+
+
+def test_c_decoder_agrees_with_the_python_one_on_the_fuzz_corpus():
+    from hydrohil.hil.fuzz import fuzz_c_decoder
+    d = fuzz_c_decoder(30_000, seed=5)
+    assert d["rejected"] > 20_000 and d["accepted"] > 1_000
+
+
+def test_live_c_plant_survives_fuzzing_and_counts_every_datagram():
+    from hydrohil.hil.fuzz import fuzz_live_plant
+    r = fuzz_live_plant(8_000, 4_000.0, seed=6, plant="c")
+    assert r["controller_exit"] == 0 and r["plant_exit"] == 130
+    assert r["sent_while_plant_ran"] and 0 < r["steps"] < r["steps_planned"]
+    counted = r["packets_bad"] + r["packets_foreign"] + r["packets_dropped_kernel"]
+    assert r["packets_bad"] <= r["sent_malformed"] and r["packets_foreign"] <= r["sent_well_formed"]
+    assert counted >= r["sent_malformed"] + r["sent_well_formed"]
+    if r["packets_dropped_kernel"] == 0:
+        assert r["packets_bad"] == r["sent_malformed"] and r["packets_foreign"] == r["sent_well_formed"]
+
+
+def test_cached_build_is_reused_and_rebuilt_when_the_sources_change(tmp_path, monkeypatch):
+    from hydrohil.export.cplant import cached_plant
+    from hydrohil.parameters import load_parameters
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    p = load_parameters()
+    a = cached_plant(p, step=5e-4, duration=1.0)
+    mtime = os.stat(a).st_mtime_ns
+    assert cached_plant(p, step=5e-4, duration=1.0) == a and os.stat(a).st_mtime_ns == mtime
+    b = cached_plant(p.model_copy(update={"load": p.load.model_copy(update={"mass": 120.0})}), step=5e-4,
+                     duration=1.0)
+    assert b != a and b.exists()
+    lst = subprocess.run([b, "--list"], capture_output=True, text=True).stdout
+    assert next(line for line in lst.splitlines() if line.split()[:1] == ["load.mass"]).split()[1] == "120"
