@@ -181,12 +181,18 @@ def hil_scenario(tmp: Path, seconds: float, step: float) -> Path:
     return path
 
 
-def hil(seconds: float, step: float, lockstep: bool = False) -> dict:
+def hil(seconds: float, step: float, lockstep: bool = False, plant: str = "python") -> dict:
+    """A HIL run of :func:`hil_scenario` with the Python plant server or the standalone C plant."""
     from hydrohil.hil.run import run_hil
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
+        scenario = hil_scenario(tmp, seconds, step)
+        if plant == "c":          # build (or find in the cache) before the clock starts
+            from hydrohil.hil.run import plant_command
+            from hydrohil.simulation.scenario import load_scenario
+            plant_command(load_scenario(scenario), scenario, tmp / "out", "127.0.0.1:1", plant="c")
         t0 = time.perf_counter()
-        r = run_hil(hil_scenario(tmp, seconds, step), tmp / "out", lockstep=lockstep, plot=False)
+        r = run_hil(scenario, tmp / "out", lockstep=lockstep, plot=False, plant=plant)
         res = {k: r.timing.get(k) for k in HIL_KEYS}
         res["verdict"] = r.verdict["verdict"]
         res["verdict_reasons"] = r.verdict["reasons"]
@@ -197,6 +203,23 @@ def hil(seconds: float, step: float, lockstep: bool = False) -> dict:
         if lockstep:
             res["steps_per_s"] = r.timing.get("steps_per_s")
     return res
+
+
+def hiccup(seconds: float) -> dict:
+    """The platform's wake-up floor: ``core/tools/hiccup.c`` (the plant's duty cycle, nothing else) on the
+    plant's CPU for ``seconds``."""
+    import json
+    import subprocess
+    from hydrohil.core.build import HERE as core, c_compiler
+    from hydrohil.simulation.scenario import HilCfg
+    cpu = HilCfg().cpus()[0]
+    with tempfile.TemporaryDirectory() as tmp:
+        exe = Path(tmp) / "hiccup"
+        subprocess.run([c_compiler(), "-O2", "-o", str(exe), str(core / "tools" / "hiccup.c")], check=True,
+                       capture_output=True)
+        r = subprocess.run([str(exe), str(seconds), *([str(cpu)] if cpu is not None else [])], capture_output=True,
+                           text=True, check=True)
+    return {"seconds": seconds, **json.loads(r.stdout.strip().splitlines()[-1])}
 
 
 def udp_ping_pong(n: int = 20000) -> dict:
@@ -258,6 +281,8 @@ def run_bench(*, seconds: float = 60.0, quick: bool = False,
         ("reference_solver", lambda: reference_solver(1.0 if quick else 6.0, 1 if quick else 3)),
         ("max_stable_step", max_stable_step),
         ("realtime_0.5ms", lambda: hil(rt, 5e-4)),
+        ("realtime_0.5ms_c", lambda: hil(rt, 5e-4, plant="c")),
+        ("hiccup", lambda: hiccup(rt)),
         ("realtime_0.1ms", lambda: hil(min(rt, 10.0), 1e-4)),
         ("udp_ping_pong", lambda: udp_ping_pong(2000 if quick else 20000)),
         ("lockstep", lambda: hil(2.0 if quick else 10.0, 5e-4, lockstep=True)),
@@ -341,4 +366,35 @@ def markdown(res: dict) -> str:
             f"C core: {m.get('compiler', '?')} via cffi {m.get('cffi', '?')}, {m['date_utc']} UTC; "
             f"real-time priority: {rt5['os_rt_priority']}.", "",
             "| figure | measured | target |", "|---|---|---|"]
-    return "\n".join(head + [f"| {a} | {b} | {c} |" for a, b, c in rows]) + "\n"
+    return "\n".join(head + [f"| {a} | {b} | {c} |" for a, b, c in rows]) + "\n" + plants_table(res)
+
+
+def plants_table(res: dict) -> str:
+    """The Python plant server and the standalone C plant side by side (same scenario, back to back), and
+    the platform's floor (hiccup.c)."""
+    py, c, hc = res.get("realtime_0.5ms"), res.get("realtime_0.5ms_c"), res.get("hiccup")
+    if not (py and c):
+        return ""
+
+    def col(r, key, fmt="{:.3g}"):
+        return _f(r.get(key), fmt)
+
+    rows = [("jitter p50 / p99 / max [µs]", *(f"{col(r, 'jitter_us_p50')} / {col(r, 'jitter_us_p99')} / "
+                                                f"{col(r, 'jitter_us_max', '{:.0f}')}" for r in (py, c))),
+            ("overruns (steps started > 0.5 ms late)", *(f"{r['overruns']} of {r['steps']} "
+                                                         f"({r['overrun_fraction']:.3%})" for r in (py, c))),
+            ("late commands", *(str(r["late_commands"]) for r in (py, c))),
+            ("RTT p50 / p99, kernel stamp [µs]", *(f"{col(r, 'rtt_us_p50')} / {col(r, 'rtt_us_p99')}" for r in (py, c))),
+            ("compute per step p50 / p99 [µs]", *(f"{col(r, 'compute_us_p50')} / {col(r, 'compute_us_p99')}"
+                                                  for r in (py, c))),
+            ("HIL vs offline position [mm RMS]", *(col(r, "xp_rms_vs_offline_mm") for r in (py, c))),
+            ("verdict", *(r["verdict"] for r in (py, c)))]
+    floor = (f"{hc['wakeups_late_0.5ms']} of {hc['periods']} wake-ups > 0.5 ms late ({hc['late_fraction']:.3%}), "
+             f"worst {hc['worst_ms']:.1f} ms" if hc else "—")
+    lines = ["", f"Plant servers side by side (0.5 ms, {py['seconds']:g} s each, back to back; the P controller "
+             "process is the same):", "",
+             "| figure | Python plant (`hydrohil plant`) | C plant (`hydrohil export c`) |", "|---|---|---|"]
+    lines += [f"| {a} | {b} | {cc} |" for a, b, cc in rows]
+    lines += ["", f"Platform floor (`core/tools/hiccup.c`, the plant's duty cycle and nothing else, {_f(hc and hc['seconds'])}"
+              f" s): {floor}."]
+    return "\n".join(lines) + "\n"

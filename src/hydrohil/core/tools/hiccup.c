@@ -4,7 +4,7 @@
  * each period's end, then spin to the end, like `hydrohil plant`. Counts wake-ups later than 0.5 ms
  * (what the plant would count as overruns), later than 1 ms and 10 ms, and gaps inside the spin.
  *
- *   cc -O2 -o hiccup benchmarks/hiccup.c && ./hiccup 60 [cpu]
+ *   cc -O2 -o hiccup src/hydrohil/core/tools/hiccup.c && ./hiccup 60 [cpu]   (also a section of `hydrohil bench`)
  */
 #define _GNU_SOURCE
 #include <sched.h>
