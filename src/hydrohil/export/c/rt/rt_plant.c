@@ -996,10 +996,10 @@ static int judge(const plant *pl, int64_t steps, char reasons[][400])
         double stall_us = latency_max_us(&pl->jitter);
         if (late > hil[HIL_MAX_LATE_COMMANDS] * s)
             snprintf(reasons[n++], 400, "%lld of %lld commands late (%.1f%% > %.1f%%)", (long long)pl->late_commands,
-                     (long long)steps, 100.0 * late / s, 100.0 * hil[HIL_MAX_LATE_COMMANDS]);
+                     (long long)steps, late / s * 100.0, hil[HIL_MAX_LATE_COMMANDS] * 100.0);
         if (over > hil[HIL_MAX_OVERRUNS] * s)
             snprintf(reasons[n++], 400, "%lld of %lld steps overran (%.1f%% > %.1f%%)", (long long)pl->overruns,
-                     (long long)steps, 100.0 * over / s, 100.0 * hil[HIL_MAX_OVERRUNS]);
+                     (long long)steps, over / s * 100.0, hil[HIL_MAX_OVERRUNS] * 100.0);
         if (isfinite(stall_us) && stall_us > hil[HIL_MAX_STALL] * 1e6)
             snprintf(reasons[n++], 400, "the plant stalled %.1f ms (> %g ms)", stall_us / 1e3, hil[HIL_MAX_STALL] * 1e3);
     }
