@@ -159,7 +159,13 @@ typedef struct {
     int64_t trips_unexplained;  /* ... with no injected fault to explain the silence */
     double hold_x;              /* position held by the 'hold' safe state [m] */
 } hh_watchdog;
+typedef struct {
+    double p[4];                /* p1, p2, ps, pt as the transducers report [Pa gauge] */
+    int64_t encoder;            /* encoder reading [counts] */
+    int saturated;              /* a pressure reading is clipped */
+} hh_reading;
 void hh_watchdog_init(hh_watchdog *w);
+void hh_rig_read(const hh_sim *sim, double count, hh_rng *rng, hh_reading *r);
 double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, double h, double timeout, int hold,
                            double hold_kp, double xp);
 

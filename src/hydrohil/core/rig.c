@@ -101,3 +101,31 @@ double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, dou
         return hold ? p_control(hold_kp, w->hold_x, xp) : 0.0;
     return w->u_held;
 }
+
+/* ---- what the rig's sensors report --------------------------------------------------------------- */
+/* The readings of sim's current state: the encoder in counts of size `count` [m] (nearest count), and the
+ * transducers of p1, p2, ps, pt (sensors.pressure_range / _resolution / _noise of sim->p; four normal draws
+ * from rng when the noise is on). The Python rig applies its sensor faults between the truth and these
+ * models and calls the pieces; without faults it calls this, as the C plant does. */
+void hh_rig_read(const hh_sim *sim, double count, hh_rng *rng, hh_reading *r)
+{
+    const double *p = sim->p, *y = sim->y;
+    double noise[4] = {0.0, 0.0, 0.0, 0.0}, truth[4], sigma = p[HH_SENSORS_PRESSURE_NOISE];
+    int i, sat;
+    truth[0] = y[HH_P1];
+    truth[1] = y[HH_P2];
+    truth[2] = p[HH_SUPPLY_PS];
+    truth[3] = p[HH_SUPPLY_PT];
+    if (sigma > 0.0) {
+        hh_rng_normals(rng, 4, noise);
+        for (i = 0; i < 4; i++)
+            noise[i] *= sigma;
+    }
+    r->saturated = 0;
+    for (i = 0; i < 4; i++) {
+        r->p[i] = hh_pressure_reading(truth[i], p[HH_SENSORS_PRESSURE_RANGE], p[HH_SENSORS_PRESSURE_RESOLUTION],
+                                      noise[i], &sat);
+        r->saturated |= sat;
+    }
+    r->encoder = (int64_t)encoder_counts(y[HH_XP], count);
+}

@@ -64,6 +64,9 @@ class VirtualRig:
         lib.hh_rng_seed(self.noise, self.hil.seed)
         self._nz = ffi.new("double[4]")
         self._sat = ffi.new("int *")
+        self._reading = ffi.new("hh_reading *")
+        self._sim = self.plant.sim._sim
+        self._faulty = bool(self.faults.faults)     # without faults: one C call per step for the sensors
         self.res = count_size(params.sensors.encoder_resolution)   # m per encoder count
         self.link = ffi.new("hh_watchdog *")                # command path: saturation, watchdog, safe state
         lib.hh_watchdog_init(self.link)
@@ -99,6 +102,12 @@ class VirtualRig:
         """Advance step k -> k+1 with the command the controller sent for it (ū; None: none arrived).
         Returns the command that drove the valve."""
         plant = self.plant
+        if not self._faulty:
+            u = lib.hh_watchdog_command(self.link, k, command is not None, 0.0 if command is None else command,
+                                        self.h, self.hil.watchdog_timeout, self._hold, self.hil.hold_kp,
+                                        plant.out[5])
+            plant.step(u)
+            return u
         self.faults.begin_step(k, plant.p, plant.y)
         u = self.faults.deliver(command)
         if (command is not None and u is None) or self.faults.silence_active():
@@ -114,23 +123,29 @@ class VirtualRig:
         """Sensor readings of the current state (interface models, then sensor faults) and the status bits of
     the wire protocol the rig knows (the server adds lock-step, overrun and final)."""
         out, s, p, f = self.plant.out, self.params.sensors, self.plant.p, self.faults
-        t = float(out[0])
-        enc = int(f.sense_position(float(encoder_counts(out[5], self.res)), self.res, t))
-        nz = self._nz
-        if s.pressure_noise > 0:
-            lib.hh_rng_normals(self.noise, 4, nz)
-        noise = [nz[i] * s.pressure_noise for i in range(4)] if s.pressure_noise > 0 else (0.0, 0.0, 0.0, 0.0)
-        true = (out[3], out[4], p[PS], p[PT])
-        vals, sat = [], False
-        for name, v, n in zip(("p1", "p2", "ps", "pt"), true, noise):
-            vals.append(lib.hh_pressure_reading(f.sense_pressure(name, float(v), t), s.pressure_range,
-                                                s.pressure_resolution, n, self._sat))
-            sat |= bool(self._sat[0])
+        if not self._faulty:               # the core's sensor models in one call (the C plant's too)
+            r = self._reading
+            lib.hh_rig_read(self._sim, self.res, self.noise, r)
+            vals, sat, enc, mask = (r.p[0], r.p[1], r.p[2], r.p[3]), r.saturated, r.encoder, 0
+        else:
+            t = float(out[0])
+            enc = int(f.sense_position(float(encoder_counts(out[5], self.res)), self.res, t))
+            nz = self._nz
+            if s.pressure_noise > 0:
+                lib.hh_rng_normals(self.noise, 4, nz)
+            noise = [nz[i] * s.pressure_noise for i in range(4)] if s.pressure_noise > 0 else (0.0, 0.0, 0.0, 0.0)
+            true = (out[3], out[4], p[PS], p[PT])
+            vals, sat = [], False
+            for name, v, n in zip(("p1", "p2", "ps", "pt"), true, noise):
+                vals.append(lib.hh_pressure_reading(f.sense_pressure(name, float(v), t), s.pressure_range,
+                                                    s.pressure_resolution, n, self._sat))
+                sat |= bool(self._sat[0])
+            mask = f.mask
         travel, friction = int(out[9]), int(out[10])
-        status = (ST_SATURATED if sat else 0) | (ST_WATCHDOG if self.watchdog else 0)
+        status = (ST_SATURATED if sat else 0) | (ST_WATCHDOG if self.link.active else 0)
         status |= ST_AT_RETRACT if travel == AT_RETRACT else ST_AT_EXTEND if travel == AT_EXTEND else 0
-        status |= (ST_STICK if friction == STICK else 0) | (ST_FAULT_INJECTED if f.mask else 0)
-        return Reading(t, enc, *vals, status, travel, friction, int(out[11]), f.mask)
+        status |= (ST_STICK if friction == STICK else 0) | (ST_FAULT_INJECTED if mask else 0)
+        return Reading(float(out[0]), enc, *vals, status, travel, friction, int(out[11]), mask)
 
 
 RIG_COLUMNS = ("faults", "x_meas", "p1_meas", "p2_meas", "ps_meas", "watchdog")

@@ -610,29 +610,15 @@ typedef struct {
     uint32_t status;
 } reading;
 
+/* The sensors' readings (the core's rig model, as the Python rig's) and the status bits of the wire. */
 static void read_sensors(plant *pl, reading *r)
 {
-    const double *p = pl->sim.p, *out = pl->sim.out;
-    double noise[4] = {0.0, 0.0, 0.0, 0.0}, truth[4];
-    double sigma = p[HH_SENSORS_PRESSURE_NOISE];
-    int i, sat = 0, s;
+    hh_reading hr;
     int64_t travel = pl->sim.m[HH_M_TRAVEL];
-    truth[0] = out[HH_OUT_Y + HH_P1];
-    truth[1] = out[HH_OUT_Y + HH_P2];
-    truth[2] = p[HH_SUPPLY_PS];
-    truth[3] = p[HH_SUPPLY_PT];
-    if (sigma > 0) {
-        hh_rng_normals(&pl->noise, 4, noise);
-        for (i = 0; i < 4; i++)
-            noise[i] *= sigma;
-    }
-    for (i = 0; i < 4; i++) {
-        r->p[i] = hh_pressure_reading(truth[i], p[HH_SENSORS_PRESSURE_RANGE], p[HH_SENSORS_PRESSURE_RESOLUTION],
-                                      noise[i], &s);
-        sat |= s;
-    }
-    r->encoder = (int64_t)hh_encoder_counts(out[HH_OUT_Y + HH_XP], pl->count);
-    r->status = (sat ? HHIL_ST_SATURATED : 0) | (pl->link.active ? HHIL_ST_WATCHDOG : 0) |
+    hh_rig_read(&pl->sim, pl->count, &pl->noise, &hr);
+    memcpy(r->p, hr.p, sizeof r->p);
+    r->encoder = hr.encoder;
+    r->status = (hr.saturated ? HHIL_ST_SATURATED : 0) | (pl->link.active ? HHIL_ST_WATCHDOG : 0) |
                 (travel == HH_AT_RETRACT ? HHIL_ST_AT_RETRACT : travel == HH_AT_EXTEND ? HHIL_ST_AT_EXTEND : 0) |
                 (pl->sim.m[HH_M_FRICTION] == HH_STICK ? HHIL_ST_STICK : 0) |
                 (pl->o->lockstep ? HHIL_ST_LOCKSTEP : 0);
