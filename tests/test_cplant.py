@@ -15,7 +15,7 @@ import pytest
 from conftest import EXAMPLES, hh
 from hydrohil.hil.run import read_csv_columns
 from hydrohil.hil.verdict import judge
-from hydrohil.simulation.scenario import HilCfg
+from hydrohil.simulation.scenario import HilCfg, load_scenario
 
 TIMING_COLUMNS = ("wall", "jitter_us", "compute_us")     # the only plant_log columns that depend on the clock
 
@@ -36,14 +36,26 @@ def test_export_and_make_with_the_users_compiler(tmp_path):
         assert (out / f).is_file(), f
     assert not (out / "hydrohil_plant").exists()
     # make honours CC (what `make CC=aarch64-linux-gnu-gcc` relies on): a wrapper records its calls
-    calls = tmp_path / "calls.txt"
-    wrapper = tmp_path / "my-cc"
-    wrapper.write_text(f'#!/bin/sh\necho "$@" >> {calls}\nexec cc "$@"\n')
-    wrapper.chmod(wrapper.stat().st_mode | stat.S_IEXEC)
-    m = subprocess.run(["make", "-C", str(out), f"CC={wrapper}"], capture_output=True, text=True)
-    assert m.returncode == 0, m.stderr
-    lines = calls.read_text().splitlines()
+    def compiler(name):
+        calls = tmp_path / f"{name}.calls"
+        wrapper = tmp_path / name
+        wrapper.write_text(f'#!/bin/sh\necho "$@" >> {calls}\nexec cc "$@"\n')
+        wrapper.chmod(wrapper.stat().st_mode | stat.S_IEXEC)
+        return wrapper, calls
+
+    def make(cc):
+        m = subprocess.run(["make", "-C", str(out), f"CC={cc}"], capture_output=True, text=True)
+        assert m.returncode == 0, m.stderr
+
+    cc1, calls1 = compiler("my-cc")
+    make(cc1)
+    lines = calls1.read_text().splitlines()
     assert len(lines) == 5 and any("-ffp-contract=off" in c and "hh_core.c" in c for c in lines)   # 4 objects + link
+    make(cc1)
+    assert len(calls1.read_text().splitlines()) == 5                 # up to date: nothing rebuilt
+    cc2, calls2 = compiler("cross-cc")
+    make(cc2)                                                        # another compiler: everything rebuilt with it
+    assert len(calls2.read_text().splitlines()) == 5
     exe = out / "hydrohil_plant"
     lst = subprocess.run([exe, "--list"], capture_output=True, text=True)
     assert lst.returncode == 0 and "load.mass" in lst.stdout and "watchdog_timeout" in lst.stdout
@@ -61,6 +73,8 @@ def test_export_and_make_with_the_users_compiler(tmp_path):
     (["--bind", "10.0.0.1:47000"], "pass --allow-remote"),
     (["--initial", "xp=0.5"], "need 0 <= xp <= cylinder.stroke (0.18 m)"),
     (["--frobnicate"], "unknown option"),
+    (["--hil", "seed=9007199254740993"], "seed must be a whole number >= 0 and <= 9.0072e+15"),
+    (["--duration", "1e6", "--step", "1e-5"], "at most 2^31 - 1 steps per run"),
 ])
 def test_bad_arguments_are_refused_with_the_key_and_range(c_plant, args, message):
     r = subprocess.run([c_plant, *args], capture_output=True, text=True, timeout=30)
@@ -78,7 +92,7 @@ def test_hil_real_time_c_plant_against_the_python_controller(tmp_path):
     assert t["plant"] == "c" and t["mode"] == "realtime" and t["steps"] == 4000
     assert t["packets_bad"] == t["packets_foreign"] == 0 and t["log_rows_dropped"] == 0
     assert t["rtt_source"].startswith("kernel") and math.isfinite(t["rtt_us_p50"])
-    assert t["verdict"] == judge(t, HilCfg())                # the C plant's verdict is hydrohil.hil.verdict's
+    assert t["verdict"] == judge(t, load_scenario(scen).scenario.hil)     # hydrohil.hil.verdict's, word for word
     log = read_csv_columns(tmp_path / "c" / "plant_log.csv")
     assert np.array_equal(log["k"], np.arange(4001)) and np.array_equal(log["t"], np.arange(4001) * 5e-4)
     ctl = json.loads((tmp_path / "c" / "controller.json").read_text())
@@ -90,6 +104,38 @@ def test_hil_real_time_c_plant_against_the_python_controller(tmp_path):
     assert py.returncode == 0, py.stderr
     keys_py = set(json.loads((tmp_path / "py" / "timing.json").read_text()))
     assert keys_py - {"steps_per_s"} | {"os_memory_locked"} == set(t)
+
+
+def test_invalid_run_reasons_are_the_python_verdicts_word_for_word(tmp_path, c_plant):
+    # strict criteria and a controller that goes silent for 150 ms: late commands and an unexplained
+    # watchdog trip for sure (overruns and a stall > 1 us as the machine gives them); the C plant's reasons
+    # must be what hydrohil.hil.verdict.judge says of the same figures
+    from hydrohil.hil.controller import PlantClient
+    from hydrohil.hil.processes import Child
+    strict = {"max_late_commands": 0.0, "max_overruns": 0.0, "max_stall": 1e-6}
+    plant = Child([c_plant, "--bind", "127.0.0.1:0", "--log", tmp_path, "--duration", "0.6",
+                   *(a for k, v in strict.items() for a in ("--hil", f"{k}={v!r}"))], "c plant")
+    host, port = plant.wait_line("READY ", 120).split(":")
+    with PlantClient((host, int(port)), timeout=10.0) as client:
+        for s in client.sensors():
+            if not 0.2 <= s.t_sim < 0.35:
+                client.send(0.3, answer=s)
+    plant.wait(60)
+    assert plant.returncode == 3, plant.stderr()
+    t = json.loads((tmp_path / "timing.json").read_text())
+    v = judge(t, HilCfg(**strict))
+    assert t["verdict"] == v and not v["valid"]
+    assert any("commands late" in r for r in v["reasons"]) and any("watchdog trip" in r for r in v["reasons"])
+
+
+@pytest.mark.parametrize("kind", ["python", "c"])
+def test_steps_planned_rounds_half_to_even_in_both_plants(tmp_path, kind, c_plant):
+    from conftest import plant_cmd
+    r = subprocess.run(plant_cmd(kind, c_plant, "--bind", "127.0.0.1:0", "--log", tmp_path, "--duration", "0.0025",
+                                 "--step", "0.001", "--connect-timeout", "0.2"), capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 4, r.stderr
+    assert json.loads((tmp_path / "timing.json").read_text())["steps_planned"] == 2     # round(2.5) == 2
 
 
 def test_lockstep_c_plant_equals_python_plant_bit_for_bit(tmp_path):

@@ -166,6 +166,7 @@ typedef struct {
 } hh_reading;
 void hh_watchdog_init(hh_watchdog *w);
 void hh_rig_read(const hh_sim *sim, double count, hh_rng *rng, hh_reading *r);
+int64_t hh_count_to_int(double counts);     /* NaN -> 0, saturated at +-2^62 */
 double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, double h, double timeout, int hold,
                            double hold_kp, double xp);
 

@@ -24,7 +24,7 @@ import typing
 from pathlib import Path
 
 from hydrohil import __version__
-from hydrohil.errors import InputError
+from hydrohil.errors import HydrohilError, InputError
 from hydrohil.parameters import Parameters
 
 HERE = Path(__file__).resolve().parent
@@ -140,19 +140,23 @@ def _write(path: Path, text: str) -> None:
         path.write_text(text)
 
 
-def build(folder: str | Path, *, cc: str | None = None) -> Path:
-    """``make`` in an exported folder (``CC`` = ``cc`` or this Python's compiler); returns the executable."""
+def build(folder: str | Path, *, cc: str | None = None, env: dict | None = None) -> Path:
+    """``make`` in an exported folder (``CC`` = ``cc``, else the environment's, else this Python's compiler;
+    the environment's CFLAGS etc. apply unless ``env`` replaces it); returns the executable."""
+    import shlex
     from hydrohil.core.build import c_compiler
     folder = Path(folder)
-    cc = cc or os.environ.get("CC") or c_compiler()
-    if shutil.which(cc) is None:
-        raise InputError(f"no C compiler '{cc}' found: the standalone plant is built with make and a C compiler")
+    env = dict(os.environ if env is None else env)
+    cc = cc or env.get("CC") or c_compiler()
+    if not shlex.split(cc) or shutil.which(shlex.split(cc)[0]) is None:
+        raise InputError(f"no C compiler '{cc}' found: the standalone plant is built with make and a C compiler",
+                         key="CC")
     make = shutil.which("make")
     if make is None:
         raise InputError("no 'make' found: install it (Debian: apt-get install make)")
-    r = subprocess.run([make, "-s", "-C", str(folder), f"CC={cc}"], capture_output=True, text=True)
+    r = subprocess.run([make, "-s", "-C", str(folder), f"CC={cc}"], capture_output=True, text=True, env=env)
     if r.returncode != 0:
-        raise RuntimeError(f"building the standalone plant failed in {folder}:\n{r.stdout}{r.stderr}")
+        raise HydrohilError(f"building the standalone plant failed in {folder} (CC={cc}):\n{r.stdout}{r.stderr}")
     return folder / EXECUTABLE
 
 
@@ -166,9 +170,13 @@ def cached_plant(params: Parameters, *, step: float, duration: float, hil=None, 
     """The executable of this configuration, exported and built once into the cache (keyed by the hash of
     all its sources: a changed core, plant or parameter set builds anew)."""
     import tempfile
+    from hydrohil.core.build import c_compiler
+    cc = c_compiler()                 # this machine's compiler, default flags: the cache never holds a cross build
+    env = {k: v for k, v in os.environ.items() if k not in ("CC", "CFLAGS", "CPPFLAGS", "LDFLAGS", "LDLIBS")}
+    target = subprocess.run([cc, "-dumpmachine"], capture_output=True, text=True).stdout.strip()
     with tempfile.TemporaryDirectory() as tmp:
         export_c(params, tmp, step=step, duration=duration, hil=hil, initial=initial, label=label)
-        digest = hashlib.sha256()
+        digest = hashlib.sha256(f"{cc}|{target}\0".encode())
         for f in sorted(Path(tmp).iterdir()):
             digest.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
         folder = cache_dir() / digest.hexdigest()[:16]
@@ -178,7 +186,7 @@ def cached_plant(params: Parameters, *, step: float, duration: float, hil=None, 
         part = folder.with_name(folder.name + f".part{os.getpid()}")
         shutil.rmtree(part, ignore_errors=True)
         shutil.copytree(tmp, part)
-    build(part)
+    build(part, cc=cc, env=env)
     try:
         part.rename(folder)
     except OSError:                # another process built the same configuration meanwhile

@@ -129,7 +129,7 @@ class VirtualRig:
             vals, sat, enc, mask = (r.p[0], r.p[1], r.p[2], r.p[3]), r.saturated, r.encoder, 0
         else:
             t = float(out[0])
-            enc = int(f.sense_position(float(encoder_counts(out[5], self.res)), self.res, t))
+            enc = lib.hh_count_to_int(f.sense_position(float(encoder_counts(out[5], self.res)), self.res, t))
             nz = self._nz
             if s.pressure_noise > 0:
                 lib.hh_rng_normals(self.noise, 4, nz)

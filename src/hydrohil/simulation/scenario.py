@@ -99,7 +99,7 @@ class HilCfg(StrictModel):
         "controller naps until 150 us before the next packet; spin-controller: the plant sleeps, the controller "
         "busy-waits on its socket (one core); spin: both busy-wait (nice -20, two cores). Unless pinned by "
         "cpu_plant / cpu_controller, the spinning modes pin plant and controller to the last two CPUs")
-    seed: int = Field(0, ge=0, description="seed of the pressure-sensor noise")
+    seed: int = Field(0, ge=0, le=2**53, description="seed of the pressure-sensor noise")
     connect_timeout: float = Field(30.0, gt=0, le=3600, description="the plant waits this long for the "
                                    "controller's first packet [s]")
     link_timeout: float = Field(5.0, gt=0, le=600, description="the controller waits this long for the "
@@ -110,7 +110,7 @@ class HilCfg(StrictModel):
     max_overruns: float = Field(0.01, ge=0, le=1, description="fraction of steps that started more than one "
                                 "step late [-]")
     max_stall: float = Field(0.05, gt=0, le=60, description="longest lateness of a step's start [s]")
-    max_watchdog_trips: int = Field(0, ge=0, description="watchdog trips not explained by an injected "
+    max_watchdog_trips: int = Field(0, ge=0, le=10**9, description="watchdog trips not explained by an injected "
                                     "network or silence fault")
     cpu_plant: int | None = Field(None, ge=0, description="pin the plant process to this CPU")
     cpu_controller: int | None = Field(None, ge=0, description="pin the controller process to this CPU")

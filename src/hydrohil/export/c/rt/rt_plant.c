@@ -228,6 +228,15 @@ static void set_hil(options *o, const char *assignment)
         v = option_index(s->options, eq + 1);
         if (v < 0)
             die_usage("--hil %s: %s is one of %s", assignment, key, s->options);
+    } else if (s->kind == SET_INT) {      /* exact integers: 2^53 + 1 must not round to an admissible 2^53 */
+        char *end;
+        long long n;
+        errno = 0;
+        n = strtoll(eq + 1, &end, 10);
+        if (!eq[1] || *end || errno == ERANGE || (double)n < s->lo ||
+            (s->hi < 9.2e18 && n > (long long)s->hi))
+            die_usage("--hil %s: %s must be a whole number >= %g and <= %g", assignment, key, s->lo, s->hi);
+        v = (double)n;
     } else {
         if (!parse_number(eq + 1, &v))
             die_usage("--hil %s: %s expects a number [%s]", assignment, key, s->unit);
@@ -373,6 +382,8 @@ static void parse_options(int argc, char **argv, options *o)
     }
     if (optind < argc)
         die_usage("unexpected argument %s", argv[optind]);
+    if (nearbyint(o->duration / o->step) >= 2147483647.0)    /* sequence numbers are u32 on the wire */
+        die_usage("--duration %g with --step %g: at most 2^31 - 1 steps per run", o->duration, o->step);
     if (hh_params_check(o->p, msg, sizeof msg) >= 0)
         die_usage("%s", msg);
     if (list) {
@@ -415,8 +426,8 @@ static void fmt_double(char *buf, size_t size, double v)
 typedef struct {
     FILE *fh;
     double (*rows)[NCOL];
-    volatile uint64_t head;     /* rows written by the step loop (only it writes head) */
-    volatile uint64_t tail;     /* rows formatted by the writer (only it writes tail) */
+    volatile uint32_t head;     /* rows written by the step loop (only it writes head; wraps, LOG_RING | 2^32) */
+    volatile uint32_t tail;     /* rows formatted by the writer (only it writes tail) */
     volatile int done;
     int64_t dropped;            /* rows the ring had no room for */
     char *text;                 /* formatted rows not yet written (writer thread) */
@@ -482,9 +493,9 @@ static void *log_thread(void *arg)
     int64_t last_flush = mono_ns();
     uint64_t since_flush = 0;
     for (;;) {
-        uint64_t head = __atomic_load_n(&w->head, __ATOMIC_ACQUIRE), tail = w->tail;
+        uint32_t head = __atomic_load_n(&w->head, __ATOMIC_ACQUIRE), tail = w->tail;
         int done = __atomic_load_n(&w->done, __ATOMIC_ACQUIRE);
-        while (tail < head) {
+        while (tail != head) {
             if (w->text_len + 2048 > LOG_TEXT)
                 flush_text(w);
             w->text_len += format_row(w->text + w->text_len, w->rows[tail % LOG_RING]);
@@ -531,9 +542,19 @@ static int log_open(log_writer *w, const char *dir)
         fprintf(w->fh, "%s%s", j ? "," : "", COLUMNS[j]);
     fputc('\n', w->fh);
     fflush(w->fh);              /* the header by stdio; the rows by write(2) on the same descriptor */
-    if (pthread_create(&w->thread, NULL, log_thread, w) != 0) {
-        fprintf(stderr, "error: cannot start the log writer thread\n");
-        return -1;
+    {
+        sigset_t block, old;
+        int rc;
+        sigemptyset(&block);
+        sigaddset(&block, SIGINT);
+        sigaddset(&block, SIGTERM);
+        pthread_sigmask(SIG_BLOCK, &block, &old);      /* the writer inherits the mask: signals go to the loop */
+        rc = pthread_create(&w->thread, NULL, log_thread, w);
+        pthread_sigmask(SIG_SETMASK, &old, NULL);
+        if (rc != 0) {
+            fprintf(stderr, "error: cannot start the log writer thread\n");
+            return -1;
+        }
     }
     w->started = 1;
     return 0;
@@ -541,15 +562,15 @@ static int log_open(log_writer *w, const char *dir)
 
 static void log_push(log_writer *w, const double *row)
 {
-    uint64_t head = w->head;
+    uint32_t head = w->head;
     if (!w->fh)
         return;
-    if (head - __atomic_load_n(&w->tail, __ATOMIC_ACQUIRE) >= LOG_RING) {
+    if ((uint32_t)(head - __atomic_load_n(&w->tail, __ATOMIC_ACQUIRE)) >= LOG_RING) {
         w->dropped++;               /* the writer fell 8 s behind: lose a row, never a step */
         return;
     }
     memcpy(w->rows[head % LOG_RING], row, sizeof(double) * NCOL);
-    __atomic_store_n(&w->head, head + 1, __ATOMIC_RELEASE);
+    __atomic_store_n(&w->head, head + 1U, __ATOMIC_RELEASE);
 }
 
 static void log_close(log_writer *w)
@@ -710,12 +731,12 @@ static void receive(plant *pl, const uint8_t *data, size_t n, const struct socka
     }
 }
 
-/* Read every datagram waiting on the socket (non-blocking), with its kernel arrival stamp. */
-static void drain(plant *pl)
+/* Read the datagrams waiting on the socket (non-blocking), at most `max`, with their kernel arrival stamps. */
+static void drain_at_most(plant *pl, int max)
 {
     uint8_t data[HHIL_MAX_DATAGRAM + 1];
     char control[256];
-    for (;;) {
+    for (; max > 0; max--) {
         struct sockaddr_in from;
         struct iovec iov = {data, sizeof data};
         struct msghdr mh;
@@ -754,6 +775,8 @@ static void drain(plant *pl)
         receive(pl, data, (size_t)n, &from, mono_ns(), t_kernel);
     }
 }
+
+static void drain(plant *pl) { drain_at_most(pl, 1 << 30); }
 
 static void check_signal(plant *pl)
 {
@@ -803,7 +826,7 @@ static void wait_lockstep(plant *pl, int64_t k)
             pl->stop_requested = 1;
             return;
         }
-        if (poll(&fd, 1, (int)(left / 1000000 + 1)) > 0)
+        if (poll(&fd, 1, (int)(left < 200000000LL ? left / 1000000 + 1 : 200)) > 0)
             drain(pl);
         check_signal(pl);
     }
@@ -819,7 +842,7 @@ static int wait_for_controller(plant *pl)
         if (left <= 0)
             return 0;
         if (poll(&fd, 1, (int)(left < 200000000LL ? left / 1000000 + 1 : 200)) > 0)
-            drain(pl);
+            drain_at_most(pl, 1);       /* one at a time: a command queued behind the HELLO is step 0's */
         check_signal(pl);
     }
     return pl->packets_rx > 0;
@@ -870,6 +893,12 @@ static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t
     log_push(&pl->log, row);
 }
 
+/* The name Python gives an OS error (the Python plant reports "not permitted (PermissionError)"). */
+static const char *error_name(int err)
+{
+    return err == EPERM || err == EACCES ? "PermissionError" : err == EINVAL ? "OSError (EINVAL)" : "OSError";
+}
+
 static void realtime_setup(plant *pl)
 {
     const options *o = pl->o;
@@ -881,7 +910,9 @@ static void realtime_setup(plant *pl)
         if (sched_setaffinity(0, sizeof set, &set) == 0)
             snprintf(pl->os_cpu, sizeof pl->os_cpu, "%d", o->cpu);
         else
-            snprintf(pl->os_cpu, sizeof pl->os_cpu, "\"not permitted (%s)\"", strerror(errno));
+            snprintf(pl->os_cpu, sizeof pl->os_cpu, "\"not permitted (%s)\"", error_name(errno));
+        if (pl->log.started)        /* the whole process on the plant's CPU: the writer takes its idle time */
+            pthread_setaffinity_np(pl->log.thread, sizeof set, &set);
     }
     if (o->lockstep) {
         snprintf(pl->os_rt, sizeof pl->os_rt, "lock-step");
@@ -891,7 +922,7 @@ static void realtime_setup(plant *pl)
         if (setpriority(PRIO_PROCESS, 0, -20) == 0)
             snprintf(pl->os_rt, sizeof pl->os_rt, "normal policy, nice -20 (spin)");
         else
-            snprintf(pl->os_rt, sizeof pl->os_rt, "not permitted (%s); normal priority", strerror(errno));
+            snprintf(pl->os_rt, sizeof pl->os_rt, "not permitted (%s); normal priority", error_name(errno));
     } else {
         struct sched_param sp;
         memset(&sp, 0, sizeof sp);
@@ -899,7 +930,7 @@ static void realtime_setup(plant *pl)
         if (sched_setscheduler(0, SCHED_FIFO, &sp) == 0)
             snprintf(pl->os_rt, sizeof pl->os_rt, "SCHED_FIFO 50");
         else
-            snprintf(pl->os_rt, sizeof pl->os_rt, "not permitted (%s); normal priority", strerror(errno));
+            snprintf(pl->os_rt, sizeof pl->os_rt, "not permitted (%s); normal priority", error_name(errno));
     }
     pl->timer_slack = prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL) == 0;
     pl->memory_locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;   /* no paging in the loop */
@@ -991,8 +1022,8 @@ static int judge(const plant *pl, int64_t steps, char reasons[][400])
     }
     if ((double)pl->link.trips_unexplained > hil[HIL_MAX_WATCHDOG_TRIPS])
         snprintf(reasons[n++], 400, "%lld watchdog trip(s) without an injected fault (no command reached the plant "
-                 "for %g ms; allowed %d)", (long long)pl->link.trips_unexplained, hil[HIL_WATCHDOG_TIMEOUT] * 1e3,
-                 (int)hil[HIL_MAX_WATCHDOG_TRIPS]);
+                 "for %g ms; allowed %lld)", (long long)pl->link.trips_unexplained, hil[HIL_WATCHDOG_TIMEOUT] * 1e3,
+                 (long long)hil[HIL_MAX_WATCHDOG_TRIPS]);
     return n;
 }
 
@@ -1068,7 +1099,7 @@ static int write_timing(plant *pl, int64_t steps, int64_t t0, int64_t t_end, int
     json_num_value(fh, o->hil[HIL_MAX_OVERRUNS]);
     fprintf(fh, ",\n      \"max_stall_s\": ");
     json_num_value(fh, o->hil[HIL_MAX_STALL]);
-    fprintf(fh, ",\n      \"max_watchdog_trips\": %d\n    }\n  }\n}\n", (int)o->hil[HIL_MAX_WATCHDOG_TRIPS]);
+    fprintf(fh, ",\n      \"max_watchdog_trips\": %lld\n    }\n  }\n}\n", (long long)o->hil[HIL_MAX_WATCHDOG_TRIPS]);
     return nreasons;
 }
 
@@ -1117,8 +1148,8 @@ static int plant_init(plant *pl, options *o)
     }
     hh_sim_init(&pl->sim, o->p, HH_MODEL_HYBRID, HH_RK3, o->step, pl->delay_buf, n, alpha);
     pl->count = res > 0.0 ? res : HH_IDEAL_COUNT;
-    pl->n = (int64_t)llround(o->duration / o->step);
-    pl->h_ns = llround(o->step * 1e9);
+    pl->n = (int64_t)nearbyint(o->duration / o->step);     /* half to even, as Python's round() */
+    pl->h_ns = (int64_t)nearbyint(o->step * 1e9);
     pl->spin = o->hil[HIL_WAIT] == HIL_WAIT_SPIN;
     pl->spin_ns = pl->spin ? 2 * pl->h_ns : (int64_t)fmin((double)SPIN_NS, SPIN_FRACTION * (double)pl->h_ns);
     pl->cmd_seq = pl->cmd_echo = -1;
@@ -1136,18 +1167,50 @@ static void plant_reset(plant *pl)
     hh_initial_state(pl->sim.p, x[0], x[1], 0.0, x[2], x[3], 0.0, pl->sim.y, pl->sim.m);
     hh_sim_reset(&pl->sim);
     hh_watchdog_init(&pl->link);
-    hh_rng_seed(&pl->noise, (uint64_t)pl->o->hil[HIL_SEED]);
+    hh_rng_seed(&pl->noise, (uint64_t)pl->o->hil[HIL_SEED]);   /* an integer <= 2^53 (schema) */
+}
+
+/* %.6g as Python formats it ("nan", "inf", "-inf"; glibc would write "-nan") */
+static const char *g6(char *buf, double v)
+{
+    if (isnan(v))
+        return "nan";
+    if (isinf(v))
+        return v > 0 ? "inf" : "-inf";
+    snprintf(buf, 32, "%.6g", v);
+    return buf;
 }
 
 static void describe_divergence(plant *pl)
 {
     const double *y = pl->sim.y;
     const int64_t *m = pl->sim.m;
+    char b[7][32];
     snprintf(pl->fault, sizeof pl->fault,
              "simulation diverged at t = %.6f s (non-finite or unphysical state); modes: travel=%s, friction=%s, "
-             "spool=%s; state: xs=%.6g, vs=%.6g, p1=%.6g, p2=%.6g, xp=%.6g, vp=%.6g, z=%.6g", pl->sim.out[HH_OUT_T],
-             TRAVEL_NAMES[m[0] % 3], FRICTION_NAMES[m[1] % 3], SPOOL_NAMES[m[2] % 4], y[0], y[1], y[2], y[3], y[4],
-             y[5], y[6]);
+             "spool=%s; state: xs=%s, vs=%s, p1=%s, p2=%s, xp=%s, vp=%s, z=%s", pl->sim.out[HH_OUT_T],
+             TRAVEL_NAMES[m[0] % 3], FRICTION_NAMES[m[1] % 3], SPOOL_NAMES[m[2] % 4], g6(b[0], y[0]), g6(b[1], y[1]),
+             g6(b[2], y[2]), g6(b[3], y[3]), g6(b[4], y[4]), g6(b[5], y[5]), g6(b[6], y[6]));
+}
+
+/* mkdir -p */
+static int make_dirs(const char *dir)
+{
+    char path[4096];
+    size_t i, n = strlen(dir);
+    if (n >= sizeof path)
+        return -1;
+    memcpy(path, dir, n + 1);
+    for (i = 1; i <= n; i++) {
+        if (path[i] == '/' || path[i] == '\0') {
+            char c = path[i];
+            path[i] = '\0';
+            if (mkdir(path, 0777) != 0 && errno != EEXIST)
+                return -1;
+            path[i] = c;
+        }
+    }
+    return 0;
 }
 
 int main(int argc, char **argv)
@@ -1165,18 +1228,20 @@ int main(int argc, char **argv)
 
     parse_options(argc, argv, &o);
     memset(&sa, 0, sizeof sa);
+    sigemptyset(&sa.sa_mask);
     sa.sa_handler = on_signal;          /* no SA_RESTART: sleeps and polls return at a signal */
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
     signal(SIGPIPE, SIG_IGN);
     if (o.log_dir) {
-        mkdir(o.log_dir, 0777);
         snprintf(path, sizeof path, "%s/timing.json.part", o.log_dir);
-        timing_fh = fopen(path, "w");
-        if (!timing_fh) {
+        if (make_dirs(o.log_dir) != 0 || !(timing_fh = fopen(path, "w"))) {   /* can we write there? */
             fprintf(stderr, "error: cannot write %s: %s\n", path, strerror(errno));
             return 2;
         }
+        fclose(timing_fh);
+        unlink(path);                   /* written at the end, then renamed: never a partial timing.json */
+        timing_fh = NULL;
     }
     if (plant_init(&pl, &o) < 0 || log_open(&pl.log, o.log_dir) < 0)
         return 2;
@@ -1258,19 +1323,19 @@ int main(int argc, char **argv)
         drift_ns = last_start - (t0 + (k_done > 1 ? k_done - 1 : 0) * pl.h_ns);
     }
     log_close(&pl.log);
-    if (timing_fh) {
+    nreasons = write_timing(&pl, k_done, t0, t_end, drift_ns, stderr, reasons);   /* as the Python plant */
+    if (o.log_dir) {
         char final_path[4096];
-        nreasons = write_timing(&pl, k_done, t0, t_end, drift_ns, timing_fh, reasons);
-        fclose(timing_fh);
-        snprintf(final_path, sizeof final_path, "%s/timing.json", o.log_dir);
-        rename(path, final_path);
-    } else {
-        nreasons = write_timing(&pl, k_done, t0, t_end, drift_ns, stderr, reasons);
+        timing_fh = fopen(path, "w");
+        if (!timing_fh) {
+            fprintf(stderr, "error: cannot write %s: %s\n", path, strerror(errno));
+        } else {
+            write_timing(&pl, k_done, t0, t_end, drift_ns, timing_fh, reasons);
+            fclose(timing_fh);
+            snprintf(final_path, sizeof final_path, "%s/timing.json", o.log_dir);
+            rename(path, final_path);
+        }
     }
-    fprintf(stderr, "%lld steps (%s): jitter p99 %.1f us, overruns %lld, compute p99 %.1f us, rtt p99 %.1f us, "
-            "late commands %lld, watchdog trips %lld\n", (long long)k_done, o.lockstep ? "lock-step" : "real time",
-            latency_percentile(&pl.jitter, 99), (long long)pl.overruns, latency_percentile(&pl.compute, 99),
-            latency_percentile(&pl.rtt, 99), (long long)pl.late_commands, (long long)pl.link.trips);
     if (pl.link_error[0])
         fprintf(stderr, "error: %s\n", pl.link_error);
     if (pl.fault[0])
