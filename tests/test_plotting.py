@@ -62,13 +62,15 @@ def test_plot_run_has_three_labelled_mode_strips(tmp_path, figures, offline):
         assert any(t.startswith(name) for t in texts), name
 
 
-@pytest.mark.parametrize("verdict, banner", [
-    ({"valid": True, "reasons": []}, "VALID real-time run"),
-    ({"valid": False, "reasons": ["3 overruns", "watchdog tripped"]}, "INVALID: 3 overruns; watchdog tripped"),
-    (None, None),
+@pytest.mark.parametrize("verdict, banner, jitter", [
+    ({"valid": True, "reasons": []}, "VALID real-time run", [2.0, 3.0, 2.5, 40.0]),
+    ({"valid": True, "reasons": []}, "VALID lock-step run", [0.0]),
+    ({"valid": False, "reasons": ["3 overruns", "watchdog tripped"]}, "INVALID: 3 overruns; watchdog tripped",
+     [2.0, 3.0, 2.5, 40.0]),
+    (None, None, [2.0]),
 ])
-def test_plot_hil_verdict_banner(tmp_path, figures, offline, verdict, banner):
-    hil = _hil_log(offline, [2.0, 3.0, 2.5, 40.0], [0])
+def test_plot_hil_verdict_banner(tmp_path, figures, offline, verdict, banner, jitter):
+    hil = _hil_log(offline, jitter, [0])
     plotting.plot_hil(tmp_path / "r.png", hil, offline, offline.column("t") * 0 + 0.03, title="x", verdict=verdict)
     fig, = figures
     texts = _texts(fig)

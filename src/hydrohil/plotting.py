@@ -123,11 +123,11 @@ def _finish(fig, path: Path, legend_axes, ylabels, title: str, banner=None) -> N
     plt.close(fig)
 
 
-def _verdict_banner(ax, verdict: dict) -> None:
-    """A full-width green "VALID real-time run" or red "INVALID: <reasons>" banner on axis ``ax``."""
+def _verdict_banner(ax, verdict: dict, mode: str = "real-time") -> None:
+    """A full-width green "VALID real-time run" (or lock-step run) or red "INVALID: <reasons>" banner."""
     import textwrap
     ok = bool(verdict.get("valid"))
-    text = "VALID real-time run" if ok else "INVALID: " + "; ".join(verdict.get("reasons") or ["(no reason given)"])
+    text = f"VALID {mode} run" if ok else "INVALID: " + "; ".join(verdict.get("reasons") or ["(no reason given)"])
     ax.set_facecolor("#1a7f37" if ok else "#c62828")
     ax.set_xticks([])
     ax.set_yticks([])
@@ -168,10 +168,12 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
     rms = lambda e: float(np.sqrt(np.mean(np.square(e)))) if len(e) else float("nan")  # noqa: E731
     heights = [3, 1.6, 1.6, 3, 0.45, 0.45, 0.45, 2, 0.45]
     fig, ax, top = _stack(heights, (10, 17), banner=0.5 if verdict is not None else 0.0)
+    lockstep = "jitter_us" in hil and not np.any(np.asarray(hil["jitter_us"], float) > 0)
     if top is not None:
-        _verdict_banner(top, verdict)
+        _verdict_banner(top, verdict, "lock-step" if lockstep else "real-time")
     ax[0].plot(t[:n], xr * 1e3, "k--", lw=1, label="reference")
-    ax[0].plot(t, np.asarray(hil["xp"]) * 1e3, lw=1.5, label="HIL (real-time plant)")
+    ax[0].plot(t, np.asarray(hil["xp"]) * 1e3, lw=1.5, label="HIL (lock-step plant)" if lockstep else
+               "HIL (real-time plant)")
     ax[0].plot(to, xo * 1e3, ":", lw=1.5, label="offline simulation")
     ax[1].plot(t[:n], (xp - xr) * 1e3, lw=1, label=f"HIL − reference\n(RMS {rms(xp - xr) * 1e3:.2f} mm)")
     ax[2].plot(t[:n], (xp - xo) * 1e3, lw=1, color="tab:red",

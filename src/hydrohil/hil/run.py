@@ -104,7 +104,7 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
                 f"{p.name} process failed (exit {p.returncode}): {p.stderr()[-2000:]}")
     timing = json.loads((out / "timing.json").read_text())
     controller = json.loads((out / "controller.json").read_text())
-    comparison = compare_offline(scenario, out, plot=plot, verdict=timing.get("verdict"))
+    comparison = compare_offline(scenario, out, plot=plot, verdict=timing.get("verdict"), plant=timing.get("plant"))
     return HilResult(out, timing, controller, comparison)
 
 
@@ -161,7 +161,8 @@ def replay_commands(sc, hil: dict) -> np.ndarray:
     return xp
 
 
-def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: dict | None = None) -> dict:
+def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: dict | None = None,
+                    plant: str | None = None) -> dict:
     """Offline run of the same scenario; position RMS/max difference to the HIL plant log; the replay of
     the plant's applied commands (:func:`replay_commands`)."""
     from hydrohil.simulation.run import run_scenario
@@ -182,5 +183,6 @@ def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: di
     (out / "comparison.json").write_text(json.dumps(cmp, indent=2) + "\n")
     if plot:
         from hydrohil.plotting import plot_hil
-        plot_hil(out / "report.png", hil, res, ref, title=f"{scenario.name}: HIL vs offline", verdict=verdict)
+        which = {"c": " (standalone C plant)", "python": " (Python plant)"}.get(plant or "", "")
+        plot_hil(out / "report.png", hil, res, ref, title=f"{scenario.name}: HIL{which} vs offline", verdict=verdict)
     return cmp
