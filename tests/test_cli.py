@@ -3,6 +3,7 @@
 import csv
 import json
 
+import pytest
 
 from conftest import EXAMPLES, hh
 
@@ -109,3 +110,75 @@ def test_simulate_no_plot_reports_only_files_written(tmp_path):
     assert "simulation.png" not in r.stdout
     assert "log.csv" in r.stdout and "summary.json" in r.stdout
     assert (tmp_path / "log.csv").exists() and (tmp_path / "summary.json").exists()
+
+
+# ---- parameters on the command line (--params / --set) ----------------------------------------------
+
+def _log(path):
+    with open(path, newline="") as fh:
+        return list(csv.reader(fh))
+
+
+def test_set_and_params_on_simulate_equal_the_same_values_in_files(tmp_path):
+    # three routes to a 200 kg load must give the same run, bit for bit: --set, --params FILE (a copy of
+    # the paper's set with the mass changed), and the scenario's own [overrides] written by hand
+    scen = EXAMPLES / "fig11_p_control.toml"
+    r = hh("simulate", scen, "--out", tmp_path / "set", "--no-plot", "--set", "load.mass=200")
+    assert r.returncode == 0, r.stderr
+    text = hh("params", "show", "ferreira2004").stdout
+    assert "mass = 80.0" in text
+    (tmp_path / "heavy.toml").write_text(text.replace("mass = 80.0", "mass = 200.0"))
+    r = hh("simulate", scen, "--out", tmp_path / "file", "--no-plot", "--params", "heavy.toml", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    body = scen.read_text()
+    assert "[overrides]" not in body
+    (tmp_path / "own.toml").write_text(body + '\n[overrides]\n"load.mass" = 200.0\n')
+    r = hh("simulate", tmp_path / "own.toml", "--out", tmp_path / "own", "--no-plot")
+    assert r.returncode == 0, r.stderr
+    logs = [_log(tmp_path / d / "log.csv") for d in ("set", "file", "own")]
+    assert logs[0] == logs[1] == logs[2]
+    assert logs[0] != _log_default(tmp_path, scen)                       # and the mass did change the run
+    assert json.loads((tmp_path / "set" / "summary.json").read_text())["overrides"] == {"load.mass": 200}
+
+
+def _log_default(tmp_path, scen):
+    r = hh("simulate", scen, "--out", tmp_path / "default", "--no-plot")
+    assert r.returncode == 0, r.stderr
+    return _log(tmp_path / "default" / "log.csv")
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--set", "load.mas=3"], "--set: load.mas: unknown parameter 'load.mas' (did you mean 'load.mass'?)"),
+    (["--set", "load.mass=-2"], "--set: load.mass: must be > 0 [kg], got -2"),
+    (["--set", "load.mass"], "--set: load.mass: expected key=value"),
+    (["--params", "nope.toml"], "--params: "),
+])
+def test_bad_command_line_parameters_exit_2(tmp_path, args, message):
+    r = hh("simulate", EXAMPLES / "fig11_p_control.toml", "--out", tmp_path, *args)
+    assert r.returncode == 2 and message in r.stderr, r.stderr
+    assert not (tmp_path / "log.csv").exists()
+
+
+def test_hil_records_the_scenario_as_run_and_matches_offline_with_the_same_set(tmp_path):
+    scen = tmp_path / "short.toml"
+    scen.write_text((EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 1.0"))
+    r = hh("hil", scen, "--out", tmp_path / "hil", "--lockstep", "--set", "load.mass=200", "--set", "supply.ps=9e6")
+    assert r.returncode == 0, r.stderr
+    ran = (tmp_path / "hil" / "scenario.toml").read_text()
+    assert '"load.mass" = 200' in ran and '"supply.ps" = 9000000.0' in ran
+    assert json.loads((tmp_path / "hil" / "comparison.json").read_text())["xp_max_mm"] == 0.0
+    off = hh("simulate", scen, "--out", tmp_path / "off", "--no-plot", "--set", "load.mass=200", "--set",
+             "supply.ps=9e6")
+    assert off.returncode == 0, off.stderr
+    hil = {row[0]: row for row in _log(tmp_path / "hil" / "plant_log.csv")[1:]}
+    rows = _log(tmp_path / "off" / "log.csv")
+    ix = rows[0].index("xp")
+    assert all(hil[str(k)][12] == row[ix] for k, row in enumerate(rows[1:]))   # plant_log column 12 is xp
+
+
+def test_maxstep_and_linear_take_parameters(tmp_path):
+    a = json.loads(hh("linear").stdout)
+    b = json.loads(hh("linear", "--set", "supply.ps=1.2e7").stdout)
+    assert b["p10_pa"] > a["p10_pa"] * 1.5                    # the equilibrium pressures scale with the supply
+    r = hh("maxstep", EXAMPLES / "maxstep_endstop.toml", "--duration", "0.3", "--set", "load.mass=-1")
+    assert r.returncode == 2 and "--set: load.mass: must be > 0" in r.stderr

@@ -65,13 +65,15 @@ def _fail(exc: HydrohilError):
 
 
 def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Optional[float] = None,
-             plot: bool = True, progress: bool = True) -> dict:
-    """Run one scenario and write ``out/log.csv``, ``out/summary.json`` and ``out/simulation.png``."""
+             plot: bool = True, progress: bool = True, params: Optional[str] = None,
+             sets: Optional[dict] = None) -> dict:
+    """Run one scenario and write ``out/log.csv``, ``out/summary.json`` and ``out/simulation.png``.
+    ``params`` replaces the scenario's parameter set, ``sets`` (dotted keys) apply on top of its overrides."""
     from hydrohil.simulation.outputs import write_json, write_log_csv
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import load_scenario
 
-    sc = load_scenario(scenario, solver=solver, step=step)
+    sc = load_scenario(scenario, solver=solver, step=step, params=params, sets=sets)
     prog = None
     if progress and sc.scenario.solver.method == "reference" and sys.stderr.isatty():
         from rich.progress import Progress
@@ -91,7 +93,7 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
         extra["x_ref"] = s.references()[::s.solver.output_every][:len(res.log)]
     write_log_csv(out / "log.csv", res.log, extra)
     summary = res.summary()
-    summary.update({"scenario": str(scenario), "params": sc.scenario.params})
+    summary.update({"scenario": str(scenario), "params": sc.scenario.params, "overrides": sc.scenario.overrides})
     write_json(out / "summary.json", summary)
     if plot:
         from hydrohil.plotting import plot_run
@@ -109,10 +111,14 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                  out: Path = typer.Option(Path("hydrohil-out"), "--out", help="output folder"),
                  solver: Optional[str] = typer.Option(None, help="euler|heun|rk3|rk4|reference"),
                  step: Optional[float] = typer.Option(None, help="fixed step / sample time [s]"),
-                 plot: bool = typer.Option(True, help="write simulation.png")):
+                 plot: bool = typer.Option(True, help="write simulation.png"),
+                 params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path) in place of "
+                                                   "the scenario's"),
+                 sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on top of "
+                                                "the scenario's [overrides], e.g. --set load.mass=120")):
     """Simulate a scenario with the hybrid model (or the continuous reference)."""
     try:
-        s = simulate(scenario, out, solver, step, plot)
+        s = simulate(scenario, out, solver, step, plot, params=params, sets=_parse_sets(sets))
     except HydrohilError as exc:
         _fail(exc)
     written = ", ".join(["log.csv", "summary.json"] + (["simulation.png"] if plot else []))
@@ -127,12 +133,16 @@ def maxstep_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                 solver: str = typer.Option("rk3", help="euler|heun|rk3|rk4"),
                 duration: Optional[float] = typer.Option(None, help="override the scenario duration [s]"),
                 tol_x: float = typer.Option(2e-3, help="max RMS position error vs reference [m]"),
-                tol_p: float = typer.Option(10e5, help="max RMS pressure error vs reference [Pa]")):
+                tol_p: float = typer.Option(10e5, help="max RMS pressure error vs reference [Pa]"),
+                params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path) in place of "
+                                                  "the scenario's"),
+                sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on top of "
+                                               "the scenario's [overrides], e.g. --set load.mass=120")):
     """Find the largest stable fixed step by bisection; prints JSON."""
     from hydrohil.maxstep import max_stable_step
     from hydrohil.simulation.scenario import load_scenario
     try:
-        sc = load_scenario(scenario, duration=duration)
+        sc = load_scenario(scenario, duration=duration, params=params, sets=_parse_sets(sets))
         res = max_stable_step(sc, model, solver, tol_x=tol_x, tol_p=tol_p,
                               progress=lambda h, r: typer.echo(f"  h = {h:.3e} s: {r['reason']}", err=True))
     except HydrohilError as exc:
@@ -169,12 +179,14 @@ def params_list():
 
 
 @app.command("linear")
-def linear_cmd(params: str = typer.Option("ferreira2004", help="built-in name or TOML path")):
+def linear_cmd(params: str = typer.Option("ferreira2004", help="built-in name or TOML path"),
+               sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), e.g. "
+                                              "--set supply.ps=1.2e7")):
     """Linearised model (eq 18-20): equilibrium pressures, eigenvalues, natural frequency, damping."""
     from hydrohil.models.linear import linear_model
     from hydrohil.parameters import load_parameters
     try:
-        lm = linear_model(load_parameters(params))
+        lm = linear_model(load_parameters(params, _parse_sets(sets)))
     except HydrohilError as exc:
         _fail(exc)
     ev = lm.eigenvalues
@@ -555,7 +567,8 @@ def controller_cmd(connect: str = typer.Option("127.0.0.1:47000", help="plant HO
         _fail(exc)
 
 
-def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True, plant: str = "python"):
+def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True, plant: str = "python",
+        params: Optional[str] = None, sets: Optional[dict] = None):
     """Run a closed-loop scenario as HIL: plant and controller processes; returns ``HilResult``."""
     from hydrohil.hil.run import run_hil
     bar = None
@@ -567,7 +580,7 @@ def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True
         task = bar.add_task(f"HIL {scenario.name}" + (" (lock-step)" if lockstep else " (real time)"), total=1)
         cb = lambda t, n: bar.update(task, completed=t, total=n)  # noqa: E731
     try:
-        return run_hil(scenario, out, lockstep=lockstep, progress=cb, plant=plant)
+        return run_hil(scenario, out, lockstep=lockstep, progress=cb, plant=plant, params=params, sets=sets)
     finally:
         if bar:
             bar.stop()
@@ -578,7 +591,11 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
             out: Path = typer.Option(Path("hydrohil-hil"), "--out", help="output folder"),
             lockstep: bool = typer.Option(False, help="deterministic lock-step exchange, as fast as possible"),
             plant: str = typer.Option("python", "--plant", help="python: `hydrohil plant`; c: the standalone C "
-                                      "plant of `hydrohil export c`, built on first use (cached)")):
+                                      "plant of `hydrohil export c`, built on first use (cached)"),
+            params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path) in place of "
+                                              "the scenario's"),
+            sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on top of "
+                                           "the scenario's [overrides], e.g. --set load.mass=120")):
     """Real-time HIL run: plant and controller as separate processes over UDP, then the report.
 
     Ends with the verdict: VALID, or INVALID with the reasons (exit 3; [hil] max_late_commands,
@@ -588,7 +605,7 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
     from hydrohil.hil.verdict import BUSY_ADVICE, summary_line
     _interruptible()
     try:
-        r = hil(scenario, out, lockstep, plant=plant)
+        r = hil(scenario, out, lockstep, plant=plant, params=params, sets=_parse_sets(sets))
         t, c = r.timing, r.comparison
         typer.echo(f"{t['steps']} steps ({t['mode']}): jitter p99 {_us(t['jitter_us_p99'])}, overruns "
                    f"{_n(t['overruns'])}, rtt p99 {_us(t['rtt_us_p99'])}, late commands {t['late_commands']}, "

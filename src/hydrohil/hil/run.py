@@ -66,13 +66,18 @@ def plant_command(sc, scenario: Path, out: Path, peer: str, *, lockstep: bool = 
 
 def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
             progress: Callable[[float, float], None] | None = None, plot: bool = True,
-            plant: str = "python") -> HilResult:
+            plant: str = "python", params: str | Path | None = None, sets: dict | None = None) -> HilResult:
     """Run a scenario as a HIL experiment; writes plant_log.csv, controller_log.csv, timing.json (with the
     verdict), comparison.json and report.png into ``out``. ``plant``: "python" (``hydrohil plant``) or "c"
-    (the standalone C plant, built and cached on first use). Raises LinkError / HydrohilError when a
-    process failed, Interrupted on Ctrl-C (after both processes finished their logs)."""
+    (the standalone C plant, built and cached on first use). ``params`` / ``sets`` replace the scenario's
+    parameter set / apply on top of its overrides (the scenario as run is written to ``out/scenario.toml``).
+    Raises LinkError / HydrohilError when a process failed, Interrupted on Ctrl-C (after both processes
+    finished their logs)."""
     scenario, out = Path(scenario), Path(out)
-    sc = load_scenario(scenario)           # validate before starting anything
+    sc = load_scenario(scenario, params=params, sets=sets)     # validate before starting anything
+    if params is not None or sets:         # the run folder records what ran; both processes read it
+        from hydrohil.simulation.scenario import write_scenario
+        scenario = write_scenario(scenario, out / "scenario.toml", params=params, sets=sets)
     if not sc.scenario.closed_loop:
         raise InputError("hydrohil hil needs a closed-loop scenario ([controller] + [reference])",
                          source=str(scenario))

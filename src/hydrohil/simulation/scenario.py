@@ -210,11 +210,44 @@ def _warn_reference_beyond_stroke(ref: TableReference, stroke: float, path: Path
                       InputWarning, stacklevel=3)
 
 
-def load_scenario(path: str | Path, *, solver: str | None = None, step: float | None = None,
-                  duration: float | None = None) -> LoadedScenario:
-    """Read, validate and resolve a scenario file (with optional CLI overrides of solver/step/duration)."""
+def scenario_data(path: str | Path, *, params: str | Path | None = None, sets: dict | None = None) -> dict:
+    """The scenario file's table with the command line's parameter choice applied: ``params`` (a set's
+    name or a TOML path, relative to the working directory) replaces the scenario's ``params``; ``sets``
+    (dotted keys, as ``--set``) apply on top of its ``[overrides]``. A relative parameter path is made
+    absolute, so the table can be written elsewhere (:func:`write_scenario`)."""
     path = Path(path)
     data = read_toml(path)
+    if params is not None:
+        p = Path(params)
+        data["params"] = str(p.resolve()) if p.suffix == ".toml" or p.exists() else str(params)
+    elif isinstance(data.get("params"), str):
+        p = Path(data["params"])
+        if p.suffix == ".toml" and not p.is_absolute():
+            data["params"] = str((path.parent / p).resolve())
+    if sets:
+        data["overrides"] = {**(data.get("overrides") or {}), **sets}
+    return data
+
+
+def write_scenario(path: str | Path, dest: str | Path, *, params: str | Path | None = None,
+                   sets: dict | None = None) -> Path:
+    """Write the scenario ``path`` with the command line's ``params`` / ``sets`` applied to ``dest`` (TOML):
+    what a run folder records, and what its child processes read."""
+    import tomli_w
+    dest = Path(dest)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    dest.write_text(f"# {Path(path).name} as run (hydrohil: --params / --set applied)\n"
+                    + tomli_w.dumps(scenario_data(path, params=params, sets=sets)))
+    return dest
+
+
+def load_scenario(path: str | Path, *, solver: str | None = None, step: float | None = None,
+                  duration: float | None = None, params: str | Path | None = None,
+                  sets: dict | None = None) -> LoadedScenario:
+    """Read, validate and resolve a scenario file (with optional CLI overrides of solver/step/duration, the
+    parameter set ``params`` and dotted parameter values ``sets``: :func:`scenario_data`)."""
+    path = Path(path)
+    data = scenario_data(path, params=params, sets=sets)
     if solver is not None or step is not None:
         data.setdefault("solver", {})
         if solver is not None:
@@ -234,8 +267,12 @@ def load_scenario(path: str | Path, *, solver: str | None = None, step: float | 
     try:
         params = load_parameters(ppath if ppath.suffix == ".toml" else sc.params, sc.overrides)
     except InputError as exc:
-        if exc.source != "overrides":        # the parameter set itself: name both files
+        if exc.source != "overrides":        # the parameter set itself: name both files (or the option)
+            if params is not None:
+                raise InputError(str(exc), source="--params") from None
             raise InputError(str(exc), source=str(path), key="params") from None
+        if sets and exc.key in sets:         # a --set value of the command line
+            raise InputError(str(exc).split(": ", 2)[-1], source="--set", key=exc.key) from None
         raise InputError(str(exc).split(": ", 2)[-1], source=str(path), key=f"overrides.{exc.key}") from None
     if sc.hil.command_delay > 0:   # transport delay in series with the spool delay (same offline and HIL)
         from hydrohil.parameters import replace_values
