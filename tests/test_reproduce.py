@@ -5,7 +5,9 @@ import math
 
 import pytest
 
+from conftest import hh
 from hydrohil.cli import bench, reproduce
+from hydrohil.models.layout import REFERENCE_STOP_C
 from hydrohil.parameters import load_parameters
 from hydrohil.reproduce.paper import PAPER
 from hydrohil.reproduce.report import FIGURES, figure_sections
@@ -96,3 +98,15 @@ def test_bench_quick_measures_every_section(tmp_path):
     assert res["ratios"]["hybrid_vs_continuous_step"] > 100
     table = (tmp_path / "bench.md").read_text()
     assert table.count("\n|") >= 14 and "None" not in table
+
+
+def test_reproduce_another_rig_with_set(tmp_path):
+    # --set changes the rig reproduced: every experiment runs on it (the HIL runs record it), and the
+    # identified set carries it
+    r = hh("reproduce", "--quick", "--out", tmp_path, "--set", "load.mass=120", timeout=900)
+    assert r.returncode in (0, 3), r.stderr
+    for fig in ("fig11", "fig12"):
+        assert '"load.mass" = 120' in (tmp_path / fig / "scenario.toml").read_text()
+    res = json.loads((tmp_path / "results.json").read_text())
+    assert res["step-size"]["damper_rate_per_s"] == pytest.approx(REFERENCE_STOP_C / 120.0, rel=1e-12)
+    assert "mass = 120.0" in (tmp_path / "identified.toml").read_text()

@@ -706,11 +706,12 @@ class _Stages:
 
 
 def reproduce(out: Path = Path("hydrohil-reproduce"), quick: bool = False, lockstep: Optional[bool] = None,
-              progress: bool = True) -> dict:
-    """Every figure and number of the paper a model can produce; writes ``out/report.md`` and the rest."""
+              progress: bool = True, params: Optional[str] = None, sets: Optional[dict] = None) -> dict:
+    """Every figure and number of the paper a model can produce; writes ``out/report.md`` and the rest.
+    ``params`` / ``sets``: reproduce another rig (default: the paper's set)."""
     from hydrohil.reproduce import run_reproduce
     with _Stages("reproduce", progress) as stages:
-        return run_reproduce(out, quick=quick, lockstep=lockstep, on_step=stages)
+        return run_reproduce(out, quick=quick, lockstep=lockstep, on_step=stages, params=params, sets=sets)
 
 
 @app.command("reproduce")
@@ -718,10 +719,13 @@ def reproduce_cmd(out: Path = typer.Option(Path("hydrohil-reproduce"), "--out", 
                   quick: bool = typer.Option(False, help="lock-step HIL and a coarse step-size search (minutes "
                                                          "-> about 30 s)"),
                   lockstep: Optional[bool] = typer.Option(None, "--lockstep/--realtime",
-                                                          help="HIL mode for Figs 11-12 (default: real time)")):
+                                                          help="HIL mode for Figs 11-12 (default: real time)"),
+                  params: Optional[str] = typer.Option(None, "--params", help="the rig to reproduce: a parameter "
+                                                       "set (name or TOML path; default: the paper's)"),
+                  sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable)")):
     """Reproduce the paper: Figs 4, 5, 7-12, step sizes, paper-vs-hydrohil table, identification round trips."""
     try:
-        res = reproduce(out, quick, lockstep)
+        res = reproduce(out, quick, lockstep, params=params, sets=_parse_sets(sets))
     except HydrohilError as exc:
         _fail(exc)
     st = res["step-size"]

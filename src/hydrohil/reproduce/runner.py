@@ -50,15 +50,21 @@ STEPS = ("characteristics", "spool", "valve-static", "bulk-modulus", "leakage", 
 class Reproduction:
     """State of one reproduce run: output folder, truth and identified parameters, results, figures."""
 
-    def __init__(self, out: Path, quick: bool, lockstep: bool):
+    def __init__(self, out: Path, quick: bool, lockstep: bool, params: str | Path | None = None,
+                 sets: dict | None = None):
         self.out, self.quick, self.lockstep = out, quick, lockstep
+        self.params, self.sets = params, sets    # the rig reproduced: the paper's set unless told otherwise
+        self.truth = load_parameters(params or "ferreira2004", sets)
         self.data = out / "data"
         self.data.mkdir(parents=True, exist_ok=True)
-        self.truth = load_parameters("ferreira2004")
         self.identified = self.truth
         self.results: dict = {"mode": {"quick": quick, "hil": "lock-step" if lockstep else "real time"}}
         self.figures: dict[str, list[str]] = {}
         self.fits = {}
+
+    def scenario(self, name: str, **kw):
+        """An experiment file of the paper, on the rig reproduced (``--params`` / ``--set``)."""
+        return load_scenario(EXPERIMENTS_DIR / name, params=self.params, sets=self.sets, **kw)
 
     def rel(self, paths) -> list[str]:
         return [str(Path(p).relative_to(self.out)) for p in paths]
@@ -122,10 +128,12 @@ def step_friction_static(r: Reproduction) -> None:
     r.chain(identify_friction_static(r.save_data("friction_static.csv", d)))
 
 
-def fig10_measurement(truth: Parameters, duration: float) -> tuple[dict, object]:
+def fig10_measurement(truth: Parameters, duration: float, params: str | Path | None = None,
+                      sets: dict | None = None) -> tuple[dict, object]:
     """The open-loop sine run on the continuous reference model ("the rig"): 10 ms samples with encoder
     quantisation and pressure noise, and the full-rate result."""
-    sc = load_scenario(EXPERIMENTS_DIR / "fig10_open_loop_sine.toml", solver="reference", duration=duration)
+    sc = load_scenario(EXPERIMENTS_DIR / "fig10_open_loop_sine.toml", solver="reference", duration=duration,
+                       params=params, sets=sets)
     ref = run_scenario(sc)
     every = int(round(0.01 / sc.scenario.solver.step))
     rng = np.random.default_rng(15)
@@ -140,7 +148,7 @@ def fig10_measurement(truth: Parameters, duration: float) -> tuple[dict, object]
 def step_friction_dynamic(r: Reproduction) -> None:
     from hydrohil.reproduce.figures import plot_fig10
     duration = 6.0
-    meas, ref = fig10_measurement(r.truth, duration)
+    meas, ref = fig10_measurement(r.truth, duration, r.params, r.sets)
     path = r.save_data("friction_dynamic.csv", meas)
     horizontal = replace_values(r.identified, {"load.gravity_direction": 0})
     fit = identify_friction_dynamic(path, horizontal)
@@ -154,7 +162,7 @@ def step_friction_dynamic(r: Reproduction) -> None:
         **{f"sigma1 x{k:g}": rms(sim.force(s0, s1 * k)) for k in (0.1, 1.0, 10.0)},
         **{f"sigma0 x{k:g}": rms(sim.force(s0 * k, s1)) for k in (0.5, 2.0)},
         "paper sigma0, sigma1": rms(sim.force(r.truth.friction.sigma0, r.truth.friction.sigma1))}
-    sc = load_scenario(EXPERIMENTS_DIR / "fig10_open_loop_sine.toml", duration=duration)
+    sc = r.scenario("fig10_open_loop_sine.toml", duration=duration)
     model = run_scenario(sc.model_copy(update={"params": fit.apply(horizontal)}))
     f10 = plot_fig10(r.out / "figures" / "fig10_open_loop.png", ref, model, r.truth.cylinder)
     r.figures["friction-dynamic"] += r.rel([f10["path"]])
@@ -163,7 +171,7 @@ def step_friction_dynamic(r: Reproduction) -> None:
 
 def _hil(r: Reproduction, name: str, fname: str) -> None:
     from hydrohil.hil.run import run_hil
-    res = run_hil(EXPERIMENTS_DIR / fname, r.out / name, lockstep=r.lockstep)
+    res = run_hil(EXPERIMENTS_DIR / fname, r.out / name, lockstep=r.lockstep, params=r.params, sets=r.sets)
     keys = ("steps", "overruns", "jitter_us_p50", "jitter_us_p99", "jitter_us_max", "rtt_us_p50", "rtt_us_p99",
             "packets_lost", "watchdog_trips", "drift_ms")
     timing = {k: res.timing.get(k) for k in keys}
@@ -183,7 +191,7 @@ def step_fig12(r: Reproduction) -> None:
 def step_step_size(r: Reproduction) -> None:
     from hydrohil.maxstep import max_stable_step
     from hydrohil.reproduce.figures import plot_step_sizes
-    sc = load_scenario(EXPERIMENTS_DIR / "endstop_step_size.toml")
+    sc = r.scenario("endstop_step_size.toml")
     rel_tol = 0.25 if r.quick else 0.05
     hyb = max_stable_step(sc, "hybrid", "rk3", rel_tol=rel_tol)
     cont = max_stable_step(sc, "continuous", "rk3", rel_tol=rel_tol)
@@ -203,14 +211,16 @@ RUNNERS: dict[str, Callable[[Reproduction], None]] = {
 
 
 def run_reproduce(out: str | Path = "hydrohil-reproduce", *, quick: bool = False, lockstep: bool | None = None,
-                  on_step: Callable[[str, int, int], None] | None = None) -> dict:
+                  on_step: Callable[[str, int, int], None] | None = None, params: str | Path | None = None,
+                  sets: dict | None = None) -> dict:
     """Run every step; writes ``out/report.md``, ``results.json``, ``identified.toml``, ``figures/``,
     ``data/`` (the synthetic measurements) and the HIL folders ``fig11/``, ``fig12/``. ``quick`` runs the
-    HIL experiments lock-step and a coarser step-size bisection (for tests)."""
+    HIL experiments lock-step and a coarser step-size bisection (for tests). ``params`` / ``sets``: the rig
+    reproduced (default: the paper's set); every experiment runs on it, its own [overrides] on top."""
     from hydrohil.reproduce.report import write_markdown
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    r = Reproduction(out, quick, quick if lockstep is None else lockstep)
+    r = Reproduction(out, quick, quick if lockstep is None else lockstep, params, sets)
     t_start = time.perf_counter()
     walls = {}
     n_stages = len(STEPS) + 1          # + writing the report
