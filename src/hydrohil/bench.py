@@ -188,9 +188,9 @@ def hil(seconds: float, step: float, lockstep: bool = False, plant: str = "pytho
         tmp = Path(tmp)
         scenario = hil_scenario(tmp, seconds, step)
         if plant == "c":          # build (or find in the cache) before the clock starts
-            from hydrohil.hil.run import plant_command
+            from hydrohil.hil.run import c_plant_executable
             from hydrohil.simulation.scenario import load_scenario
-            plant_command(load_scenario(scenario), scenario, tmp / "out", "127.0.0.1:1", plant="c")
+            c_plant_executable(load_scenario(scenario), scenario)
         t0 = time.perf_counter()
         r = run_hil(scenario, tmp / "out", lockstep=lockstep, plot=False, plant=plant)
         res = {k: r.timing.get(k) for k in HIL_KEYS}

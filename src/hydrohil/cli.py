@@ -227,15 +227,12 @@ def export_c(out: Path, params: str = "ferreira2004", step: float = 5e-4, durati
     """Write the standalone real-time C plant (sources + Makefile) into the folder ``out`` and, with
     ``make``, build it there; returns the folder. ``scenario``: take the parameters, step, duration,
     initial state and [hil] settings from it."""
-    from hydrohil.export.cplant import build, export_c as write
+    from hydrohil.export.cplant import build, export_c as write, scenario_options
     from hydrohil.parameters import load_parameters
     if scenario is not None:
         from hydrohil.simulation.scenario import load_scenario
         sc = load_scenario(scenario)
-        s = sc.scenario
-        folder = write(sc.params, out, step=s.hil.step or s.solver.step, duration=s.duration, hil=s.hil,
-                       initial={"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1, "p2": s.initial.p2},
-                       label=scenario.name)
+        folder = write(sc.params, out, **scenario_options(sc.scenario), label=scenario.name)
     else:
         folder = write(load_parameters(params), out, step=step, duration=duration, label=str(params))
     if make:
@@ -395,8 +392,8 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
         sc = load_scenario(scenario)
         s = sc.scenario
         prm, hil = sc.params, s.hil
-        step, duration = hil.step or s.solver.step, s.duration
-        initial = {"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1, "p2": s.initial.p2}
+        step, duration = s.plant_step, s.duration
+        initial = s.initial.model_dump()
         cpu = hil.cpus()[0] if cpu is None else cpu
         faults = s.faults
     else:
@@ -491,7 +488,7 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
         s = sc.scenario
         hil = s.hil
         kp, mode, scale = s.controller.kp, s.hil.controller_mode, s.hil.command_scale
-        sample = s.hil.step or s.solver.step
+        sample = s.plant_step
         enc = sc.params.sensors.encoder_resolution
         rt, rx = np.asarray(s.reference.t), np.asarray(s.reference.x)
         ref = lambda t: float(np.interp(t, rt, rx))  # noqa: E731

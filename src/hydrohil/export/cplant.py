@@ -108,6 +108,12 @@ def plant_config_h(params: Parameters, *, step: float = 5e-4, duration: float = 
     return "\n".join(lines)
 
 
+def scenario_options(s) -> dict:
+    """The plant options a scenario (:class:`~hydrohil.simulation.scenario.Scenario`) fixes: step, duration,
+    [hil] settings and initial state, as :func:`export_c` / :func:`cached_plant` take them."""
+    return {"step": s.plant_step, "duration": s.duration, "hil": s.hil, "initial": s.initial.model_dump()}
+
+
 def export_c(params: Parameters, out: str | Path, *, step: float = 5e-4, duration: float = 10.0, hil=None,
              initial: dict | None = None, label: str = "custom") -> Path:
     """Write the standalone plant's sources and Makefile into the folder ``out``; returns it."""

@@ -44,6 +44,12 @@ class HilResult:
 PLANTS = ("python", "c")
 
 
+def c_plant_executable(sc, scenario: Path) -> Path:
+    """The standalone C plant built for a loaded scenario (:func:`hydrohil.export.cplant.cached_plant`)."""
+    from hydrohil.export.cplant import cached_plant, scenario_options
+    return cached_plant(sc.params, **scenario_options(sc.scenario), label=Path(scenario).name)
+
+
 def plant_command(sc, scenario: Path, out: Path, peer: str, *, lockstep: bool = False, plant: str = "python") -> list:
     """The command line of the plant process: ``hydrohil plant`` (``plant="python"``) or the standalone C
     plant of :mod:`hydrohil.export.cplant` built for this scenario (cached), with the same options."""
@@ -56,10 +62,7 @@ def plant_command(sc, scenario: Path, out: Path, peer: str, *, lockstep: bool = 
     if s.faults:
         raise InputError("the C plant does not inject [[faults]]: run this scenario with --plant python",
                          source=str(scenario), key="faults")
-    from hydrohil.export.cplant import cached_plant
-    initial = {"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1, "p2": s.initial.p2}
-    exe = cached_plant(sc.params, step=s.hil.step or s.solver.step, duration=s.duration, hil=s.hil, initial=initial,
-                       label=scenario.name)
+    exe = c_plant_executable(sc, scenario)
     cpu = s.hil.cpus()[0]
     return [exe, *tail, *(["--cpu", cpu] if cpu is not None else [])]
 
@@ -157,8 +160,7 @@ def replay_commands(sc, hil: dict) -> np.ndarray:
     network, command and sensor faults act before or after the model)."""
     from hydrohil.simulation.loop import HybridPlant
     s = sc.scenario
-    plant = HybridPlant(sc.params, h=s.hil.step or s.solver.step, xp=s.initial.xp, xs=s.initial.xs,
-                        p1=s.initial.p1, p2=s.initial.p2)
+    plant = HybridPlant(sc.params, h=s.plant_step, **s.initial.model_dump())
     xp = np.empty(len(hil["u"]))
     xp[0] = plant.y[4]
     for k, u in enumerate(hil["u"][1:]):

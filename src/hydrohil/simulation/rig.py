@@ -158,8 +158,7 @@ def run_rig(sc, *, progress=None):
     :data:`RIG_COLUMNS` (what the sensors reported, active faults, watchdog)."""
     s = sc.scenario
     h, n = s.solver.step, s.n_steps()
-    rig = VirtualRig(sc.params, h, s.hil, s.faults, {"xp": s.initial.xp, "xs": s.initial.xs, "p1": s.initial.p1,
-                                                    "p2": s.initial.p2})
+    rig = VirtualRig(sc.params, h, s.hil, s.faults, s.initial.model_dump())
     closed = s.closed_loop
     drive = s.references() if closed else s.commands()
     kp = s.controller.kp if closed else 0.0

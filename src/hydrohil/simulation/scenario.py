@@ -178,6 +178,11 @@ class Scenario(StrictModel):
     def n_steps(self) -> int:
         return int(round(self.duration / self.solver.step))
 
+    @property
+    def plant_step(self) -> float:
+        """The HIL plant's step: ``[hil] step``, else ``solver.step``."""
+        return self.hil.step or self.solver.step
+
     def commands(self) -> np.ndarray:
         """Open-loop valve command at each sample t_k = k*h, k = 0..n_steps."""
         t = np.arange(self.n_steps() + 1) * self.solver.step
