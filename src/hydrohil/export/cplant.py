@@ -49,8 +49,9 @@ def _str(s: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def _hil_table(hil) -> list[str]:
-    """C rows of the [hil] settings: key, kind, value, range, unit, options, description (from HilCfg)."""
+def _hil_table(hil) -> tuple[list[str], list[str]]:
+    """C rows of the [hil] settings (key, kind, value, range, unit, options, description, from HilCfg) and the
+    macros of their enum words."""
     from hydrohil.core.layout import _bounds
     fields = type(hil).model_fields
     rows, enums = [], []

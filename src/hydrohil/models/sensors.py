@@ -6,7 +6,7 @@ The models are the core's (``core/sensors.c``, ``core/rig.c``), shared by the sa
 
 from __future__ import annotations
 
-from hydrohil.core import ffi, lib
+from hydrohil.core import lib
 
 IDEAL_COUNT = lib.HH_IDEAL_COUNT   # m: the count of an ideal encoder (resolution 0) where counts must be integers
 
@@ -25,12 +25,3 @@ def encoder_counts(xp: float, resolution: float) -> float:
 def encoder_position(xp: float, resolution: float) -> float:
     """Position [m] as the encoder reports it; ``resolution`` <= 0 means ideal."""
     return lib.hh_encoder_position(xp, resolution)
-
-
-def pressure_reading(pressure: float, full_scale: float, resolution: float, noise: float) -> tuple[float, bool]:
-    """Pressure [Pa] as a transducer + ADC reports it (the core's ``hh_pressure_reading``): true value +
-    ``noise`` (a sample, Pa), clipped to [0, full_scale] gauge, quantised to ``resolution`` (<= 0: none).
-    Returns (reading, saturated)."""
-    sat = ffi.new("int *")
-    v = lib.hh_pressure_reading(pressure, full_scale, resolution, noise, sat)
-    return v, bool(sat[0])

@@ -101,22 +101,20 @@ class VirtualRig:
     def step(self, k: int, command: float | None) -> float:
         """Advance step k -> k+1 with the command the controller sent for it (ū; None: none arrived).
         Returns the command that drove the valve."""
-        plant = self.plant
-        if not self._faulty:
-            u = lib.hh_watchdog_command(self.link, k, command is not None, 0.0 if command is None else command,
-                                        self.h, self.hil.watchdog_timeout, self._hold, self.hil.hold_kp,
-                                        plant.out[5])
-            plant.step(u)
-            return u
-        self.faults.begin_step(k, plant.p, plant.y)
-        u = self.faults.deliver(command)
-        if (command is not None and u is None) or self.faults.silence_active():
-            self.link.k_interfered = k     # an injected fault held the controller's command back this step
+        plant, faults = self.plant, self.faults if self._faulty else None   # no faults: skip the injector
+        u = command
+        if faults is not None:
+            faults.begin_step(k, plant.p, plant.y)
+            u = faults.deliver(command)
+            if (command is not None and u is None) or faults.silence_active():
+                self.link.k_interfered = k     # an injected fault held the controller's command back this step
         u = lib.hh_watchdog_command(self.link, k, u is not None, 0.0 if u is None else u, self.h,
                                     self.hil.watchdog_timeout, self._hold, self.hil.hold_kp, float(plant.out[5]))
-        u = self.faults.valve_command(u)
+        if faults is not None:
+            u = faults.valve_command(u)
         plant.step(u)
-        self.faults.begin_step(k + 1, plant.p, plant.y)     # faults of t_(k+1): its sensor reading and step
+        if faults is not None:
+            faults.begin_step(k + 1, plant.p, plant.y)     # faults of t_(k+1): its sensor reading and step
         return u
 
     def read(self) -> Reading:

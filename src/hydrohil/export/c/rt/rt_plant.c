@@ -184,17 +184,24 @@ static void option_word(const char *options, int index, char *buf, size_t size)
     snprintf(buf, size, "%.*s", (int)(strchr(s, '|') ? (size_t)(strchr(s, '|') - s) : strlen(s)), s);
 }
 
+/* KEY=VALUE of option `opt`: KEY into key (size bytes); returns a pointer to the '=' (exit 2 if none). */
+static const char *split_assignment(const char *opt, const char *assignment, char *key, size_t size,
+                                    const char *example)
+{
+    const char *eq = strchr(assignment, '=');
+    if (!eq || (size_t)(eq - assignment) >= size)
+        die_usage("%s %s: expected KEY=VALUE, e.g. %s %s", opt, assignment, opt, example);
+    memcpy(key, assignment, (size_t)(eq - assignment));
+    key[eq - assignment] = '\0';
+    return eq;
+}
+
 static void set_parameter(options *o, const char *assignment)
 {
     char key[128];
-    const char *eq = strchr(assignment, '=');
+    const char *eq = split_assignment("--set", assignment, key, sizeof key, "load.mass=300");
     double v;
-    int i;
-    if (!eq || (size_t)(eq - assignment) >= sizeof key)
-        die_usage("--set %s: expected KEY=VALUE, e.g. --set load.mass=300", assignment);
-    memcpy(key, assignment, (size_t)(eq - assignment));
-    key[eq - assignment] = '\0';
-    i = param_index(key);
+    int i = param_index(key);
     if (i < 0)
         die_usage("--set %s: no parameter '%s' in the set (--list shows them)", assignment, key);
     if (PLANT_OPTIONS[i] && option_index(PLANT_OPTIONS[i], eq + 1) >= 0)
@@ -210,14 +217,10 @@ static void set_parameter(options *o, const char *assignment)
 static void set_hil(options *o, const char *assignment)
 {
     char key[64];
-    const char *eq = strchr(assignment, '=');
+    const char *eq = split_assignment("--hil", assignment, key, sizeof key, "watchdog_timeout=0.1");
     const plant_setting *s = NULL;
     double v;
     int i;
-    if (!eq || (size_t)(eq - assignment) >= sizeof key)
-        die_usage("--hil %s: expected KEY=VALUE, e.g. --hil watchdog_timeout=0.1", assignment);
-    memcpy(key, assignment, (size_t)(eq - assignment));
-    key[eq - assignment] = '\0';
     for (i = 0; i < HIL_N; i++)
         if (strcmp(HIL_SETTINGS[i].key, key) == 0)
             s = &HIL_SETTINGS[i];
@@ -240,10 +243,9 @@ static void set_hil(options *o, const char *assignment)
     } else {
         if (!parse_number(eq + 1, &v))
             die_usage("--hil %s: %s expects a number [%s]", assignment, key, s->unit);
-        if ((s->kind == SET_INT && v != floor(v)) || v < s->lo || (s->lo_strict && v == s->lo) || v > s->hi ||
-            (s->hi_strict && v == s->hi))
-            die_usage("--hil %s: %s must be %s %g and %s %g [%s]%s", assignment, key, s->lo_strict ? ">" : ">=", s->lo,
-                      s->hi_strict ? "<" : "<=", s->hi, s->unit, s->kind == SET_INT ? ", a whole number" : "");
+        if (v < s->lo || (s->lo_strict && v == s->lo) || v > s->hi || (s->hi_strict && v == s->hi))
+            die_usage("--hil %s: %s must be %s %g and %s %g [%s]", assignment, key, s->lo_strict ? ">" : ">=", s->lo,
+                      s->hi_strict ? "<" : "<=", s->hi, s->unit);
     }
     o->hil[i] = v;
 }
