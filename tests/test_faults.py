@@ -110,7 +110,7 @@ def test_command_inversion():
     sc, r = run("command_inversion")
     kp = sc.scenario.controller.kp
     w = window(r, 2.5, 2.8)
-    law = np.clip(kp * (sc.scenario.references()[: len(r.log)] - r.column("x_meas")), -1, 1)
+    law = np.clip(kp * (sc.scenario.references()[0][: len(r.log)] - r.column("x_meas")), -1, 1)
     assert np.array_equal(r.column("u")[w], -law[w]) and np.array_equal(r.column("u")[~w][:-1], law[~w][:-1])
 
 

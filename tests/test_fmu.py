@@ -91,7 +91,7 @@ def _closed_loop(f: Fmu, sc, n=None):
     s = sc.scenario
     h, n = s.solver.step, s.n_steps() if n is None else n
     res = sc.params.sensors.encoder_resolution
-    ref = s.references()
+    ref = s.references()[0]
     values = pack(sc.params)          # the scenario's parameter set, set through the FMU's parameters
     f.init(xp0=s.initial.xp, step=h, **{slot.key: values[i] for i, slot in enumerate(SLOTS) if slot.schema})
     xp = np.empty(n + 1)

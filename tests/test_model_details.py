@@ -146,7 +146,7 @@ def test_reference_spool_end_is_a_stiff_stop(paper):
     from hydrohil.simulation.loop import initial_state
     p = pack(paper)
     y0, _ = initial_state(paper, 0.09, p=p)
-    status, _, log, _ = solve_reference(p, y0, 5e-4, 80, u_open=np.full(81, 1.0))
+    status, _, log, _ = solve_reference(p, y0, 5e-4, 80, np.full(81, 1.0))
     xs = log[:, 3]
     assert status == 0 and 0.999 < xs.max() <= 1.002           # penetration ~ Lv/omega = 1.3e-3 at most
     assert abs(xs[-1] - 1.0) < 1e-4                             # resting on the stop

@@ -90,16 +90,20 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
     extra = dict(res.columns)
     if sc.scenario.closed_loop:
         s = sc.scenario
-        extra["x_ref"] = s.references()[::s.solver.output_every][:len(res.log)]
+        extra["x_ref"] = s.references()[0][::s.solver.output_every][:len(res.log)]
     write_log_csv(out / "log.csv", res.log, extra)
     summary = res.summary()
     summary.update({"scenario": str(scenario), "params": sc.scenario.params, "overrides": sc.scenario.overrides})
+    if sc.scenario.closed_loop:
+        from hydrohil.metrics import step_metrics
+        summary["step_response"] = step_metrics(res.column("t"), res.column("xp"), extra["x_ref"], res.column("p1"),
+                                                res.column("p2"))
     write_json(out / "summary.json", summary)
     if plot:
         from hydrohil.plotting import plot_run
         plot_run(out / "simulation.png", res.column("t"), res.column("xp"), res.column("p1"), res.column("p2"),
                  res.column("u"), res.column("xs"), res.column("travel_mode"), res.column("friction_mode"),
-                 res.column("spool_mode"), xref=extra.get("x_ref"),
+                 res.column("spool_mode"), xref=extra.get("x_ref"), metrics=summary.get("step_response"),
                  title=f"{scenario.name} — {res.solver}, h = {res.step:g} s", faults=res.columns.get("faults"))
     if res.diverged:
         raise res.diverged
@@ -352,9 +356,9 @@ def identify_cmd(procedure: str = typer.Argument(..., help="spool|valve-static|b
 
 
 def _reference_table(text: str):
-    """'t0:x0,t1:x1,...' [s:m] -> x_ref(t) by linear interpolation."""
-    import numpy as np
+    """'t0:x0,t1:x1,...' [s:m] -> t -> (x_ref, slope), linear between the points."""
     from hydrohil.errors import InputError
+    from hydrohil.simulation.scenario import Table
     try:
         pts = [tuple(float(v) for v in item.split(":")) for item in text.split(",") if item.strip()]
         t, x = zip(*pts)
@@ -363,7 +367,7 @@ def _reference_table(text: str):
                          key=text) from None
     if any(b < a for a, b in zip(t, t[1:])):
         raise InputError("times must be non-decreasing", source="--reference", key=text)
-    return lambda tt: float(np.interp(tt, t, x))
+    return Table(t, x).at
 
 
 def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", step: float = 5e-4,
@@ -472,9 +476,8 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
         signal.signal(sig, lambda signum, frame: stop.append(signum))
     import os
 
-    import numpy as np
-    from hydrohil.errors import LinkError
-    from hydrohil.hil.controller import PlantClient, run_p_controller, warm_up
+    from hydrohil.errors import InputError, LinkError
+    from hydrohil.hil.controller import PlantClient, run_position_controller, warm_up
     from hydrohil.hil.plant import parse_address
     from hydrohil.simulation.outputs import write_json
     from hydrohil.simulation.scenario import HilCfg
@@ -487,11 +490,13 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
         sc = load_scenario(scenario)
         s = sc.scenario
         hil = s.hil
-        kp, mode, scale = s.controller.kp, s.hil.controller_mode, s.hil.command_scale
+        mode, scale = s.hil.controller_mode, s.hil.command_scale
         sample = s.plant_step
+        if s.controller is None:
+            raise InputError("an open-loop scenario has no controller to run", source=str(scenario), key="controller")
+        ctl = sc.make_controller(sample)
         enc = sc.params.sensors.encoder_resolution
-        rt, rx = np.asarray(s.reference.t), np.asarray(s.reference.x)
-        ref = lambda t: float(np.interp(t, rt, rx))  # noqa: E731
+        ref = s.reference.sampler().at
         cpu = s.hil.cpus()[1]
         spin = s.hil.wait != "sleep" and (os.cpu_count() or 1) > 1   # never spin on a single CPU
         busy_poll = (s.hil.busy_poll or spin) if busy_poll is None else busy_poll
@@ -501,7 +506,10 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
             except OSError:
                 pass
     else:
+        from hydrohil.control import PControllerCfg, make_controller
+        from hydrohil.parameters import load_parameters
         ref = _reference_table(reference)
+        ctl = make_controller(PControllerCfg(type="p", kp=kp), load_parameters("ferreira2004"), sample)
     timeout = hil.link_timeout if link_timeout is None else link_timeout
     busy_poll = bool(busy_poll)
     if log is not None:
@@ -518,7 +526,7 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
                          nap=not spin, bind=local_addr, should_stop=lambda: bool(stop),
                          on_connect=lambda s: ready(f"CONNECTED {addr[0]}:{addr[1]}", flush=True)) as client:
             try:
-                summary.update(run_p_controller(client, kp, ref, encoder_resolution=enc, mode=mode,
+                summary.update(run_position_controller(client, ctl, ref, encoder_resolution=enc, mode=mode,
                                                 sample_time=sample,
                                                 log_path=(log / "controller_log.csv") if log else None,
                                                 should_stop=lambda: bool(stop)))

@@ -1,26 +1,256 @@
-"""Reference position controller of the paper (§4): P control on the valve command, u = Kp*(x_ref - x).
+"""Position controllers: the scenario's ``[controller]`` table, the built-in laws of the C core and a user's
+own Python controller.
 
-Kp is in 1/m (u is the normalised command ū in [-1, 1]). The law is the core's (``core/control.c``): the
-same code runs in the sampled loop of offline runs, in the per-step Python loop and in the HIL controller.
+Built-in types (``p``, ``pi``, ``pid``, ``p_ff``, ``state_feedback``) are one sampled law in the core
+(``core/control.h`` states it with units); the same C code runs in the compiled loop of ``simulate``, in
+the virtual rig's per-step loop and in the HIL controller process, so offline and lock-step HIL agree bit
+for bit. ``type = "python"`` names a callable (``callable = "module:function"``, or a class: one instance
+per run, built with ``options``) that is called once per sample with a :class:`Measurement` and returns ū;
+the same object runs offline (``hydrohil simulate``) and against the real-time plant (``hydrohil hil``,
+or your own loop with :class:`~hydrohil.hil.controller.PlantClient` and :func:`measurement`).
 """
 
 from __future__ import annotations
 
-from hydrohil.core import lib
+import importlib
+import importlib.util
+import inspect
+import sys
+from pathlib import Path
+from typing import Any, Callable, Literal, NamedTuple, Union
+
+from pydantic import Field, model_validator
+
+from hydrohil.core import ffi, lib
+from hydrohil.errors import ControllerError, InputError
+from hydrohil.parameters import Parameters
+from hydrohil.parameters.schema import StrictModel
+
+# ---- the scenario's [controller] table --------------------------------------------------------------------
+
+
+class _Limits(StrictModel):
+    u_min: float = Field(-1.0, ge=-1, le=1, description="lower limit of the command [ū]")
+    u_max: float = Field(1.0, ge=-1, le=1, description="upper limit of the command [ū]")
+
+    @model_validator(mode="after")
+    def _order(self):
+        if not self.u_min < self.u_max:
+            raise ValueError(f"u_min ({self.u_min}) must be < u_max ({self.u_max})")
+        return self
+
+
+_KP = dict(gt=0, le=1e5, description="proportional gain [ū/m]")
+_KI = dict(gt=0, le=1e8, description="integral gain [ū/(m·s)]")
+_KD = dict(ge=0, le=1e3, description="gain on the measured velocity [ū/(m/s)]")
+_TF = dict(ge=1e-5, le=1.0, description="time constant of the velocity estimate's first-order filter [s]")
+_AW = dict(description="integrator anti-windup: clamp (stop integrating into a limit) or back_calculation")
+_TT = dict(gt=0, le=100, description="back-calculation tracking time constant [s] (default kp/ki)")
+
+
+class PControllerCfg(_Limits):
+    """The paper's P law (§4): ū = clamp(kp·e)."""
+    type: Literal["p"]
+    kp: float = Field(**_KP)
+
+
+class _Integral(_Limits):
+    ki: float = Field(**_KI)
+    antiwindup: Literal["clamp", "back_calculation"] = Field("clamp", **_AW)
+    tt: float | None = Field(None, **_TT)
+
+
+class PIControllerCfg(_Integral):
+    """ū = kp·e + ki·∫e dt, with anti-windup."""
+    type: Literal["pi"]
+    kp: float = Field(**_KP)
+
+
+class PIDControllerCfg(_Integral):
+    """PI + derivative on the measured position through a first-order filter: − kd·v̂."""
+    type: Literal["pid"]
+    kp: float = Field(**_KP)
+    kd: float = Field(**_KD)
+    tf: float = Field(2e-3, **_TF)
+
+
+class PFFControllerCfg(_Limits):
+    """P + velocity feed-forward from the reference's slope + valve-null (bias and deadband) compensation."""
+    type: Literal["p_ff"]
+    kp: float = Field(**_KP)
+    kff: float = Field(0.0, ge=0, le=1e3, description="velocity feed-forward gain [ū/(m/s)] "
+                       "(1/(valve flow gain/A) for a perfect match)")
+    u_bias: float = Field(0.0, ge=-1, le=1, description="constant valve-null compensation [ū] (the "
+                          "equilibrium spool offset of `hydrohil linear`)")
+    u_deadband: float = Field(0.0, ge=0, le=1, description="deadband compensation added with the error's "
+                              "sign [ū]")
+    e_deadband: float = Field(1e-4, gt=0, le=0.1, description="error at which the deadband compensation is "
+                              "complete (linear below) [m]")
+
+
+class StateFeedbackControllerCfg(_Limits):
+    """The hydraulic servo's state feedback: ū = kp·e − kd·v̂ − kpl·p̂L (+ ki·∫e dt)."""
+    type: Literal["state_feedback"]
+    kp: float = Field(**_KP)
+    kd: float = Field(0.0, **_KD)
+    tf: float = Field(2e-3, **_TF)
+    kpl: float = Field(0.0, ge=0, le=1e-3, description="load-pressure gain on pL = p1 − (A2/A1)·p2 [ū/Pa]")
+    tpl: float = Field(0.0, ge=0, le=100, description="high-pass time constant of the load pressure [s] "
+                       "(0: static pressure feedback; > 0: dynamic, no steady-state error from a load)")
+    ki: float = Field(0.0, ge=0, le=1e8, description="integral gain [ū/(m·s)]")
+    antiwindup: Literal["clamp", "back_calculation"] = Field("clamp", **_AW)
+    tt: float | None = Field(None, **_TT)
+
+
+class PythonControllerCfg(StrictModel):
+    """A user's controller: ``callable`` = "module:name" or "path/to/file.py:name" (relative to the scenario
+    file's folder), a function ``f(measurement) -> ū`` or a class instantiated once per run with
+    ``options`` whose instances are called so."""
+    type: Literal["python"]
+    callable: str = Field(pattern=r"^[^:]+:[A-Za-z_][A-Za-z0-9_.]*$",
+                          description="module:name or file.py:name")
+    options: dict[str, Any] = Field(default_factory=dict, description="keyword arguments of a class")
+
+
+ControllerCfg = Union[PControllerCfg, PIControllerCfg, PIDControllerCfg, PFFControllerCfg,
+                      StateFeedbackControllerCfg, PythonControllerCfg]
+BUILTIN_TYPES = {"p": lib.HH_CTRL_P, "pi": lib.HH_CTRL_PI, "pid": lib.HH_CTRL_PID, "p_ff": lib.HH_CTRL_P_FF,
+                 "state_feedback": lib.HH_CTRL_STATE_FEEDBACK}
+
+
+# ---- what a controller is given each sample --------------------------------------------------------------
+
+
+class Measurement(NamedTuple):
+    """One sample of a position controller's inputs (SI; pressures gauge, as the transducers report)."""
+    t: float          # plant time of the reading [s]
+    x_ref: float      # position reference [m]
+    dx_ref: float     # its slope [m/s]
+    x: float          # encoder reading [m]
+    p1: float         # chamber pressures [Pa]
+    p2: float
+    ps: float         # supply and tank pressures [Pa]
+    pt: float
+    status: int       # status bits of the sensor packet (docs/protocol.md)
+
+
+def measurement(sensor, x_ref: float, dx_ref: float = 0.0, count: float = 1e-6) -> Measurement:
+    """A :class:`Measurement` from a sensor packet of :class:`~hydrohil.hil.controller.PlantClient` (``count``:
+    the encoder's count size [m])."""
+    return Measurement(sensor.t_sim, x_ref, dx_ref, sensor.encoder_counts * count, sensor.p1, sensor.p2,
+                       sensor.ps, sensor.pt, sensor.status)
+
+
+# ---- controllers ------------------------------------------------------------------------------------------
+
+
+class BuiltinController:
+    """A built-in law of the core (``hh_controller``): ``ctl(measurement) -> ū``, or :meth:`update`.
+
+    ``h`` is the sample time [s] (the plant step: one command per sensor packet)."""
+
+    def __init__(self, cfg: ControllerCfg, params: Parameters, h: float):
+        if cfg.type not in BUILTIN_TYPES:
+            raise ValueError(f"'{cfg.type}' is not a built-in controller ({', '.join(BUILTIN_TYPES)})")
+        self.cfg, self.h = cfg, float(h)
+        c = self.c = ffi.new("hh_controller *")
+        c.type = BUILTIN_TYPES[cfg.type]
+        c.h = self.h
+        c.kp = cfg.kp
+        c.ki = getattr(cfg, "ki", 0.0)
+        c.kd = getattr(cfg, "kd", 0.0)
+        c.tf = getattr(cfg, "tf", 2e-3)
+        c.antiwindup = (lib.HH_AW_BACK_CALCULATION if getattr(cfg, "antiwindup", "clamp") == "back_calculation"
+                        else lib.HH_AW_CLAMP)
+        tt = getattr(cfg, "tt", None)
+        c.tt = tt if tt is not None else (cfg.kp / c.ki if c.ki > 0 else 1.0)
+        c.kff = getattr(cfg, "kff", 0.0)
+        c.u_bias = getattr(cfg, "u_bias", 0.0)
+        c.u_deadband = getattr(cfg, "u_deadband", 0.0)
+        c.e_deadband = getattr(cfg, "e_deadband", 1e-4)
+        c.kpl = getattr(cfg, "kpl", 0.0)
+        c.tpl = getattr(cfg, "tpl", 0.0)
+        c.area_ratio = params.cylinder.a2 / params.cylinder.a1
+        c.u_min, c.u_max = cfg.u_min, cfg.u_max
+        self.state = ffi.new("hh_controller_state *")
+        self.reset()
+
+    def reset(self) -> None:
+        lib.hh_controller_reset(self.state)
+
+    def update(self, x_ref: float, dx_ref: float, x: float, p1: float = 0.0, p2: float = 0.0) -> float:
+        return lib.hh_controller_update(self.c, self.state, x_ref, dx_ref, x, p1, p2)
+
+    def __call__(self, m: Measurement) -> float:
+        return lib.hh_controller_update(self.c, self.state, m.x_ref, m.dx_ref, m.x, m.p1, m.p2)
+
+
+def load_callable(spec: str, base: Path | None = None) -> Callable:
+    """The object named by ``module:name`` (importable, or with ``base`` on the path) or ``file.py:name``
+    (relative to ``base``)."""
+    mod_name, _, attr = spec.rpartition(":")
+    base = Path(base) if base is not None else Path.cwd()
+    if mod_name.endswith(".py"):
+        path = Path(mod_name) if Path(mod_name).is_absolute() else base / mod_name
+        if not path.is_file():
+            raise InputError(f"no such file {path}", key="controller.callable")
+        name = f"hydrohil_user_{path.stem}"
+        spec_ = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec_)
+        sys.modules[name] = module
+        spec_.loader.exec_module(module)
+    else:
+        added = str(base) not in sys.path
+        if added:
+            sys.path.insert(0, str(base))
+        try:
+            module = importlib.import_module(mod_name)
+        except ImportError as exc:
+            raise InputError(f"cannot import '{mod_name}': {exc}", key="controller.callable") from None
+        finally:
+            if added:
+                sys.path.remove(str(base))
+    obj = module
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            raise InputError(f"'{mod_name}' has no '{attr}'", key="controller.callable")
+        obj = getattr(obj, part)
+    if not callable(obj):
+        raise InputError(f"'{spec}' is not callable", key="controller.callable")
+    return obj
+
+
+def make_controller(cfg: ControllerCfg | Callable, params: Parameters, h: float, *,
+                    base: Path | None = None) -> Callable[[Measurement], float]:
+    """A fresh controller for one run: ``ctl(measurement) -> ū``. ``cfg`` is a ``[controller]`` table, or a
+    Python callable (a function, or a class instantiated here without arguments)."""
+    if callable(cfg) and not isinstance(cfg, StrictModel):
+        return cfg() if inspect.isclass(cfg) else cfg
+    if cfg.type in BUILTIN_TYPES:
+        return BuiltinController(cfg, params, h)
+    obj = load_callable(cfg.callable, base)
+    if inspect.isclass(obj):
+        try:
+            return obj(**cfg.options)
+        except TypeError as exc:
+            raise InputError(f"{cfg.callable}({', '.join(cfg.options)}): {exc}", key="controller.options") from None
+    if cfg.options:
+        raise InputError(f"'{cfg.callable}' is a function: options apply to a class only", key="controller.options")
+    return obj
+
+
+def call_controller(ctl: Callable[[Measurement], float], m: Measurement) -> float:
+    """ū = ctl(m) as a finite float; a user's controller that raises or returns something else stops the run
+    with an error naming the time and the measurement."""
+    try:
+        u = float(ctl(m))
+    except Exception as exc:
+        raise ControllerError(f"the controller failed at t = {m.t:.6g} s on {m}: {type(exc).__name__}: {exc}") from exc
+    if u != u or u in (float("inf"), float("-inf")):
+        raise ControllerError(f"the controller returned {u} at t = {m.t:.6g} s on {m}")
+    return u
 
 
 def p_control(kp: float, x_ref: float, x_meas: float) -> float:
-    """Saturated P law: clamp(kp*(x_ref - x_meas), -1, 1)."""
+    """The paper's saturated P law clamp(kp*(x_ref - x_meas), -1, 1) (the watchdog's 'hold' safe state)."""
     return lib.hh_p_control(kp, x_ref, x_meas)
-
-
-class PController:
-    """Stateless P position controller; ``update(t, x_ref, x_meas) -> u``."""
-
-    def __init__(self, kp: float):
-        if not kp > 0:
-            raise ValueError(f"controller kp must be > 0 (1/m), got {kp}")
-        self.kp = float(kp)
-
-    def update(self, t: float, x_ref: float, x_meas: float) -> float:
-        return lib.hh_p_control(self.kp, x_ref, x_meas)

@@ -42,6 +42,12 @@ class SimulationDiverged(HydrohilError):
         super().__init__(f"simulation diverged at t = {t:.6f} s ({reason}); modes: {md}; state: {st}")
 
 
+class ControllerError(HydrohilError):
+    """A user's controller raised or returned a non-finite command (exit 1); the run stops there."""
+
+    exit_code = 1
+
+
 class RunInvalid(HydrohilError):
     """A real-time run finished, but its timing does not meet the validity criteria (exit 3)."""
 

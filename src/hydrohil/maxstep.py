@@ -35,10 +35,10 @@ def continuous_run(sc: LoadedScenario, solver: str, h: float):
     sim = Sim(p, h, model="continuous", solver=solver, bounded=True)
     sim.set_state(y, m)
     t_in = np.arange(s.n_steps() + 1) * h_out
-    closed = s.closed_loop
     every = max(1, int(round(h_out / h)))
-    status, _, log = sim.run(int(round(s.duration / h)), every, s.references() if closed else s.commands(),
-                             kp=s.controller.kp if closed else None, t_in=t_in)
+    values, slopes = s.drive()
+    status, _, log = sim.run(int(round(s.duration / h)), every, values, slopes=slopes, t_in=t_in, seed=s.hil.seed,
+                             controller=sc.make_controller(h) if s.closed_loop else None)
     return status == STATUS_OK, log
 
 
@@ -86,14 +86,17 @@ def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk
     if model not in ("hybrid", "continuous"):
         raise ValueError("model must be 'hybrid' or 'continuous'")
     s, params = sc.scenario, sc.params
+    if s.python_controller:
+        from hydrohil.errors import InputError
+        raise InputError("maxstep compares against the stiff reference model, which runs built-in controllers "
+                         "only (p, pi, pid, p_ff, state_feedback)", source=sc.source, key="controller.type")
     p = pack(params)
     y0, _ = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
-    closed = s.closed_loop
     stats: dict = {}
-    status, done, ref_log, y_end = solve_reference(p, y0, s.solver.step, s.n_steps(),
-                                                   u_open=None if closed else s.commands(),
-                                                   kp=s.controller.kp if closed else 0.0,
-                                                   xref=s.references() if closed else None, stats=stats)
+    values, slopes = s.drive()
+    status, done, ref_log, y_end = solve_reference(p, y0, s.solver.step, s.n_steps(), values, slopes=slopes,
+                                                   controller=sc.make_controller() if s.closed_loop else None,
+                                                   seed=s.hil.seed, stats=stats)
     if status != STATUS_OK:      # no trustworthy reference: no step can be judged against it
         from hydrohil.simulation.diagnostics import divergence_error
         raise divergence_error(done * s.solver.step, y_end, np.zeros(3, dtype=np.int64),

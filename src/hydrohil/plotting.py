@@ -32,12 +32,13 @@ def _stack(heights, figsize, banner: float = 0.0):
 
 
 def plot_run(path: Path, t, xp, p1, p2, u, xs, travel, friction, spool=None, *, xref=None, title: str = "",
-             compare: dict | None = None, faults=None) -> None:
+             compare: dict | None = None, faults=None, metrics: dict | None = None) -> None:
     """Position (and reference), chamber pressures, command and spool, and the travel, friction and spool
     modes over time (one strip each; ``spool`` may be omitted).
 
     ``compare`` optionally holds another run (keys t, xp, p1, p2, label) drawn dotted; ``faults`` (the
-    per-row fault mask) shades the intervals with an injected fault.
+    per-row fault mask) shades the intervals with an injected fault; ``metrics`` (:func:`hydrohil.metrics.
+    step_metrics`) marks each move's settling instant and lists the moves' figures.
     """
     modes = [m for m in (travel, friction, spool) if m is not None]
     fig, ax, _ = _stack([3, 3, 2] + [0.45] * len(modes), (10, 10 + 0.4 * len(modes)))
@@ -53,9 +54,26 @@ def plot_run(path: Path, t, xp, p1, p2, u, xs, travel, friction, spool=None, *, 
         ax[1].plot(compare["t"], np.asarray(compare["p2"]) / 1e5, ":", color="C1", lw=1.5, label=f"P2 ({lab})")
     ax[2].plot(t, u, lw=1, label="command ū")
     ax[2].plot(t, xs, lw=1, label="spool x̄s")
+    if metrics:
+        _metrics_marks(ax[0], metrics)
     _mode_strips(ax[3:], t, travel, friction, spool)
     _fault_spans(ax, t, faults)
     _finish(fig, path, ax[:3], ("position [mm]", "pressure [bar]", "valve [-]"), title)
+
+
+def _metrics_marks(ax, metrics: dict) -> None:
+    """A triangle at each move's settling instant and the moves' figures in a box (step-response metrics)."""
+    from hydrohil.metrics import metrics_lines
+    for i, mv in enumerate(metrics["moves"]):
+        if mv["settling_time"] is not None:
+            ax.plot(mv["start"] + mv["settling_time"], mv["to"] * 1e3, "v", color="k", ms=5,
+                    label="settled (band)" if i == 0 else None)
+    lines = metrics_lines(metrics)
+    if lines:       # a legend of text only: matplotlib places it where it hides the least data
+        from matplotlib.lines import Line2D
+        box = ax.legend([Line2D([], [], lw=0)] * len(lines), lines, loc="best", handlelength=0, handletextpad=0,
+                        prop={"family": "monospace", "size": 6.5}, framealpha=0.85)
+        ax.add_artist(box)
 
 
 def _fault_spans(ax, t, faults) -> None:

@@ -83,8 +83,36 @@ void hh_initial_state(const double *p, double xp, double xs, double vs, double p
 /* One fixed step h of the hybrid model (y, m in place) with spool input ud; returns the events. */
 int hh_hybrid_step(int method, double *y, int64_t *m, const double *p, double ud, double h);
 double hh_encoder_counts(double xp, double resolution);
-double hh_encoder_position(double xp, double resolution);
+double hh_count_size(double resolution);   /* m per count as the rig reports */
 double hh_p_control(double kp, double x_ref, double x_meas);
+
+/* ---- built-in position controllers (control.c; the law and its units in control.h) ---------- */
+enum { HH_CTRL_P, HH_CTRL_PI, HH_CTRL_PID, HH_CTRL_P_FF, HH_CTRL_STATE_FEEDBACK };
+enum { HH_AW_CLAMP, HH_AW_BACK_CALCULATION };
+typedef struct {
+    int type;                   /* HH_CTRL_* */
+    double h;                   /* sample time [s] */
+    double kp, ki, kd;          /* ū/m, ū/(m·s), ū/(m/s) */
+    double tf;                  /* velocity-estimate (derivative) filter time constant [s] */
+    int antiwindup;             /* HH_AW_* */
+    double tt;                  /* back-calculation tracking time constant [s] */
+    double kff;                 /* velocity feed-forward from the reference's slope [ū/(m/s)] */
+    double u_bias;              /* constant valve-null compensation [ū] */
+    double u_deadband, e_deadband;   /* deadband compensation [ū] reached at an error of e_deadband [m] */
+    double kpl;                 /* load-pressure gain [ū/Pa] */
+    double tpl;                 /* load-pressure high-pass time constant [s] (0: static feedback) */
+    double area_ratio;          /* A2/A1 of the load pressure p1 - (A2/A1)*p2 */
+    double u_min, u_max;        /* output limits [ū] */
+} hh_controller;
+typedef struct {
+    double integral, velocity, x_prev, pl_prev, pl_filtered;
+    int started;
+} hh_controller_state;
+void hh_controller_reset(hh_controller_state *s);
+/* One sample: the command ū for the reference x_ref [m] (slope dx_ref [m/s]), the encoder reading x [m]
+ * and the pressure readings p1, p2 [Pa gauge]; updates the state. */
+double hh_controller_update(const hh_controller *c, hh_controller_state *s, double x_ref, double dx_ref, double x,
+                            double p1, double p2);
 
 /* ---- the sampled loop (loop.c) -------------------------------------------------------------- */
 /* Input delay (SPEC §3.1) as a ring of zero-order-held commands; buf holds n + 2 doubles. */
@@ -115,15 +143,20 @@ typedef struct {
     hh_progress_fn progress;    /* called every 500 steps of hh_sim_run when set */
 } hh_sim;
 
-/* Drive of a run: open loop (values are commands u) or the sampled P controller on the encoder reading
- * (values are positions x_ref [m]). t_in == NULL: value k holds over step k; else a table (t_in, v_in,
- * n_in) sampled by zero-order hold at t_k. */
-enum { HH_DRIVE_OPEN, HH_DRIVE_P };
+/* Drive of a run: open loop (values are commands u) or closed loop (values are positions x_ref [m], slopes
+ * dx_ref [m/s] optional): each step the sensors are read as the rig reads them (hh_rig_read: encoder counts,
+ * pressure transducers with noise drawn from rng) and the controller computes u from them. t_in == NULL:
+ * value k holds over step k; else a table (t_in, v_in, dv_in, n_in) sampled by zero-order hold at t_k. */
+enum { HH_DRIVE_OPEN, HH_DRIVE_CLOSED };
+typedef struct { uint64_t s[4]; } hh_rng;         /* xoshiro256** state (rig.c) */
 typedef struct {
     int kind;
-    double kp;                  /* 1/m */
+    const hh_controller *controller;     /* closed loop */
+    hh_controller_state *state;
+    hh_rng *rng;                         /* closed loop: the pressure readings' noise (seeded by the caller) */
     const double *t_in;
     const double *v_in;
+    const double *dv_in;                 /* NULL: slopes 0 */
     int64_t n_in;
 } hh_drive;
 
@@ -144,7 +177,6 @@ void hh_log_row(const hh_sim *sim, double t, double u, double ud, const double *
 int hh_diverged(const double *y, const double *p);
 
 /* ---- the rig: command path, watchdog, pressure transducers, noise (rig.c) ------------------- */
-typedef struct { uint64_t s[4]; } hh_rng;         /* xoshiro256** state */
 void hh_rng_seed(hh_rng *r, uint64_t seed);
 double hh_rng_uniform(hh_rng *r);                  /* (0, 1] */
 void hh_rng_normals(hh_rng *r, int n, double *out);   /* n standard normal samples */

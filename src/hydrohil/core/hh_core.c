@@ -42,5 +42,5 @@ int hh_hybrid_step(int method, double *y, int64_t *m, const double *p, double ud
 }
 
 double hh_encoder_counts(double xp, double resolution) { return encoder_counts(xp, resolution); }
-double hh_encoder_position(double xp, double resolution) { return encoder_position(xp, resolution); }
+double hh_count_size(double resolution) { return count_size(resolution); }
 double hh_p_control(double kp, double x_ref, double x_meas) { return p_control(kp, x_ref, x_meas); }

@@ -162,23 +162,30 @@ int hh_sim_step(hh_sim *sim, double u)
 int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t every, double *log,
                int64_t *steps_done, int64_t *rows)
 {
-    const double *p = sim->p;
     double h = sim->h, t, u, ud, u_new, u_old, events = 0.0;
+    double count = count_size(sim->p[HH_SENSORS_ENCODER_RESOLUTION]);
     int64_t k, j = 0, row = 0, k0 = sim->k;
     int ev;
+    hh_reading reading;
     for (k = 0; k <= n_steps; k++) {
-        double v;
+        double v, dv;
         t = (double)(k0 + k) * h;
         if (drive->t_in == 0) {
             v = drive->v_in[k];
+            dv = drive->dv_in != 0 ? drive->dv_in[k] : 0.0;
         } else {
             while (j + 1 < drive->n_in && drive->t_in[j + 1] <= t + 1e-15)
                 j++;
             v = drive->v_in[j];
+            dv = drive->dv_in != 0 ? drive->dv_in[j] : 0.0;
         }
-        u = drive->kind == HH_DRIVE_P ? p_control(drive->kp, v, encoder_position(sim->y[HH_XP],
-                                                                                  p[HH_SENSORS_ENCODER_RESOLUTION]))
-                                      : v;
+        if (drive->kind == HH_DRIVE_CLOSED) {   /* the controller on what the rig's sensors report */
+            hh_rig_read(sim, count, drive->rng, &reading);
+            u = hh_controller_update(drive->controller, drive->state, v, dv, (double)reading.encoder * count,
+                                     reading.p[0], reading.p[1]);
+        } else {
+            u = v;
+        }
         ud = delay_push(&sim->delay, u, &u_new, &u_old);
         if (k % every == 0) {
             hh_log_row(sim, t, u, ud, sim->y, sim->m, events, log + row * HH_NLOG);

@@ -4,6 +4,6 @@
 #include "core.h"
 
 HH_INLINE double encoder_counts(double xp, double resolution);
-HH_INLINE double encoder_position(double xp, double resolution);
+HH_INLINE double count_size(double resolution);
 
 #endif

@@ -1,4 +1,5 @@
-"""Controller side of the HIL link: a client class for your own controller, and the paper's P controller.
+"""Controller side of the HIL link: a client class for your own controller, and the loop that runs a
+scenario's controller (built-in or Python, :mod:`hydrohil.control`) against a plant.
 
 Write a controller in a few lines::
 
@@ -7,6 +8,8 @@ Write a controller in a few lines::
         for s in plant.sensors():                 # one sensor packet per plant step
             x = s.encoder_counts * 1e-6           # m (1 um encoder)
             plant.send(50.0 * (0.10 - x), answer=s)   # ū = Kp·(x_ref − x)
+
+or run one developed offline: ``plant.send(ctl(measurement(s, x_ref)), answer=s)``.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import time
 from pathlib import Path
 from typing import Callable, Iterator
 
-from hydrohil.control import PController
+from hydrohil.control import Measurement, call_controller, p_control
 from hydrohil.errors import LinkError
 from hydrohil.hil import protocol as pr
 from hydrohil.models.sensors import count_size
@@ -182,28 +185,31 @@ CONTROLLER_LOG_COLUMNS = ("seq", "t", "wall", "x_meas", "x_ref", "u", "status")
 
 
 def warm_up() -> None:
-    """Run the control law once before saying HELLO (a first packet must not wait for its first call)."""
-    PController(1.0).update(0.0, 0.0, 0.0)
+    """Call into the core once before saying HELLO (a first packet must not wait for its first call)."""
+    p_control(1.0, 0.0, 0.0)
 
 
-def run_p_controller(client: PlantClient, kp: float, reference: Callable[[float], float], *,
-                     encoder_resolution: float = 1e-6, mode: str = "packet", sample_time: float = 5e-4,
-                     log_path: Path | None = None, should_stop: Callable[[], bool] = lambda: False) -> dict:
-    """The paper's P position controller over the link: ū = clamp(Kp·(x_ref(t) − x_enc), −1, 1).
+def run_position_controller(client: PlantClient, controller: Callable[[Measurement], float],
+                            reference: Callable[[float], tuple[float, float]], *, encoder_resolution: float = 1e-6,
+                            mode: str = "packet", sample_time: float = 5e-4, log_path: Path | None = None,
+                            should_stop: Callable[[], bool] = lambda: False) -> dict:
+    """A position controller over the link: ū = controller(measurement) with the reference (x_ref, slope) =
+    ``reference(t)`` at the plant time of the sensor packet (:mod:`hydrohil.control`; the paper's P law is
+    ``type = "p"``).
 
     ``mode = "packet"``: one command per sensor packet (answers it). ``mode = "clock"``: on its own
     periodic clock of ``sample_time``, using the latest sensor packet. The log is streamed to ``log_path``
     (CSV) while running. ``should_stop`` is polled every cycle (signal handlers set it). Returns a summary.
     """
-    ctl = PController(kp)
+    ctl = controller
     res = count_size(encoder_resolution)
     log = CsvStream(log_path, CONTROLLER_LOG_COLUMNS, ints={0, 6}) if log_path is not None else None
     t_start = time.perf_counter()
 
     def act(s: pr.Sensor) -> None:
         x = s.encoder_counts * res
-        xr = reference(s.t_sim)
-        u = ctl.update(s.t_sim, xr, x)
+        xr, dxr = reference(s.t_sim)
+        u = call_controller(ctl, Measurement(s.t_sim, xr, dxr, x, s.p1, s.p2, s.ps, s.pt, s.status))
         client.send(u, answer=s)
         if log is not None:
             log.write((s.header.seq, s.t_sim, time.perf_counter() - t_start, x, xr, u, s.status))

@@ -178,7 +178,7 @@ def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: di
     hil = read_csv_columns(out / "plant_log.csv")
     n = min(len(hil["t"]), len(res.log))
     d = hil["xp"][:n] - res.column("xp")[:n]
-    ref = sc.scenario.references()[:n]
+    ref = sc.scenario.references()[0][:n]
     cmp = {"steps_compared": int(n), "xp_rms_mm": float(np.sqrt(np.mean(d ** 2)) * 1e3),
            "xp_max_mm": float(np.max(np.abs(d)) * 1e3),
            "p1_rms_bar": float(np.sqrt(np.mean((hil["p1"][:n] - res.column("p1")[:n]) ** 2)) / 1e5),

@@ -14,14 +14,10 @@ IDEAL_COUNT = lib.HH_IDEAL_COUNT   # m: the count of an ideal encoder (resolutio
 def count_size(resolution: float) -> float:
     """Size [m] of one encoder count as the rig reports it: ``resolution``, or 1 nm for an ideal encoder
     (``sensors.encoder_resolution = 0``), whose reading is then exact to 0.5 nm (docs/protocol.md)."""
-    return resolution if resolution > 0.0 else IDEAL_COUNT
+    return lib.hh_count_size(resolution)
 
 
 def encoder_counts(xp: float, resolution: float) -> float:
     """Encoder reading [counts] of position xp [m] for a count size ``resolution`` [m] (nearest count)."""
     return lib.hh_encoder_counts(xp, resolution)
 
-
-def encoder_position(xp: float, resolution: float) -> float:
-    """Position [m] as the encoder reports it; ``resolution`` <= 0 means ideal."""
-    return lib.hh_encoder_position(xp, resolution)

@@ -1,8 +1,8 @@
 """The core's sampled loop from Python: :class:`Sim` (one ``hh_sim`` of ``core/hh.h``), the offline run
 :func:`run_loop` and the per-step API :class:`HybridPlant`.
 
-The plant input is a zero-order-held command u_k, given (open loop) or computed at t_k by the P controller
-from the encoder reading (closed loop), exactly as a sampled controller would; it reaches the spool through
+The plant input is a zero-order-held command u_k, given (open loop) or computed at t_k by a built-in
+controller from the sensor readings (closed loop), exactly as a sampled controller would; it reaches the spool through
 the fractional input delay. One log row per output interval; columns :data:`LOG_COLUMNS`. The loop itself
 (controller -> delay -> step -> log) is C (``core/loop.c``): simulate, maxstep, the stiff reference and the
 rig all run it.
@@ -80,16 +80,26 @@ class Sim:
     def step(self, u: float) -> int:
         return lib.hh_sim_step(self._sim, u)
 
-    def run(self, n_steps: int, every: int, values: np.ndarray, *, kp: float | None = None,
-            t_in: np.ndarray | None = None, progress=None):
+    def run(self, n_steps: int, every: int, values: np.ndarray, *, controller=None, slopes: np.ndarray | None = None,
+            seed: int = 0, t_in: np.ndarray | None = None, progress=None):
         """Run n_steps from the current state; returns (status, steps done, log rows).
 
-        ``values``: commands u (open loop) or, with ``kp``, positions x_ref for the P controller; value k
-        holds over step k (n_steps + 1 values), or with ``t_in`` a table sampled by zero-order hold."""
+        ``values``: commands u (open loop) or, with ``controller`` (a
+        :class:`~hydrohil.control.BuiltinController`, sampled every step on the rig's sensor readings, the
+        pressure noise seeded by ``seed``), positions x_ref with their ``slopes``; value k holds over step k
+        (n_steps + 1 values), or with ``t_in`` a table sampled by zero-order hold."""
         values = np.ascontiguousarray(values, dtype=float)
         drive = ffi.new("hh_drive *")
-        drive.kind = lib.HH_DRIVE_OPEN if kp is None else lib.HH_DRIVE_P
-        drive.kp = 0.0 if kp is None else float(kp)
+        drive.kind = lib.HH_DRIVE_OPEN if controller is None else lib.HH_DRIVE_CLOSED
+        if controller is not None:
+            rng = ffi.new("hh_rng *")
+            lib.hh_rng_seed(rng, int(seed))
+            drive.controller, drive.state, drive.rng = controller.c, controller.state, rng
+        if slopes is not None:
+            slopes = np.ascontiguousarray(slopes, dtype=float)
+            if len(slopes) != len(values):
+                raise ValueError(f"{len(values)} slopes needed, got {len(slopes)}")
+            drive.dv_in = dptr(slopes)
         drive.v_in = dptr(values)
         if t_in is None:
             if len(values) < n_steps + 1:
@@ -128,12 +138,14 @@ def hh_py_progress(ctx, k):
 
 
 def run_loop(params: Parameters, p: np.ndarray, y: np.ndarray, m: np.ndarray, h: float, n: int, every: int,
-             values: np.ndarray, *, kp: float | None = None, solver: str = "rk3"):
+             values: np.ndarray, *, controller=None, slopes: np.ndarray | None = None, seed: int = 0,
+             solver: str = "rk3"):
     """Run the hybrid model n steps from (y, m), both updated in place; open loop with commands ``values``
-    (n + 1), or the P controller (``kp``) on the positions ``values``. Returns (status, steps done, log)."""
+    (n + 1), or the built-in ``controller`` on the positions ``values`` (slopes ``slopes``; pressure noise
+    seeded by ``seed``). Returns (status, steps done, log)."""
     sim = Sim(p, h, solver=solver)
     sim.set_state(y, m)
-    status, done, log = sim.run(n, every, values, kp=kp)
+    status, done, log = sim.run(n, every, values, controller=controller, slopes=slopes, seed=seed)
     y[:] = sim.y
     m[:] = sim.m
     return status, done, log

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hydrohil.control import p_control
+from hydrohil.control import Measurement, call_controller, make_controller
 from hydrohil.core import ffi, lib
 from hydrohil.errors import HydrohilError
 from hydrohil.hil.protocol import (ST_AT_EXTEND, ST_AT_RETRACT, ST_FAULT_INJECTED, ST_SATURATED, ST_STICK,
@@ -149,17 +149,19 @@ class VirtualRig:
 RIG_COLUMNS = ("faults", "x_meas", "p1_meas", "p2_meas", "ps_meas", "watchdog")
 
 
-def run_rig(sc, *, progress=None):
-    """Offline run of a scenario through the virtual rig (the path of scenarios with ``[[faults]]``):
-    closed loop = the P controller on the rig's encoder reading, exactly as the HIL controller process.
-    Returns a :class:`~hydrohil.simulation.run.SimulationResult` with the extra columns
+def run_rig(sc, *, controller=None, progress=None):
+    """Offline run of a scenario through the virtual rig (the path of scenarios with ``[[faults]]`` or a
+    Python controller): closed loop = the scenario's controller (or ``controller``, a callable taking a
+    :class:`~hydrohil.control.Measurement`) on what the rig's sensors report, exactly as the HIL controller
+    process. Returns a :class:`~hydrohil.simulation.run.SimulationResult` with the extra columns
     :data:`RIG_COLUMNS` (what the sensors reported, active faults, watchdog)."""
     s = sc.scenario
     h, n = s.solver.step, s.n_steps()
     rig = VirtualRig(sc.params, h, s.hil, s.faults, s.initial.model_dump())
     closed = s.closed_loop
-    drive = s.references() if closed else s.commands()
-    kp = s.controller.kp if closed else 0.0
+    drive, slopes = s.drive()
+    if closed:
+        ctl = sc.make_controller() if controller is None else make_controller(controller, sc.params, h)
     every = s.solver.output_every
     log = np.zeros((n // every + 1, NLOG))
     extra = np.zeros((n // every + 1, len(RIG_COLUMNS)))
@@ -171,7 +173,10 @@ def run_rig(sc, *, progress=None):
     for k in range(n + 1):
         r = rig.read()
         x = r.encoder * rig.res
-        u = p_control(kp, drive[k], x) if closed else float(drive[k])
+        if closed:
+            u = call_controller(ctl, Measurement(r.t, drive[k], slopes[k], x, r.p1, r.p2, r.ps, r.pt, r.status))
+        else:
+            u = float(drive[k])
         y_prev[:], m_prev[:] = plant.y, plant.m
         record = k % every == 0
         if k < n:

@@ -57,21 +57,20 @@ class SimulationResult:
 def run_scenario(sc: LoadedScenario, *, progress=None) -> SimulationResult:
     """Simulate a loaded scenario; returns the log (also when the run diverged: see ``.diverged``)."""
     s, params = sc.scenario, sc.params
-    if s.faults:
+    if s.faults or s.python_controller:          # a Python loop: the virtual rig's
         from hydrohil.simulation.rig import run_rig
         return run_rig(sc, progress=progress)
     h, n = s.solver.step, s.n_steps()
     p = pack(params)
     y, m = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
     closed = s.closed_loop
-    u_open = np.zeros(n + 1) if closed else s.commands()
-    xref = s.references() if closed else np.zeros(n + 1)
-    kp = s.controller.kp if closed else 0.0
+    drive, slopes = s.drive()
+    ctl = sc.make_controller() if closed else None
     every = s.solver.output_every
     if s.solver.method == "reference":
         t0 = time.perf_counter()
         stats: dict = {}
-        status, done, log, yend = solve_reference(p, y, h, n, u_open=None if closed else u_open, kp=kp, xref=xref,
+        status, done, log, yend = solve_reference(p, y, h, n, drive, controller=ctl, slopes=slopes, seed=s.hil.seed,
                                                   every=every, rtol=s.solver.rtol, progress=progress, stats=stats)
         wall = time.perf_counter() - t0
         div = None
@@ -80,20 +79,21 @@ def run_scenario(sc: LoadedScenario, *, progress=None) -> SimulationResult:
             div = divergence_error(done * h, yend, np.zeros(3, dtype=np.int64), reason)
         extra = {"reference_intervals": stats["intervals"], "reference_radau_fallbacks": stats["radau_fallbacks"]}
         return SimulationResult(log, "reference", h, wall, div, extra=extra)
-    status, done, log, wall = run_hybrid(params, p, y, m, h, n, every, u_open, closed=closed, kp=kp, xref=xref,
-                                         solver=s.solver.method)
+    status, done, log, wall = run_hybrid(params, p, y, m, h, n, every, drive, controller=ctl, slopes=slopes,
+                                         seed=s.hil.seed, solver=s.solver.method)
     div = None if status == STATUS_OK else divergence_error(done * h, y, m)
     return SimulationResult(log, s.solver.method, h, wall, div)
 
 
 def run_hybrid(params: Parameters, p: np.ndarray, y: np.ndarray, m: np.ndarray, h: float, n: int, every: int,
-               u_open: np.ndarray, *, closed: bool = False, kp: float = 0.0, xref: np.ndarray | None = None,
+               values: np.ndarray, *, controller=None, slopes: np.ndarray | None = None, seed: int = 0,
                solver: str = "rk3"):
     """Run the core's loop with the hybrid model for n steps from (y, m), both updated in place.
 
-    Open loop: ``u_open[k]`` is the command held over step k (n + 1 values). Closed loop: the P
-    controller on ``xref``. Returns (status, steps done, log rows, wall time of the loop [s])."""
+    Open loop: ``values[k]`` is the command held over step k (n + 1 values). Closed loop: the built-in
+    ``controller`` on the references ``values`` (slopes ``slopes``). Returns (status, steps done, log rows,
+    wall time of the loop [s])."""
     t0 = time.perf_counter()
-    status, done, log = run_loop(params, p, y, m, h, n, every, xref if closed else u_open,
-                                 kp=kp if closed else None, solver=solver)
+    status, done, log = run_loop(params, p, y, m, h, n, every, values, controller=controller, slopes=slopes,
+                                 seed=seed, solver=solver)
     return status, done, log, time.perf_counter() - t0

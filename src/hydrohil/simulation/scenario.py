@@ -6,6 +6,7 @@ the scenario file's folder.
 
 from __future__ import annotations
 
+import bisect
 import os
 import warnings
 from pathlib import Path
@@ -17,6 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from hydrohil.errors import InputError, InputWarning
 from hydrohil.parameters import Parameters, format_validation_error, load_parameters, read_toml
 from hydrohil.parameters.schema import StrictModel
+from hydrohil.control import ControllerCfg
 from hydrohil.simulation.faults import Fault
 from hydrohil.core import METHODS
 
@@ -62,11 +64,6 @@ class SineInput(StrictModel):
         return self
 
 
-class PControllerCfg(StrictModel):
-    type: Literal["p"]
-    kp: float = Field(gt=0, le=1e5, description="proportional gain [1/m] on the valve command")
-
-
 class TableReference(StrictModel):
     type: Literal["table"]
     t: list[float] = Field(min_length=1, description="times [s], non-decreasing")
@@ -76,6 +73,34 @@ class TableReference(StrictModel):
     def _check(self):
         _check_table(self.t, self.x, "x", -1e3, 1e3)
         return self
+
+    def sampler(self) -> "Table":
+        return Table(self.t, self.x)
+
+    def sample(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """x_ref(t) and its slope at the times t (:class:`Table`)."""
+        return self.sampler()(t)
+
+
+class Table:
+    """A trajectory table sampled as the loop samples it: the value at t linear between the points (constant
+    beyond them), and its slope [per s], the slope of the segment that starts at or before t (0 beyond the
+    ends; at a step, a repeated time, the segment after it). Offline runs sample it at every step at once
+    (``table(t)``), the HIL controller one packet at a time (``table.at(t)``): the same numbers."""
+
+    def __init__(self, t, x):
+        self.t, self.x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
+        self._t_list = self.t.tolist()
+        dt, dx = np.diff(self.t), np.diff(self.x)
+        self.slopes = np.zeros(len(self.t) + 1)     # [i]: the slope after the i-th point (0: before the table)
+        self.slopes[1:-1] = np.where(dt > 0, dx / np.where(dt > 0, dt, 1.0), 0.0)
+
+    def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
+        t = np.asarray(t, dtype=float)
+        return np.interp(t, self.t, self.x), self.slopes[np.searchsorted(self.t, t, side="right")]
+
+    def at(self, t: float) -> tuple[float, float]:
+        return float(np.interp(t, self.t, self.x)), float(self.slopes[bisect.bisect_right(self._t_list, t)])
 
 
 class HilCfg(StrictModel):
@@ -149,7 +174,7 @@ class Scenario(StrictModel):
     overrides: dict[str, Any] = Field(default_factory=dict, description="dotted parameter name -> SI value")
     initial: Initial
     input: TableInput | SineInput | None = Field(None, discriminator="type")
-    controller: PControllerCfg | None = None
+    controller: ControllerCfg | None = Field(None, discriminator="type")
     reference: TableReference | None = None
     hil: HilCfg = HilCfg()
     faults: list[Fault] = Field(default_factory=list, max_length=62, description="[[faults]] entries (faults.py)")
@@ -165,6 +190,8 @@ class Scenario(StrictModel):
             raise ValueError("missing [input] (open loop) or [controller] + [reference] (closed loop)")
         if self.faults and self.solver.method == "reference":
             raise ValueError("[[faults]] need a fixed-step solver (the faults run in the virtual rig, step by step)")
+        if self.python_controller and self.solver.method == "reference":
+            raise ValueError("a Python controller needs a fixed-step solver (it runs in the virtual rig, step by step)")
         for i, f in enumerate(self.faults):
             if f.start >= self.duration:
                 raise ValueError(f"faults[{i}] ({f.type}) starts at {f.start} s, after the end of the run "
@@ -174,6 +201,11 @@ class Scenario(StrictModel):
     @property
     def closed_loop(self) -> bool:
         return self.controller is not None
+
+    @property
+    def python_controller(self) -> bool:
+        """The controller is the user's Python code (runs in a Python loop, not the compiled one)."""
+        return self.controller is not None and self.controller.type == "python"
 
     def n_steps(self) -> int:
         return int(round(self.duration / self.solver.step))
@@ -191,10 +223,14 @@ class Scenario(StrictModel):
             return inp.offset + inp.amplitude * np.sin(2 * np.pi * inp.frequency * t + inp.phase)
         return np.interp(t, inp.t, inp.u)
 
-    def references(self) -> np.ndarray:
-        """Closed-loop position reference at each sample t_k, k = 0..n_steps."""
-        t = np.arange(self.n_steps() + 1) * self.solver.step
-        return np.interp(t, self.reference.t, self.reference.x)
+    def drive(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """What drives the loop at each sample t_k, k = 0..n_steps: (commands, None) in open loop, (references,
+        their slopes) in closed loop."""
+        return self.references() if self.closed_loop else (self.commands(), None)
+
+    def references(self) -> tuple[np.ndarray, np.ndarray]:
+        """Closed-loop position reference [m] and its slope [m/s] at each sample t_k, k = 0..n_steps."""
+        return self.reference.sample(np.arange(self.n_steps() + 1) * self.solver.step)
 
 
 class LoadedScenario(BaseModel):
@@ -202,6 +238,13 @@ class LoadedScenario(BaseModel):
     scenario: Scenario
     params: Parameters
     source: str
+
+    def make_controller(self, h: float | None = None):
+        """A fresh instance of the scenario's controller, sampled every ``h`` (default: solver.step);
+        a Python controller's module is looked up beside the scenario file too."""
+        from hydrohil.control import make_controller
+        return make_controller(self.scenario.controller, self.params, h or self.scenario.solver.step,
+                               base=Path(self.source).parent)
 
 
 def _warn_reference_beyond_stroke(ref: TableReference, stroke: float, path: Path) -> None:

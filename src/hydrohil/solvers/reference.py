@@ -102,13 +102,13 @@ def hh_py_advance(ctx, t, h, alpha, u_old, u_new, y):
     return ffi.from_handle(ctx)(t, h, alpha, u_old, u_new, y)
 
 
-def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, *, u_open=None, kp: float = 0.0,
-                    xref=None, every: int = 1, rtol: float = DEFAULT_RTOL, atol=DEFAULT_ATOL,
+def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, values: np.ndarray, *,
+                    controller=None, slopes=None, seed: int = 0, every: int = 1, rtol: float = DEFAULT_RTOL, atol=DEFAULT_ATOL,
                     progress=None, stats: dict | None = None):
     """Integrate the reference model over n_steps samples of h; returns (status, steps done, log, final y).
 
-    ``u_open`` (n_steps + 1 commands) for open loop, or ``kp`` and ``xref`` (n_steps + 1 positions) for the
-    sampled P loop. The sampled loop is the core's (controller, delay, log); each step is LSODA (Radau
+    ``values``: n_steps + 1 commands (open loop), or positions for the sampled built-in ``controller``
+    (with ``slopes``; pressure noise seeded by ``seed``). The sampled loop is the core's (controller, delay, log); each step is LSODA (Radau
     where LSODA gives up) on the core's right-hand side. ``progress(k)`` is called now and then. Log columns
     as the hybrid loop's (modes read off the state: penetration -> stop, |vp| < 1 mm/s -> stick). ``stats``
     (optional dict) receives ``intervals``, ``radau_fallbacks`` and, on a solver failure, ``failure``
@@ -122,11 +122,10 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, *, u_
     handle = ffi.new_handle(stepper)
     sim._sim.advance = lib.hh_py_advance
     sim._sim.ctx = handle
-    closed = u_open is None
     from scipy.integrate import ODEintWarning
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ODEintWarning)   # LSODA giving up is handled in advance()
-        status, done, log = sim.run(n_steps, every, xref if closed else u_open, kp=kp if closed else None,
+        status, done, log = sim.run(n_steps, every, values, controller=controller, slopes=slopes, seed=seed,
                                     progress=progress)
     if stepper.error is not None:
         raise stepper.error

@@ -30,7 +30,7 @@ int main(int argc, char **argv)
     long n;
     int64_t done, rows;
     int dn, status;
-    hh_drive drive = {HH_DRIVE_OPEN, 0.0, 0, 0, 0};
+    hh_drive drive = {HH_DRIVE_OPEN, 0, 0, 0, 0, 0, 0, 0};
     if (argc != 7) {
         fprintf(stderr, "usage: step_count P.bin U.bin N METHOD H XP0\n");
         return 2;

@@ -125,7 +125,7 @@ int plant_get_integer(plant *pl, unsigned vr, int *v)
     case VR_SPOOL: *v = (int)pl->sim.m[HH_M_SPOOL]; return PLANT_OK;
     case VR_ENCODER:   /* counts of the encoder (sensors.encoder_resolution; 0: ideal, counted in nm) */
         res = pl->par[HH_SENSORS_ENCODER_RESOLUTION];
-        c = hh_encoder_counts(pl->sim.y[HH_XP], res > 0.0 ? res : HH_IDEAL_COUNT);
+        c = hh_encoder_counts(pl->sim.y[HH_XP], hh_count_size(res));
         *v = c > 2147483647.0 ? 2147483647 : c < -2147483647.0 ? -2147483647 : (int)c;
         return PLANT_OK;
     default:

@@ -1149,7 +1149,7 @@ static int plant_init(plant *pl, options *o)
         return -1;
     }
     hh_sim_init(&pl->sim, o->p, HH_MODEL_HYBRID, HH_RK3, o->step, pl->delay_buf, n, alpha);
-    pl->count = res > 0.0 ? res : HH_IDEAL_COUNT;
+    pl->count = hh_count_size(res);
     pl->n = (int64_t)nearbyint(o->duration / o->step);     /* half to even, as Python's round() */
     pl->h_ns = (int64_t)nearbyint(o->step * 1e9);
     pl->spin = o->hil[HIL_WAIT] == HIL_WAIT_SPIN;
