@@ -97,7 +97,7 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
     if sc.scenario.closed_loop:
         from hydrohil.metrics import step_metrics
         summary["step_response"] = step_metrics(res.column("t"), res.column("xp"), extra["x_ref"], res.column("p1"),
-                                                res.column("p2"))
+                                                res.column("p2"), sliding=res.column("friction_mode"))
     write_json(out / "summary.json", summary)
     if plot:
         from hydrohil.plotting import plot_run
@@ -129,6 +129,32 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
     typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']}: wall {s['wall_time_s']:.3f} s, "
                f"real-time factor {s['realtime_factor']:.0f}; final xp = {s['final_state']['xp'] * 1e3:.3f} mm; "
                f"wrote {out}/{written}")
+
+
+@app.command("compare")
+def compare_cmd(runs: list[Path] = typer.Argument(..., help="scenario TOMLs (simulated) or run folders of "
+                                                 "`hydrohil simulate`"),
+                out: Path = typer.Option(Path("hydrohil-compare"), "--out", help="output folder"),
+                labels: Optional[str] = typer.Option(None, help="comma-separated labels, one per run"),
+                title: str = typer.Option("", help="figure title"),
+                params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path) for "
+                                                     "the scenarios"),
+                sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable)")):
+    """Overlay closed-loop runs (e.g. one scenario under several controllers): compare.png, and each run's
+    step-response metrics in compare.json and on the terminal."""
+    from hydrohil.compare import compare
+    from hydrohil.metrics import metrics_lines
+    try:
+        result = compare(runs, out, labels=labels.split(",") if labels else None, params=params,
+                         sets=_parse_sets(sets), title=title)
+    except HydrohilError as exc:
+        _fail(exc)
+    for r in result:
+        typer.echo(f"{r.label}: RMS error {r.metrics['rms_error'] * 1e3:.3f} mm, max |error| "
+                   f"{r.metrics['max_abs_error'] * 1e3:.3f} mm, {r.metrics['breakaways']} breakaways")
+        for line in metrics_lines(r.metrics):
+            typer.echo("  " + line)
+    typer.echo(f"wrote {out}/compare.png, compare.json")
 
 
 @app.command("maxstep")

@@ -11,7 +11,8 @@ the previous hold ended (a step, or a ramp). Per move, over [move start, hold en
 - ``steady_state_error``: hold value − mean position over the last 10 % of the hold [m].
 
 None where a move never gets there (e.g. it does not settle before the hold ends). Whole-run figures: RMS
-and largest |error|, and the largest chamber pressures.
+and largest |error|, the largest chamber pressures, and the friction's breakaways (stick-to-slip
+transitions: a smooth move has one, stick-slip hunting hundreds).
 """
 
 from __future__ import annotations
@@ -39,9 +40,10 @@ def _first_crossing(t, x, level, rising):
     return float(t[hit[0]]) if hit.size else None
 
 
-def step_metrics(t, x, x_ref, p1=None, p2=None, *, band: float = 0.02, min_band: float = 2e-6,
+def step_metrics(t, x, x_ref, p1=None, p2=None, *, sliding=None, band: float = 0.02, min_band: float = 2e-6,
                  min_hold: float = 0.05) -> dict:
-    """Metrics of the position ``x`` following ``x_ref`` (samples at times ``t``; module docstring)."""
+    """Metrics of the position ``x`` following ``x_ref`` (samples at times ``t``; module docstring).
+    ``sliding`` (non-zero while the friction slips) adds ``breakaways``, the stick-to-slip transitions."""
     t, x, x_ref = (np.asarray(a, dtype=float) for a in (t, x, x_ref))
     moves = []
     prev_end, prev_val = 0, float(x[0])
@@ -78,6 +80,9 @@ def step_metrics(t, x, x_ref, p1=None, p2=None, *, band: float = 0.02, min_band:
         out["max_p1"] = float(np.max(p1))
     if p2 is not None:
         out["max_p2"] = float(np.max(p2))
+    if sliding is not None:
+        s = np.asarray(sliding) != 0
+        out["breakaways"] = int(np.count_nonzero(s[1:] & ~s[:-1]))
     return out
 
 

@@ -215,3 +215,33 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
     _finish(fig, path, [ax[i] for i in (0, 1, 2, 3, 7)],
             ("position [mm]", "tracking\nerror [mm]", "HIL − offline\n[mm]", "pressure [bar]", "jitter [µs]"), title,
             banner=top)
+
+
+def plot_compare(path: Path, runs, *, title: str = "") -> None:
+    """Runs overlaid (``runs``: :class:`hydrohil.compare.Run`): position and reference, position error,
+    piston velocity, valve command, chamber pressures (P1 solid, P2 dashed); per run its metrics in the
+    first axis."""
+    fig, ax, _ = _stack([3, 2, 2, 2, 2.5], (10, 12))
+    ref = runs[0].data
+    ax[0].plot(ref["t"], ref["x_ref"] * 1e3, "k--", lw=1, label="reference")
+    lines = []
+    for i, r in enumerate(runs):
+        d, c = r.data, f"C{i}"
+        ax[0].plot(d["t"], d["xp"] * 1e3, color=c, lw=1.2, label=r.label)
+        ax[1].plot(d["t"], (d["x_ref"] - d["xp"]) * 1e3, color=c, lw=1, label=r.label)
+        ax[2].plot(d["t"], d["vp"] * 1e3, color=c, lw=1, label=r.label)
+        ax[3].plot(d["t"], d["u"], color=c, lw=1, label=r.label)
+        ax[4].plot(d["t"], d["p1"] / 1e5, color=c, lw=1, label=f"P1 {r.label}")
+        ax[4].plot(d["t"], d["p2"] / 1e5, color=c, lw=1, ls="--", label=f"P2 {r.label}")
+        m = r.metrics
+        ess = max((abs(mv["steady_state_error"]) for mv in m["moves"]), default=float("nan"))
+        os_ = max((mv["overshoot_pct"] for mv in m["moves"]), default=float("nan"))
+        lines.append(f"{r.label}: RMS e {m['rms_error'] * 1e3:.2f} mm, |e_ss| ≤ {ess * 1e6:.1f} µm, OS ≤ {os_:.1f} %"
+                     + (f", {m['breakaways']} breakaways" if "breakaways" in m else ""))
+    ax[1].axhline(0, color="k", lw=0.5)
+    from matplotlib.lines import Line2D
+    box = ax[0].legend([Line2D([], [], lw=0)] * len(lines), lines, loc="best", handlelength=0, handletextpad=0,
+                       prop={"family": "monospace", "size": 7}, framealpha=0.85)
+    ax[0].add_artist(box)
+    _finish(fig, path, ax, ("position [mm]", "error x_ref − x [mm]", "velocity [mm/s]", "command ū [-]",
+                            "pressure [bar]"), title)

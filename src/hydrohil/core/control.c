@@ -40,7 +40,7 @@ double hh_controller_update(const hh_controller *c, hh_controller_state *s, doub
     u = hh_clamp(u_star, c->u_min, c->u_max);
     if (c->ki != 0.0) {
         if (c->antiwindup == HH_AW_BACK_CALCULATION)
-            s->integral += c->ki * c->h * e + c->h / c->tt * (u - u_star);
+            s->integral += c->ki * c->h * e + c->h / hh_max(c->tt, c->h) * (u - u_star);
         else if (u == u_star || (u_star > u) != (e > 0.0))     /* clamp: never integrate further into a limit */
             s->integral += c->ki * c->h * e;
     }

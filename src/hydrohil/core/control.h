@@ -12,7 +12,8 @@
  *   u  = clamp(u*, u_min, u_max)                            the normalised valve command ū
  *   I += ki*h*e                                  (anti-windup 'clamp': not while u* is beyond a limit the
  *                                                 error pushes towards)
- *   I += ki*h*e + (h/tt)*(u - u*)                (anti-windup 'back_calculation', tracking time tt [s])
+ *   I += ki*h*e + (h/tt)*(u - u*)                (anti-windup 'back_calculation', tracking time tt [s];
+ *                                                 a tt below h acts as h: the correction never overshoots)
  *
  * Units: kp ū/m, ki ū/(m·s), kd ū/(m/s), kff ū/(m/s), kpl ū/Pa, e_db m, tf/tt/tpl s. P: kp only (the
  * paper's §4 law, u = clamp(kp*e, -1, 1)); PI: + ki; PID: + kd, tf (derivative on the measurement, no kick
