@@ -208,23 +208,74 @@ def params_list():
         typer.echo(n)
 
 
-@app.command("linear")
-def linear_cmd(params: str = typer.Option("ferreira2004", help="built-in name or TOML path"),
-               sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), e.g. "
-                                              "--set supply.ps=1.2e7")):
-    """Linearised model (eq 18-20): equilibrium pressures, eigenvalues, natural frequency, damping."""
-    from hydrohil.models.linear import linear_model
+def linear(params: Optional[str] = None, sets: Optional[dict] = None, scenario: Optional[Path] = None,
+           xp: Optional[float] = None, xs: Optional[float] = None, ps: Optional[float] = None,
+           load: Optional[float] = None, friction: bool = True, out: Optional[Path] = None) -> list:
+    """The plant linearised at rest (``hydrohil.linear``): at ``xp`` (default ``linear.xp0``), or at each hold
+    of ``scenario``'s reference (its parameters, with ``params``/``sets`` applied). Writes ``out`` when given."""
+    import numpy as np
+    from hydrohil.linear import linearise, save
     from hydrohil.parameters import load_parameters
+    if scenario is not None:
+        from hydrohil.metrics import holds
+        from hydrohil.simulation.scenario import load_scenario
+        sc = load_scenario(scenario, params=params, sets=sets)
+        s, pset = sc.scenario, sc.params
+        if xp is not None:
+            points = [xp]
+        elif s.closed_loop:
+            t = np.arange(s.n_steps() + 1) * s.solver.step
+            x_ref = s.references()[0]
+            points = list(dict.fromkeys(float(x_ref[i]) for i, _ in holds(t, x_ref)))
+        else:
+            points = [s.initial.xp]
+    else:
+        pset = load_parameters(params or "ferreira2004", sets)
+        points = [xp]
+    models = [linearise(pset, x, xs=xs, ps=ps, load=load, friction=friction) for x in points]
+    if out is not None:
+        save(models, out)
+    return models
+
+
+@app.command("linear")
+def linear_cmd(params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path); "
+                                                    "default the paper's, or the scenario's"),
+               sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable)"),
+               scenario: Optional[Path] = typer.Option(None, "--scenario", help="operating points at the holds of "
+                                                       "this scenario's reference, with its parameters"),
+               xp: Optional[float] = typer.Option(None, "--xp", help="piston position [m] (default linear.xp0)"),
+               xs: Optional[float] = typer.Option(None, "--xs", help="force the spool offset [-] (default: the "
+                                                  "equilibrium's)"),
+               ps: Optional[float] = typer.Option(None, "--ps", help="supply pressure [Pa]"),
+               load: Optional[float] = typer.Option(None, "--load", help="external load force F_L [N] "
+                                                    "(against +x)"),
+               friction: bool = typer.Option(True, help="friction's local viscous slope in the model"),
+               as_json: bool = typer.Option(False, "--json", help="print JSON (every matrix)"),
+               out: Optional[Path] = typer.Option(None, "--out", help="write the model(s): .npz, .mat or .json")):
+    """The plant linearised at rest: equilibrium spool offset and pressures, A/B/C/D, eigenvalues,
+    hydraulic natural frequency and damping, checked against the closed form."""
     try:
-        lm = linear_model(load_parameters(params, _parse_sets(sets)))
+        models = linear(params, _parse_sets(sets), scenario, xp, xs, ps, load, friction, out)
     except HydrohilError as exc:
         _fail(exc)
-    ev = lm.eigenvalues
-    typer.echo(json.dumps({"p10_pa": lm.p10, "p20_pa": lm.p20,
-                           "eigenvalues": [[float(e.real), float(e.imag)] for e in ev],
-                           "natural_frequency_rad_s": lm.natural_frequency,
-                           "natural_frequency_hz": lm.natural_frequency / (2 * 3.141592653589793),
-                           "damping": lm.damping, "A": lm.A.tolist(), "B": lm.B.tolist()}, indent=2))
+    if as_json:
+        typer.echo(json.dumps([m.to_dict() for m in models] if len(models) > 1 else models[0].to_dict(), indent=2))
+        return
+    for m in models:
+        pt, c = m.point, m.coefficients
+        typer.echo(f"xp = {pt.xp * 1e3:.1f} mm, Ps = {pt.ps / 1e5:.0f} bar, F_L = {pt.load:g} N: spool offset "
+                   f"xs0 = {pt.xs:+.5f}, P1 = {pt.p1 / 1e5:.2f} bar, P2 = {pt.p2 / 1e5:.2f} bar")
+        typer.echo(f"  beta1 = {c['beta1'] / 1e6:.0f} MPa, beta2 = {c['beta2'] / 1e6:.0f} MPa, V1 = {c['V1'] * 1e6:.1f} "
+                   f"cm³, V2 = {c['V2'] * 1e6:.1f} cm³, Kq1 = {c['Kq1']:.3g}, Kq2 = {c['Kq2']:.3g} m³/s, "
+                   f"Kc1 = {c['Kc1']:.3g}, Kc2 = {c['Kc2']:.3g} m³/(s·Pa)")
+        typer.echo(f"  hydraulic natural frequency {m.natural_frequency:.1f} rad/s ({m.natural_frequency / 2 / 3.141592653589793:.1f} "
+                   f"Hz), damping {m.damping:.4f} (friction slope {m.friction_slope:g} N·s/m); closed form "
+                   f"√((β1A1²/V1 + β2A2²/V2)/M) = {m.closed_form_frequency:.1f} rad/s; valve delay "
+                   f"{m.delay * 1e3:.3g} ms")
+        typer.echo("  eigenvalues: " + ", ".join(f"{e.real:.4g}{e.imag:+.4g}j" for e in m.eigenvalues))
+    if out is not None:
+        typer.echo(f"wrote {out}")
 
 
 export_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,

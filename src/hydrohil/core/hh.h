@@ -202,6 +202,15 @@ int64_t hh_count_to_int(double counts);     /* NaN -> 0, saturated at +-2^62 */
 double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, double h, double timeout, int hold,
                            double hold_kp, double xp);
 
+/* ---- the plant linearised at rest (linear.c) ------------------------------------------------ */
+/* Net valve flows into the chambers [m^3/s] (SPEC §3.2, no leakage): q1 = q_s1 - q_1t, q2 = q_s2 - q_2t. */
+void hh_valve_flows(const double *p, double xs, double p1, double p2, double *q1, double *q2);
+/* A[6*6], B[6*2] (row-major) of state [xs, vs, p1, p2, vp, xp], inputs [ū, F_L] at the operating point
+ * (xs, p1, p2, xp, vp = 0) with friction slope dFf/dvp [N.s/m]; coef[8] = beta1, beta2, V1, V2, Kq1, Kq2,
+ * Kc1, Kc2 (linear.c). */
+void hh_linearise(const double *p, double xs, double p1, double p2, double xp, double friction_slope, double *A,
+                  double *B, double *coef);
+
 /* ---- steady-state sine response of the spool (spool_bode.c) --------------------------------- */
 /* Periodic when a half period ends where it began (sign flipped) within this, relative to the output amplitude. */
 extern const double hh_spool_steady_tol;

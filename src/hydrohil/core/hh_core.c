@@ -13,6 +13,7 @@
 #include "rig.c"
 #include "params.c"
 #include "spool_bode.c"
+#include "linear.c"
 
 double hh_orifice_flow(double area, double dp, double dp_t) { return orifice_flow(area, dp, dp_t); }
 double hh_orifice_slope(double area, double dp, double dp_t) { return orifice_slope(area, dp, dp_t); }

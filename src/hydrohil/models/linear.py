@@ -1,4 +1,6 @@
-"""Linearised valve + cylinder model around X_p0 (eq 18-20, SPEC §7)."""
+"""The paper's linearised valve + cylinder model around X_p0 (eq 18-20, SPEC §7): constant bulk moduli and the
+datasheet's gains, as the paper uses it for the bulk-modulus identification (§9.3) and Fig 7. The plant
+linearised anywhere, by exact derivatives of the model itself, is :mod:`hydrohil.linear`."""
 
 from __future__ import annotations
 
@@ -56,11 +58,6 @@ class LinearModel:
             x = np.linalg.solve(1j * wi * np.eye(4) - self.A, self.B[:, 0])
             out[i] = abs(1j * wi * x[2])
         return out
-
-    def to_control(self):
-        """A python-control ``StateSpace`` (requires the optional package ``control``)."""
-        import control  # optional dependency
-        return control.ss(self.A, self.B, self.C, self.D)
 
 
 def linear_model(params: Parameters, *, beta1: float | None = None, beta2: float | None = None,
