@@ -18,7 +18,20 @@ FIGURES = {
                               ["P", "P + pressure feedback"], "Fig 12: P and P + dynamic load-pressure feedback"),
 }
 
+def freqresp_figures():
+    from hydrohil.freqresp import freqresp
+    from hydrohil.simulation.scenario import load_scenario
+    sc = load_scenario(EX / "fig11_p_control.toml")
+    for name, kw in (("freqresp_fig11.png", {}), ("freqresp_fig11_large.png", dict(amplitude=0.02, u_amplitude=0.3,
+                                                                                   points=10))):
+        with tempfile.TemporaryDirectory() as tmp:
+            freqresp(sc, Path(tmp), **kw)
+            shutil.copy(Path(tmp) / "bode.png", HERE / name)
+        print("wrote", HERE / name)
+
+
 if __name__ == "__main__":
+    freqresp_figures()
     for name, (runs, labels, title) in FIGURES.items():
         with tempfile.TemporaryDirectory() as tmp:
             compare(runs, Path(tmp), labels=labels, title=title)

@@ -245,3 +245,39 @@ def plot_compare(path: Path, runs, *, title: str = "") -> None:
     ax[0].add_artist(box)
     _finish(fig, path, ax, ("position [mm]", "error x_ref − x [mm]", "velocity [mm/s]", "command ū [-]",
                             "pressure [bar]"), title)
+
+
+def plot_bode(path: Path, by_loop: dict, *, title: str = "") -> None:
+    """Bode plots, one column per loop (``by_loop``: loop -> (points of :mod:`hydrohil.freqresp`, frequencies
+    and the linear prediction there, or None)): the nonlinear model's stepped sines as markers (hollow: not
+    converged), the linear model as a line."""
+    loops = list(by_loop)
+    fig, ax = plt.subplots(2, len(loops), figsize=(6 * len(loops), 7), sharex="col", squeeze=False)
+    names = {"closed": "closed loop x / x_ref", "open": "open loop x / ū [m per unit ū]"}
+    for j, loop in enumerate(loops):
+        pts, f_lin, lin = by_loop[loop]
+        f = np.array([p.freq for p in pts])
+        g = np.array([p.gain for p in pts])
+        ok = np.array([p.converged for p in pts])
+        from hydrohil.freqresp import phase_deg
+        db, ph = 20 * np.log10(np.abs(g)), phase_deg(g)
+        if lin is not None:
+            ax[0, j].semilogx(f_lin, 20 * np.log10(np.abs(lin)), "-", color="k", lw=1.2, label="linear model")
+            ax[1, j].semilogx(f_lin, phase_deg(lin), "-", color="k", lw=1.2, label="linear model")
+        for a, v in ((ax[0, j], db), (ax[1, j], ph)):
+            a.semilogx(f[ok], v[ok], "o", color="C0", ms=5, label="nonlinear model (stepped sines)")
+            if (~ok).any():
+                a.semilogx(f[~ok], v[~ok], "o", mfc="none", color="C3", ms=5, label="not converged")
+            a.grid(alpha=0.3, which="both")
+        if loop == "closed":
+            ax[0, j].axhline(-3, color="0.5", ls=":", lw=1, label="−3 dB")
+        ax[0, j].set_title(names.get(loop, loop))
+        ax[0, j].set_ylabel("gain [dB]")
+        ax[1, j].set_ylabel("phase [deg]")
+        ax[1, j].set_xlabel("frequency [Hz]")
+        ax[0, j].legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,210 @@
+"""``hydrohil freqresp``: frequency responses of the nonlinear model by stepped sines, beside the linear
+model's prediction (README "Frequency responses").
+
+Per frequency f one run of the compiled loop (the scenario's parameters, step and built-in controller):
+
+- closed loop, x/x_ref: the reference x0 + A·sin(2πft) (slope included for feed-forward) around the
+  scenario's initial position x0;
+- open loop, x/ū: the command xs0 + a·sin(2πft) around the equilibrium spool offset xs0 (``linear``), the
+  piston starting at mid-stroke; the position integrates the velocity and drifts with any asymmetry, so
+  the gain is measured on the velocity, x/ū = (vp/ū)/(j2πf).
+
+Gain and phase are the fundamental's (projection on sin/cos over whole periods) in the run's last period.
+Periodic steady state is checked as the spool identification does: the last two periods' fundamentals
+must agree within ``tol`` (relative, amplitude; the phase within tol rad); the run is doubled until they do
+(or the point is reported unconverged). The points run in parallel threads (the core releases the GIL).
+
+The linear prediction is :mod:`hydrohil.linear` at x0 with the controller's sampled law in z = e^{jωh},
+the zero-order hold (1 − e^{−jωh})/(jωh) and the valve's delay.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hydrohil.errors import InputError
+from hydrohil.models.layout import pack
+from hydrohil.simulation.loop import STATUS_OK, Sim, initial_state
+
+MAX_STEPS = 4_000_000        # per point: 2000 s of plant time at 0.5 ms
+
+
+@dataclass
+class Point:
+    freq: float
+    gain: complex                  # output per input (x/x_ref, or x/ū)
+    periods: int
+    residual: float
+    converged: bool
+    note: str = ""
+
+
+def phase_deg(g) -> np.ndarray:
+    """Phase [deg] of the complex gains, unwrapped along the finite ones (NaN stays NaN)."""
+    g = np.asarray(g, dtype=complex)
+    out = np.full(g.shape, np.nan)
+    ok = np.isfinite(g)
+    out[ok] = np.degrees(np.unwrap(np.angle(g[ok])))
+    return out
+
+
+def _fundamental(t, y, f):
+    w = 2 * np.pi * f
+    return 2 * np.mean(y * np.exp(-1j * w * t))
+
+
+def _periods(log, f, h, col):
+    t, y = log[:, 0], log[:, col]
+    k = int(round(1 / (f * h)))          # samples per period (the grid is exact when 1/(f h) is whole)
+    last = y[-k:] - y[-k:].mean(), y[-2 * k:-k] - y[-2 * k:-k].mean()
+    return _fundamental(t[-k:], last[0], f), _fundamental(t[-2 * k:-k], last[1], f)
+
+
+def point(sc, f: float, *, loop: str, amplitude: float, tol: float = 1e-3, min_periods: int = 6) -> Point:
+    """One stepped-sine point (module docstring)."""
+    s, params = sc.scenario, sc.params
+    h = s.solver.step
+    p = pack(params)
+    f = 1.0 / (round(1.0 / (f * h)) * h)          # a whole number of steps per period
+    w = 2 * np.pi * f
+    periods = max(min_periods, int(math.ceil(0.5 * f)) * 2)       # at least ~2 s of settling
+    if loop == "closed":
+        x0 = s.initial.xp
+    else:
+        from hydrohil.linear import equilibrium
+        x0 = 0.5 * params.cylinder.stroke
+        u0 = equilibrium(params, x0).xs
+    while True:
+        n = int(round(periods / (f * h)))
+        if n > MAX_STEPS:
+            return Point(f, complex("nan"), periods // 2, float("nan"), False, "did not converge")
+        t = np.arange(n + 1) * h
+        y, m = initial_state(params, x0, xs=0.0 if loop == "closed" else u0, p=p)
+        sim = Sim(p, h, solver=s.solver.method)
+        sim.set_state(y, m)
+        if loop == "closed":
+            status, _, log = sim.run(n, 1, x0 + amplitude * np.sin(w * t), slopes=amplitude * w * np.cos(w * t),
+                                     controller=sc.make_controller(), seed=s.hil.seed)
+            a, b = _periods(log, f, h, 7)
+            ref = -1j * amplitude          # the fundamental of A sin(wt) as _fundamental measures it
+        else:
+            status, _, log = sim.run(n, 1, u0 + amplitude * np.sin(w * t))
+            a, b = _periods(log, f, h, 8)                    # velocity
+            a, b = a / (1j * w), b / (1j * w)
+            ref = -1j * amplitude
+        if status != STATUS_OK:
+            return Point(f, complex("nan"), periods, float("nan"), False, "diverged")
+        travel = log[-int(round(2 / (f * h))):, 11]
+        if np.any(travel != 0):
+            return Point(f, complex("nan"), periods, float("nan"), False, "reached an end stop")
+        res = abs(a - b) / max(abs(a), 1e-300)
+        if res < tol:
+            return Point(f, a / ref, periods, float(res), True)
+        periods *= 2
+
+
+def linear_prediction(sc, freqs, loop: str) -> np.ndarray | None:
+    """The linear model's gain at ``freqs`` (module docstring); None for a Python controller."""
+    from hydrohil.linear import OUTPUTS, linearise
+    s, params = sc.scenario, sc.params
+    h = s.solver.step
+    x0 = s.initial.xp if loop == "closed" else 0.5 * params.cylinder.stroke
+    lp = linearise(params, x0)
+    f = np.asarray(freqs, dtype=float)
+    w = 2 * np.pi * f
+    zoh = (1 - np.exp(-1j * w * h)) / (1j * w * h)
+    g = lp.outputs_per_command(f) * zoh[:, None]         # (xp, vp, p1, p2) per unit ū
+    if loop == "open":
+        return g[:, OUTPUTS.index("xp")]
+    c = s.controller
+    if c.type == "python":
+        return None
+    zi = np.exp(-1j * w * h)                              # z^-1
+    kp, ki, kd = c.kp, getattr(c, "ki", 0.0), getattr(c, "kd", 0.0)
+    tf, kff, kpl, tpl = getattr(c, "tf", 2e-3), getattr(c, "kff", 0.0), getattr(c, "kpl", 0.0), getattr(c, "tpl", 0.0)
+    integ = ki * h * zi / (1 - zi)                         # I_k = I_{k-1} + ki h e_{k-1}
+    vel = (1 - zi) / ((tf + h) - tf * zi)
+    a = tpl / (tpl + h) if tpl > 0 else None
+    hp = a * (1 - zi) / (1 - a * zi) if a is not None else 1.0
+    ratio = params.cylinder.a2 / params.cylinder.a1
+    gx, gpl = g[:, 0], g[:, 2] - ratio * g[:, 3]
+    u_per_r = (kp + integ + kff * 1j * w) / (1 + (kp + integ + kd * vel) * gx + kpl * hp * gpl)
+    return gx * u_per_r
+
+
+def freqresp(sc, out: Path, *, fmin: float = 0.5, fmax: float = 50.0, points: int = 15, amplitude: float = 1e-3,
+             u_amplitude: float = 0.02, loops=("closed", "open"), workers: int | None = None, progress=None) -> dict:
+    """Stepped-sine responses of the loaded scenario ``sc``: ``out/freqresp.csv``, ``bode.png``,
+    ``freqresp.json``. Returns the summary."""
+    s = sc.scenario
+    if "closed" in loops and not s.closed_loop:
+        raise InputError("the closed-loop response needs a [controller] + [reference] scenario", source=sc.source)
+    if s.closed_loop and s.controller.type == "python":
+        raise InputError("freqresp runs built-in controllers in the compiled loop (p, pi, pid, p_ff, "
+                         "state_feedback)", source=sc.source, key="controller.type")
+    if not 0 < fmin < fmax:
+        raise InputError(f"need 0 < fmin < fmax, got {fmin}, {fmax}", source="--fmin/--fmax")
+    if fmax > 0.25 / s.solver.step:
+        raise InputError(f"fmax {fmax:g} Hz is above a quarter of the sample rate ({0.25 / s.solver.step:g} Hz)",
+                         source="--fmax")
+    freqs = np.geomspace(fmin, fmax, points)
+    jobs = [(loop, f) for loop in loops for f in freqs]
+    amp = {"closed": amplitude, "open": u_amplitude}
+    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
+        futures = [pool.submit(point, sc, f, loop=loop, amplitude=amp[loop]) for loop, f in jobs]
+        results = []
+        for fut in futures:
+            results.append(fut.result())
+            if progress is not None:
+                progress(len(results), len(jobs))
+    out.mkdir(parents=True, exist_ok=True)
+    rows, summary = [], {"scenario": sc.source, "amplitude_m": amplitude, "u_amplitude": u_amplitude, "loops": {}}
+    by_loop = {}
+    for loop in loops:
+        pts = [r for (lp_, _), r in zip(jobs, results) if lp_ == loop]
+        fr = np.array([r.freq for r in pts])
+        lin = linear_prediction(sc, fr, loop)
+        dense = np.geomspace(fmin, fmax, 200)
+        by_loop[loop] = (pts, dense, linear_prediction(sc, dense, loop))
+        g = np.array([r.gain for r in pts])
+        db = 20 * np.log10(np.abs(g))
+        ph = phase_deg(g)
+        ldb = 20 * np.log10(np.abs(lin)) if lin is not None else np.full(len(pts), np.nan)
+        lph = phase_deg(lin) if lin is not None else np.full(len(pts), np.nan)
+        for r, a, b, c, d in zip(pts, db, ph, ldb, lph):
+            rows.append((loop, r.freq, a, b, c, d, r.periods, r.residual, int(r.converged), r.note))
+        info = {"points": len(pts), "unconverged": int(sum(not r.converged for r in pts))}
+        if loop == "closed":
+            below = np.nonzero(db < -3.0)[0]
+            bw = None
+            if below.size and below[0] > 0:       # the -3 dB crossing, linear in dB over log frequency
+                i = below[0]
+                r = (db[i - 1] + 3.0) / (db[i - 1] - db[i])
+                bw = float(np.exp(np.log(fr[i - 1]) + r * (np.log(fr[i]) - np.log(fr[i - 1]))))
+            elif below.size:
+                bw = float(fr[0])
+            info["bandwidth_hz"] = bw
+            if lin is not None:
+                sel = fr <= bw if bw is not None else np.ones(len(fr), bool)
+                info["max_gain_gap_db_below_bandwidth"] = float(np.nanmax(np.abs(db - ldb)[sel]))
+                info["max_phase_gap_deg_below_bandwidth"] = float(np.nanmax(np.abs(ph - lph)[sel]))
+        elif lin is not None:
+            info["max_gain_gap_db"] = float(np.nanmax(np.abs(db - ldb)))
+            info["max_phase_gap_deg"] = float(np.nanmax(np.abs(ph - lph)))
+        summary["loops"][loop] = info
+    with (out / "freqresp.csv").open("w") as fh:
+        fh.write("loop,freq_hz,gain_db,phase_deg,linear_gain_db,linear_phase_deg,periods,residual,converged,note\n")
+        for r in rows:
+            fh.write(",".join(repr(float(v)) if isinstance(v, (float, np.floating)) else str(v) for v in r) + "\n")
+    from hydrohil.plotting import plot_bode
+    from hydrohil.simulation.outputs import write_json
+    plot_bode(out / "bode.png", by_loop, title=f"{Path(sc.source).name}: stepped sines, closed-loop ±{amplitude * 1e3:g} mm, "
+              f"open-loop ±{u_amplitude:g} ū")
+    write_json(out / "freqresp.json", summary)
+    return summary
