@@ -286,3 +286,6 @@ def test_lockstep_hil_equals_offline_exactly(tmp_path, name, plant, noisy):
     for c in ("xp", "p1", "p2", "xs"):
         assert np.array_equal(log[c], off.column(c)), c
     assert np.array_equal(log["u"][1:], off.column("u")[:-1])     # the plant logs a command with the state it made
+    cmp = json.loads((tmp_path / "out" / "comparison.json").read_text())
+    assert cmp["step_response_hil"] == cmp["step_response_offline"]
+    assert len(cmp["step_response_hil"]["moves"]) == (1 if name.startswith("fig12") else 0)   # holds within 1 s

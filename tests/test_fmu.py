@@ -115,7 +115,6 @@ def test_reproduces_simulate(fmu, name, tmp_path):
 
 
 def test_two_instances_are_independent(fmu):
-    sc = load_scenario(EXAMPLES / "fig11_p_control.toml")
     a, b = Fmu(*fmu, name="a"), Fmu(*fmu, name="b")
     a.init(xp0=0.03)
     b.init(xp0=0.03)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hydrohil.models.cylinder import P_MIN
-from hydrohil.models.layout import (MAX_EVENTS, AT_EXTEND, AT_RETRACT, FREE, P1, SPOOL_ACC_LIMITED,
+from hydrohil.models.layout import (MAX_EVENTS, AT_RETRACT, FREE, SPOOL_ACC_LIMITED,
                                     SPOOL_AT_END, SPOOL_LINEAR, SPOOL_VEL_LIMITED, VP, VS, XP, XS)
 from hydrohil.models.valve import orifice_flow, orifice_slope
 from hydrohil.parameters import load_parameters

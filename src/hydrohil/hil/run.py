@@ -184,6 +184,11 @@ def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: di
            "p1_rms_bar": float(np.sqrt(np.mean((hil["p1"][:n] - res.column("p1")[:n]) ** 2)) / 1e5),
            "hil_tracking_rms_mm": float(np.sqrt(np.mean((hil["xp"][:n] - ref) ** 2)) * 1e3),
            "offline_tracking_rms_mm": float(np.sqrt(np.mean((res.column("xp")[:n] - ref) ** 2)) * 1e3)}
+    from hydrohil.metrics import step_metrics
+    t = hil["t"][:n]
+    cmp["step_response_hil"] = step_metrics(t, hil["xp"][:n], ref, hil["p1"][:n], hil["p2"][:n])
+    cmp["step_response_offline"] = step_metrics(t, res.column("xp")[:n], ref, res.column("p1")[:n],
+                                                res.column("p2")[:n])
     from hydrohil.simulation.faults import PARAMETER
     if len(hil["u"]) and not any(f.type in PARAMETER for f in sc.scenario.faults):   # the model is the set's
         cmp["replay_xp_max_abs_m"] = float(np.max(np.abs(replay_commands(sc, hil) - hil["xp"])))

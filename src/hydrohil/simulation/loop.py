@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from hydrohil.core import dptr, ffi, iptr, lib, method_code, view
-from hydrohil.models.layout import NM, NY, XS, pack
+from hydrohil.models.layout import NM, NY, pack
 from hydrohil.parameters import Parameters
 
 LOG_COLUMNS = ("t", "u", "ud", "xs", "vs", "p1", "p2", "xp", "vp", "z", "ff", "travel_mode", "friction_mode",
