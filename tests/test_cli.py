@@ -177,8 +177,8 @@ def test_hil_records_the_scenario_as_run_and_matches_offline_with_the_same_set(t
 
 
 def test_maxstep_and_linear_take_parameters(tmp_path):
-    a = json.loads(hh("linear").stdout)
-    b = json.loads(hh("linear", "--set", "supply.ps=1.2e7").stdout)
-    assert b["p10_pa"] > a["p10_pa"] * 1.5                    # the equilibrium pressures scale with the supply
+    a = json.loads(hh("linear", "--json").stdout)["operating_point"]
+    b = json.loads(hh("linear", "--json", "--set", "supply.ps=1.2e7").stdout)["operating_point"]
+    assert b["p1"] > a["p1"] * 1.5 and b["ps"] == 1.2e7       # the equilibrium pressures scale with the supply
     r = hh("maxstep", EXAMPLES / "maxstep_endstop.toml", "--duration", "0.3", "--set", "load.mass=-1")
     assert r.returncode == 2 and "--set: load.mass: must be > 0" in r.stderr

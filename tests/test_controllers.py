@@ -289,3 +289,13 @@ def test_lockstep_hil_equals_offline_exactly(tmp_path, name, plant, noisy):
     cmp = json.loads((tmp_path / "out" / "comparison.json").read_text())
     assert cmp["step_response_hil"] == cmp["step_response_offline"]
     assert len(cmp["step_response_hil"]["moves"]) == (1 if name.startswith("fig12") else 0)   # holds within 1 s
+
+
+def test_python_controller_found_when_the_run_folder_holds_the_scenario(tmp_path):
+    # with --set, hil writes the scenario into the run folder and both processes read it from there: the
+    # controller's file must still be found (its path is made absolute)
+    scen = _scenario_file(tmp_path, CONTROLLERS / "fig11_python_pi.toml", 0.2)
+    r = hh("hil", scen, "--out", tmp_path / "out", "--lockstep", "--set", "load.mass=90", timeout=600)
+    assert r.returncode == 0, r.stderr
+    ran = (tmp_path / "out" / "scenario.toml").read_text()
+    assert f'callable = "{(tmp_path / "pi.py").resolve()}:PI"' in ran

@@ -274,7 +274,25 @@ def scenario_data(path: str | Path, *, params: str | Path | None = None, sets: d
             data["params"] = str((path.parent / p).resolve())
     if sets:
         data["overrides"] = {**(data.get("overrides") or {}), **sets}
+    ctl = data.get("controller")
+    if isinstance(ctl, dict) and ctl.get("type") == "python" and isinstance(ctl.get("callable"), str):
+        ctl["callable"] = _absolute_callable(ctl["callable"], path.parent)
     return data
+
+
+def _absolute_callable(spec: str, base: Path) -> str:
+    """A Python controller's ``file.py:name`` (or a ``module:name`` found as a file beside the scenario) with
+    an absolute path, so that the scenario reads the same from another folder (a run folder)."""
+    mod, sep, attr = spec.rpartition(":")
+    if not sep:
+        return spec
+    if mod.endswith(".py"):
+        path = Path(mod)
+    else:
+        path = Path(*mod.split(".")).with_suffix(".py")
+        if not (base / path).is_file():
+            return spec                 # an installed module: found on the path wherever the scenario is
+    return spec if path.is_absolute() else f"{(base / path).resolve()}:{attr}"
 
 
 def write_scenario(path: str | Path, dest: str | Path, *, params: str | Path | None = None,
