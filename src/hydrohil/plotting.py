@@ -175,10 +175,12 @@ def _jitter_panel(ax, t, jitter_us) -> None:
     ax.set_ylim(floor / 2, max(top, h_us or 0) * 2)
 
 
-def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: dict | None = None) -> None:
+def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: dict | None = None,
+             metrics: dict | None = None) -> None:
     """HIL report: reference vs HIL vs offline position, tracking error, HIL − offline, pressures, plant
     modes, step jitter (log scale) and the watchdog. ``verdict`` (keys ``valid``: bool, ``reasons``: list of
-    str) adds a banner at the top: "VALID real-time run" in green or "INVALID: <reasons>" in red."""
+    str) adds a banner at the top: "VALID real-time run" in green or "INVALID: <reasons>" in red;
+    ``metrics`` (the HIL run's step-response metrics) are marked on the position axis."""
     t = np.asarray(hil["t"])
     n = min(len(t), len(offline.log))
     to = offline.column("t")[:n]
@@ -193,6 +195,8 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
     ax[0].plot(t, np.asarray(hil["xp"]) * 1e3, lw=1.5, label="HIL (lock-step plant)" if lockstep else
                "HIL (real-time plant)")
     ax[0].plot(to, xo * 1e3, ":", lw=1.5, label="offline simulation")
+    if metrics:
+        _metrics_marks(ax[0], metrics)
     ax[1].plot(t[:n], (xp - xr) * 1e3, lw=1, label=f"HIL − reference\n(RMS {rms(xp - xr) * 1e3:.2f} mm)")
     ax[2].plot(t[:n], (xp - xo) * 1e3, lw=1, color="tab:red",
                label=f"HIL − offline\n(RMS {rms(xp - xo) * 1e3:.3g} mm)")

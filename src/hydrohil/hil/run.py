@@ -196,5 +196,6 @@ def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: di
     if plot:
         from hydrohil.plotting import plot_hil
         which = {"c": " (standalone C plant)", "python": " (Python plant)"}.get(plant or "", "")
-        plot_hil(out / "report.png", hil, res, ref, title=f"{scenario.name}: HIL{which} vs offline", verdict=verdict)
+        plot_hil(out / "report.png", hil, res, ref, title=f"{scenario.name}: HIL{which} vs offline", verdict=verdict,
+                 metrics=cmp["step_response_hil"])
     return cmp
