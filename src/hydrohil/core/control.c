@@ -22,6 +22,8 @@ double hh_controller_update(const hh_controller *c, hh_controller_state *s, doub
                             double p1, double p2)
 {
     double e = x_ref - x, pl = p1 - c->area_ratio * p2, u_star, u;
+    if (c->type == HH_CTRL_P)   /* the paper's law: no filter, no state (the hot path of most runs) */
+        return hh_clamp(c->kp * e, c->u_min, c->u_max);
     if (!s->started) {          /* the first sample: the filters start at rest on the first measurement */
         s->x_prev = x;
         s->pl_prev = pl;
@@ -31,12 +33,9 @@ double hh_controller_update(const hh_controller *c, hh_controller_state *s, doub
     s->pl_filtered = c->tpl > 0.0 ? c->tpl / (c->tpl + c->h) * (s->pl_filtered + pl - s->pl_prev) : pl;
     s->x_prev = x;
     s->pl_prev = pl;
-    u_star = c->kp * e;
-    if (c->type != HH_CTRL_P) {
-        u_star += s->integral + c->kff * dx_ref + c->u_bias - c->kd * s->velocity - c->kpl * s->pl_filtered;
-        if (c->u_deadband != 0.0)
-            u_star += c->u_deadband * hh_clamp(e / c->e_deadband, -1.0, 1.0);
-    }
+    u_star = c->kp * e + (s->integral + c->kff * dx_ref + c->u_bias - c->kd * s->velocity - c->kpl * s->pl_filtered);
+    if (c->u_deadband != 0.0)
+        u_star += c->u_deadband * hh_clamp(e / c->e_deadband, -1.0, 1.0);
     u = hh_clamp(u_star, c->u_min, c->u_max);
     if (c->ki != 0.0) {
         if (c->antiwindup == HH_AW_BACK_CALCULATION)

@@ -165,8 +165,9 @@ int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t ever
     double h = sim->h, t, u, ud, u_new, u_old, events = 0.0;
     double count = count_size(sim->p[HH_SENSORS_ENCODER_RESOLUTION]);
     int64_t k, j = 0, row = 0, k0 = sim->k;
-    int ev;
-    hh_reading reading;
+    int ev, pressures = drive->kind == HH_DRIVE_CLOSED
+                        && (drive->controller->kpl != 0.0 || sim->p[HH_SENSORS_PRESSURE_NOISE] > 0.0);
+    hh_reading reading = {{0.0, 0.0, 0.0, 0.0}, 0, 0};
     for (k = 0; k <= n_steps; k++) {
         double v, dv;
         t = (double)(k0 + k) * h;
@@ -180,7 +181,10 @@ int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t ever
             dv = drive->dv_in != 0 ? drive->dv_in[j] : 0.0;
         }
         if (drive->kind == HH_DRIVE_CLOSED) {   /* the controller on what the rig's sensors report */
-            hh_rig_read(sim, count, drive->rng, &reading);
+            if (pressures)
+                hh_rig_read(sim, count, drive->rng, &reading);
+            else    /* the pressures unused and no noise to draw: the encoder alone (the same reading) */
+                reading.encoder = encoder_reading(sim->y[HH_XP], count);
             u = hh_controller_update(drive->controller, drive->state, v, dv, (double)reading.encoder * count,
                                      reading.p[0], reading.p[1]);
         } else {

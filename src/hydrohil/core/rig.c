@@ -102,14 +102,7 @@ double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, dou
     return w->u_held;
 }
 
-/* A count as an integer: NaN (a diverged state) reads 0, beyond +-2^62 saturates (no undefined cast). */
-int64_t hh_count_to_int(double c)
-{
-    const double lim = 4611686018427387904.0;   /* 2^62 */
-    if (c != c)
-        return 0;
-    return c >= lim ? (int64_t)lim : c <= -lim ? -(int64_t)lim : (int64_t)c;
-}
+int64_t hh_count_to_int(double c) { return count_to_int(c); }
 
 /* ---- what the rig's sensors report --------------------------------------------------------------- */
 /* The readings of sim's current state: the encoder in counts of size `count` [m] (nearest count), and the
@@ -136,5 +129,5 @@ void hh_rig_read(const hh_sim *sim, double count, hh_rng *rng, hh_reading *r)
                                       noise[i], &sat);
         r->saturated |= sat;
     }
-    r->encoder = hh_count_to_int(encoder_counts(y[HH_XP], count));
+    r->encoder = encoder_reading(y[HH_XP], count);
 }
