@@ -6,7 +6,9 @@ import pytest
 
 from hydrohil.parameters import load_parameters
 
-EXAMPLES = __import__("pathlib").Path(__file__).resolve().parent.parent / "examples"
+from pathlib import Path
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 
 @pytest.fixture(scope="session")
@@ -36,3 +38,20 @@ def plant_cmd(kind: str, c_plant, *args) -> list:
     """The command line of a plant server: ``hydrohil plant`` or the standalone C plant, same options."""
     from hydrohil.hil.processes import cli
     return cli("plant", *args) if kind == "python" else [c_plant, *args]
+
+
+def lockstep_equals_offline(scen, out, *args, steps: int):
+    """Run ``hydrohil hil SCEN --lockstep`` into ``out`` and the same scenario offline; assert that the plant
+    stepped the model exactly as the offline run did (``steps`` + 1 rows, state bit for bit). Returns (plant
+    log columns, offline result)."""
+    from hydrohil.hil.run import read_csv_columns
+    from hydrohil.simulation.run import run_scenario
+    from hydrohil.simulation.scenario import load_scenario
+    r = hh("hil", scen, "--out", out, "--lockstep", *args, timeout=600)
+    assert r.returncode == 0, r.stderr
+    log = read_csv_columns(Path(out) / "plant_log.csv")
+    off = run_scenario(load_scenario(scen))
+    assert len(log["t"]) == len(off.log) == steps + 1
+    for c in ("xp", "p1", "p2", "xs"):
+        assert np.array_equal(log[c], off.column(c)), c
+    return log, off

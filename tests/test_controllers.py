@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import EXAMPLES, hh
+from conftest import EXAMPLES, hh, lockstep_equals_offline
 from hydrohil.control import (BuiltinController, ControllerError, Measurement, PControllerCfg, PFFControllerCfg,
                               PIControllerCfg, PIDControllerCfg, StateFeedbackControllerCfg, call_controller)
 from hydrohil.errors import InputError
@@ -273,18 +273,11 @@ def _scenario_file(tmp_path, source, duration, extra=""):
                                                 ("fig12_pressure_feedback.toml", "c", True),
                                                 ("fig11_python_pi.toml", "python", False)])
 def test_lockstep_hil_equals_offline_exactly(tmp_path, name, plant, noisy):
-    from hydrohil.hil.run import read_csv_columns
     extra = '\n"sensors.pressure_noise" = 2e4\n' if noisy else ""
     scen = _scenario_file(tmp_path, CONTROLLERS / name, 1.0)
     if noisy:      # noisy transducers: the controller sees the plant's noise draws, offline the same ones
         scen.write_text(scen.read_text().replace('[overrides]\n', '[overrides]' + extra))
-    r = hh("hil", scen, "--out", tmp_path / "out", "--lockstep", "--plant", plant, timeout=600)
-    assert r.returncode == 0, r.stderr
-    log = read_csv_columns(tmp_path / "out" / "plant_log.csv")
-    off = run_scenario(load_scenario(scen))
-    assert len(log["t"]) == len(off.log) == 2001
-    for c in ("xp", "p1", "p2", "xs"):
-        assert np.array_equal(log[c], off.column(c)), c
+    log, off = lockstep_equals_offline(scen, tmp_path / "out", "--plant", plant, steps=2000)
     assert np.array_equal(log["u"][1:], off.column("u")[:-1])     # the plant logs a command with the state it made
     cmp = json.loads((tmp_path / "out" / "comparison.json").read_text())
     assert cmp["step_response_hil"] == cmp["step_response_offline"]

@@ -17,7 +17,7 @@ from hydrohil.simulation.rig import VirtualRig
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import load_scenario
 
-from conftest import hh
+from conftest import hh, lockstep_equals_offline
 
 FAULTS = Path(__file__).resolve().parent.parent / "examples" / "faults"
 H = 5e-4
@@ -251,13 +251,7 @@ end = 3.5
 def test_lockstep_hil_with_faults_matches_offline_exactly(tmp_path):
     scen = tmp_path / "all_faults.toml"
     scen.write_text(ALL_FAULTS)
-    r = hh("hil", scen, "--out", tmp_path / "hil", "--lockstep")
-    assert r.returncode == 0, r.stderr
-    hil = read_csv_columns(tmp_path / "hil" / "plant_log.csv")
-    off = run_scenario(load_scenario(scen))
-    assert len(hil["t"]) == len(off.log) == 8001
-    for c in ("xp", "p1", "p2", "xs"):
-        assert np.array_equal(hil[c], off.column(c)), c
+    hil, off = lockstep_equals_offline(scen, tmp_path / "hil", steps=8000)
     assert np.array_equal(hil["faults"], off.column("faults"))
     assert np.array_equal(hil["watchdog"], off.column("watchdog"))
     flagged = (hil["status"].astype(int) & ST_FAULT_INJECTED) != 0
