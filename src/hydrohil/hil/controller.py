@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 from typing import Callable, Iterator
 
-from hydrohil.control import Measurement, call_controller, p_control
+from hydrohil.control import BuiltinController, Measurement, call_controller, p_control
 from hydrohil.errors import LinkError
 from hydrohil.hil import protocol as pr
 from hydrohil.models.sensors import count_size
@@ -202,14 +202,18 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
     (CSV) while running. ``should_stop`` is polled every cycle (signal handlers set it). Returns a summary.
     """
     ctl = controller
-    res = count_size(encoder_resolution)
+    builtin = controller.update if isinstance(controller, BuiltinController) else None   # the core's law: no
+    res = count_size(encoder_resolution)                                                # Measurement needed
     log = CsvStream(log_path, CONTROLLER_LOG_COLUMNS, ints={0, 6}) if log_path is not None else None
     t_start = time.perf_counter()
 
     def act(s: pr.Sensor) -> None:
         x = s.encoder_counts * res
         xr, dxr = reference(s.t_sim)
-        u = call_controller(ctl, Measurement(s.t_sim, xr, dxr, x, s.p1, s.p2, s.ps, s.pt, s.status))
+        if builtin is not None:
+            u = builtin(xr, dxr, x, s.p1, s.p2)
+        else:
+            u = call_controller(ctl, Measurement(s.t_sim, xr, dxr, x, s.p1, s.p2, s.ps, s.pt, s.status))
         client.send(u, answer=s)
         if log is not None:
             log.write((s.header.seq, s.t_sim, time.perf_counter() - t_start, x, xr, u, s.status))
