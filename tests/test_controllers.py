@@ -150,15 +150,17 @@ def test_python_controller_from_the_scenario_file(tmp_path):
     ("pi.py:Nope", "", "controller.callable", "has no 'Nope'"),
     ("missing.py:PI", "", "controller.callable", "no such file"),
     ("pi.py:PI", "options = { kq = 1.0 }", "controller.options", "unexpected keyword argument 'kq'"),
+    ("broken.py:PI", "", "controller.callable", "loading 'broken.py' failed: ZeroDivisionError"),
 ])
 def test_bad_python_controller_is_named(tmp_path, callable_, options, key, words):
     (tmp_path / "pi.py").write_text((CONTROLLERS / "pi.py").read_text())
+    (tmp_path / "broken.py").write_text("1 / 0\n")
     text = (CONTROLLERS / "fig11_python_pi.toml").read_text()
     text = text.replace('callable = "pi.py:PI"', f'callable = "{callable_}"')
     text = text.replace("options = { kp = 50.0, ki = 500.0 }", options)
     (tmp_path / "s.toml").write_text(text)
     r = hh("simulate", tmp_path / "s.toml", "--out", tmp_path / "out")
-    assert r.returncode == 2 and key in r.stderr and words in r.stderr, r.stderr
+    assert r.returncode == 2 and key in r.stderr and words in r.stderr and "s.toml" in r.stderr, r.stderr
 
 
 def test_a_failing_user_controller_stops_the_run_with_the_time():
@@ -256,6 +258,8 @@ def test_compare_overlays_scenarios_and_run_folders(tmp_path):
     assert data["PI"]["rms_error"] < 0.5 * data["P"]["rms_error"]          # measured 1.22 vs 3.72 mm
     bad = hh("compare", EXAMPLES / "fig11_p_control.toml", "--labels", "a,b", "--out", tmp_path / "d")
     assert bad.returncode == 2 and "--labels" in bad.stderr
+    same = hh("compare", EXAMPLES / "fig11_p_control.toml", EXAMPLES / "fig11_p_control.toml", "--out", tmp_path / "e")
+    assert same.returncode == 2 and "share a label" in same.stderr
 
 
 # ---- lock-step HIL: the controller process runs the same law on the same readings ---------------------------
@@ -286,9 +290,47 @@ def test_lockstep_hil_equals_offline_exactly(tmp_path, name, plant, noisy):
 
 def test_python_controller_found_when_the_run_folder_holds_the_scenario(tmp_path):
     # with --set, hil writes the scenario into the run folder and both processes read it from there: the
-    # controller's file must still be found (its path is made absolute)
+    # controller's module must still be found (its folder is recorded as an absolute path)
     scen = _scenario_file(tmp_path, CONTROLLERS / "fig11_python_pi.toml", 0.2)
     r = hh("hil", scen, "--out", tmp_path / "out", "--lockstep", "--set", "load.mass=90", timeout=600)
     assert r.returncode == 0, r.stderr
     ran = (tmp_path / "out" / "scenario.toml").read_text()
-    assert f'callable = "{(tmp_path / "pi.py").resolve()}:PI"' in ran
+    assert f'path = "{tmp_path.resolve()}"' in ran
+
+
+@pytest.mark.parametrize("callable_", ["ctl.py:PI", "ctl:PI", "pkg.ctl:PI", "pkg:PI"])
+def test_python_controller_as_file_module_or_package_with_its_own_imports(tmp_path, callable_):
+    (tmp_path / "gains.py").write_text("KP = 50.0\n")
+    body = "from gains import KP\n\n\nclass PI:\n    def __call__(self, m):\n        return max(-1.0, min(1.0, KP * (m.x_ref - m.x)))\n"
+    (tmp_path / "ctl.py").write_text(body)
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "__init__.py").write_text("from .ctl import PI\n")
+    (tmp_path / "pkg" / "ctl.py").write_text(body)
+    text = (CONTROLLERS / "fig11_python_pi.toml").read_text().replace('callable = "pi.py:PI"', f'callable = "{callable_}"')
+    (tmp_path / "s.toml").write_text(text.replace("options = { kp = 50.0, ki = 500.0 }", "").replace("duration = 6.0", "duration = 1.0"))
+    mine = run_scenario(load_scenario(tmp_path / "s.toml"))
+    p = run_scenario(load_scenario(EXAMPLES / "fig11_p_control.toml", duration=1.0))
+    assert np.array_equal(mine.column("xp"), p.column("xp"))              # the P law, however it is named
+
+
+def test_a_run_continued_and_a_controller_reused_give_the_same_numbers(paper):
+    from hydrohil.models.layout import pack
+    from hydrohil.simulation.loop import Sim, initial_state
+    sc = with_controller(load_scenario(EXAMPLES / "fig11_p_control.toml", duration=1.0,
+                                       sets={"sensors.pressure_noise": 2e4}), BUILTIN[3])
+    ref, slope = sc.scenario.references()
+    p = pack(sc.params)
+
+    def sim():
+        s = Sim(p, 5e-4)
+        s.set_state(*initial_state(sc.params, 0.03, p=p))
+        return s
+    one = sim()
+    _, _, whole = one.run(2000, 1, ref, slopes=slope, controller=sc.make_controller(), seed=3)
+    two, ctl = sim(), sc.make_controller()
+    _, _, first = two.run(1000, 1, ref[:1001], slopes=slope[:1001], controller=ctl, seed=3)
+    _, _, second = two.run(1000, 1, ref[1000:], slopes=slope[1000:], controller=ctl, seed=3)
+    assert np.array_equal(whole[1000:], second) and np.array_equal(whole[:1000], first[:1000])
+    # a controller object handed to another run starts afresh
+    a, b = run_rig(sc, controller=ctl), run_rig(sc, controller=ctl)
+    assert np.array_equal(a.column("xp"), b.column("xp"))

@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 
 from conftest import EXAMPLES, hh
 from hydrohil.freqresp import freqresp
@@ -46,3 +47,25 @@ def test_freqresp_cli(tmp_path):
     bad = hh("freqresp", EXAMPLES / "controllers" / "fig11_python_pi.toml", "--out", tmp_path / "y")
     assert bad.returncode == 2 and "controller.type" in bad.stderr
     assert np.isfinite(float(lines[1].split(",")[2]))
+
+
+@pytest.mark.parametrize("name", ["fig11_pi.toml", "fig12_pressure_feedback.toml"])
+def test_the_prediction_holds_for_integral_and_pressure_feedback(tmp_path, name):
+    sc = load_scenario(EXAMPLES / "controllers" / name)
+    s = freqresp(sc, tmp_path, fmin=0.5, fmax=5.0, points=4, loops=("closed",))["loops"]["closed"]
+    assert s["max_gain_gap_db_below_bandwidth"] < 0.75 and s["max_phase_gap_deg_below_bandwidth"] < 7.5  # ~0.25 dB, 2.6°
+
+
+def test_points_at_an_end_stop_are_left_out_not_fatal(tmp_path):
+    sc = load_scenario(EXAMPLES / "fig11_p_control.toml")
+    s = freqresp(sc, tmp_path, fmin=0.5, fmax=3.0, points=3, u_amplitude=0.3, loops=("open",))["loops"]["open"]
+    assert 1 <= s["unconverged"] < 3 and np.isfinite(s["max_gain_gap_db"])       # 0.5 Hz at ±0.3 ū hits a stop
+    json.loads((tmp_path / "freqresp.json").read_text())                          # valid JSON (no NaN)
+    assert "reached an end stop" in (tmp_path / "freqresp.csv").read_text()
+
+
+def test_bad_amplitude_and_gain_are_named(tmp_path):
+    r = hh("freqresp", EXAMPLES / "fig11_p_control.toml", "--out", tmp_path, "--amplitude", "0")
+    assert r.returncode == 2 and "--amplitude" in r.stderr
+    r = hh("controller", "--kp", "-5", "--link-timeout", "1")
+    assert r.returncode == 2 and "--kp" in r.stderr and "Traceback" not in r.stderr

@@ -65,6 +65,9 @@ def test_matrices_equal_finite_differences_of_the_continuous_model(paper):
         yp[j_lin] += 10.0
         ym[j_lin] -= 10.0
         assert lp.A[4, j_lin] == pytest.approx((rhs(p, yp, lp.point.xs)[5] - rhs(p, ym, lp.point.xs)[5]) / 20, rel=1e-6)
+    # the load force and the friction slope act on the piston's acceleration
+    assert lp.B[4, 1] == pytest.approx(-1 / paper.load.mass) and lp.A[4, 4] == pytest.approx(-lp.friction_slope / paper.load.mass)
+    assert lp.friction_slope == pytest.approx(0.5 * (paper.friction.positive.kv + paper.friction.negative.kv))
     # the spool's input: dvs/dū = wn²
     assert lp.B[1, 0] == pytest.approx((rhs(p, y0, lp.point.xs + 1e-6)[1] - rhs(p, y0, lp.point.xs - 1e-6)[1]) / 2e-6,
                                        rel=1e-6)
@@ -125,3 +128,10 @@ def test_state_space_for_python_control(paper):
     s3 = state_space(paper, 0.1, pade=3)          # the delay by Padé: phase within 0.5° below 40 Hz
     g3 = np.array([complex(s3(2j * math.pi * fk)[0, 0]) for fk in f])
     assert np.degrees(np.abs(np.angle(g3 / lp.frequency_response(f)))).max() < 0.5
+
+
+def test_a_forced_spool_offset_balances_the_flows_not_the_load(paper):
+    lp = linearise(paper, 0.1, xs=0.05)
+    dy = rhs(pack(paper), state(lp.point), lp.point.xs)
+    assert abs(dy[2]) < 1.0 and abs(dy[3]) < 1.0 and abs(lp.point.net_force) > 3e3      # measured 9.1 kN
+    assert abs(dy[5] - lp.point.net_force / paper.load.mass) < 1e-6 * abs(dy[5])

@@ -166,7 +166,7 @@ def freqresp_cmd(scenario: Path = typer.Argument(..., help="scenario TOML (its p
                  fmax: float = typer.Option(50.0, help="highest frequency [Hz]"),
                  points: int = typer.Option(15, min=2, max=500, help="frequencies, log-spaced"),
                  loop: str = typer.Option("both", help="closed | open | both"),
-                 workers: Optional[int] = typer.Option(None, help="parallel points (default: every core)"),
+                 workers: Optional[int] = typer.Option(None, min=1, help="parallel points (default: every core)"),
                  params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path)"),
                  sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable)")):
     """Frequency responses of the nonlinear model by stepped sines at periodic steady state (closed loop
@@ -307,7 +307,8 @@ def linear_cmd(params: Optional[str] = typer.Option(None, "--params", help="para
     for m in models:
         pt, c = m.point, m.coefficients
         typer.echo(f"xp = {pt.xp * 1e3:.1f} mm, Ps = {pt.ps / 1e5:.0f} bar, F_L = {pt.load:g} N: spool offset "
-                   f"xs0 = {pt.xs:+.5f}, P1 = {pt.p1 / 1e5:.2f} bar, P2 = {pt.p2 / 1e5:.2f} bar")
+                   f"xs0 = {pt.xs:+.5f}, P1 = {pt.p1 / 1e5:.2f} bar, P2 = {pt.p2 / 1e5:.2f} bar"
+                   + (f", net force {pt.net_force:+.0f} N (forced --xs: not at rest)" if xs is not None else ""))
         typer.echo(f"  beta1 = {c['beta1'] / 1e6:.0f} MPa, beta2 = {c['beta2'] / 1e6:.0f} MPa, V1 = {c['V1'] * 1e6:.1f} "
                    f"cm³, V2 = {c['V2'] * 1e6:.1f} cm³, Kq1 = {c['Kq1']:.3g}, Kq2 = {c['Kq2']:.3g} m³/s, "
                    f"Kc1 = {c['Kc1']:.3g}, Kc2 = {c['Kc2']:.3g} m³/(s·Pa)")
@@ -628,6 +629,8 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
         from hydrohil.control import PControllerCfg, make_controller
         from hydrohil.parameters import load_parameters
         ref = _reference_table(reference)
+        if not 0 < kp <= 1e5:
+            raise InputError(f"must be > 0 and <= 1e5 [ū/m], got {kp}", source="--kp")
         ctl = make_controller(PControllerCfg(type="p", kp=kp), load_parameters("ferreira2004"), sample)
     timeout = hil.link_timeout if link_timeout is None else link_timeout
     busy_poll = bool(busy_poll)

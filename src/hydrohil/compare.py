@@ -84,6 +84,9 @@ def compare(sources, out: Path, *, labels: list[str] | None = None, params=None,
     if labels is not None and len(labels) != len(sources):
         raise InputError(f"{len(labels)} labels for {len(sources)} runs", source="--labels")
     runs = [load_run(s, labels[i] if labels else None, params=params, sets=sets) for i, s in enumerate(sources)]
+    names = [r.label for r in runs]
+    if len(set(names)) < len(names):
+        raise InputError(f"two runs share a label ({', '.join(names)}): give --labels", source="--labels")
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "compare.json", {r.label: {"source": str(s), **r.metrics} for r, s in zip(runs, sources)})
     plot_compare(out / "compare.png", runs, title=title)

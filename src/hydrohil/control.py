@@ -103,13 +103,14 @@ class StateFeedbackControllerCfg(_Limits):
 
 
 class PythonControllerCfg(StrictModel):
-    """A user's controller: ``callable`` = "module:name" or "path/to/file.py:name" (relative to the scenario
-    file's folder), a function ``f(measurement) -> ū`` or a class instantiated once per run with
+    """A user's controller: ``callable`` = "module:name" or "path/to/file.py:name", looked up in ``path``
+    (default: the scenario file's folder, put on the import path while loading, so the module may import
+    its neighbours), a function ``f(measurement) -> ū`` or a class instantiated once per run with
     ``options`` whose instances are called so."""
     type: Literal["python"]
-    callable: str = Field(pattern=r"^[^:]+:[A-Za-z_][A-Za-z0-9_.]*$",
-                          description="module:name or file.py:name")
+    callable: str = Field(pattern=r"^.+:[A-Za-z_][A-Za-z0-9_.]*$", description="module:name or file.py:name")
     options: dict[str, Any] = Field(default_factory=dict, description="keyword arguments of a class")
+    path: str | None = Field(None, description="folder of the module (default: the scenario's folder)")
 
 
 ControllerCfg = Union[PControllerCfg, PIControllerCfg, PIDControllerCfg, PFFControllerCfg,
@@ -185,57 +186,74 @@ class BuiltinController:
         return lib.hh_controller_update(self.c, self.state, m.x_ref, m.dx_ref, m.x, m.p1, m.p2)
 
 
-def load_callable(spec: str, base: Path | None = None) -> Callable:
-    """The object named by ``module:name`` (importable, or with ``base`` on the path) or ``file.py:name``
-    (relative to ``base``)."""
+def load_callable(spec: str, base: Path | None = None, source: str | None = None) -> Callable:
+    """The object named by ``module:name`` or ``file.py:name`` (relative to ``base``), with ``base`` and the
+    file's folder on the import path while it loads. Errors name ``source`` and ``controller.callable``."""
     mod_name, _, attr = spec.rpartition(":")
     base = Path(base) if base is not None else Path.cwd()
+    key = "controller.callable"
+
+    def fail(msg):
+        return InputError(msg, source=source, key=key)
+
+    folders = [str(base)]
     if mod_name.endswith(".py"):
         path = Path(mod_name) if Path(mod_name).is_absolute() else base / mod_name
         if not path.is_file():
-            raise InputError(f"no such file {path}", key="controller.callable")
-        name = f"hydrohil_user_{path.stem}"
-        spec_ = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec_)
-        sys.modules[name] = module
-        spec_.loader.exec_module(module)
-    else:
-        added = str(base) not in sys.path
-        if added:
-            sys.path.insert(0, str(base))
-        try:
+            raise fail(f"no such file {path}")
+        folders.insert(0, str(path.parent))
+    added = [d for d in dict.fromkeys(folders) if d not in sys.path]
+    sys.path[:0] = added
+    try:
+        if mod_name.endswith(".py"):
+            name = f"hydrohil_user_{path.stem}"
+            spec_ = importlib.util.spec_from_file_location(name, path)
+            module = importlib.util.module_from_spec(spec_)
+            sys.modules[name] = module
+            spec_.loader.exec_module(module)
+        else:
             module = importlib.import_module(mod_name)
-        except ImportError as exc:
-            raise InputError(f"cannot import '{mod_name}': {exc}", key="controller.callable") from None
-        finally:
-            if added:
-                sys.path.remove(str(base))
+    except ImportError as exc:
+        raise fail(f"cannot import '{mod_name}': {exc}") from None
+    except Exception as exc:            # the user's module failed while it loaded
+        raise fail(f"loading '{mod_name}' failed: {type(exc).__name__}: {exc}") from exc
+    finally:
+        for d in added:
+            if d in sys.path:
+                sys.path.remove(d)
     obj = module
     for part in attr.split("."):
         if not hasattr(obj, part):
-            raise InputError(f"'{mod_name}' has no '{attr}'", key="controller.callable")
+            raise fail(f"'{mod_name}' has no '{attr}'")
         obj = getattr(obj, part)
     if not callable(obj):
-        raise InputError(f"'{spec}' is not callable", key="controller.callable")
+        raise fail(f"'{spec}' is not callable")
     return obj
 
 
 def make_controller(cfg: ControllerCfg | Callable, params: Parameters, h: float, *,
-                    base: Path | None = None) -> Callable[[Measurement], float]:
+                    base: Path | None = None, source: str | None = None) -> Callable[[Measurement], float]:
     """A fresh controller for one run: ``ctl(measurement) -> ū``. ``cfg`` is a ``[controller]`` table, or a
-    Python callable (a function, or a class instantiated here without arguments)."""
+    Python callable (a function, or a class instantiated here without arguments). ``base``: the folder a
+    Python controller's module is looked up in when its table has no ``path``; ``source``: the scenario
+    file, named by errors."""
+    if isinstance(cfg, BuiltinController):
+        cfg.reset()                       # a fresh run: no integrator or filter state from the last one
+        return cfg
     if callable(cfg) and not isinstance(cfg, StrictModel):
         return cfg() if inspect.isclass(cfg) else cfg
     if cfg.type in BUILTIN_TYPES:
         return BuiltinController(cfg, params, h)
-    obj = load_callable(cfg.callable, base)
+    obj = load_callable(cfg.callable, Path(cfg.path) if cfg.path else base, source)
     if inspect.isclass(obj):
         try:
             return obj(**cfg.options)
-        except TypeError as exc:
-            raise InputError(f"{cfg.callable}({', '.join(cfg.options)}): {exc}", key="controller.options") from None
+        except Exception as exc:
+            raise InputError(f"{cfg.callable}({', '.join(cfg.options)}): {type(exc).__name__}: {exc}",
+                             source=source, key="controller.options") from None
     if cfg.options:
-        raise InputError(f"'{cfg.callable}' is a function: options apply to a class only", key="controller.options")
+        raise InputError(f"'{cfg.callable}' is a function: options apply to a class only", source=source,
+                         key="controller.options")
     return obj
 
 

@@ -44,6 +44,7 @@ class OperatingPoint:
     p2: float
     ps: float        # supply pressure [Pa]
     load: float      # external load force F_L [N] (against +x)
+    net_force: float = 0.0   # force on the piston there [N] (0 at the equilibrium; not with a forced xs)
 
 
 @dataclass(frozen=True)
@@ -126,41 +127,56 @@ def _flows(p: np.ndarray, xs: float, p1: float, p2: float) -> tuple[float, float
     return q[0], q[1]
 
 
-def equilibrium(params: Parameters, xp: float) -> OperatingPoint:
-    """The operating point at rest at ``xp`` (module docstring): nested bracketed roots, every function
-    monotone — each chamber's pressure from its flow balance, the spool offset from the force balance."""
+def chamber_pressures(params: Parameters, xs: float, p=None) -> tuple[float, float]:
+    """(p1, p2) at which both chambers' net flows vanish at spool position xs (valve flows and the internal
+    leakage balance): each from its flow balance by a bracketed root, a few sweeps for the weak coupling."""
+    from scipy.optimize import brentq
+    p = pack(params) if p is None else p
+    ps, pt, g = params.supply.ps, params.supply.pt, params.cylinder.g_lkc
+    p1 = p2 = 0.5 * (ps + pt)
+    for _ in range(50):
+        p1n = brentq(lambda v: _flows(p, xs, v, p2)[0] - g * (v - p2), pt, ps, xtol=1e-6)
+        p2n = brentq(lambda v: _flows(p, xs, p1n, v)[1] + g * (p1n - v), pt, ps, xtol=1e-6)
+        done = abs(p1n - p1) < 1e-6 and abs(p2n - p2) < 1e-6
+        p1, p2 = p1n, p2n
+        if done:
+            break
+    return p1, p2
+
+
+def _net_force(params: Parameters, p1: float, p2: float) -> float:
+    c, ld = params.cylinder, params.load
+    return c.a1 * p1 - c.a2 * p2 + ld.gravity_direction * ld.mass * ld.gravity - ld.force
+
+
+def equilibrium(params: Parameters, xp: float, xs: float | None = None) -> OperatingPoint:
+    """The operating point at rest at ``xp`` (module docstring): the spool offset from the force balance by
+    a bracketed root over :func:`chamber_pressures` (monotone). ``xs`` forces the spool offset instead: the
+    flows still balance, the force need not (``net_force``)."""
     from scipy.optimize import brentq
     L = params.cylinder.stroke
     if not 0.0 <= xp <= L:
         raise InputError(f"must lie in [0, {L}] m (cylinder.stroke), got {xp}", key="xp")
     p = pack(params)
-    c, ld = params.cylinder, params.load
-    ps, pt, g = params.supply.ps, params.supply.pt, c.g_lkc
-    w = ld.gravity_direction * ld.mass * ld.gravity - ld.force
+    ps, ld = params.supply.ps, params.load
 
-    def pressures(xs):
-        p1 = p2 = 0.5 * (ps + pt)
-        for _ in range(50):       # the internal leakage couples the chambers weakly: a few sweeps
-            p1n = brentq(lambda v: _flows(p, xs, v, p2)[0] - g * (v - p2), pt, ps, xtol=1e-6)
-            p2n = brentq(lambda v: _flows(p, xs, p1n, v)[1] + g * (p1n - v), pt, ps, xtol=1e-6)
-            done = abs(p1n - p1) < 1e-6 and abs(p2n - p2) < 1e-6
-            p1, p2 = p1n, p2n
-            if done:
-                break
-        return p1, p2
+    def force(x):
+        return _net_force(params, *chamber_pressures(params, x, p))
 
-    def force(xs):
-        p1, p2 = pressures(xs)
-        return c.a1 * p1 - c.a2 * p2 + w
-
-    lo, hi = -0.999, 0.999
-    f_lo, f_hi = force(lo), force(hi)
-    if f_lo * f_hi > 0:
-        raise InputError(f"no spool position holds the piston: the net load (gravity and F_L, {w:+.0f} N along "
-                         f"+x) is more than the cylinder gives at a supply pressure of {ps / 1e5:g} bar", key="load")
-    xs = brentq(force, lo, hi, xtol=1e-14)
-    p1, p2 = pressures(xs)
-    return OperatingPoint(float(xp), float(xs), float(p1), float(p2), float(ps), float(ld.force))
+    if xs is None:
+        lo, hi = -0.999, 0.999
+        f_lo, f_hi = force(lo), force(hi)
+        if f_lo * f_hi > 0:
+            w = _net_force(params, 0.0, 0.0)
+            raise InputError(f"no spool position holds the piston: the net load (gravity and F_L, {w:+.0f} N "
+                             f"along +x) is more than the cylinder gives at a supply pressure of {ps / 1e5:g} bar",
+                             key="load")
+        xs = brentq(force, lo, hi, xtol=1e-14)
+    elif not -1.0 <= xs <= 1.0:
+        raise InputError(f"must lie in [-1, 1], got {xs}", key="xs")
+    p1, p2 = chamber_pressures(params, xs, p)
+    return OperatingPoint(float(xp), float(xs), float(p1), float(p2), float(ps), float(ld.force),
+                          float(_net_force(params, p1, p2)))
 
 
 def with_point(params: Parameters, *, ps: float | None = None, load: float | None = None) -> Parameters:
@@ -176,13 +192,12 @@ def with_point(params: Parameters, *, ps: float | None = None, load: float | Non
 def linearise(params: Parameters, xp: float | None = None, *, xs: float | None = None, ps: float | None = None,
               load: float | None = None, friction: bool = True) -> LinearPlant:
     """The plant linearised at rest at ``xp`` (default ``linear.xp0``) with supply ``ps`` and load force
-    ``load`` (default: the set's). ``xs`` forces the spool offset (the pressures then still balance the
-    flows, but not necessarily the load); ``friction=False`` drops the viscous slope."""
+    ``load`` (default: the set's). ``xs`` forces the spool offset (the pressures are those that balance the
+    flows there; the load need not be held: ``point.net_force``); ``friction=False`` drops the viscous
+    slope."""
     params = with_point(params, ps=ps, load=load)
     xp = params.linear.xp0 if xp is None else float(xp)
-    point = equilibrium(params, xp)
-    if xs is not None:
-        point = OperatingPoint(point.xp, float(xs), point.p1, point.p2, point.ps, point.load)
+    point = equilibrium(params, xp, xs)
     p = pack(params)
     A, B, coef = np.zeros(36), np.zeros(12), np.zeros(8)
     slope = _friction_slope(p) if friction else 0.0

@@ -253,8 +253,9 @@ def plot_compare(path: Path, runs, *, title: str = "") -> None:
 
 def plot_bode(path: Path, by_loop: dict, *, title: str = "") -> None:
     """Bode plots, one column per loop (``by_loop``: loop -> (points of :mod:`hydrohil.freqresp`, frequencies
-    and the linear prediction there, or None)): the nonlinear model's stepped sines as markers (hollow: not
-    converged), the linear model as a line."""
+    and the linear prediction there, or None)): the nonlinear model's stepped sines as markers (points
+    without a periodic steady state, e.g. at an end stop, are left out and counted in the legend), the linear
+    model as a line."""
     loops = list(by_loop)
     fig, ax = plt.subplots(2, len(loops), figsize=(6 * len(loops), 7), sharex="col", squeeze=False)
     names = {"closed": "closed loop x / x_ref", "open": "open loop x / ū [m per unit ū]"}
@@ -268,10 +269,9 @@ def plot_bode(path: Path, by_loop: dict, *, title: str = "") -> None:
         if lin is not None:
             ax[0, j].semilogx(f_lin, 20 * np.log10(np.abs(lin)), "-", color="k", lw=1.2, label="linear model")
             ax[1, j].semilogx(f_lin, phase_deg(lin), "-", color="k", lw=1.2, label="linear model")
+        missing = f" ({int((~ok).sum())} points without steady state left out)" if (~ok).any() else ""
         for a, v in ((ax[0, j], db), (ax[1, j], ph)):
-            a.semilogx(f[ok], v[ok], "o", color="C0", ms=5, label="nonlinear model (stepped sines)")
-            if (~ok).any():
-                a.semilogx(f[~ok], v[~ok], "o", mfc="none", color="C3", ms=5, label="not converged")
+            a.semilogx(f[ok], v[ok], "o", color="C0", ms=5, label="nonlinear model (stepped sines)" + missing)
             a.grid(alpha=0.3, which="both")
         if loop == "closed":
             ax[0, j].axhline(-3, color="0.5", ls=":", lw=1, label="−3 dB")

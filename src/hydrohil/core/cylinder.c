@@ -25,14 +25,22 @@ HH_INLINE void volumes(double xp, const double *p, double *v1, double *v2)
  * dP1/dt = c1*beta(P1)/V1*(Q1 - A1*vp - q_lkc), dP2/dt = c2*beta(P2)/V2*(Q2 + A2*vp + q_lkc).
  * dp_t: laminar transition of the orifices; c1, c2: capacitance scales (1 = physical; the hybrid model's
  * stiff-chamber slowing, hybrid.c). A burst hose (fault) drains chamber i through p[HH_BURSTi]. */
+/* Net valve flows into the chambers [m^3/s] (SPEC §3.2): q1 = q_s1 - q_1t, q2 = q_s2 - q_2t (a burst hose
+ * drains through its chamber's tank side). */
+HH_INLINE void valve_flows(double xs, double p1, double p2, const double *p, double dp_t, double *q1, double *q2)
+{
+    hh_sections s = pseudo_sections(xs, p);
+    double ps = p[HH_SUPPLY_PS], pt = p[HH_SUPPLY_PT];
+    *q1 = orifice_flow(s.as1, ps - p1, dp_t) - orifice_flow(s.a1t + p[HH_BURST1], p1 - pt, dp_t);
+    *q2 = orifice_flow(s.as2, ps - p2, dp_t) - orifice_flow(s.a2t + p[HH_BURST2], p2 - pt, dp_t);
+}
+
 HH_INLINE void chamber_pressure_rates(double xs, double p1, double p2, double xp, double vp, const double *p,
                                    double dp_t, double c1, double c2, double *dp1, double *dp2)
 {
-    hh_sections s = pseudo_sections(xs, p);
-    double ps = p[HH_SUPPLY_PS], pt = p[HH_SUPPLY_PT], v1, v2;
-    double q1 = orifice_flow(s.as1, ps - p1, dp_t) - orifice_flow(s.a1t + p[HH_BURST1], p1 - pt, dp_t);
-    double q2 = orifice_flow(s.as2, ps - p2, dp_t) - orifice_flow(s.a2t + p[HH_BURST2], p2 - pt, dp_t);
-    double q_lk = p[HH_CYLINDER_G_LKC] * (p1 - p2);
+    double v1, v2, q1, q2, q_lk;
+    valve_flows(xs, p1, p2, p, dp_t, &q1, &q2);
+    q_lk = p[HH_CYLINDER_G_LKC] * (p1 - p2);
     volumes(xp, p, &v1, &v2);
     *dp1 = c1 * bulk_modulus(p1, 1, p) / v1 * (q1 - p[HH_CYLINDER_A1] * vp - q_lk);
     *dp2 = c2 * bulk_modulus(p2, 2, p) / v2 * (q2 + p[HH_CYLINDER_A2] * vp + q_lk);

@@ -18,10 +18,7 @@
 
 void hh_valve_flows(const double *p, double xs, double p1, double p2, double *q1, double *q2)
 {
-    hh_sections s = pseudo_sections(xs, p);
-    double ps = p[HH_SUPPLY_PS], pt = p[HH_SUPPLY_PT], dl = p[HH_VALVE_DP_LAMINAR];
-    *q1 = orifice_flow(s.as1, ps - p1, dl) - orifice_flow(s.a1t + p[HH_BURST1], p1 - pt, dl);
-    *q2 = orifice_flow(s.as2, ps - p2, dl) - orifice_flow(s.a2t + p[HH_BURST2], p2 - pt, dl);
+    valve_flows(xs, p1, p2, p, p[HH_VALVE_DP_LAMINAR], q1, q2);
 }
 
 void hh_linearise(const double *p, double xs, double p1, double p2, double xp, double friction_slope, double *A,

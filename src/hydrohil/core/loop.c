@@ -181,16 +181,34 @@ int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t ever
             dv = drive->dv_in != 0 ? drive->dv_in[j] : 0.0;
         }
         if (drive->kind == HH_DRIVE_CLOSED) {   /* the controller on what the rig's sensors report */
+            hh_controller_state kept;
+            hh_rng kept_rng;
+            if (k == n_steps) {   /* the last row's command only: a run continued from here samples it again */
+                kept = *drive->state;
+                kept_rng = *drive->rng;
+            }
             if (pressures)
                 hh_rig_read(sim, count, drive->rng, &reading);
             else    /* the pressures unused and no noise to draw: the encoder alone (the same reading) */
                 reading.encoder = encoder_reading(sim->y[HH_XP], count);
             u = hh_controller_update(drive->controller, drive->state, v, dv, (double)reading.encoder * count,
                                      reading.p[0], reading.p[1]);
+            if (k == n_steps) {
+                *drive->state = kept;
+                *drive->rng = kept_rng;
+            }
         } else {
             u = v;
         }
-        ud = delay_push(&sim->delay, u, &u_new, &u_old);
+        if (k == n_steps) {   /* the last row: its command is logged, not pushed (a continued run pushes it) */
+            int pos = sim->delay.pos, next = (pos + 1) % sim->delay.size;
+            double overwritten = sim->delay.buf[next];
+            ud = delay_push(&sim->delay, u, &u_new, &u_old);
+            sim->delay.buf[next] = overwritten;
+            sim->delay.pos = pos;
+        } else {
+            ud = delay_push(&sim->delay, u, &u_new, &u_old);
+        }
         if (k % every == 0) {
             hh_log_row(sim, t, u, ud, sim->y, sim->m, events, log + row * HH_NLOG);
             row++;

@@ -65,6 +65,7 @@ class Sim:
                         method_code(solver) if model != "external" else lib.HH_RK3, self.h, dptr(self._buf),
                         self.dl_n, self.dl_alpha)
         self._sim.bounded = int(bounded)
+        self._rng = ffi.new("hh_rng *")           # the sensors' noise of closed-loop runs (Sim.run)
         self.p = view(self._sim.p, np.float64, lib.HH_NP)
         self.y = view(self._sim.y, np.float64, NY)
         self.m = view(self._sim.m, np.int64, NM)
@@ -86,15 +87,16 @@ class Sim:
 
         ``values``: commands u (open loop) or, with ``controller`` (a
         :class:`~hydrohil.control.BuiltinController`, sampled every step on the rig's sensor readings, the
-        pressure noise seeded by ``seed``), positions x_ref with their ``slopes``; value k holds over step k
+        pressure noise seeded by ``seed`` at k = 0; a run continued from where the last one stopped goes on
+        with the same controller state and noise draws), positions x_ref with their ``slopes``; value k holds over step k
         (n_steps + 1 values), or with ``t_in`` a table sampled by zero-order hold."""
         values = np.ascontiguousarray(values, dtype=float)
         drive = ffi.new("hh_drive *")
         drive.kind = lib.HH_DRIVE_OPEN if controller is None else lib.HH_DRIVE_CLOSED
         if controller is not None:
-            rng = ffi.new("hh_rng *")
-            lib.hh_rng_seed(rng, int(seed))
-            drive.controller, drive.state, drive.rng = controller.c, controller.state, rng
+            if self._sim.k == 0:               # a fresh start; a continued run keeps drawing where it stopped
+                lib.hh_rng_seed(self._rng, int(seed))
+            drive.controller, drive.state, drive.rng = controller.c, controller.state, self._rng
         if slopes is not None:
             slopes = np.ascontiguousarray(slopes, dtype=float)
             if len(slopes) != len(values):

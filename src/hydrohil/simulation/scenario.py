@@ -244,7 +244,7 @@ class LoadedScenario(BaseModel):
         a Python controller's module is looked up beside the scenario file too."""
         from hydrohil.control import make_controller
         return make_controller(self.scenario.controller, self.params, h or self.scenario.solver.step,
-                               base=Path(self.source).parent)
+                               base=Path(self.source).parent, source=self.source)
 
 
 def _warn_reference_beyond_stroke(ref: TableReference, stroke: float, path: Path) -> None:
@@ -275,24 +275,10 @@ def scenario_data(path: str | Path, *, params: str | Path | None = None, sets: d
     if sets:
         data["overrides"] = {**(data.get("overrides") or {}), **sets}
     ctl = data.get("controller")
-    if isinstance(ctl, dict) and ctl.get("type") == "python" and isinstance(ctl.get("callable"), str):
-        ctl["callable"] = _absolute_callable(ctl["callable"], path.parent)
+    if isinstance(ctl, dict) and ctl.get("type") == "python":   # its module's folder, wherever the table goes
+        p = Path(ctl["path"]) if isinstance(ctl.get("path"), str) else Path(".")
+        ctl["path"] = str(p if p.is_absolute() else (path.parent / p).resolve())
     return data
-
-
-def _absolute_callable(spec: str, base: Path) -> str:
-    """A Python controller's ``file.py:name`` (or a ``module:name`` found as a file beside the scenario) with
-    an absolute path, so that the scenario reads the same from another folder (a run folder)."""
-    mod, sep, attr = spec.rpartition(":")
-    if not sep:
-        return spec
-    if mod.endswith(".py"):
-        path = Path(mod)
-    else:
-        path = Path(*mod.split(".")).with_suffix(".py")
-        if not (base / path).is_file():
-            return spec                 # an installed module: found on the path wherever the scenario is
-    return spec if path.is_absolute() else f"{(base / path).resolve()}:{attr}"
 
 
 def write_scenario(path: str | Path, dest: str | Path, *, params: str | Path | None = None,
