@@ -55,3 +55,38 @@ def lockstep_equals_offline(scen, out, *args, steps: int):
     for c in ("xp", "p1", "p2", "xs"):
         assert np.array_equal(log[c], off.column(c)), c
     return log, off
+
+
+class PanelProcess:
+    """``hydrohil panel`` as a user starts it (a subprocess), driven through its HTTP API. Every wait is for
+    a handshake (the PANEL / SESSION lines, a step count in /api/state), never a fixed time."""
+
+    def __init__(self, out, *args):
+        from hydrohil.hil.processes import Child, cli
+        self.child = Child(cli("panel", "--out", out, "--port", "0", *args), "panel")
+        self.url = self.child.wait_line("PANEL ", 120)
+        self.session = Path(self.child.wait_line("SESSION ", 120).split()[0])     # (``out`` is absolute)
+
+    def api(self, path, body=None, token=True):
+        import json as _json
+        import urllib.request
+        base = self.url.split("?")[0]
+        q = ("?" + self.url.split("?")[1]) if ("?" in self.url and token) else ""
+        req = urllib.request.Request(base + path.lstrip("/") + q, data=None if body is None else _json.dumps(body).encode(),
+                                     headers={"Content-Type": "application/json"}, method="GET" if body is None else "POST")
+        with urllib.request.urlopen(req, timeout=60) as r:
+            return _json.loads(r.read())
+
+    def wait_steps(self, n, timeout=120):
+        """Until the plant has streamed ``n`` steps to the panel (its telemetry is the handshake)."""
+        import time
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            s = self.api("api/state")
+            if s["counters"]["steps"] >= n:
+                return s
+            time.sleep(0.05)              # polling the panel's state (not waiting for a time to pass)
+        raise AssertionError(f"the plant did not reach {n} steps within {timeout} s")
+
+    def close(self):
+        self.child.stop(30)

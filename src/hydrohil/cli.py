@@ -491,15 +491,19 @@ def _reference_table(text: str):
 
 
 def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", step: float = 5e-4,
-                duration: float = 10.0, log: Optional[Path] = None, lockstep: bool = False,
+                duration: Optional[float] = None, log: Optional[Path] = None, lockstep: bool = False,
                 scenario: Optional[Path] = None, allow_remote: bool = False, cpu: Optional[int] = None,
-                peer: Optional[str] = None, connect_timeout: Optional[float] = None, ready=print) -> dict:
+                peer: Optional[str] = None, connect_timeout: Optional[float] = None, ready=print,
+                panel: Optional[str] = None, rows: bool = True) -> dict:
     """Run the plant server until the run ends; streams ``log/plant_log.csv`` and writes ``log/timing.json``
     with the run's verdict, whatever the end (also on SIGINT/SIGTERM, or when no controller spoke). With
     ``scenario`` the parameters, step, duration, initial state, [hil] settings and [[faults]] come from it.
     ``peer``: the only controller address accepted (default: first sender). ``ready`` prints
     ``READY host:port`` once bound and ``PEER host:port`` once the controller has spoken (handshakes for
-    scripts). Returns the timing summary; :func:`hydrohil.hil.verdict.raise_for_outcome` maps it to an exit."""
+    scripts). ``panel``: HOST:PORT of the live panel's side channel (telemetry out, steering in; the session's
+    events and applied commands go to ``log``); ``rows=False``: no ``plant_log.csv`` of the whole run (a panel
+    session: recordings only). Returns the timing summary; :func:`hydrohil.hil.verdict.raise_for_outcome` maps
+    it to an exit."""
     import signal
     from hydrohil.hil.plant import PlantServer, finite_or_none, parse_address
     from hydrohil.parameters import load_parameters
@@ -516,19 +520,21 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
         sc = load_scenario(scenario)
         s = sc.scenario
         prm, hil = sc.params, s.hil
-        step, duration = s.plant_step, s.duration
+        step, duration = s.plant_step, s.duration if duration is None else duration
         initial = s.initial.model_dump()
         cpu = hil.cpus()[0] if cpu is None else cpu
         faults = s.faults
     else:
         prm = load_parameters(params)
+        duration = 10.0 if duration is None else duration
     if connect_timeout is not None:
         hil = hil.model_copy(update={"connect_timeout": connect_timeout})
     if log is not None:
         log.mkdir(parents=True, exist_ok=True)
     server = PlantServer(prm, step=step, duration=duration, bind=host_port, lockstep=lockstep, hil=hil,
                          initial=initial, cpu=cpu, faults=faults, peer=peer_addr,
-                         log=(log / "plant_log.csv") if log is not None else None)
+                         log=(log / "plant_log.csv") if log is not None and rows else None,
+                         panel=parse_address(panel) if panel else None, session=log)
     server.on_peer = lambda addr: ready(f"PEER {addr[0]}:{addr[1]}", flush=True)
 
     def _stop(signum, frame):
@@ -554,7 +560,8 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
 def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (name or path)"),
               bind: str = typer.Option("127.0.0.1:47000", help="HOST:PORT to listen on (port 0: any free port)"),
               step: float = typer.Option(5e-4, help="plant step [s]"),
-              duration: float = typer.Option(10.0, help="simulated time to serve [s]"),
+              duration: Optional[float] = typer.Option(None, help="simulated time to serve [s] (default: the "
+                                                       "scenario's, else 10; 0: until stopped)"),
               log: Optional[Path] = typer.Option(None, help="folder for plant_log.csv and timing.json"),
               lockstep: bool = typer.Option(False, help="advance one step per command, as fast as possible"),
               scenario: Optional[Path] = typer.Option(None, help="take params/step/duration/initial/[hil] from it"),
@@ -563,7 +570,11 @@ def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (na
               peer: Optional[str] = typer.Option(None, help="accept commands only from this HOST:PORT "
                                                  "(default: the first valid sender)"),
               connect_timeout: Optional[float] = typer.Option(None, help="wait this long for the controller's "
-                                                              "first packet [s] (default: [hil] connect_timeout, 30)")):
+                                                              "first packet [s] (default: [hil] connect_timeout, 30)"),
+              panel: Optional[str] = typer.Option(None, help="HOST:PORT of a live panel: telemetry to it, steering "
+                                                  "from it (loopback)"),
+              rows: bool = typer.Option(True, help="write plant_log.csv of the whole run (--no-rows: a panel "
+                                        "session, recordings only)")):
     """Serve the virtual rig over UDP (protocol: docs/protocol.md), locked to the wall clock.
 
     Ends with the run's verdict (VALID / INVALID and why) on stdout; exit 3 when INVALID, 4 when no
@@ -572,7 +583,7 @@ def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (na
     from hydrohil.hil.verdict import raise_for_outcome, summary_line
     try:
         t = serve_plant(params, bind, step, duration, log, lockstep, scenario, allow_remote, cpu, peer,
-                        connect_timeout)
+                        connect_timeout, panel=panel, rows=rows)
         typer.echo(json.dumps(t), err=True)
         typer.echo(f"verdict: {summary_line(t)}", err=False)
         raise_for_outcome(t, "plant run")
@@ -583,7 +594,8 @@ def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (na
 def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50.0,
                    reference: str = "0:0.03,0.5:0.03,1.5:0.15,3:0.15,4:0.03,6:0.03", log: Optional[Path] = None,
                    mode: str = "packet", allow_remote: bool = False, busy_poll: bool | None = None,
-                   local: Optional[str] = None, link_timeout: Optional[float] = None, ready=print) -> dict:
+                   local: Optional[str] = None, link_timeout: Optional[float] = None, ready=print,
+                   panel: Optional[str] = None) -> dict:
     """The paper's P position controller as a separate process talking to a plant server.
 
     ``local``: bind the controller's socket to HOST:PORT (the address a plant started with ``--peer``
@@ -637,12 +649,18 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
     if log is not None:
         log.mkdir(parents=True, exist_ok=True)
     warm_up()
-    if spin:
-        try:
+    try:
+        if spin:
             os.setpriority(os.PRIO_PROCESS, 0, -20)
-        except OSError:
-            pass
+        elif scenario is not None:     # a controller that sleeps between packets: woken first (below the plant's
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(49))     # 50), whatever else the machine runs
+    except (OSError, AttributeError):
+        pass
     summary: dict = {"error": None}
+    side = None
+    if panel:
+        from hydrohil.hil.sidechannel import CONTROLLER_COLUMNS, ROLE_CONTROLLER, SideChannel
+        side = SideChannel(parse_address(panel), ROLE_CONTROLLER, CONTROLLER_COLUMNS)
     try:
         with PlantClient(addr, timeout=timeout, command_scale=scale, busy_poll=busy_poll, period=sample,
                          nap=not spin, bind=local_addr, should_stop=lambda: bool(stop),
@@ -651,7 +669,8 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
                 summary.update(run_position_controller(client, ctl, ref, encoder_resolution=enc, mode=mode,
                                                 sample_time=sample,
                                                 log_path=(log / "controller_log.csv") if log else None,
-                                                should_stop=lambda: bool(stop)))
+                                                should_stop=lambda: bool(stop), side=side,
+                                                events_path=(log / "controller_events.jsonl") if log else None))
             except LinkError as exc:
                 summary.update(error=str(exc), commands_sent=client.seq, sensor_packets=client.received)
                 raise
@@ -660,6 +679,8 @@ def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50
         raise LinkError(summary["error"]) from None
     finally:
         summary["stop_signal"] = stop[0] if stop else None
+        if side is not None:
+            side.close()
         if log is not None:
             write_json(log / "controller.json", summary)
     return summary
@@ -677,7 +698,9 @@ def controller_cmd(connect: str = typer.Option("127.0.0.1:47000", help="plant HO
                    local: Optional[str] = typer.Option(None, help="bind to this local HOST:PORT (the plant's "
                                                        "--peer)"),
                    link_timeout: Optional[float] = typer.Option(None, help="give up when the plant does not "
-                                                                "answer for this long [s] (default 5)")):
+                                                                "answer for this long [s] (default 5)"),
+                   panel: Optional[str] = typer.Option(None, help="HOST:PORT of a live panel: telemetry to it, "
+                                                       "gains and reference from it (loopback)")):
     """Run the reference P position controller against a plant server.
 
     Exit 4 when no plant answers within the link timeout (or it goes silent), 130/143 when stopped by
@@ -685,7 +708,8 @@ def controller_cmd(connect: str = typer.Option("127.0.0.1:47000", help="plant HO
     """
     from hydrohil.errors import Interrupted
     try:
-        s = run_controller(connect, scenario, kp, reference, log, mode, local=local, link_timeout=link_timeout)
+        s = run_controller(connect, scenario, kp, reference, log, mode, local=local, link_timeout=link_timeout,
+                           panel=panel)
         typer.echo(json.dumps(s), err=True)
         if s.get("stop_signal"):
             raise Interrupted(s["stop_signal"], f"controller stopped by signal after {s.get('commands_sent')} "
@@ -695,7 +719,8 @@ def controller_cmd(connect: str = typer.Option("127.0.0.1:47000", help="plant HO
 
 
 def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True, plant: str = "python",
-        params: Optional[str] = None, sets: Optional[dict] = None):
+        params: Optional[str] = None, sets: Optional[dict] = None, panel: bool = False, panel_port: int = 8050,
+        ready=print):
     """Run a closed-loop scenario as HIL: plant and controller processes; returns ``HilResult``."""
     from hydrohil.hil.run import run_hil
     bar = None
@@ -707,7 +732,8 @@ def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True
         task = bar.add_task(f"HIL {scenario.name}" + (" (lock-step)" if lockstep else " (real time)"), total=1)
         cb = lambda t, n: bar.update(task, completed=t, total=n)  # noqa: E731
     try:
-        return run_hil(scenario, out, lockstep=lockstep, progress=cb, plant=plant, params=params, sets=sets)
+        return run_hil(scenario, out, lockstep=lockstep, progress=cb, plant=plant, params=params, sets=sets,
+                       panel=panel, panel_port=panel_port, ready=ready)
     finally:
         if bar:
             bar.stop()
@@ -722,7 +748,9 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
             params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path) in place of "
                                               "the scenario's"),
             sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on top of "
-                                           "the scenario's [overrides], e.g. --set load.mass=120")):
+                                           "the scenario's [overrides], e.g. --set load.mass=120"),
+            panel: bool = typer.Option(False, "--panel", help="serve the live panel while it runs (URL printed)"),
+            panel_port: int = typer.Option(8050, "--panel-port", help="HTTP port of the panel (0: any free)")):
     """Real-time HIL run: plant and controller as separate processes over UDP, then the report.
 
     Ends with the verdict: VALID, or INVALID with the reasons (exit 3; [hil] max_late_commands,
@@ -732,7 +760,8 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
     from hydrohil.hil.verdict import BUSY_ADVICE, summary_line
     _interruptible()
     try:
-        r = hil(scenario, out, lockstep, plant=plant, params=params, sets=_parse_sets(sets))
+        r = hil(scenario, out, lockstep, plant=plant, params=params, sets=_parse_sets(sets), panel=panel,
+                panel_port=panel_port)
         t, c = r.timing, r.comparison
         typer.echo(f"{t['steps']} steps ({t['mode']}): jitter p99 {_us(t['jitter_us_p99'])}, overruns "
                    f"{_n(t['overruns'])}, rtt p99 {_us(t['rtt_us_p99'])}, late commands {t['late_commands']}, "
@@ -742,6 +771,69 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
         if not r.verdict["valid"]:
             raise RunInvalid(f"the run is INVALID ({'; '.join(r.verdict['reasons'])}); {BUSY_ADVICE}",
                              r.verdict["reasons"])
+    except HydrohilError as exc:
+        _fail(exc)
+
+
+def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), controller: str = "builtin",
+          port: int = 8050, open_browser: bool = False, lockstep: bool = False, allow_remote: bool = False,
+          host: str = "0.0.0.0", params: Optional[str] = None, sets: Optional[dict] = None, ready=print) -> None:
+    """Serve the live panel and run a session of the scenario (default: the paper's Fig 11 experiment) until
+    SIGINT/SIGTERM; prints ``PANEL <url>`` once the page is served and ``SESSION <folder> plant <address>``
+    once the plant is up (handshakes for scripts)."""
+    import asyncio
+    import signal
+    from importlib.resources import files
+    from hydrohil.panel.server import Panel
+    if scenario is None:
+        scenario = Path(str(files("hydrohil") / "experiments" / "fig11_p_control.toml"))
+    pn = Panel(scenario, out, controller=controller, lockstep=lockstep, params=params, sets=sets, host=host,
+               port=port, allow_remote=allow_remote)
+
+    async def main():
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        url = await pn.open()
+        ready(f"PANEL {url}", flush=True)
+        if allow_remote:
+            ready("the token above is required on every request; it is shown once", flush=True)
+        if open_browser:
+            import webbrowser
+            webbrowser.open(url)
+        try:
+            await pn.start_session()
+            await stop.wait()
+        finally:
+            await pn.close()
+    asyncio.run(main())
+
+
+@app.command("panel")
+def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop scenario TOML (default: the paper's "
+                                                       "Fig 11 experiment)"),
+              out: Path = typer.Option(Path("hydrohil-panel"), "--out", help="folder of the sessions and recordings"),
+              controller: str = typer.Option("builtin", "--controller", help="builtin: the scenario's controller "
+                                             "process; external: wait for yours on 127.0.0.1:47000"),
+              port: int = typer.Option(8050, "--port", help="HTTP port of the page (0: any free port)"),
+              open_browser: bool = typer.Option(False, "--open", help="open the page in the default browser"),
+              lockstep: bool = typer.Option(False, help="lock-step plant (deterministic, as fast as possible)"),
+              allow_remote: bool = typer.Option(False, help="serve on --host for other machines: every request "
+                                                "then needs the token printed at the start"),
+              host: str = typer.Option("0.0.0.0", help="address to serve on with --allow-remote"),
+              params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path)"),
+              sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable)")):
+    """Live instrument panel: the real-time plant (and controller) with a web page on loopback.
+
+    Watch position, pressures, spool, friction, modes and timing live; change the load, supply pressure,
+    friction and gains; switch faults on and off; record run folders. Ctrl-C stops the session cleanly.
+    """
+    from hydrohil.hil.plant import parse_address
+    try:
+        if allow_remote:
+            parse_address(f"{host}:{port}", allow_remote=True)
+        panel(scenario, out, controller, port, open_browser, lockstep, allow_remote, host, params, _parse_sets(sets))
     except HydrohilError as exc:
         _fail(exc)
 

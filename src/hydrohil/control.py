@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, Literal, NamedTuple, Union
 
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationError, model_validator
 
 from hydrohil.core import ffi, lib
 from hydrohil.errors import ControllerError, InputError
@@ -153,8 +153,14 @@ class BuiltinController:
     def __init__(self, cfg: ControllerCfg, params: Parameters, h: float):
         if cfg.type not in BUILTIN_TYPES:
             raise ValueError(f"'{cfg.type}' is not a built-in controller ({', '.join(BUILTIN_TYPES)})")
-        self.cfg, self.h = cfg, float(h)
-        c = self.c = ffi.new("hh_controller *")
+        self.h, self.params = float(h), params
+        self.c = ffi.new("hh_controller *")
+        self._load(cfg)
+        self.state = ffi.new("hh_controller_state *")
+        self.reset()
+
+    def _load(self, cfg: ControllerCfg) -> None:
+        self.cfg, c, params = cfg, self.c, self.params
         c.type = BUILTIN_TYPES[cfg.type]
         c.h = self.h
         c.kp = cfg.kp
@@ -173,8 +179,20 @@ class BuiltinController:
         c.tpl = getattr(cfg, "tpl", 0.0)
         c.area_ratio = params.cylinder.a2 / params.cylinder.a1
         c.u_min, c.u_max = cfg.u_min, cfg.u_max
-        self.state = ffi.new("hh_controller_state *")
-        self.reset()
+
+    def retune(self, **gains: float) -> None:
+        """Change gains (``kp ki kd kff kpl``, units of ``[controller]``) between two samples, the law's state
+        kept; checked as the scenario file is (InputError naming the gain). A tracking time derived from the
+        gains (``tt`` not given) follows them."""
+        bad = [g for g in gains if g not in type(self.cfg).model_fields]
+        if bad:
+            raise InputError(f"a '{self.cfg.type}' controller has no gain {bad[0]}", source="controller", key=bad[0])
+        try:
+            cfg = type(self.cfg).model_validate({**self.cfg.model_dump(), **gains})
+        except ValidationError as exc:
+            e = exc.errors()[0]
+            raise InputError(e["msg"], source="controller", key=".".join(map(str, e["loc"]))) from None
+        self._load(cfg)
 
     def reset(self) -> None:
         lib.hh_controller_reset(self.state)

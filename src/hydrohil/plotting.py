@@ -285,3 +285,45 @@ def plot_bode(path: Path, by_loop: dict, *, title: str = "") -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_recording(path: Path, log: dict, *, events=(), title: str = "", verdict: dict | None = None) -> None:
+    """A recording of the live panel (``plant_log.csv`` of the recorded steps, against session time k·h):
+    position (encoder and model), valve command and spool, chamber pressures with the supply transducer,
+    friction force, mode strips, step jitter, the watchdog; each applied change (``events``: dicts with
+    ``t`` and a ``label``) a vertical line with its label; injected faults shaded."""
+    t = np.asarray(log["k"], float) * float(log["h"])
+    heights = [2.4, 1.6, 2.4, 1.4, 0.45, 0.45, 0.45, 1.8, 0.45]
+    fig, ax, top = _stack(heights, (10, 15), banner=0.5 if verdict is not None else 0.0)
+    if top is not None:
+        _verdict_banner(top, verdict, "real-time" if np.any(np.asarray(log["jitter_us"], float) > 0) else "lock-step")
+    ax[0].plot(t, np.asarray(log["xp"]) * 1e3, lw=1.2, label="piston xp (model)")
+    ax[0].plot(t, np.asarray(log["encoder"], float) * float(log["count_m"]) * 1e3, lw=0.8, ls="--",
+               label="encoder")
+    ax[1].plot(t, log["u"], lw=1, label="command ū (applied)")
+    ax[1].plot(t, log["xs"], lw=1, label="spool xs")
+    for name, c in (("p1", "C0"), ("p2", "C1")):
+        ax[2].plot(t, np.asarray(log[name]) / 1e5, lw=1, color=c, label=name.upper())
+    ax[2].plot(t, np.asarray(log["ps_meas"]) / 1e5, lw=1, color="k", ls="--", label="supply (transducer)")
+    ax[3].plot(t, log["ff"], lw=1, color="tab:brown", label="friction force")
+    _mode_strips(ax[4:7], t, log["travel_mode"], log["friction_mode"], log.get("spool_mode"))
+    _jitter_panel(ax[7], t, log["jitter_us"])
+    wd = np.asarray(log["watchdog"]) != 0
+    if wd.any():
+        ax[8].broken_barh([(t0, t1 - t0) for t0, t1 in _runs(t, wd)], (0, 1), facecolors="tab:red",
+                          label="active (safe state)")
+        ax[8].legend(loc="center left", bbox_to_anchor=(1.005, 0.5), fontsize=7, frameon=False, handlelength=1)
+    else:
+        ax[8].text(0.5, 0.5, "never active", ha="center", va="center", fontsize=8, transform=ax[8].transAxes)
+    ax[8].set_ylim(0, 1)
+    ax[8].set_yticks([])
+    ax[8].set_ylabel("watchdog", rotation=0, ha="right", va="center")
+    _fault_spans(ax, t, log.get("faults"))
+    for ev in events:
+        if t[0] <= ev["t"] <= t[-1]:
+            for a in ax[:4]:
+                a.axvline(ev["t"], color="tab:purple", lw=0.8, ls=":")
+            ax[0].annotate(ev["label"], (ev["t"], 1.0), xycoords=("data", "axes fraction"), rotation=90, fontsize=7,
+                           va="top", ha="right", color="tab:purple")
+    _finish(fig, path, [ax[i] for i in (0, 1, 2, 3, 7)],
+            ("position [mm]", "ū, xs [-]", "pressure [bar]", "friction [N]", "jitter [µs]"), title, banner=top)

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 from hydrohil.control import BuiltinController, Measurement, call_controller, p_control
-from hydrohil.errors import LinkError
+from hydrohil.errors import HydrohilError, LinkError
 from hydrohil.hil import protocol as pr
 from hydrohil.models.sensors import count_size
 from hydrohil.simulation.outputs import CsvStream
@@ -192,22 +192,45 @@ def warm_up() -> None:
 def run_position_controller(client: PlantClient, controller: Callable[[Measurement], float],
                             reference: Callable[[float], tuple[float, float]], *, encoder_resolution: float = 1e-6,
                             mode: str = "packet", sample_time: float = 5e-4, log_path: Path | None = None,
-                            should_stop: Callable[[], bool] = lambda: False) -> dict:
+                            should_stop: Callable[[], bool] = lambda: False, side=None,
+                            events_path: Path | None = None) -> dict:
     """A position controller over the link: ū = controller(measurement) with the reference (x_ref, slope) =
     ``reference(t)`` at the plant time of the sensor packet (:mod:`hydrohil.control`; the paper's P law is
     ``type = "p"``).
 
     ``mode = "packet"``: one command per sensor packet (answers it). ``mode = "clock"``: on its own
     periodic clock of ``sample_time``, using the latest sensor packet. The log is streamed to ``log_path``
-    (CSV) while running. ``should_stop`` is polled every cycle (signal handlers set it). Returns a summary.
+    (CSV) while running. ``should_stop`` is polled every cycle (signal handlers set it). ``side``: the live
+    panel's side channel (:mod:`hydrohil.hil.sidechannel`): telemetry (reference, measurement, command) out,
+    steering events (:mod:`hydrohil.hil.steering`) in, applied before the command answering the next sensor
+    packet k and logged with that k in ``events_path``. Returns a summary.
     """
+    from hydrohil.hil.steering import EventLog, SteerableController, parse_event
     ctl = controller
     builtin = controller.update if isinstance(controller, BuiltinController) else None   # the core's law: no
     res = count_size(encoder_resolution)                                                # Measurement needed
     log = CsvStream(log_path, CONTROLLER_LOG_COLUMNS, ints={0, 6}) if log_path is not None else None
     t_start = time.perf_counter()
+    steer = SteerableController(controller, reference)
+    reference = steer.ref
+    events = EventLog(events_path) if side is not None else None
+    pending: list[dict] = []
+
+    def apply_pending(k: int) -> None:
+        for msg in pending:
+            try:
+                ev = parse_event(msg, "controller", source="panel")
+                steer.apply(ev)
+            except (HydrohilError, ValueError, TypeError) as exc:
+                side.answer(msg, error=str(exc))
+                continue
+            events.write(k, ev.model_dump(exclude_none=True))
+            side.answer(msg, k=k)
+        pending.clear()
 
     def act(s: pr.Sensor) -> None:
+        if pending:
+            apply_pending(s.step)
         x = s.encoder_counts * res
         xr, dxr = reference(s.t_sim)
         if builtin is not None:
@@ -217,6 +240,9 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
         client.send(u, answer=s)
         if log is not None:
             log.write((s.header.seq, s.t_sim, time.perf_counter() - t_start, x, xr, u, s.status))
+        if side is not None and side.row(s.step, xr, x, u):
+            side.flush()
+            pending.extend(side.poll())
 
     try:
         if mode == "packet":
@@ -249,5 +275,7 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
     finally:
         if log is not None:
             log.close()
+        if events is not None:
+            events.close()
     return {"commands_sent": client.seq, "sensor_packets": client.received, "sensor_packets_bad": client.bad,
             "sensor_packets_lost": client.lost, "stopped_by_signal": bool(should_stop())}

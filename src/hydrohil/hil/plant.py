@@ -25,8 +25,9 @@ from pathlib import Path
 from hydrohil.errors import HydrohilError, InputError
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.netstamp import enable_kernel_timestamps, recv_stamped
+from hydrohil.hil.session import PanelSession
 from hydrohil.hil.stats import LatencyHistogram
-from hydrohil.models.layout import FRICTION_NAMES, SPOOL_NAMES, TRAVEL_NAMES
+from hydrohil.models.layout import FRICTION_NAMES, PS, SPOOL_NAMES, TRAVEL_NAMES
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.outputs import CsvStream
 from hydrohil.simulation.rig import Reading, VirtualRig
@@ -36,7 +37,7 @@ SPIN_NS = 150_000            # busy-wait the last 150 us before a deadline ...
 SPIN_FRACTION = 0.3          # ... but at most 30 % of a step: spinning ~all the time trips the kernel's RT throttling
 LOG_COLUMNS = ("k", "t", "wall", "jitter_us", "compute_us", "u", "cmd_seq", "cmd_age", "watchdog", "xs", "p1",
                "p2", "xp", "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas",
-               "p2_meas", "faults", "status")
+               "p2_meas", "ps_meas", "faults", "status")
 
 
 def parse_address(text: str, *, allow_remote: bool = False) -> tuple[str, int]:
@@ -106,10 +107,11 @@ class PlantServer:
     def __init__(self, params: Parameters, *, step: float = 5e-4, duration: float = 10.0,
                  bind: tuple[str, int] = ("127.0.0.1", 0), lockstep: bool = False, hil: HilCfg | None = None,
                  initial: dict | None = None, peer: tuple[str, int] | None = None, cpu: int | None = None,
-                 faults: list | None = None, log: Path | None = None):
+                 faults: list | None = None, log: Path | None = None, panel: tuple[str, int] | None = None,
+                 session: Path | None = None):
         self.params, self.h, self.lockstep = params, float(step), lockstep
         self.hil = hil or HilCfg()
-        self.n = int(round(duration / self.h))
+        self.n = int(round(duration / self.h)) if duration > 0 else 1 << 62     # 0: until stopped
         self.rig = VirtualRig(params, self.h, self.hil, faults, initial)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
@@ -125,8 +127,7 @@ class PlantServer:
         self.jitter, self.compute, self.rtt = LatencyHistogram(), LatencyHistogram(), LatencyHistogram()
         self.rtt_seen = LatencyHistogram()    # until the plant process read the command (its wake-up included)
         self.overruns = 0
-        self.log = CsvStream(log, LOG_COLUMNS, names={15: TRAVEL_NAMES, 16: FRICTION_NAMES, 17: SPOOL_NAMES},
-                             ints={0, 6, 7, 8, 18, 21, 22}) if log is not None else None
+        self.log = self.open_log(log) if log is not None else None
         self.row = [0.0] * len(LOG_COLUMNS)
         self.stop_requested = False
         self.stop_signal: int | None = None    # the signal that stopped the run (set by the CLI's handler)
@@ -140,6 +141,13 @@ class PlantServer:
         self.cmd_echo = -1
         self.cmd_t_arrival = None
         self.sensor_t_send = {}
+        # the live panel (hydrohil.panel): telemetry out and steering in through a side channel; the
+        # session folder gets the applied events and commands (a session replays from them)
+        self.side = None
+        self.session = PanelSession(self, Path(session)) if panel is not None and session is not None else None
+        if panel is not None:
+            from hydrohil.hil.sidechannel import PLANT_COLUMNS, ROLE_PLANT, SideChannel
+            self.side = SideChannel(panel, ROLE_PLANT, PLANT_COLUMNS)
 
     def warm_up(self) -> None:
         """Touch every path a step takes once (the first steps of a run must not pay for page faults)."""
@@ -254,7 +262,8 @@ class PlantServer:
         gc.freeze()
         gc.disable()
         status_extra = 0
-        t0 = time.perf_counter_ns() + 2 * h_ns
+        t0 = self.t0 = time.perf_counter_ns() + 2 * h_ns
+        self.rt = rt
         self._log_row(0, self._send_sensor(0, 0), 0.0, 0, 0, 0.0)
         k_done = 0
         last_start = t0
@@ -286,6 +295,8 @@ class PlantServer:
                 k_done = k + 1
                 self._log_row(k + 1, reading, (start - t0) / 1e9 if not self.lockstep else 0.0, late, end - start,
                               u)
+                if self.side is not None:
+                    self._telemetry(k + 1, reading, late, end - start, u)
                 if progress is not None and k % 200 == 0:
                     progress(k_done, self.n)
                 if self.stop_requested:
@@ -306,6 +317,10 @@ class PlantServer:
                     pass
             if self.log is not None:
                 self.log.close()
+            if self.session is not None:
+                self.session.close(k_done)
+            if self.side is not None:
+                self.side.flush(self._counters(k_done))
         drift_ns = last_start - (t0 + max(k_done - 1, 0) * h_ns)
         return self._timing(k_done, t0, t_end, rt, drift_ns)
 
@@ -338,27 +353,90 @@ class PlantServer:
             if r:
                 self._drain()
 
+    # -- the live panel ---------------------------------------------------------------------------
+    def _counters(self, steps: int) -> tuple:
+        return (self.overruns, self.c.late_commands, self.rig.watchdog_trips, self.rig.watchdog_trips_unexplained,
+                self.c.packets_lost, self.side.dropped, self.jitter.max_ns, steps)
+
+    def _telemetry(self, k: int, r: Reading, late_ns: int, compute_ns: int, u: float) -> None:
+        """Row k to the panel; every batch: send it, then apply what the panel asked for at this boundary."""
+        out, side = self.rig.out, self.side
+        if self.session is not None:
+            self.session.command(u)
+        if side.row(k, out[0], out[5], out[6], out[1], u, out[3], out[4], self.rig.plant.p[PS], out[8], out[9],
+                    out[10], out[11], late_ns / 1e3, compute_ns / 1e3, self.rig.link.active, r.faults,
+                    r.encoder * self.rig.res):
+            side.flush(self._counters(k))
+            msgs = side.poll()
+            for msg in msgs:
+                self._steer(msg, k)
+
+    def _steer(self, msg: dict, k: int) -> None:
+        """Apply one steering message at the boundary of step k (before it is taken), log it, answer it."""
+        from hydrohil.hil.steering import apply_plant_event, parse_event
+        op = msg.get("op")
+        try:
+            if op == "stop":
+                self.stop_requested = True
+                self.side.answer(msg, k=k)
+                return
+            if op in ("record_start", "record_stop"):
+                if self.session is None:
+                    raise InputError("recording needs a session folder (hydrohil panel)", source="panel")
+                info = self.session.record_start(Path(msg["dir"]), k) if op == "record_start" else \
+                    self.session.record_stop(k)
+                self.side.answer(msg, k=k, **info)
+                return
+            ev = parse_event(msg, "plant", source="panel")
+            extra = apply_plant_event(self.rig, ev, k)
+        except (HydrohilError, ValueError, KeyError, TypeError, OSError) as exc:
+            self.side.answer(msg, error=str(exc))
+            return
+        if self.session is not None:
+            self.session.events.write(k, ev.model_dump(), **extra)
+        self.side.answer(msg, k=k, **extra)
+
     def _log_row(self, k, r: Reading, wall, jitter_ns, compute_ns, u) -> None:
-        if self.log is None:
+        rec = self.session.recording if self.session is not None else None
+        if self.log is None and rec is None:
             return
         out, row = self.rig.out, self.row
         row[0], row[1], row[2], row[3], row[4], row[5] = k, out[0], wall, jitter_ns / 1e3, compute_ns / 1e3, u
         row[6], row[7], row[8] = self.cmd_seq, k - 1 - self.cmd_echo if self.cmd_seq >= 0 else -1, self.rig.watchdog
         row[9], row[10], row[11], row[12], row[13], row[14] = out[1], out[3], out[4], out[5], out[6], out[8]
         row[15], row[16], row[17] = out[9], out[10], out[11]
-        row[18], row[19], row[20], row[21], row[22] = r.encoder, r.p1, r.p2, r.faults, r.status
-        self.log.write(row)
+        row[18], row[19], row[20], row[21], row[22], row[23] = r.encoder, r.p1, r.p2, r.ps, r.faults, r.status
+        if self.log is not None:
+            self.log.write(row)
+        if rec is not None:
+            rec.write(row, jitter_ns, compute_ns)
 
-    def _timing(self, steps, t0, t_end, rt, drift_ns) -> dict:
+    def open_log(self, path: Path) -> CsvStream:
+        """A plant log (``plant_log.csv``) with this server's columns."""
+        return CsvStream(path, LOG_COLUMNS, names={15: TRAVEL_NAMES, 16: FRICTION_NAMES, 17: SPOOL_NAMES},
+                         ints={0, 6, 7, 8, 18, 22, 23})
+
+    def counter_values(self) -> dict:
+        """The run's counters now (a recording subtracts those at its start)."""
+        return {**{f: getattr(self.c, f) for f in self.c.__dataclass_fields__}, "overruns": self.overruns,
+                "watchdog_trips": self.rig.watchdog_trips, "watchdog_trips_unexplained": self.rig.watchdog_trips_unexplained,
+                "commands_delivered": self.rig.commands_delivered}
+
+    def _timing(self, steps, t0, t_end, rt, drift_ns, window=None) -> dict:
         """The run's summary (``timing.json``) with its verdict (:mod:`hydrohil.hil.verdict`). Lock-step runs
-        have no clock: their jitter, overrun, drift and round-trip figures are None (n/a)."""
+        have no clock: their jitter, overrun, drift and round-trip figures are None (n/a). ``window`` (a
+        recording of the live panel): its own jitter and compute histograms and counters since its start."""
         from hydrohil.hil.verdict import judge
-        j, c, rtt = self.jitter, self.compute, self.rtt
+        j, c, rtt = (self.jitter, self.compute, self.rtt) if window is None else (window.jitter, window.compute,
+                                                                                  self.rtt)
+        cnt = self.counter_values()
+        if window is not None:
+            cnt = {key: v - window.counters0[key] for key, v in cnt.items()}
         sim_t = steps * self.h
         res = {
             "mode": "lockstep" if self.lockstep else "realtime",
-            "step_s": self.h, "steps": int(steps), "steps_planned": self.n,
-            "overruns": int(self.overruns),
+            "step_s": self.h, "steps": int(steps), "steps_planned": self.n if window is None else int(steps),
+            "overruns": int(cnt["overruns"]),
             "jitter_us_p50": j.percentile(50), "jitter_us_p99": j.percentile(99), "jitter_us_p999": j.percentile(99.9),
             "jitter_us_max": j.max_ns / 1e3 if j.n else float("nan"),
             "compute_us_p50": c.percentile(50), "compute_us_p99": c.percentile(99),
@@ -366,14 +444,14 @@ class PlantServer:
             "rtt_us_p50": rtt.percentile(50), "rtt_us_p99": rtt.percentile(99),
             "rtt_seen_us_p50": self.rtt_seen.percentile(50), "rtt_seen_us_p99": self.rtt_seen.percentile(99),
             "rtt_source": "kernel receive timestamp (SO_TIMESTAMPNS)" if self.kernel_stamps else "plant process",
-            "packets_rx": self.c.packets_rx, "packets_bad": self.c.packets_bad,
-            "packets_foreign": self.c.packets_foreign, "packets_lost": self.c.packets_lost,
-            "packets_reordered": self.c.packets_reordered, "late_commands": self.c.late_commands,
-            "packets_dropped_kernel": self.c.packets_dropped_kernel,
-            "watchdog_trips": self.rig.watchdog_trips,
-            "watchdog_trips_unexplained": self.rig.watchdog_trips_unexplained,
-            "commands_delivered": self.rig.commands_delivered,
-            "faults_injected": [f.type for f in self.rig.faults.faults],
+            "packets_rx": cnt["packets_rx"], "packets_bad": cnt["packets_bad"],
+            "packets_foreign": cnt["packets_foreign"], "packets_lost": cnt["packets_lost"],
+            "packets_reordered": cnt["packets_reordered"], "late_commands": cnt["late_commands"],
+            "packets_dropped_kernel": cnt["packets_dropped_kernel"],
+            "watchdog_trips": cnt["watchdog_trips"],
+            "watchdog_trips_unexplained": cnt["watchdog_trips_unexplained"],
+            "commands_delivered": cnt["commands_delivered"],
+            "faults_injected": [f.type for f in self.rig.faults.faults if f is not None],
             "simulated_s": sim_t, "wall_s": (t_end - t0) / 1e9,
             # wall clock at the last step's start minus its scheduled instant t0 + (steps-1)*h
             "drift_ms": drift_ns / 1e6 if not self.lockstep else None,
@@ -383,6 +461,11 @@ class PlantServer:
             **{f"os_{k}": v for k, v in rt.items()},
             "plant": "python", "log_rows_dropped": 0,     # (the log is written in the loop: no row is dropped)
         }
+        if self.side is not None:
+            res["telemetry_batches_sent"], res["telemetry_batches_dropped"] = self.side.sent, self.side.dropped
+        if window is not None:
+            res.update(recorded_steps=[window.k0, window.k0 + int(steps)], rtt_scope="session so far",
+                       wall_s=(t_end - window.t0_ns) / 1e9, drift_ms=None)
         if self.lockstep:
             res["steps_per_s"] = steps / max((t_end - t0) / 1e9, 1e-9)
             for k in ("overruns", "jitter_us_p50", "jitter_us_p99", "jitter_us_p999", "jitter_us_max", "rtt_us_p50",

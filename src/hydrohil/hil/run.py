@@ -69,11 +69,15 @@ def plant_command(sc, scenario: Path, out: Path, peer: str, *, lockstep: bool = 
 
 def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
             progress: Callable[[float, float], None] | None = None, plot: bool = True,
-            plant: str = "python", params: str | Path | None = None, sets: dict | None = None) -> HilResult:
+            plant: str = "python", params: str | Path | None = None, sets: dict | None = None,
+            panel: bool = False, panel_port: int = 0, ready=print) -> HilResult:
     """Run a scenario as a HIL experiment; writes plant_log.csv, controller_log.csv, timing.json (with the
     verdict), comparison.json and report.png into ``out``. ``plant``: "python" (``hydrohil plant``) or "c"
     (the standalone C plant, built and cached on first use). ``params`` / ``sets`` replace the scenario's
     parameter set / apply on top of its overrides (the scenario as run is written to ``out/scenario.toml``).
+    ``panel``: serve the live panel (:mod:`hydrohil.panel`) on ``panel_port`` while it runs (``ready`` prints
+    ``PANEL <url>``): live traces, steering (applied changes in ``events.jsonl`` / ``controller_events.jsonl``,
+    replayed by the offline comparison), recordings under ``out/recordings``.
     Raises LinkError / HydrohilError when a process failed, Interrupted on Ctrl-C (after both processes
     finished their logs)."""
     scenario, out = Path(scenario), Path(out)
@@ -88,12 +92,23 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     ctl_address = f"127.0.0.1:{free_udp_port()}"
     command = plant_command(sc, scenario, out, ctl_address, lockstep=lockstep, plant=plant)
     out.mkdir(parents=True, exist_ok=True)
+    live = side = None
+    if panel:
+        if plant != "python":
+            raise InputError("the live panel steers the Python plant: run with --plant python", key="plant")
+        from hydrohil.panel.server import PanelThread
+        for name in ("events.jsonl", "controller_events.jsonl"):    # a run folder used again: this run's only
+            (out / name).unlink(missing_ok=True)
+        live = PanelThread(scenario, out, lockstep=lockstep, port=panel_port)
+        side = ["--panel", live.side_address]
+        command += side
+        ready(f"PANEL {live.url}", flush=True)
     plant = Child(command, "plant")
     ctl = None
     try:
         address = plant.wait_line("READY ", READY_TIMEOUT_S)
         ctl = Child(cli("controller", "--scenario", scenario, "--connect", address, "--log", out, "--local",
-                        ctl_address), "controller")
+                        ctl_address, *(side or [])), "controller")
         _supervise(plant, ctl, sc.scenario.duration, hil_cfg, progress)
     except KeyboardInterrupt as exc:         # Ctrl-C (or SIGTERM, see cli._interruptible)
         for p in (ctl, plant):
@@ -104,6 +119,8 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
         for p in (ctl, plant):
             if p is not None and p.poll() is None:
                 p.stop()
+        if live is not None:
+            live.close()
     # a plant that crashed explains a controller that then found it silent: report the plant first
     order = (plant, ctl) if plant.returncode not in (0, 3, 4, 130, 143) else (ctl, plant)
     for p in order:
@@ -153,29 +170,29 @@ def read_csv_columns(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def replay_commands(sc, hil: dict) -> np.ndarray:
-    """The plant log's applied valve commands (column ``u``) replayed open loop through the hybrid model:
-    the piston positions it gives. Equal to the log's ``xp`` bit for bit when the plant stepped the model
-    correctly, however late its commands came (scenarios whose faults do not change the model's parameters:
-    network, command and sensor faults act before or after the model)."""
-    from hydrohil.simulation.loop import HybridPlant
-    s = sc.scenario
-    plant = HybridPlant(sc.params, h=s.plant_step, **s.initial.model_dump())
-    xp = np.empty(len(hil["u"]))
-    xp[0] = plant.y[4]
-    for k, u in enumerate(hil["u"][1:]):
-        xp[k + 1] = plant.step(u)[5]
-    return xp
+def replay_commands(sc, hil: dict, events: dict | None = None) -> np.ndarray:
+    """The plant log's applied valve commands (column ``u``) and the run's plant events replayed through the
+    model (:func:`hydrohil.hil.session.replay_applied`): the piston positions they give. Equal to the log's
+    ``xp`` bit for bit when the plant stepped the model correctly, however late its commands came."""
+    from hydrohil.hil.session import replay_applied
+    return replay_applied(sc, np.asarray(hil["u"][1:], float), events)["xp"]
 
 
 def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: dict | None = None,
                     plant: str | None = None) -> dict:
     """Offline run of the same scenario; position RMS/max difference to the HIL plant log; the replay of
     the plant's applied commands (:func:`replay_commands`)."""
+    from hydrohil.hil.steering import read_events
     from hydrohil.simulation.run import run_scenario
     sc = load_scenario(scenario)
-    res = run_scenario(sc)
     hil = read_csv_columns(out / "plant_log.csv")
+    events = read_events(out / "events.jsonl", "plant")
+    ctl_events = read_events(out / "controller_events.jsonl", "controller")
+    if events or ctl_events:        # a steered run (the live panel): the offline run replays the changes
+        from hydrohil.simulation.rig import run_rig
+        res = run_rig(sc, events=events, controller_events=ctl_events, steps=max(len(hil["t"]) - 1, 0))
+    else:
+        res = run_scenario(sc)
     n = min(len(hil["t"]), len(res.log))
     d = hil["xp"][:n] - res.column("xp")[:n]
     ref = sc.scenario.references()[0][:n]
@@ -189,9 +206,8 @@ def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: di
     cmp["step_response_hil"] = step_metrics(t, hil["xp"][:n], ref, hil["p1"][:n], hil["p2"][:n])
     cmp["step_response_offline"] = step_metrics(t, res.column("xp")[:n], ref, res.column("p1")[:n],
                                                 res.column("p2")[:n])
-    from hydrohil.simulation.faults import PARAMETER
-    if len(hil["u"]) and not any(f.type in PARAMETER for f in sc.scenario.faults):   # the model is the set's
-        cmp["replay_xp_max_abs_m"] = float(np.max(np.abs(replay_commands(sc, hil) - hil["xp"])))
+    if len(hil["u"]):
+        cmp["replay_xp_max_abs_m"] = float(np.max(np.abs(replay_commands(sc, hil, events) - hil["xp"])))
     (out / "comparison.json").write_text(json.dumps(cmp, indent=2) + "\n")
     if plot:
         from hydrohil.plotting import plot_hil

@@ -179,6 +179,7 @@ class FaultInjector:
         self.h = h
         self.k_start = [int(math.ceil(f.start / h - 1e-9)) for f in self.faults]
         self.k_end = [int(math.ceil(f.end / h - 1e-9)) if f.end is not None else 1 << 62 for f in self.faults]
+        self.seed = seed
         self.rng = [np.random.default_rng([seed, i]) for i in range(len(self.faults))]
         self.mask = 0
         self.stuck_value: dict[int, float] = {}
@@ -205,31 +206,61 @@ class FaultInjector:
         if mask != self.mask:
             started = mask & ~self.mask
             self.mask = mask
-            p[:] = self.base
-            for i, f in self._of_type(*PARAMETER):
-                if f.type == "spool_stuck":
-                    p[LV] = 0.0
-                    if started >> i & 1:
-                        y[VS] = 0.0
-                elif f.type == "valve_bandwidth":
-                    p[WN] = self.base[WN] * f.factor
-                elif f.type == "valve_leakage":
-                    p[VALVE_WEAR] += f.section
-                elif f.type == "supply_pressure":
-                    p[PS] = max(f.ps, self.base[PT])
-                elif f.type == "seal_wear":
-                    p[G_LKC] = f.g_lkc
-                elif f.type == "hose_burst":
-                    p[BURST1 if f.line == 1 else BURST2] += f.section
-                elif f.type == "load_change":
-                    if f.mass is not None:
-                        p[MASS] = f.mass
-                    if f.force is not None:
-                        p[FLOAD] = f.force
-            for i in range(len(self.faults)):
-                if not (mask >> i & 1):
-                    self.stuck_value.pop(i, None)
+            self.rebuild(p, y, started)
         return mask
+
+    def rebuild(self, p: np.ndarray, y: np.ndarray, started: int = 0) -> None:
+        """``p`` = the base values plus the active parameter faults (in slot order); ``started``: the faults
+        that begin now (a stuck spool stops where it is)."""
+        mask = self.mask
+        p[:] = self.base
+        for i, f in self._of_type(*PARAMETER):
+            if f.type == "spool_stuck":
+                p[LV] = 0.0
+                if started >> i & 1:
+                    y[VS] = 0.0
+            elif f.type == "valve_bandwidth":
+                p[WN] = self.base[WN] * f.factor
+            elif f.type == "valve_leakage":
+                p[VALVE_WEAR] += f.section
+            elif f.type == "supply_pressure":
+                p[PS] = max(f.ps, self.base[PT])
+            elif f.type == "seal_wear":
+                p[G_LKC] = f.g_lkc
+            elif f.type == "hose_burst":
+                p[BURST1 if f.line == 1 else BURST2] += f.section
+            elif f.type == "load_change":
+                if f.mass is not None:
+                    p[MASS] = f.mass
+                if f.force is not None:
+                    p[FLOAD] = f.force
+        for i in range(len(self.faults)):
+            if not (mask >> i & 1):
+                self.stuck_value.pop(i, None)
+
+    def add(self, fault, k: int) -> int:
+        """Switch ``fault`` on from step k until :meth:`end` (the live panel): the first slot that is free
+        (never used, or its fault ended by k) is reused; its random draws restart from the slot's seed."""
+        for i, end in enumerate(self.k_end):
+            if end <= k and not self.mask >> i & 1:
+                break
+        else:
+            i = len(self.faults)
+            if i >= 62:
+                raise ValueError("at most 62 faults at a time")
+            self.faults.append(None)
+            self.k_start.append(0)
+            self.k_end.append(0)
+            self.rng.append(None)
+        self.faults[i], self.k_start[i], self.k_end[i] = fault, k, 1 << 62
+        self.rng[i] = np.random.default_rng([self.seed, i])
+        return i
+
+    def end(self, i: int, k: int) -> None:
+        """Switch the fault in slot ``i`` off from step k on."""
+        if not 0 <= i < len(self.faults) or self.k_end[i] <= k:
+            raise ValueError(f"no active fault in slot {i}")
+        self.k_end[i] = k
 
     def silence_active(self) -> bool:
         """True while an injected controller silence keeps every command from the plant (this step)."""

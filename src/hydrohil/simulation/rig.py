@@ -71,6 +71,31 @@ class VirtualRig:
         self.link = ffi.new("hh_watchdog *")                # command path: saturation, watchdog, safe state
         lib.hh_watchdog_init(self.link)
         self._hold = self.hil.safe_state == "hold"
+        self.base0 = self.faults.base.copy()              # the scenario's parameter vector (tunables apply on it)
+        self.tunables: dict[str, float] = {}
+
+    # -- steering (hydrohil.hil.steering: the live panel, and its offline replay) ---------------------
+    def tune(self, name: str, value: float) -> None:
+        """Set a tunable (:data:`hydrohil.hil.steering.TUNABLES`) from the next step on."""
+        from hydrohil.hil.steering import tuned_base
+        self.tunables[name] = float(value)
+        self.faults.base[:] = tuned_base(self.base0, self.tunables)
+        self.faults.rebuild(self.plant.p, self.plant.y)
+
+    def fault_on(self, fault, k: int) -> int:
+        """Switch a fault on from step k on; returns its slot (bit of the ``faults`` column)."""
+        slot = self.faults.add(fault, k)
+        self._faulty = True
+        self.faults.begin_step(k, self.plant.p, self.plant.y)
+        return slot
+
+    def fault_off(self, slot: int, k: int) -> None:
+        self.faults.end(slot, k)
+        self.faults.begin_step(k, self.plant.p, self.plant.y)
+
+    def reset(self) -> None:
+        """The model back to the scenario's initial state (plant time 0); tunables and faults stay."""
+        self.plant.reset(**self.initial)
 
     @property
     def watchdog(self) -> bool:
@@ -117,6 +142,14 @@ class VirtualRig:
             faults.begin_step(k + 1, plant.p, plant.y)     # faults of t_(k+1): its sensor reading and step
         return u
 
+    def step_applied(self, k: int, u: float) -> None:
+        """Advance step k -> k+1 with the command that drove the valve (a log's ``u``): the replay of a run."""
+        if self._faulty:
+            self.faults.begin_step(k, self.plant.p, self.plant.y)
+        self.plant.step(u)
+        if self._faulty:
+            self.faults.begin_step(k + 1, self.plant.p, self.plant.y)
+
     def read(self) -> Reading:
         """Sensor readings of the current state (interface models, then sensor faults) and the status bits of
     the wire protocol the rig knows (the server adds lock-step, overrun and final)."""
@@ -149,19 +182,28 @@ class VirtualRig:
 RIG_COLUMNS = ("faults", "x_meas", "p1_meas", "p2_meas", "ps_meas", "watchdog")
 
 
-def run_rig(sc, *, controller=None, progress=None):
+def run_rig(sc, *, controller=None, progress=None, events=None, controller_events=None, steps: int | None = None):
     """Offline run of a scenario through the virtual rig (the path of scenarios with ``[[faults]]`` or a
     Python controller): closed loop = the scenario's controller (or ``controller``, a callable taking a
     :class:`~hydrohil.control.Measurement`) on what the rig's sensors report, exactly as the HIL controller
-    process. Returns a :class:`~hydrohil.simulation.run.SimulationResult` with the extra columns
-    :data:`RIG_COLUMNS` (what the sensors reported, active faults, watchdog)."""
+    process. ``events`` / ``controller_events`` ({k: [event]}, :func:`hydrohil.hil.steering.read_events`)
+    replay a steered session (the live panel) at the steps they were applied; ``steps`` replaces the
+    scenario's step count. Returns a :class:`~hydrohil.simulation.run.SimulationResult` with the extra
+    columns :data:`RIG_COLUMNS` (what the sensors reported, active faults, watchdog)."""
+    from hydrohil.hil.steering import SteerableController, apply_plant_event
     s = sc.scenario
-    h, n = s.solver.step, s.n_steps()
+    h, n = s.solver.step, s.n_steps() if steps is None else int(steps)
     rig = VirtualRig(sc.params, h, s.hil, s.faults, s.initial.model_dump())
     closed = s.closed_loop
-    drive, slopes = s.drive()
+    events, controller_events = events or {}, controller_events or {}
+    steered = None
     if closed:
         ctl = sc.make_controller() if controller is None else make_controller(controller, sc.params, h)
+    if closed and (events or controller_events or steps is not None):   # the reference at the plant's time
+        steered = SteerableController(ctl, s.reference.sampler().at)          # (a reset restarts it)
+        drive = slopes = None
+    else:
+        drive, slopes = s.drive()
     every = s.solver.output_every
     log = np.zeros((n // every + 1, NLOG))
     extra = np.zeros((n // every + 1, len(RIG_COLUMNS)))
@@ -173,13 +215,21 @@ def run_rig(sc, *, controller=None, progress=None):
     for k in range(n + 1):
         r = rig.read()
         x = r.encoder * rig.res
+        if steered is not None:
+            for ev in controller_events.get(k, ()):
+                steered.apply(ev)
+            xr, dxr = steered.ref(r.t)
+        elif closed:
+            xr, dxr = drive[k], slopes[k]
         if closed:
-            u = call_controller(ctl, Measurement(r.t, drive[k], slopes[k], x, r.p1, r.p2, r.ps, r.pt, r.status))
+            u = call_controller(ctl, Measurement(r.t, xr, dxr, x, r.p1, r.p2, r.ps, r.pt, r.status))
         else:
             u = float(drive[k])
         y_prev[:], m_prev[:] = plant.y, plant.m
         record = k % every == 0
         if k < n:
+            for ev in events.get(k, ()):
+                apply_plant_event(rig, ev, k)
             try:
                 u_valve = rig.step(k, u)
             except HydrohilError as exc:

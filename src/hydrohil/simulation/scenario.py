@@ -7,6 +7,7 @@ the scenario file's folder.
 from __future__ import annotations
 
 import bisect
+import math
 import os
 import warnings
 from pathlib import Path
@@ -68,6 +69,8 @@ class TableReference(StrictModel):
     type: Literal["table"]
     t: list[float] = Field(min_length=1, description="times [s], non-decreasing")
     x: list[float] = Field(min_length=1, description="piston position reference [m]")
+    repeat: float | None = Field(None, gt=0, le=1e6, description="period [s]: the table repeats, x_ref(t mod "
+                                 "repeat) (the live panel's sessions repeat the scenario's reference)")
 
     @model_validator(mode="after")
     def _check(self):
@@ -75,7 +78,7 @@ class TableReference(StrictModel):
         return self
 
     def sampler(self) -> "Table":
-        return Table(self.t, self.x)
+        return Table(self.t, self.x, period=self.repeat)
 
     def sample(self, t) -> tuple[np.ndarray, np.ndarray]:
         """x_ref(t) and its slope at the times t (:class:`Table`)."""
@@ -88,8 +91,9 @@ class Table:
     ends; at a step, a repeated time, the segment after it). Offline runs sample it at every step at once
     (``table(t)``), the HIL controller one packet at a time (``table.at(t)``): the same numbers."""
 
-    def __init__(self, t, x):
+    def __init__(self, t, x, period: float | None = None):
         self.t, self.x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
+        self.period = period                        # the table repeats: sampled at t mod period
         self._t_list = self.t.tolist()
         dt, dx = np.diff(self.t), np.diff(self.x)
         self.slopes = np.zeros(len(self.t) + 1)     # [i]: the slope after the i-th point (0: before the table)
@@ -97,9 +101,13 @@ class Table:
 
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
         t = np.asarray(t, dtype=float)
+        if self.period:
+            t = np.fmod(t, self.period)             # (exact, as math.fmod in at())
         return np.interp(t, self.t, self.x), self.slopes[np.searchsorted(self.t, t, side="right")]
 
     def at(self, t: float) -> tuple[float, float]:
+        if self.period:
+            t = math.fmod(t, self.period)
         return float(np.interp(t, self.t, self.x)), float(self.slopes[bisect.bisect_right(self._t_list, t)])
 
 
@@ -282,14 +290,17 @@ def scenario_data(path: str | Path, *, params: str | Path | None = None, sets: d
 
 
 def write_scenario(path: str | Path, dest: str | Path, *, params: str | Path | None = None,
-                   sets: dict | None = None) -> Path:
+                   sets: dict | None = None, tables: dict | None = None) -> Path:
     """Write the scenario ``path`` with the command line's ``params`` / ``sets`` applied to ``dest`` (TOML):
-    what a run folder records, and what its child processes read."""
+    what a run folder records, and what its child processes read. ``tables``: {table: {key: value}} set on
+    top (e.g. the live panel's repeating reference)."""
     import tomli_w
     dest = Path(dest)
     dest.parent.mkdir(parents=True, exist_ok=True)
-    dest.write_text(f"# {Path(path).name} as run (hydrohil: --params / --set applied)\n"
-                    + tomli_w.dumps(scenario_data(path, params=params, sets=sets)))
+    data = scenario_data(path, params=params, sets=sets)
+    for table, values in (tables or {}).items():
+        data.setdefault(table, {}).update(values)
+    dest.write_text(f"# {Path(path).name} as run (hydrohil: --params / --set applied)\n" + tomli_w.dumps(data))
     return dest
 
 

@@ -53,10 +53,12 @@
 
 /* ---- plant_log.csv columns (hydrohil.hil.plant.LOG_COLUMNS) -------------------------------------- */
 enum { C_K, C_T, C_WALL, C_JITTER, C_COMPUTE, C_U, C_CMD_SEQ, C_CMD_AGE, C_WATCHDOG, C_XS, C_P1, C_P2, C_XP, C_VP,
-       C_FF, C_TRAVEL, C_FRICTION, C_SPOOL, C_ENCODER, C_P1_MEAS, C_P2_MEAS, C_FAULTS, C_STATUS, NCOL };
+       C_FF, C_TRAVEL, C_FRICTION, C_SPOOL, C_ENCODER, C_P1_MEAS, C_P2_MEAS, C_PS_MEAS, C_FAULTS, C_STATUS,
+       NCOL };
 static const char *const COLUMNS[NCOL] = {
     "k", "t", "wall", "jitter_us", "compute_us", "u", "cmd_seq", "cmd_age", "watchdog", "xs", "p1", "p2", "xp",
-    "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas", "p2_meas", "faults", "status"};
+    "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas", "p2_meas", "ps_meas", "faults",
+    "status"};
 static const char *const TRAVEL_NAMES[] = {"free", "at_retract_stop", "at_extend_stop"};
 static const char *const FRICTION_NAMES[] = {"stick", "slip_pos", "slip_neg"};
 static const char *const SPOOL_NAMES[] = {"linear", "acc_limited", "vel_limited", "at_end"};
@@ -890,6 +892,7 @@ static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t
     row[C_ENCODER] = (double)r->encoder;
     row[C_P1_MEAS] = r->p[0];
     row[C_P2_MEAS] = r->p[1];
+    row[C_PS_MEAS] = r->p[2];
     row[C_FAULTS] = 0.0;
     row[C_STATUS] = (double)r->status;
     log_push(&pl->log, row);

@@ -1,0 +1,153 @@
+"""A live-panel session of the real-time plant: its folder, the applied events and commands, recordings.
+
+Session folder (``hydrohil panel --out DIR``: ``DIR/session-N``)::
+
+    events.jsonl            every applied steering event with its step index k (hydrohil.hil.steering)
+    commands.f64            the valve command applied at each step (float64, little-endian, k = 0, 1, ...)
+    timing.json             the whole session's timing and verdict (at its end)
+    recordings/NAME/        plant_log.csv + timing.json of the recorded steps (+ the panel's report)
+
+From ``events.jsonl`` and ``commands.f64`` the session replays exactly (:func:`replay_session`), whatever
+the machine did to the timing: the state of every step, bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from array import array
+from pathlib import Path
+
+import numpy as np
+
+from hydrohil.hil.stats import LatencyHistogram
+from hydrohil.hil.steering import EventLog
+
+COMMANDS_FILE = "commands.f64"
+FLUSH_EVERY = 2000        # commands buffered in memory between two writes (1 s at 0.5 ms: 16 kB)
+
+
+class Recording:
+    """Rows k0+1 .. of the plant log into ``folder/plant_log.csv``, with the window's own histograms."""
+
+    def __init__(self, server, folder: Path, k0: int):
+        self.folder, self.k0 = folder, k0
+        folder.mkdir(parents=True, exist_ok=True)
+        self.log = server.open_log(folder / "plant_log.csv")
+        self.jitter, self.compute = LatencyHistogram(), LatencyHistogram()
+        self.counters0 = server.counter_values()
+        self.t0_ns = time.perf_counter_ns()
+
+    def write(self, row, jitter_ns: int, compute_ns: int) -> None:
+        self.log.write(row)
+        self.jitter.add(jitter_ns)
+        self.compute.add(compute_ns)
+
+
+class PanelSession:
+    def __init__(self, server, folder: Path):
+        self.server, self.folder = server, folder
+        folder.mkdir(parents=True, exist_ok=True)
+        self.events = EventLog(folder / "events.jsonl")
+        self.cmd_file = open(folder / COMMANDS_FILE, "wb")
+        self.cmds = array("d")
+        self.recording: Recording | None = None
+
+    def command(self, u: float) -> None:
+        self.cmds.append(u)
+        if len(self.cmds) >= FLUSH_EVERY:
+            self.cmds.tofile(self.cmd_file)
+            self.cmd_file.flush()
+            del self.cmds[:]
+
+    def record_start(self, folder: Path, k: int) -> dict:
+        if self.recording is not None:
+            raise ValueError(f"already recording into {self.recording.folder}")
+        self.recording = Recording(self.server, folder, k)
+        return {"dir": str(folder)}
+
+    def record_stop(self, k: int) -> dict:
+        rec = self.recording
+        if rec is None:
+            raise ValueError("not recording")
+        self.recording = None
+        rec.log.close()
+        self.flush()
+        from hydrohil.hil.plant import finite_or_none
+        from hydrohil.simulation.outputs import write_json
+        s = self.server
+        timing = finite_or_none(s._timing(k - rec.k0, s.t0, time.perf_counter_ns(), s.rt, 0, window=rec))
+        write_json(rec.folder / "timing.json", timing)
+        return {"dir": str(rec.folder), "steps": k - rec.k0, "verdict": timing["verdict"]["verdict"]}
+
+    def flush(self) -> None:
+        self.cmds.tofile(self.cmd_file)
+        self.cmd_file.flush()
+        del self.cmds[:]
+
+    def close(self, k: int) -> None:
+        if self.recording is not None:
+            try:
+                self.record_stop(k)
+            except OSError:
+                pass
+        self.flush()
+        self.cmd_file.close()
+        self.events.close()
+
+
+def read_commands(folder: Path) -> np.ndarray:
+    """The applied valve commands of a session (``commands.f64``), one per step from k = 0."""
+    return np.fromfile(Path(folder) / COMMANDS_FILE, dtype="<f8")
+
+
+def replay_session(sc, folder: Path, steps: int | None = None) -> dict[str, np.ndarray]:
+    """A session's applied commands and plant events (:func:`replay_applied`) up to step ``steps``."""
+    from hydrohil.hil.steering import read_events
+    u = read_commands(folder)
+    n = len(u) if steps is None else min(int(steps), len(u))
+    return replay_applied(sc, u[:n], read_events(Path(folder) / "events.jsonl", "plant"))
+
+
+REPLAY_COLUMNS = {"t": 0, "xs": 1, "p1": 3, "p2": 4, "xp": 5, "vp": 6, "ff": 8, "travel_mode": 9, "friction_mode": 10,
+                  "spool_mode": 11}
+
+
+def replay_applied(sc, u, events: dict | None = None) -> dict[str, np.ndarray]:
+    """The valve commands that drove a run (``u[k]`` applied at step k: a plant log's column ``u`` from its
+    second row, or a session's ``commands.f64``) and its plant events replayed through a fresh rig of
+    scenario ``sc`` (its faults act as they did): per step k = 0..len(u) the model's columns
+    :data:`REPLAY_COLUMNS` and ``faults``. Equal to the run's bit for bit when it stepped the model right,
+    however late its commands came."""
+    from hydrohil.hil.steering import apply_plant_event
+    from hydrohil.simulation.rig import VirtualRig
+    s = sc.scenario
+    events = events or {}
+    n = len(u)
+    rig = VirtualRig(sc.params, s.plant_step, s.hil, s.faults, s.initial.model_dump())
+    cols = {c: np.empty(n + 1) for c in (*REPLAY_COLUMNS, "faults")}
+    pairs = [(cols[c], i) for c, i in REPLAY_COLUMNS.items()]
+    faults = cols["faults"]
+
+    def put(k):
+        out = rig.out
+        for col, i in pairs:
+            col[k] = out[i]
+        faults[k] = rig.faults.mask
+
+    put(0)
+    for k in range(n):
+        for ev in events.get(k, ()):
+            apply_plant_event(rig, ev, k)
+        rig.step_applied(k, float(u[k]))
+        put(k + 1)
+    return cols
+
+
+def session_info(folder: Path) -> dict:
+    """What a session folder holds (for the panel's list and for tests)."""
+    folder = Path(folder)
+    rec = sorted(p.name for p in (folder / "recordings").glob("*") if p.is_dir()) if (folder / "recordings").is_dir() \
+        else []
+    timing = json.loads((folder / "timing.json").read_text()) if (folder / "timing.json").is_file() else None
+    return {"folder": str(folder), "recordings": rec, "timing": timing}

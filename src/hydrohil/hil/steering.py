@@ -1,0 +1,212 @@
+"""Steering a running rig: changes applied at a step boundary, logged with their step index, replayable.
+
+A change is a small JSON object (an *event*) sent by the live panel (:mod:`hydrohil.panel`) through the
+side channel (:mod:`hydrohil.hil.sidechannel`) to the process it concerns. That process applies it at the
+boundary of the step it is about to take (the plant: before step k; the controller: before the command
+answering sensor packet k) and appends it to its event log with that ``k``:
+
+==================  ============  ===================================================================
+op                  process       fields
+==================  ============  ===================================================================
+``set``             plant         ``name`` (one of :data:`TUNABLES`), ``value`` (SI unit of the table)
+``fault_on``        plant         ``fault``: an entry of ``[[faults]]`` without start/end -> ``slot``
+``fault_off``       plant         ``slot`` (as returned by its ``fault_on``)
+``reset``           plant         the model back to the scenario's initial state (plant time 0)
+``gains``           controller    any of ``kp ki kd kff kpl`` of the built-in law (units of [controller])
+``reference``       controller    ``value`` [m] held from now on, or null: the scenario's reference again
+``reset``           controller    the law's state (integral, filters) cleared
+==================  ============  ===================================================================
+
+The same functions apply an event in the real-time plant, in the controller process and in the offline
+replay (:func:`hydrohil.simulation.rig.run_rig` with ``events``), so a panel session replays bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+from pydantic import Field, TypeAdapter, ValidationError
+
+from hydrohil.errors import InputError
+from hydrohil.models.layout import FLOAD, INDEX, MASS, PS, PT
+from hydrohil.parameters.schema import StrictModel
+
+# name -> (parameter-vector slot(s), unit, lower, upper, what it is)
+TUNABLES = {
+    "mass": ("kg", 0.1, 1e5, "moved mass"),
+    "force": ("N", -1e7, 1e7, "external force, + opposes extension"),
+    "supply_pressure": ("Pa", 0.0, 1e8, "supply pressure (at least the tank pressure)"),
+    "friction_scale": ("-", 0.0, 10.0, "multiplies every friction force (Coulomb, static, viscous)"),
+}
+FRICTION_FORCES = tuple(INDEX[f"model.{k}_{d}"] for k in ("fc", "fs", "kv") for d in ("pos", "neg"))
+GAINS = ("kp", "ki", "kd", "kff", "kpl")
+
+
+class SetTunable(StrictModel):
+    op: Literal["set"]
+    name: Literal["mass", "force", "supply_pressure", "friction_scale"]
+    value: float
+
+
+class FaultOn(StrictModel):
+    op: Literal["fault_on"]
+    fault: dict
+
+
+class FaultOff(StrictModel):
+    op: Literal["fault_off"]
+    slot: int = Field(ge=0, le=61)
+
+
+class Reset(StrictModel):
+    op: Literal["reset"]
+
+
+class Gains(StrictModel):
+    op: Literal["gains"]
+    kp: float | None = None
+    ki: float | None = None
+    kd: float | None = None
+    kff: float | None = None
+    kpl: float | None = None
+
+
+class Reference(StrictModel):
+    op: Literal["reference"]
+    value: float | None = Field(None, ge=-10, le=10, description="held reference [m]; null: the scenario's")
+
+
+PlantEvent = Annotated[Union[SetTunable, FaultOn, FaultOff, Reset], Field(discriminator="op")]
+ControllerEvent = Annotated[Union[Gains, Reference, Reset], Field(discriminator="op")]
+_PLANT, _CONTROLLER = TypeAdapter(PlantEvent), TypeAdapter(ControllerEvent)
+
+
+def _errors(exc: ValidationError) -> str:
+    return "; ".join(f"{'.'.join(map(str, e['loc'])) or 'event'}: {e['msg']}" for e in exc.errors())
+
+
+def parse_event(data: dict, process: str, source: str = "event"):
+    """Validate one event for ``process`` ("plant" | "controller"); InputError naming the field otherwise."""
+    adapter = _PLANT if process == "plant" else _CONTROLLER
+    body = {k: v for k, v in data.items() if k not in ("k", "id", "result")}
+    try:
+        ev = adapter.validate_python(body)
+    except ValidationError as exc:
+        raise InputError(_errors(exc), source=source) from None
+    if isinstance(ev, SetTunable):
+        unit, lo, hi, what = TUNABLES[ev.name]
+        if not lo <= ev.value <= hi:
+            raise InputError(f"{what} must be in [{lo:g}, {hi:g}] {unit}, got {ev.value:g}", source=source,
+                             key=ev.name)
+    if isinstance(ev, FaultOn):
+        ev = FaultOn(op="fault_on", fault=fault_model(ev.fault, source).model_dump())
+    return ev
+
+
+def fault_model(fault: dict, source: str = "event"):
+    """A fault of :mod:`hydrohil.simulation.faults` switched on now (start 0, no end: it lasts until off)."""
+    from hydrohil.simulation.faults import Fault
+    body = {k: v for k, v in fault.items() if k not in ("start", "end")}
+    try:
+        return TypeAdapter(Fault).validate_python({**body, "start": 0.0})
+    except ValidationError as exc:
+        raise InputError(_errors(exc), source=source, key="fault") from None
+
+
+def tuned_base(base0, tunables: dict):
+    """The parameter vector of the scenario (``base0``) with the tunables applied."""
+    p = base0.copy()
+    if "mass" in tunables:
+        p[MASS] = tunables["mass"]
+    if "force" in tunables:
+        p[FLOAD] = tunables["force"]
+    if "supply_pressure" in tunables:
+        p[PS] = max(tunables["supply_pressure"], base0[PT])
+    if "friction_scale" in tunables:
+        for i in FRICTION_FORCES:
+            p[i] = base0[i] * tunables["friction_scale"]
+    return p
+
+
+def apply_plant_event(rig, ev, k: int) -> dict:
+    """Apply a validated plant event to a :class:`~hydrohil.simulation.rig.VirtualRig` at the boundary of
+    step k (before it is taken). Returns what the acknowledgement adds (e.g. the fault's slot)."""
+    if isinstance(ev, SetTunable):
+        rig.tune(ev.name, ev.value)
+        return {}
+    if isinstance(ev, FaultOn):
+        return {"slot": rig.fault_on(fault_model(ev.fault), k)}
+    if isinstance(ev, FaultOff):
+        rig.fault_off(ev.slot, k)
+        return {}
+    if isinstance(ev, Reset):
+        rig.reset()
+        return {}
+    raise TypeError(f"not a plant event: {ev!r}")
+
+
+class SteerableController:
+    """The built-in law of a scenario with its reference, as the controller process and the offline replay
+    run it: events change the gains, hold a reference or clear the law's state (:func:`apply`)."""
+
+    def __init__(self, controller, reference):
+        self.controller, self.reference = controller, reference
+        self.held: float | None = None
+
+    def ref(self, t: float) -> tuple[float, float]:
+        return (self.held, 0.0) if self.held is not None else self.reference(t)
+
+    def apply(self, ev) -> dict:
+        from hydrohil.control import BuiltinController
+        if isinstance(ev, Reference):
+            self.held = ev.value
+        elif isinstance(ev, Reset):
+            if hasattr(self.controller, "reset"):
+                self.controller.reset()
+        elif isinstance(ev, Gains):
+            if not isinstance(self.controller, BuiltinController):
+                raise InputError("gains apply to a built-in controller only", source="event", key="gains")
+            self.controller.retune(**{g: getattr(ev, g) for g in GAINS if getattr(ev, g) is not None})
+        else:
+            raise TypeError(f"not a controller event: {ev!r}")
+        return {}
+
+
+class EventLog:
+    """Append-only JSON-lines log of applied events (``events.jsonl`` / ``controller_events.jsonl``):
+    one line per event with its step index ``k``; flushed at once (a crash keeps what was applied)."""
+
+    def __init__(self, path: Path | None):
+        self.path = path
+        self.fh = open(path, "a", buffering=1) if path is not None else None
+
+    def write(self, k: int, event: dict, **result) -> None:
+        """One applied event; ``result``: what applying it gave (a fault's slot), kept apart from the event."""
+        if self.fh is not None:
+            self.fh.write(json.dumps({"k": int(k), **event, **({"result": result} if result else {})}) + "\n")
+
+    def close(self) -> None:
+        if self.fh is not None:
+            self.fh.close()
+            self.fh = None
+
+
+def read_events(path: Path, process: str) -> dict[int, list]:
+    """An event log -> {k: [validated events in the order applied]} (a missing file: no events). Only
+    applied events are in it (a refused one is answered with an error and never logged)."""
+    path = Path(path)
+    out: dict[int, list] = {}
+    if not path.is_file():
+        return out
+    for n, line in enumerate(path.read_text().splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            data = json.loads(line)
+            k = int(data["k"])
+        except (ValueError, KeyError, TypeError):
+            raise InputError("expected a JSON object with an integer step index k", source=f"{path}:{n}") from None
+        out.setdefault(k, []).append(parse_event(data, process, source=f"{path}:{n}"))
+    return out

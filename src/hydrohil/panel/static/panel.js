@@ -1,0 +1,247 @@
+// hydrohil live panel: draws the server's min/max frames on canvases, sends steering requests.
+// No libraries: a frame holds at most ~1000 blocks per trace (the server decimates), which a 2D canvas
+// draws in well under a millisecond per trace.
+"use strict";
+const token = new URLSearchParams(location.search).get("token");
+const q = token ? "?token=" + encodeURIComponent(token) : "";
+const $ = (id) => document.getElementById(id);
+let state = null, frame = null, frames = 0, fpsCount = 0, paused = false, view = { window: 10, end_k: null, paused: false };
+let pausedAt = null, ws = null;
+
+const PLOTS = {
+  "c-position": [["x_ref", "#444", 1e3, [4, 3]], ["xp", "#1565c0", 1e3]],
+  "c-error": [["error", "#c62828", 1e3]],
+  "c-pressure": [["p1", "#1565c0", 1e-5], ["p2", "#ef6c00", 1e-5], ["ps", "#444", 1e-5, [4, 3]]],
+  "c-valve": [["u", "#6a1b9a", 1], ["xs", "#2e7d32", 1]],
+  "c-friction": [["ff", "#795548", 1]],
+  "c-jitter": [["jitter_us", "#455a64", 1]],
+};
+const MODE_COLORS = {
+  travel_mode: ["#c8e6c9", "#e53935", "#1e88e5"],
+  friction_mode: ["#ffb74d", "#b3e5fc", "#b3e5fc"],
+  spool_mode: ["#e0e0e0", "#fff59d", "#ffcc80", "#e57373"],
+};
+
+async function api(path, body) {
+  const r = await fetch(path + q, body === undefined ? {} :
+    { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body) });
+  const data = await r.json().catch(() => ({ error: r.statusText }));
+  if (!r.ok || data.error) { $("message").textContent = "refused: " + (data.error || r.status); throw new Error(data.error); }
+  $("message").textContent = "";
+  return data;
+}
+
+function connect() {
+  ws = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/ws" + q);
+  ws.binaryType = "arraybuffer";
+  ws.onopen = () => ws.send(JSON.stringify(view));
+  ws.onmessage = (m) => { frame = parseFrame(m.data); frames++; fpsCount++; $("frames").textContent = frames; draw(); };
+  ws.onclose = () => { $("status").textContent = "disconnected"; $("status").className = "pill bad"; setTimeout(connect, 1000); };
+}
+
+function parseFrame(buf) {
+  const n = new DataView(buf).getUint32(0, true);
+  const head = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 4, n)));
+  const nc = head.columns.length, off = 4 + n, len = head.n;
+  const lo = new Float32Array(buf, off, nc * len), hi = new Float32Array(buf, off + 4 * nc * len, nc * len);
+  head.lo = {}; head.hi = {};
+  head.columns.forEach((c, i) => { head.lo[c] = lo.subarray(i * len, (i + 1) * len); head.hi[c] = hi.subarray(i * len, (i + 1) * len); });
+  return head;
+}
+
+function sizeCanvas(c) {
+  const w = c.clientWidth * devicePixelRatio, h = (+c.getAttribute("height")) * devicePixelRatio;
+  if (c.width !== w) { c.width = w; c.height = h; c.style.height = c.getAttribute("height") + "px"; }
+  const g = c.getContext("2d"); g.setTransform(devicePixelRatio, 0, 0, devicePixelRatio, 0, 0); return g;
+}
+
+function xRange(f) {
+  const span = f.block * f.h, t1 = (f.b0 + f.n) * span, t0 = Math.max(t1 - f.window, f.b0 * span);
+  return [t1 - f.window, t1, t0];
+}
+
+function drawPlot(c, series, f) {
+  const g = sizeCanvas(c), W = c.clientWidth, H = +c.getAttribute("height"), L = 52, R = 8, T = 14, B = 14;
+  g.clearRect(0, 0, W, H);
+  g.fillStyle = "#333"; g.font = "11px sans-serif"; g.fillText(c.dataset.title, L, 11);
+  if (!f || !f.n) return;
+  let ymin = Infinity, ymax = -Infinity;
+  for (const [col, , s] of series) {
+    const lo = f.lo[col], hi = f.hi[col];
+    for (let i = 0; i < f.n; i++) {
+      const a = lo[i] * s, b = hi[i] * s;
+      if (a === a) { if (a < ymin) ymin = a; if (a > ymax) ymax = a; }
+      if (b === b) { if (b < ymin) ymin = b; if (b > ymax) ymax = b; }
+    }
+  }
+  if (!(ymax >= ymin)) return;
+  if (ymax - ymin < 1e-9) { ymax += 1; ymin -= 1; }
+  const pad = (ymax - ymin) * 0.06; ymin -= pad; ymax += pad;
+  const [t0, t1] = xRange(f), span = f.block * f.h;
+  const X = (t) => L + (t - t0) / (t1 - t0) * (W - L - R), Y = (v) => T + (ymax - v) / (ymax - ymin) * (H - T - B);
+  g.strokeStyle = "#eee"; g.fillStyle = "#666"; g.lineWidth = 1;
+  for (let i = 0; i <= 4; i++) {
+    const v = ymin + (ymax - ymin) * i / 4, y = Y(v);
+    g.beginPath(); g.moveTo(L, y); g.lineTo(W - R, y); g.stroke(); g.fillText(v.toPrecision(4), 2, y + 4);
+  }
+  g.fillText(t0.toFixed(2) + " s", L, H - 2); g.fillText(t1.toFixed(2) + " s", W - R - 50, H - 2);
+  for (const [col, color, s, dash] of series) {
+    const lo = f.lo[col], hi = f.hi[col];
+    g.strokeStyle = color; g.setLineDash(dash || []); g.lineWidth = 1.2; g.beginPath();
+    let pen = false;
+    for (let i = 0; i < f.n; i++) {
+      const a = lo[i], b = hi[i];
+      if (a !== a) { pen = false; continue; }
+      const x = X((f.b0 + i + 0.5) * span);
+      if (!pen) { g.moveTo(x, Y(b * s)); pen = true; } else g.lineTo(x, Y(b * s));
+      if (b !== a) g.lineTo(x, Y(a * s));
+    }
+    g.stroke(); g.setLineDash([]);
+  }
+  let lx = W - R - 10;
+  for (let j = series.length - 1; j >= 0; j--) {
+    const txt = series[j][0]; lx -= g.measureText(txt).width + 18;
+    g.fillStyle = series[j][1]; g.fillRect(lx, 4, 12, 3); g.fillStyle = "#333"; g.fillText(txt, lx + 14, 11);
+  }
+}
+
+function drawModes(c, f) {
+  const g = sizeCanvas(c), W = c.clientWidth, H = +c.getAttribute("height"), L = 52, R = 8, T = 14;
+  g.clearRect(0, 0, W, H); g.fillStyle = "#333"; g.font = "11px sans-serif"; g.fillText(c.dataset.title, L, 11);
+  if (!f || !f.n) return;
+  const [t0, t1] = xRange(f), span = f.block * f.h, rows = ["travel_mode", "friction_mode", "spool_mode"];
+  const hRow = (H - T - 2) / 3, X = (t) => L + (t - t0) / (t1 - t0) * (W - L - R);
+  rows.forEach((col, r) => {
+    g.fillStyle = "#666"; g.fillText(col.split("_")[0], 2, T + r * hRow + hRow * 0.7);
+    for (let i = 0; i < f.n; i++) {
+      const a = f.lo[col][i], b = f.hi[col][i];
+      if (a !== a) continue;
+      g.fillStyle = a === b ? MODE_COLORS[col][a] || "#999" : "#9e9e9e";
+      const x0 = X((f.b0 + i) * span), x1 = X((f.b0 + i + 1) * span);
+      g.fillRect(x0, T + r * hRow, Math.max(x1 - x0, 1), hRow - 1);
+    }
+  });
+}
+
+function drawHist(c, f) {
+  const g = sizeCanvas(c), W = c.clientWidth, H = +c.getAttribute("height"), L = 40, B = 14, T = 14;
+  g.clearRect(0, 0, W, H); g.fillStyle = "#333"; g.font = "11px sans-serif"; g.fillText(c.dataset.title, L, 11);
+  const h = f && f.jitter_hist; if (!h || !h.total) return;
+  const n = h.counts.length, lmax = Math.log10(Math.max(...h.counts) + 1), bw = (W - L - 8) / n;
+  h.counts.forEach((v, i) => {
+    const bh = Math.log10(v + 1) / lmax * (H - T - B);
+    g.fillStyle = i === 0 ? "#90a4ae" : "#546e7a"; g.fillRect(L + i * bw, H - B - bh, Math.max(bw - 1, 1), bh);
+  });
+  g.fillStyle = "#666";
+  [[1, "≤0"], [11, "1 µs"], [21, "10 µs"], [31, "100 µs"], [41, "1 ms"]].forEach(([i, s]) => g.fillText(s, L + i * bw, H - 2));
+  g.fillText("log", 2, T + 10);
+}
+
+function draw() {
+  const f = frame;
+  if (!f) return;
+  for (const [id, series] of Object.entries(PLOTS)) drawPlot($(id), series, f);
+  drawModes($("c-modes"), f);
+  drawHist($("c-hist"), f);
+  if (f.k_max >= 0) $("tplant").textContent = (f.k_max * f.h).toFixed(2);
+  const c = f.counters, rows = [["steps", c.steps], ["overruns", c.overruns], ["late commands", c.late_commands],
+    ["watchdog trips", c.watchdog_trips + " (" + c.watchdog_trips_unexplained + " unexplained)"],
+    ["watchdog now", f.n && f.hi.watchdog[f.n - 1] > 0 ? "ACTIVE" : "ok"], ["packets lost", c.packets_lost],
+    ["telemetry lost", c.telemetry_lost_steps + " steps"], ["jitter max", (c.jitter_max_ns / 1e3).toFixed(1) + " µs"]];
+  $("counters").innerHTML = rows.map(([k, v]) => `<tr><td>${k}</td><td>${v}</td></tr>`).join("");
+}
+
+// -- zoom while paused ------------------------------------------------------------------------------
+let drag = null;
+for (const id of [...Object.keys(PLOTS), "c-modes"]) {
+  const c = $(id);
+  c.addEventListener("mousedown", (e) => { if (paused && frame) drag = { c, x0: e.offsetX }; });
+  c.addEventListener("mouseup", (e) => {
+    if (!drag || !frame) return;
+    const W = c.clientWidth, [t0, t1] = xRange(frame), tx = (x) => t0 + (x - 52) / (W - 60) * (t1 - t0);
+    const a = tx(Math.min(drag.x0, e.offsetX)), b = tx(Math.max(drag.x0, e.offsetX)); drag = null;
+    if (b - a > 0.005) { view.window = Math.max(b - a, 0.5); view.end_k = Math.round(b / frame.h); sendView(); }
+  });
+  c.addEventListener("dblclick", () => { if (paused) { view.window = +$("window").value; view.end_k = pausedAt; sendView(); } });
+}
+function sendView() { if (ws && ws.readyState === 1) ws.send(JSON.stringify(view)); }
+
+$("window").onchange = () => { view.window = +$("window").value; sendView(); };
+$("pause").onclick = () => {
+  paused = !paused; $("pause").textContent = paused ? "live" : "pause";
+  pausedAt = paused && frame ? frame.k_max : null;
+  view.paused = paused; view.end_k = paused ? pausedAt : null; view.window = +$("window").value; sendView();
+};
+$("start").onclick = () => api("/api/run/start", {}).then(refresh);
+$("stop").onclick = () => api("/api/run/stop", {}).then(refresh);
+$("reset").onclick = () => api("/api/steer", { op: "reset" }).then(() => api("/api/steer", { op: "reset", target: "controller" }).catch(() => 0)).then(refresh);
+$("record").onclick = () => api(state && state.recording ? "/api/record/stop" : "/api/record/start", {}).then(refresh);
+$("ref-hold").onclick = () => api("/api/steer", { op: "reference", value: +$("ref-value").value / 1e3 }).then(refresh);
+$("ref-scenario").onclick = () => api("/api/steer", { op: "reference", value: null }).then(refresh);
+$("fault-type").onchange = buildFaultFields;
+$("fault-on").onclick = () => {
+  const type = $("fault-type").value, fault = { type };
+  for (const inp of $("fault-fields").querySelectorAll("[data-name]")) {
+    if (inp.value === "") continue;
+    const v = inp.tagName === "SELECT" ? inp.value : +inp.value;
+    fault[inp.dataset.name] = inp.tagName === "SELECT" && /^\d+$/.test(v) ? +v : v;
+  }
+  api("/api/steer", { op: "fault_on", fault }).then(refresh);
+};
+
+// tunables in display units: pressure in bar
+const UNIT = { supply_pressure: [1e5, "bar"], mass: [1, "kg"], force: [1, "N"], friction_scale: [1, "–"] };  // SI per unit shown
+function buildForms() {
+  $("tunables").innerHTML = state.tunable_schema.map((t) => {
+    const [s, u] = UNIT[t.name] || [1, t.unit];
+    return `<div class="row" title="${t.description}"><label>${t.name.replace("_", " ")} [${u}]</label>` +
+      `<input id="tun-${t.name}" type="number" step="any" value="${+(state.tunables[t.name] / s).toPrecision(6)}">` +
+      `<button id="set-${t.name}">set</button></div>`;
+  }).join("");
+  for (const t of state.tunable_schema) {
+    $("set-" + t.name).onclick = () => api("/api/steer", { op: "set", name: t.name,
+      value: +$("tun-" + t.name).value * (UNIT[t.name] || [1])[0] }).then(refresh);
+  }
+  const gains = Object.keys(state.gains);
+  $("controller-box").style.display = state.controller === "builtin" && state.controller_type !== "python" ? "" : "none";
+  $("gains").innerHTML = gains.map((g) => `<div class="row"><label>${g}</label>` +
+    `<input id="gain-${g}" type="number" step="any" value="${state.gains[g]}"><button id="set-${g}">set</button></div>`).join("");
+  for (const g of gains) $("set-" + g).onclick = () => api("/api/steer", { op: "gains", [g]: +$("gain-" + g).value }).then(refresh);
+  $("fault-type").innerHTML = state.fault_schema.map((f) => `<option>${f.type}</option>`).join("");
+  buildFaultFields();
+}
+function buildFaultFields() {
+  const f = state.fault_schema.find((x) => x.type === $("fault-type").value);
+  $("fault-fields").innerHTML = f.fields.map((fl) => `<div class="row" title="${fl.description}"><label>${fl.name}</label>` +
+    (fl.kind === "choice" ? `<select data-name="${fl.name}">${fl.choices.map((c) => `<option>${c}</option>`).join("")}</select>`
+      : `<input data-name="${fl.name}" type="number" step="any" value="${fl.default ?? ""}" placeholder="${fl.description}">`) + "</div>").join("");
+}
+
+// lists are rebuilt only when they change (a button being clicked is never replaced under the pointer)
+function setHTML(id, html) { if ($(id).dataset.html !== html) { $(id).innerHTML = html; $(id).dataset.html = html; } }
+
+async function refresh() {
+  const first = state === null;
+  state = await api("/api/state");
+  if (first) { buildForms(); $("scenario").textContent = state.scenario; }
+  const st = $("status");
+  st.textContent = state.running ? (state.lockstep ? "running (lock-step)" : "running") : (state.ended ? "ended" : "stopped");
+  st.className = "pill " + (state.running ? "ok" : "warn");
+  const v = state.verdict, vd = $("verdict");
+  vd.textContent = v ? v.verdict + (v.reasons.length ? ": " + v.reasons.join("; ") : "") : "";
+  vd.className = "pill " + (v ? (v.valid ? "ok" : "bad") : "");
+  $("session").textContent = (state.session || "") + (state.plant_address ? " · your controller → " + state.plant_address : "");
+  setHTML("faults-active", state.faults.map((f) => `<li>${f.type} (slot ${f.slot}) <button data-slot="${f.slot}">off</button></li>`).join(""));
+  for (const b of $("faults-active").querySelectorAll("button")) b.onclick = () => api("/api/steer", { op: "fault_off", slot: +b.dataset.slot }).then(refresh);
+  $("record").textContent = state.recording ? "stop recording" : "record";
+  $("rec-state").textContent = state.recording ? "recording " + state.recording.name : "";
+  setHTML("recordings", state.recordings.map((r) => `<li><a href="/recordings/${r.name}.zip${q}" download>${r.name}</a> ` +
+    `${r.steps} steps, ${r.verdict}, report ${r.report}</li>`).join(""));
+  setHTML("events", state.events.slice().reverse().map((e) => `<li>k=${e.k} (${e.t.toFixed(3)} s) ${e.process}: ${e.op} ` +
+    `${e.name ? e.name + "=" + e.value : ""}${e.fault ? e.fault.type : ""}${e.slot !== undefined ? " slot " + e.slot : ""}</li>`).join(""));
+}
+
+setInterval(() => { $("fps").textContent = fpsCount; fpsCount = 0; }, 1000);
+setInterval(() => refresh().catch(() => 0), 1000);
+refresh().catch(() => 0);
+connect();

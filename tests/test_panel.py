@@ -1,0 +1,256 @@
+"""The live panel (hydrohil panel / hil --panel) through its HTTP API and side channel, with real processes.
+
+The browser end-to-end tests are in test_panel_browser.py."""
+
+import json
+import os
+import signal
+import socket
+import urllib.error
+import urllib.request
+
+import numpy as np
+import pytest
+
+from conftest import EXAMPLES, PanelProcess
+from hydrohil.hil.run import read_csv_columns
+from hydrohil.hil.session import replay_session
+from hydrohil.hil.steering import read_events
+from hydrohil.simulation.rig import run_rig
+from hydrohil.simulation.scenario import load_scenario
+
+FIG11 = EXAMPLES / "fig11_p_control.toml"
+
+
+@pytest.fixture
+def lockstep_panel(tmp_path):
+    p = PanelProcess(tmp_path / "panel", "--lockstep")
+    yield p
+    p.close()
+
+
+def _record(p, steer, steps_between=400):
+    """Start a recording, apply ``steer`` (a list of API bodies) each after ``steps_between`` more plant steps,
+    stop it; returns (recording entry, answers)."""
+    answers = []
+    p.api("api/record/start", {})
+    for body in steer:
+        k = p.api("api/state")["counters"]["steps"]
+        p.wait_steps(k + steps_between)
+        answers.append(p.api("api/steer", body))
+    k = p.api("api/state")["counters"]["steps"]
+    p.wait_steps(k + steps_between)
+    rec = p.api("api/record/stop", {})
+    return rec, answers
+
+
+def test_steered_lockstep_session_replays_offline_bit_for_bit(lockstep_panel, tmp_path):
+    """A panel session with every kind of change (tunables, a fault on and off, gains, a held reference, a
+    reset) replays offline — plant and controller, from the event logs — to the same result bit for bit."""
+    p = lockstep_panel
+    p.wait_steps(200)
+    steer = [{"op": "set", "name": "mass", "value": 150.0},
+             {"op": "gains", "kp": 90.0},
+             {"op": "fault_on", "fault": {"type": "hose_burst", "line": 2, "section": 0.5}},
+             {"op": "set", "name": "supply_pressure", "value": 5e6},
+             {"op": "fault_off", "slot": 0},
+             {"op": "reference", "value": 0.08},
+             {"op": "fault_on", "fault": {"type": "sensor_noise", "sensor": "p1", "std": 2e4}},
+             {"op": "set", "name": "friction_scale", "value": 2.0},
+             {"op": "reset"}]
+    rec, answers = _record(p, steer)
+    assert [a["k"] for a in answers] == sorted(a["k"] for a in answers)
+    assert answers[2]["slot"] == 0
+    ended = p.api("api/run/stop", {})
+    assert ended["exit_codes"] == {"plant": 0, "controller": 0} and ended["verdict"]["valid"]
+    session = p.session
+    plant_ev, ctl_ev = read_events(session / "events.jsonl", "plant"), read_events(session / "controller_events.jsonl",
+                                                                                     "controller")
+    assert sum(map(len, plant_ev.values())) == 7 and sum(map(len, ctl_ev.values())) == 2
+    log = read_csv_columns(session / "recordings" / rec["name"] / "plant_log.csv")
+    sc = load_scenario(session / "scenario.toml")
+    k1 = int(log["k"][-1])
+    off = run_rig(sc, events=plant_ev, controller_events=ctl_ev, steps=k1)
+    ks = log["k"].astype(int)
+    for c in ("xp", "p1", "p2", "xs", "vp"):
+        assert np.array_equal(log[c], off.column(c)[ks]), c
+    assert np.array_equal(log["u"], off.column("u")[ks - 1])     # (a plant log's row k: the command of step k-1)
+    assert np.array_equal(log["encoder"] * 1e-6, off.column("x_meas")[ks])
+    assert np.array_equal(log["p1_meas"], off.column("p1_meas")[ks])       # the noise fault's draws too
+    # without the events the offline run is another run: the test can fail
+    plain = run_rig(sc, steps=k1)
+    assert not np.array_equal(log["xp"], plain.column("xp")[ks])
+    # the panel's replay check of the recording (commands + plant events)
+    cmp = json.loads((session / "recordings" / rec["name"] / "comparison.json").read_text())
+    assert cmp["replay_xp_max_abs"] == 0.0 and cmp["replay_p1_max_abs"] == 0.0
+
+
+def test_realtime_session_recording_is_a_run_folder_and_replays(tmp_path):
+    """Real time (whatever the timing): the recording is a complete run folder; the session's applied
+    commands and events replay its states bit for bit; a supply change shows in the supply transducer's
+    column from the step it was applied at."""
+    p = PanelProcess(tmp_path / "panel")
+    try:
+        p.wait_steps(400)
+        rec, (ans,) = _record(p, [{"op": "set", "name": "supply_pressure", "value": 3e6}])
+        state = p.api("api/state")
+        assert state["tunables"]["supply_pressure"] == 3e6 and state["events"][-1]["k"] == ans["k"]
+        ended = p.api("api/run/stop", {})
+        assert ended["exit_codes"]["plant"] in (0, 3) and ended["exit_codes"]["controller"] == 0   # 3: INVALID
+        assert p.api("api/state")["running"] is False
+    finally:
+        p.close()
+    folder = p.session / "recordings" / rec["name"]
+    for f in ("plant_log.csv", "timing.json", "events.jsonl", "scenario.toml"):
+        assert (folder / f).is_file(), f
+    timing = json.loads((folder / "timing.json").read_text())
+    assert timing["steps"] == rec["steps"] and timing["verdict"]["verdict"] in ("VALID", "INVALID")
+    log = read_csv_columns(folder / "plant_log.csv")
+    assert np.array_equal(log["k"], np.arange(rec["k0"] + 1, rec["k1"] + 1))   # every step, none twice
+    ps = log["ps_meas"]
+    before, after = log["k"] < ans["k"], log["k"] > ans["k"]
+    assert np.all(ps[before] > 60e5) and np.all(np.abs(ps[after] - 30e5) < 0.1e5)
+    sc = load_scenario(p.session / "scenario.toml")
+    rep = replay_session(sc, p.session, steps=rec["k1"])
+    ks = log["k"].astype(int)
+    for c in ("xp", "p1", "p2", "xs"):
+        assert np.array_equal(rep[c][ks], log[c]), c
+    timing_session = json.loads((p.session / "timing.json").read_text())
+    assert timing_session["steps"] >= rec["k1"] and timing_session["stop_signal"] is None
+
+
+def test_bad_changes_are_refused_with_the_field_named(tmp_path):
+    p = PanelProcess(tmp_path / "panel", "--lockstep")
+    try:
+        p.wait_steps(50)
+        for body, text in (({"op": "set", "name": "mass", "value": -3}, "mass must be in [0.1, 100000] kg"),
+                           ({"op": "set", "name": "stiffness", "value": 1}, "name"),
+                           ({"op": "fault_on", "fault": {"type": "hose_burst", "line": 3}}, "hose_burst.line"),
+                           ({"op": "fault_on", "fault": {"type": "no_such"}}, "fault"),
+                           ({"op": "fault_off", "slot": 5}, "no active fault in slot 5"),
+                           ({"op": "gains", "kp": -1}, "kp")):
+            with pytest.raises(urllib.error.HTTPError) as e:
+                p.api("api/steer", body)
+            assert e.value.code == 400
+            assert text in json.loads(e.value.read())["error"], body
+        p.api("api/run/stop", {})
+    finally:
+        p.close()
+    assert not (p.session / "events.jsonl").read_text().strip()        # nothing refused was applied
+
+
+def _http(url, headers=None):
+    try:
+        with urllib.request.urlopen(urllib.request.Request(url, headers=headers or {}), timeout=30) as r:
+            return r.status
+    except urllib.error.HTTPError as e:
+        return e.code
+
+
+def _ws_handshake(port, path, origin=None, host="127.0.0.1"):
+    """Status line of a raw WebSocket upgrade request (what a browser sends)."""
+    import base64
+    key = base64.b64encode(os.urandom(16)).decode()
+    lines = [f"GET {path} HTTP/1.1", f"Host: {host}:{port}", "Upgrade: websocket", "Connection: Upgrade",
+             f"Sec-WebSocket-Key: {key}", "Sec-WebSocket-Version: 13"] + ([f"Origin: {origin}"] if origin else [])
+    with socket.create_connection(("127.0.0.1", port), timeout=30) as s:
+        s.sendall(("\r\n".join(lines) + "\r\n\r\n").encode())
+        return int(s.recv(200).split(b" ")[1])
+
+
+def test_remote_access_needs_the_token_and_the_panels_origin(tmp_path):
+    p = PanelProcess(tmp_path / "panel", "--lockstep", "--allow-remote", "--host", "127.0.0.1")
+    try:
+        base, query = p.url.split("?")
+        token = query.split("=", 1)[1]
+        port = int(base.rstrip("/").rsplit(":", 1)[1])
+        assert len(token) >= 20
+        assert _http(base) == 403 and _http(base + "api/state") == 403
+        assert _http(base + "api/state?token=wrong" + token[5:]) == 403
+        assert _http(base + "?" + query) == 200 and _http(base + "api/state", {"X-Hydrohil-Token": token}) == 200
+        assert _ws_handshake(port, "/ws") == 403                                  # no token
+        assert _ws_handshake(port, "/ws?" + query, origin="http://evil.example") == 403
+        assert _ws_handshake(port, "/ws?" + query, origin=f"http://127.0.0.1:{port}") == 101
+    finally:
+        p.close()
+
+
+def test_loopback_panel_refuses_foreign_hosts_and_origins(tmp_path):
+    p = PanelProcess(tmp_path / "panel", "--lockstep")
+    try:
+        port = int(p.url.rstrip("/").rsplit(":", 1)[1])
+        assert _http(p.url + "api/state") == 200
+        assert _http(p.url + "api/state", {"Host": f"attacker.example:{port}"}) == 403       # DNS rebinding
+        assert _ws_handshake(port, "/ws", origin="http://attacker.example") == 403
+        assert _ws_handshake(port, "/ws", origin=f"http://127.0.0.1:{port}") == 101
+    finally:
+        p.close()
+
+
+def test_a_stalled_panel_costs_the_plant_telemetry_not_steps(tmp_path):
+    """The panel process frozen (SIGSTOP): the plant goes on stepping (lock-step: as fast as the controller
+    answers); its telemetry is dropped (the kernel drops what the frozen panel's buffer cannot hold; the
+    plant's sends never block) and the panel, thawed, counts the steps it never saw."""
+    p = PanelProcess(tmp_path / "panel", "--lockstep")
+    try:
+        p.wait_steps(100)
+        p.child.proc.send_signal(signal.SIGSTOP)
+        try:
+            before = _steps_done(p.session)
+            _wait_file_growth(p.session / "commands.f64", before + 40_000)     # the plant stepped on (20 s of
+                                                                                # telemetry > the panel's buffer)
+        finally:
+            p.child.proc.send_signal(signal.SIGCONT)
+        s = p.wait_steps(before + 45_000)
+        assert s["counters"]["telemetry_lost_steps"] > 0
+        p.api("api/run/stop", {})
+    finally:
+        p.close()
+
+
+def _steps_done(session):
+    return (session / "commands.f64").stat().st_size // 8 if (session / "commands.f64").exists() else 0
+
+
+def _wait_file_growth(path, n_steps, timeout=120):
+    import time
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if path.exists() and path.stat().st_size // 8 >= n_steps:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"{path} did not reach {n_steps} steps")
+
+
+def test_hil_panel_run_replays_its_changes_offline(tmp_path):
+    """hydrohil hil --panel --lockstep: changes made while it runs are in the run's event logs and the
+    offline comparison replays them: the HIL and offline positions are equal bit for bit."""
+    from hydrohil.hil.processes import Child, cli
+    import shutil
+    scen = tmp_path / "long.toml"
+    shutil.copy(FIG11, scen)
+    text = scen.read_text()
+    scen.write_text(text.replace("duration = 6.0", "duration = 60.0") if "duration = 6.0" in text else text)
+    out = tmp_path / "run"
+    ch = Child(cli("hil", scen, "--out", out, "--lockstep", "--panel", "--panel-port", "0"), "hil")
+    url = ch.wait_line("PANEL ", 120)
+    import time
+    import urllib.request as ur
+
+    def post(body):
+        req = ur.Request(url + "api/steer", data=json.dumps(body).encode(), headers={"Content-Type": "application/json"})
+        with ur.urlopen(req, timeout=60) as r:
+            return json.loads(r.read())
+    end = time.monotonic() + 120
+    while time.monotonic() < end:                 # the plant's telemetry reached the panel: it runs
+        with ur.urlopen(url + "api/state", timeout=60) as r:
+            if json.loads(r.read())["counters"]["steps"] > 100:
+                break
+        time.sleep(0.05)
+    a = post({"op": "set", "name": "mass", "value": 200.0})
+    b = post({"op": "gains", "kp": 70.0})
+    assert ch.wait(600) == 0, ch.stderr()
+    cmp = json.loads((out / "comparison.json").read_text())
+    assert cmp["xp_max_mm"] == 0.0 and cmp["replay_xp_max_abs_m"] == 0.0
+    assert read_events(out / "events.jsonl", "plant")[a["k"]][0].value == 200.0
+    assert read_events(out / "controller_events.jsonl", "controller")[b["k"]][0].kp == 70.0
