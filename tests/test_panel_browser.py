@@ -20,11 +20,8 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 CHROMEDRIVER = shutil.which("chromedriver")
 
 
-@pytest.fixture
-def browser(tmp_path):
-    if not (CHROMIUM and CHROMEDRIVER):
-        pytest.fail("the browser tests need Debian's chromium and chromium-driver (bash .ci/run installs them: "
-                    "apt-get install chromium chromium-driver)")
+def browser_driver(tmp_path: Path):
+    """Headless Debian Chromium under Selenium, downloads into ``tmp_path/downloads``."""
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
     opts = webdriver.ChromeOptions()
@@ -37,6 +34,15 @@ def browser(tmp_path):
                                            "download.prompt_for_download": False})
     drv = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
     drv.set_page_load_timeout(120)
+    return drv
+
+
+@pytest.fixture
+def browser(tmp_path):
+    if not (CHROMIUM and CHROMEDRIVER):
+        pytest.fail("the browser tests need Debian's chromium and chromium-driver (bash .ci/run installs them: "
+                    "apt-get install chromium chromium-driver)")
+    drv = browser_driver(tmp_path)
     yield drv
     drv.quit()
 

@@ -2,6 +2,7 @@
 
 from pathlib import Path
 import shutil
+import sys
 import tempfile
 
 from hydrohil.compare import compare
@@ -30,7 +31,43 @@ def freqresp_figures():
         print("wrote", HERE / name)
 
 
+def panel_figures():
+    """Screenshots of the live panel in headless Chromium (Debian's chromium + chromedriver): the rig running
+    Fig 11 after a supply drop to 40 bar and a hose burst on line 2; and a recording's report.png."""
+    import time
+    sys.path.insert(0, str(ROOT / "tests"))
+    from conftest import PanelProcess
+    from test_panel_browser import browser_driver
+    with tempfile.TemporaryDirectory() as tmp:
+        p = PanelProcess(Path(tmp) / "panel")
+        drv = browser_driver(Path(tmp))
+        try:
+            drv.get(p.url)
+            p.wait_steps(int(7 / 5e-4))
+            p.api("api/record/start", {})
+            p.wait_steps(int(8 / 5e-4))
+            p.api("api/steer", {"op": "set", "name": "supply_pressure", "value": 40e5})
+            p.wait_steps(int(10 / 5e-4))
+            p.api("api/steer", {"op": "fault_on", "fault": {"type": "hose_burst", "line": 2, "section": 0.3}})
+            p.wait_steps(int(11.5 / 5e-4))
+            p.api("api/steer", {"op": "fault_off", "slot": 0})
+            p.wait_steps(int(13 / 5e-4))
+            time.sleep(0.5)              # a few frames drawn after the last change
+            drv.save_screenshot(str(HERE / "panel.png"))
+            rec = p.api("api/record/stop", {})
+            p.api("api/run/stop", {})
+            shutil.copy(Path(rec["dir"]) / "report.png", HERE / "panel_recording.png")
+        finally:
+            drv.quit()
+            p.close()
+    print("wrote", HERE / "panel.png", HERE / "panel_recording.png")
+
+
 if __name__ == "__main__":
+    if sys.argv[1:] == ["panel"]:
+        panel_figures()
+        raise SystemExit
+    panel_figures()
     freqresp_figures()
     for name, (runs, labels, title) in FIGURES.items():
         with tempfile.TemporaryDirectory() as tmp:

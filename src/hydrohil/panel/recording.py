@@ -24,14 +24,20 @@ def _events_until(src: Path, dst: Path, k1: int) -> list[dict]:
     return out
 
 
-def _label(ev: dict) -> str:
+SHOWN_UNITS = {"supply_pressure": (1e5, "bar"), "mass": (1, "kg"), "force": (1, "N"), "friction_scale": (1, "×")}
+
+
+def _label(ev: dict, slots: dict) -> str:
+    """A short text for an applied event (``slots``: slot -> fault type, as switched on so far)."""
     op = ev.get("op")
     if op == "set":
-        return f"{ev['name']} = {ev['value']:g}"
+        scale, unit = SHOWN_UNITS.get(ev["name"], (1, ""))
+        return f"{ev['name'].replace('_', ' ')} {ev['value'] / scale:g} {unit}"
     if op == "fault_on":
+        slots[ev.get("result", {}).get("slot")] = ev["fault"]["type"]
         return f"{ev['fault']['type']} on"
     if op == "fault_off":
-        return f"fault {ev['slot']} off"
+        return f"{slots.get(ev['slot'], 'fault')} off"
     if op == "gains":
         return ", ".join(f"{k}={v:g}" for k, v in ev.items() if k not in ("op", "k"))
     if op == "reference":
@@ -60,7 +66,8 @@ def finish_recording(sc, session: Path, folder: Path, k0: int, k1: int) -> dict:
     timing = json.loads((folder / "timing.json").read_text())
     h = sc.scenario.plant_step
     log.update(h=h, count_m=count_size(sc.params.sensors.encoder_resolution))
-    events = [{"t": e["k"] * h, "label": _label(e)} for e in plant_ev + ctl_ev]
+    slots: dict = {}
+    events = [{"t": e["k"] * h, "label": _label(e, slots)} for e in plant_ev + ctl_ev]
     plot_recording(folder / "report.png", log, events=events, verdict=timing.get("verdict") or judge(timing, sc.scenario.hil),
                    title=f"{folder.name}: steps {cmp['recorded_steps']} of {session.name}")
     return {"comparison": cmp}

@@ -227,7 +227,7 @@ class Panel:
         if s.closed_loop and s.reference.repeat is None:
             tables["reference"] = {"repeat": s.duration}
         if "wait" not in s.hil.model_fields_set and (os.cpu_count() or 1) < 4:
-            tables["hil"] = {"wait": "sleep", "busy_poll": False}
+            tables["hil"] = {"wait": "sleep", "busy_poll": True}
         return tables
 
     async def start_session(self) -> None:

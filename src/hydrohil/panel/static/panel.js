@@ -224,6 +224,15 @@ async function refresh() {
   const first = state === null;
   state = await api("/api/state");
   if (first) { buildForms(); $("scenario").textContent = state.scenario; }
+  // the values applied (from this page or another) shown, except in the field being edited
+  for (const t of state.tunable_schema) {
+    const inp = $("tun-" + t.name), v = +(state.tunables[t.name] / (UNIT[t.name] || [1])[0]).toPrecision(6);
+    if (inp && document.activeElement !== inp && +inp.value !== v) inp.value = v;
+  }
+  for (const [g, v] of Object.entries(state.gains)) {
+    const inp = $("gain-" + g);
+    if (inp && document.activeElement !== inp && +inp.value !== v) inp.value = v;
+  }
   const st = $("status");
   st.textContent = state.running ? (state.lockstep ? "running (lock-step)" : "running") : (state.ended ? "ended" : "stopped");
   st.className = "pill " + (state.running ? "ok" : "warn");
