@@ -230,7 +230,8 @@ def test_hil_panel_run_replays_its_changes_offline(tmp_path):
     scen = tmp_path / "long.toml"
     shutil.copy(FIG11, scen)
     text = scen.read_text()
-    scen.write_text(text.replace("duration = 6.0", "duration = 60.0") if "duration = 6.0" in text else text)
+    assert "duration = 6.0" in text
+    scen.write_text(text.replace("duration = 6.0", "duration = 60.0"))
     out = tmp_path / "run"
     ch = Child(cli("hil", scen, "--out", out, "--lockstep", "--panel", "--panel-port", "0"), "hil")
     url = ch.wait_line("PANEL ", 120)
@@ -254,3 +255,85 @@ def test_hil_panel_run_replays_its_changes_offline(tmp_path):
     assert cmp["xp_max_mm"] == 0.0 and cmp["replay_xp_max_abs_m"] == 0.0
     assert read_events(out / "events.jsonl", "plant")[a["k"]][0].value == 200.0
     assert read_events(out / "controller_events.jsonl", "controller")[b["k"]][0].kp == 70.0
+
+
+def test_cross_site_posts_are_refused(tmp_path):
+    """A page of another site in the user's browser cannot steer the rig: a POST with a foreign Origin, a
+    cross-site fetch, or a form/no-cors body (not JSON) is refused; nothing is applied."""
+    p = PanelProcess(tmp_path / "panel", "--lockstep")
+    try:
+        p.wait_steps(50)
+        body = json.dumps({"op": "set", "name": "supply_pressure", "value": 1e7}).encode()
+        url = p.url + "api/steer"
+        port = int(p.url.rstrip("/").rsplit(":", 1)[1])
+        for headers, code in (({"Content-Type": "application/json", "Origin": "http://evil.example"}, 403),
+                              ({"Content-Type": "application/json", "Sec-Fetch-Site": "cross-site"}, 403),
+                              ({"Content-Type": "text/plain"}, 415),
+                              ({"Content-Type": "application/json", "Origin": f"http://127.0.0.1:{port}"}, 200)):
+            req = urllib.request.Request(url, data=body, headers=headers, method="POST")
+            try:
+                with urllib.request.urlopen(req, timeout=60) as r:
+                    got = r.status
+            except urllib.error.HTTPError as e:
+                got = e.code
+            assert got == code, headers
+        assert len(p.api("api/state")["events"]) == 1          # only the same-origin JSON request
+    finally:
+        p.close()
+
+
+def test_side_channel_applies_a_retried_message_once():
+    """The panel resends a change until it is answered: copies that arrive together are taken once, and a
+    copy after the answer gets the same answer again."""
+    from hydrohil.hil.sidechannel import PLANT_COLUMNS, ROLE_PLANT, SideChannel
+    panel = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    panel.bind(("127.0.0.1", 0))
+    panel.settimeout(30)
+    side = SideChannel(panel.getsockname(), ROLE_PLANT, PLANT_COLUMNS)
+    assert json.loads(panel.recv(65536))["hello"] == "plant"
+    msg = json.dumps({"id": 7, "op": "reset"}).encode()
+    for _ in range(3):
+        panel.sendto(msg, side.address)
+    got = []
+    while len(got) < 1:                       # the three copies arrive (loopback): one is taken
+        got += side.poll()
+    assert got == [{"id": 7, "op": "reset"}] and side.poll() == []
+    side.answer(got[0], k=12)
+    assert json.loads(panel.recv(65536)) == {"ack": 7, "k": 12}
+    panel.sendto(msg, side.address)              # a late copy: answered again, not taken
+    panel.settimeout(0.01)
+    for _ in range(10_000):
+        assert side.poll() == []
+        try:
+            assert json.loads(panel.recv(65536)) == {"ack": 7, "k": 12}
+            break
+        except socket.timeout:
+            continue
+    else:
+        raise AssertionError("the late copy was not answered")
+    side.close()
+    panel.close()
+
+
+def test_trace_pyramid_equals_brute_force_over_laps_of_the_ring():
+    """Min/max blocks of every window after the ring wrapped several times equal the extremes of the steps
+    in them (nothing of an earlier lap leaks in), whatever the level."""
+    from hydrohil.panel.traces import PLANT_COLUMNS, Traces
+    tr = Traces(5e-4, capacity=8192)
+    rng = np.random.default_rng(3)
+    n = 8192 * 4 + 777
+    data = rng.standard_normal((n, len(PLANT_COLUMNS)))
+    checked = 0
+    for i in range(0, n, 20):
+        tr.add_plant(i, data[i:i + 20])
+        if i % 220 == 0:
+            for w in (0.05, 0.5, 3.5):
+                f = tr.frame(w, None, ["xp", "p1"], 64)
+                for j in range(f["n"]):
+                    ks = np.arange((f["b0"] + j) * f["block"], (f["b0"] + j + 1) * f["block"])
+                    ks = ks[ks <= tr.k_max]
+                    for c, col in ((0, 1), (1, 5)):
+                        assert f["lo"][c, j] == np.float32(data[ks, col].min())
+                        assert f["hi"][c, j] == np.float32(data[ks, col].max())
+                    checked += 1
+    assert checked > 5000 and tr.lost == 0

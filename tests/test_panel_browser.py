@@ -50,8 +50,9 @@ def browser(tmp_path):
 T0 = time.monotonic()
 
 
-def wait_until(fn, what, timeout=120):
-    """Until fn() is truthy (a state the page or the plant reaches), polled; fails with ``what``."""
+def wait_until(fn, what, timeout=120, on_fail=None):
+    """Until fn() is truthy (a state the page or the plant reaches), polled; fails with ``what`` (and what
+    ``on_fail()`` says: the page's message)."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         v = fn()
@@ -59,7 +60,7 @@ def wait_until(fn, what, timeout=120):
             print(f"TIMING {time.monotonic() - T0:.2f} s: {what}", flush=True)
             return v
         time.sleep(0.05)
-    raise AssertionError(f"{what} within {timeout} s")
+    raise AssertionError(f"{what} within {timeout} s" + (f": {on_fail()}" if on_fail else ""))
 
 
 def png_pixels(png: bytes) -> np.ndarray:
@@ -90,12 +91,15 @@ def test_panel_in_chromium(browser, tmp_path):
         el("record").click()
         wait_until(lambda: p.api("api/state")["recording"], "the recording to start")
         inp = el("tun-supply_pressure")
+        inp.click()                               # as a user does: into the field, then type over it
         inp.clear()
         inp.send_keys("30")
         el("set-supply_pressure").click()
         ev = wait_until(lambda: [e for e in p.api("api/state")["events"] if e.get("name") == "supply_pressure"],
-                        "the supply change applied")[0]
+                        "the supply change applied", on_fail=lambda: el("message").text)[0]
+        assert ev["value"] == 30e5
         inp = el("tun-mass")
+        inp.click()
         inp.clear()
         inp.send_keys("120")
         el("set-mass").click()

@@ -144,6 +144,7 @@ class PlantServer:
         # the live panel (hydrohil.panel): telemetry out and steering in through a side channel; the
         # session folder gets the applied events and commands (a session replays from them)
         self.side = None
+        self.queued: list[dict] = []
         self.session = PanelSession(self, Path(session)) if panel is not None and session is not None else None
         if panel is not None:
             from hydrohil.hil.sidechannel import PLANT_COLUMNS, ROLE_PLANT, SideChannel
@@ -265,6 +266,9 @@ class PlantServer:
         t0 = self.t0 = time.perf_counter_ns() + 2 * h_ns
         self.rt = rt
         self._log_row(0, self._send_sensor(0, 0), 0.0, 0, 0, 0.0)
+        for msg in self.queued:            # steering that came while waiting for the controller: at boundary 0
+            self._steer(msg, 0)
+        self.queued.clear()
         k_done = 0
         last_start = t0
         try:
@@ -332,6 +336,12 @@ class PlantServer:
             left = end - time.monotonic()
             if left <= 0:
                 return False
+            if self.side is not None:      # the panel is served meanwhile: stop at once, the rest at step 0
+                for msg in self.side.poll():
+                    if msg.get("op") == "stop":
+                        self._steer(msg, 0)
+                    else:
+                        self.queued.append(msg)
             r, _, _ = select.select([self.sock], [], [], min(left, 0.2))
             if r:
                 data, addr, t_kernel, drops = recv_stamped(self.sock, pr.MAX_DATAGRAM + 1)

@@ -101,39 +101,44 @@ def read_commands(folder: Path) -> np.ndarray:
     return np.fromfile(Path(folder) / COMMANDS_FILE, dtype="<f8")
 
 
-def replay_session(sc, folder: Path, steps: int | None = None) -> dict[str, np.ndarray]:
-    """A session's applied commands and plant events (:func:`replay_applied`) up to step ``steps``."""
+def replay_session(sc, folder: Path, steps: int | None = None, keep_from: int = 0) -> dict[str, np.ndarray]:
+    """A session's applied commands and plant events (:func:`replay_applied`) up to step ``steps``; the
+    columns of steps ``keep_from`` .. ``steps`` kept (index k − keep_from)."""
     from hydrohil.hil.steering import read_events
     u = read_commands(folder)
     n = len(u) if steps is None else min(int(steps), len(u))
-    return replay_applied(sc, u[:n], read_events(Path(folder) / "events.jsonl", "plant"))
+    return replay_applied(sc, u[:n], read_events(Path(folder) / "events.jsonl", "plant"), keep_from=keep_from)
 
 
 REPLAY_COLUMNS = {"t": 0, "xs": 1, "p1": 3, "p2": 4, "xp": 5, "vp": 6, "ff": 8, "travel_mode": 9, "friction_mode": 10,
                   "spool_mode": 11}
 
 
-def replay_applied(sc, u, events: dict | None = None) -> dict[str, np.ndarray]:
+def replay_applied(sc, u, events: dict | None = None, keep_from: int = 0) -> dict[str, np.ndarray]:
     """The valve commands that drove a run (``u[k]`` applied at step k: a plant log's column ``u`` from its
     second row, or a session's ``commands.f64``) and its plant events replayed through a fresh rig of
     scenario ``sc`` (its faults act as they did): per step k = 0..len(u) the model's columns
     :data:`REPLAY_COLUMNS` and ``faults``. Equal to the run's bit for bit when it stepped the model right,
-    however late its commands came."""
+    however late its commands came. ``keep_from``: only steps from there on are kept (index k − keep_from),
+    so a long session's recording needs memory for its own steps only."""
     from hydrohil.hil.steering import apply_plant_event
     from hydrohil.simulation.rig import VirtualRig
     s = sc.scenario
     events = events or {}
     n = len(u)
     rig = VirtualRig(sc.params, s.plant_step, s.hil, s.faults, s.initial.model_dump())
-    cols = {c: np.empty(n + 1) for c in (*REPLAY_COLUMNS, "faults")}
+    k0 = min(max(int(keep_from), 0), n)
+    cols = {c: np.empty(n + 1 - k0) for c in (*REPLAY_COLUMNS, "faults")}
     pairs = [(cols[c], i) for c, i in REPLAY_COLUMNS.items()]
     faults = cols["faults"]
 
     def put(k):
+        if k < k0:
+            return
         out = rig.out
         for col, i in pairs:
-            col[k] = out[i]
-        faults[k] = rig.faults.mask
+            col[k - k0] = out[i]
+        faults[k - k0] = rig.faults.mask
 
     put(0)
     for k in range(n):

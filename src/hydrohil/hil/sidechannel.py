@@ -99,8 +99,10 @@ class SideChannel:
             except (ValueError, KeyError, TypeError):
                 continue
             if mid in self.seen:
-                self.say(self.seen[mid])
+                if self.seen[mid] is not None:      # answered: answer again (None: taken in this poll already)
+                    self.say(self.seen[mid])
                 continue
+            self.seen[mid] = None
             out.append(msg)
 
     def answer(self, msg: dict, **fields) -> None:

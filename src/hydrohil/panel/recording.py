@@ -58,10 +58,11 @@ def finish_recording(sc, session: Path, folder: Path, k0: int, k1: int) -> dict:
     ctl_ev = _events_until(session / "controller_events.jsonl", folder / "controller_events.jsonl", k1)
     log = read_csv_columns(folder / "plant_log.csv")
     ks = log["k"].astype(np.int64)
-    rep = replay_session(sc, session, steps=int(ks[-1]) if len(ks) else 0)
+    k_first = int(ks[0]) if len(ks) else 0
+    rep = replay_session(sc, session, steps=int(ks[-1]) if len(ks) else 0, keep_from=k_first)
     cmp = {"recorded_steps": [int(ks[0]), int(ks[-1])] if len(ks) else [], "replayed_from_step": 0}
     for c in ("xp", "p1", "p2", "xs", "vp"):
-        cmp[f"replay_{c}_max_abs"] = float(np.max(np.abs(rep[c][ks] - log[c]))) if len(ks) else None
+        cmp[f"replay_{c}_max_abs"] = float(np.max(np.abs(rep[c][ks - k_first] - log[c]))) if len(ks) else None
     (folder / "comparison.json").write_text(json.dumps(cmp, indent=2) + "\n")
     timing = json.loads((folder / "timing.json").read_text())
     h = sc.scenario.plant_step

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import asyncio
 import hmac
-import io
 import json
+import math
 import os
 import secrets
 import socket
@@ -46,6 +46,27 @@ ACK_TIMEOUT_S = 3.0
 SHOWN = ("xp", "x_ref", "error", "p1", "p2", "ps", "xs", "u", "ff", "travel_mode", "friction_mode", "spool_mode",
          "jitter_us", "watchdog", "faults")
 TOKEN_COOKIE = "hydrohil_token"
+
+
+def _view(text: str) -> dict:
+    """The view a page asks for, checked (anything malformed is ignored, never an error in the frame loop)."""
+    out = {}
+    try:
+        v = json.loads(text)
+        if not isinstance(v, dict):
+            return out
+        w = float(v.get("window", 10.0))
+        if math.isfinite(w):
+            out["window"] = w
+        if "end_k" in v:
+            out["end_k"] = None if v["end_k"] is None else int(v["end_k"])
+        if "points" in v:
+            out["points"] = int(v["points"])
+        if "paused" in v:
+            out["paused"] = bool(v["paused"])
+    except (ValueError, TypeError, OverflowError):
+        pass
+    return out
 
 
 class SideProtocol(asyncio.DatagramProtocol):
@@ -92,7 +113,7 @@ class Panel:
         self.stopping = False                        # a stop is under way (the watcher leaves the children alone)
         self.children: list = []
         self.ended: dict | None = None               # the last session's timing (when it ended)
-        self.recording: dict | None = None
+        self.recording: dict | None = None          # the recording under way
         self.recordings: list[dict] = []
         self.reports: list = []                      # recordings' reports being made (awaited at a session's end)
         self.events: list[dict] = []                 # applied changes, newest last (shown on the page)
@@ -247,6 +268,7 @@ class Panel:
         self.peers.clear()
         self.tunables, self.faults, self.gains = self._initial_tunables(), {}, self._initial_gains()
         self.reference, self.events, self.ended, self.k_first = None, [], None, None
+        self.recording = None
         side = f"127.0.0.1:{self.udp.get_extra_info('sockname')[1]}"
         builtin = self.controller_kind == "builtin"
         ctl_addr = f"127.0.0.1:{free_udp_port()}" if builtin else None
@@ -276,7 +298,10 @@ class Panel:
 
     async def _stop_session(self) -> dict:
         if self.recording is not None:
-            await self.record_stop()
+            try:
+                await self.record_stop()
+            except HydrohilError:
+                self._recording_ended()
         try:
             await self.send("plant", {"op": "stop"})
         except HydrohilError:
@@ -303,6 +328,7 @@ class Panel:
                     if ch.poll() is None:
                         ch.stop()
                 self.running = False
+                self._recording_ended()
                 t = self.session / "timing.json"
                 self.ended = json.loads(t.read_text()) if t.is_file() else {
                     "error": self.children[0].stderr()[-500:]}
@@ -337,6 +363,25 @@ class Panel:
         loop = asyncio.get_running_loop()
         self.reports.append(loop.run_in_executor(None, self._finish_recording, rec))
         return rec
+
+    def _recording_ended(self) -> None:
+        """The plant ended while recording (it closes the recording itself): list it and make its report."""
+        rec, self.recording = self.recording, None
+        if rec is None:
+            return
+        from hydrohil.hil.run import read_csv_columns
+        folder = Path(rec["dir"])
+        try:
+            k = read_csv_columns(folder / "plant_log.csv")["k"]
+            timing = json.loads((folder / "timing.json").read_text())
+        except (OSError, ValueError, KeyError):
+            rec.update(report="failed: the plant ended before the recording was complete")
+            self.recordings.append(rec)
+            return
+        k1 = int(k[-1]) if len(k) else rec["k0"]
+        rec.update(k1=k1, steps=k1 - rec["k0"], verdict=timing["verdict"]["verdict"], report="pending")
+        self.recordings.append(rec)
+        self.reports.append(asyncio.get_running_loop().run_in_executor(None, self._finish_recording, rec))
 
     async def finish_reports(self) -> None:
         pending, self.reports = self.reports, []
@@ -381,6 +426,14 @@ class Panel:
     async def guard(self, request: web.Request, handler):
         if not self._authorised(request):
             return web.Response(status=403, text="forbidden: this panel needs its token (printed when it started)\n")
+        if request.method == "POST":      # another site's page in the user's browser must not steer the rig
+            origin = request.headers.get("Origin")
+            if origin is not None and origin.rstrip("/") != f"{request.scheme}://{request.host}":
+                return web.Response(status=403, text=f"forbidden: a request from a foreign origin {origin}\n")
+            if request.headers.get("Sec-Fetch-Site", "same-origin") not in ("same-origin", "none"):
+                return web.Response(status=403, text="forbidden: a cross-site request\n")
+            if request.content_type != "application/json":
+                return web.json_response({"error": "expected Content-Type: application/json"}, status=415)
         try:
             resp = await handler(request)
         except InputError as exc:
@@ -435,18 +488,24 @@ class Panel:
         return web.json_response(self.recordings)
 
     async def download(self, request):
+        """A recording as a zip, made in a worker thread into the session's downloads/ (the event loop keeps
+        serving the side channel meanwhile) and streamed from the file."""
         name = request.match_info["name"]
         rec = next((r for r in self.recordings if r["name"] == name), None)
         if rec is None:
             raise web.HTTPNotFound(text=f"no recording {name}")
-        buf = io.BytesIO()
         folder = Path(rec["dir"])
-        with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
-            for f in sorted(folder.iterdir()):
-                if f.is_file():
-                    z.write(f, f"{name}/{f.name}")
-        return web.Response(body=buf.getvalue(), content_type="application/zip",
-                            headers={"Content-Disposition": f'attachment; filename="{name}.zip"'})
+        target = self.session / "downloads" / f"{name}.zip"
+        target.parent.mkdir(exist_ok=True)
+
+        def pack():
+            with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as z:
+                for f in sorted(folder.iterdir()):
+                    if f.is_file():
+                        z.write(f, f"{name}/{f.name}")
+        await asyncio.get_running_loop().run_in_executor(None, pack)
+        return web.FileResponse(target, headers={"Content-Disposition": f'attachment; filename="{name}.zip"',
+                                                 "Content-Type": "application/zip"})
 
     async def ws(self, request):
         origin = request.headers.get("Origin")
@@ -462,11 +521,7 @@ class Panel:
         async def reader():
             async for msg in sock:
                 if msg.type == WSMsgType.TEXT:
-                    try:
-                        v = json.loads(msg.data)
-                        view.update({k: v[k] for k in ("window", "end_k", "paused", "points") if k in v})
-                    except (ValueError, TypeError):
-                        pass
+                    view.update(_view(msg.data))
         task = asyncio.ensure_future(reader())
         try:
             while not sock.closed and not task.done():
@@ -549,17 +604,23 @@ class PanelThread:
         self.panel = Panel(scenario, out, own=False, **kw)
         self.panel.session = Path(out)
         self.ready = threading.Event()
+        self.error: BaseException | None = None
         self.thread = threading.Thread(target=self._run, daemon=True, name="hydrohil-panel")
         self.thread.start()
-        self.ready.wait(30)
+        self.ready.wait(120)
         if self.panel.url is None:
-            raise HydrohilError("the panel's server did not start")
+            raise HydrohilError(f"the panel's server did not start: {self.error or 'no answer within 120 s'}")
 
     def _run(self) -> None:
         asyncio.set_event_loop(self.loop)
-        self.loop.run_until_complete(self.panel.open())
+        try:
+            self.loop.run_until_complete(self.panel.open())
+        except (OSError, HydrohilError) as exc:      # e.g. the port is taken: said by the caller
+            self.error = exc
+            return
+        finally:
+            self.ready.set()
         self.panel.running = True
-        self.ready.set()
         self.loop.run_forever()
 
     @property

@@ -41,8 +41,11 @@ class Traces:
         """Slots of steps not received yet hold a lap-old value: blank them ahead of the newest step."""
         while k_last >= self.cleared_to:
             a = self.cleared_to
-            idx = np.arange(a, a + 4096) % self.cap
-            self.raw[idx] = np.nan
+            self.raw[np.arange(a, a + 4096) % self.cap] = np.nan
+            for L in range(1, LEVELS):      # and the blocks over them (a block's other half keeps no lap-old value)
+                nb = self.cap >> L
+                self.lo[L][np.arange(a >> L, (a + 4096) >> L) % nb] = np.nan
+                self.hi[L][np.arange(a >> L, (a + 4096) >> L) % nb] = np.nan
             self.cleared_to = a + 4096
 
     def add_plant(self, k0: int, rows: np.ndarray) -> None:

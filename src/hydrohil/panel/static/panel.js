@@ -27,7 +27,7 @@ async function api(path, body) {
     { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body) });
   const data = await r.json().catch(() => ({ error: r.statusText }));
   if (!r.ok || data.error) { $("message").textContent = "refused: " + (data.error || r.status); throw new Error(data.error); }
-  $("message").textContent = "";
+  if (body !== undefined) $("message").textContent = "";     // (a change accepted clears the last refusal)
   return data;
 }
 
@@ -198,15 +198,22 @@ function buildForms() {
       `<input id="tun-${t.name}" type="number" step="any" value="${+(state.tunables[t.name] / s).toPrecision(6)}">` +
       `<button id="set-${t.name}">set</button></div>`;
   }).join("");
+  // a field being edited is not overwritten by the applied value until it is set (or the set is refused)
   for (const t of state.tunable_schema) {
+    const inp = $("tun-" + t.name);
+    inp.onfocus = inp.oninput = () => { inp.dataset.edited = "1"; };
     $("set-" + t.name).onclick = () => api("/api/steer", { op: "set", name: t.name,
-      value: +$("tun-" + t.name).value * (UNIT[t.name] || [1])[0] }).then(refresh);
+      value: +inp.value * (UNIT[t.name] || [1])[0] }).finally(() => { delete inp.dataset.edited; }).then(refresh);
   }
   const gains = Object.keys(state.gains);
   $("controller-box").style.display = state.controller === "builtin" && state.controller_type !== "python" ? "" : "none";
   $("gains").innerHTML = gains.map((g) => `<div class="row"><label>${g}</label>` +
     `<input id="gain-${g}" type="number" step="any" value="${state.gains[g]}"><button id="set-${g}">set</button></div>`).join("");
-  for (const g of gains) $("set-" + g).onclick = () => api("/api/steer", { op: "gains", [g]: +$("gain-" + g).value }).then(refresh);
+  for (const g of gains) {
+    const inp = $("gain-" + g);
+    inp.onfocus = inp.oninput = () => { inp.dataset.edited = "1"; };
+    $("set-" + g).onclick = () => api("/api/steer", { op: "gains", [g]: +inp.value }).finally(() => { delete inp.dataset.edited; }).then(refresh);
+  }
   $("fault-type").innerHTML = state.fault_schema.map((f) => `<option>${f.type}</option>`).join("");
   buildFaultFields();
 }
@@ -227,11 +234,11 @@ async function refresh() {
   // the values applied (from this page or another) shown, except in the field being edited
   for (const t of state.tunable_schema) {
     const inp = $("tun-" + t.name), v = +(state.tunables[t.name] / (UNIT[t.name] || [1])[0]).toPrecision(6);
-    if (inp && document.activeElement !== inp && +inp.value !== v) inp.value = v;
+    if (inp && !inp.dataset.edited && +inp.value !== v) inp.value = v;
   }
   for (const [g, v] of Object.entries(state.gains)) {
     const inp = $("gain-" + g);
-    if (inp && document.activeElement !== inp && +inp.value !== v) inp.value = v;
+    if (inp && !inp.dataset.edited && +inp.value !== v) inp.value = v;
   }
   const st = $("status");
   st.textContent = state.running ? (state.lockstep ? "running (lock-step)" : "running") : (state.ended ? "ended" : "stopped");
