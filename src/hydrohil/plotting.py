@@ -175,6 +175,20 @@ def _jitter_panel(ax, t, jitter_us) -> None:
     ax.set_ylim(floor / 2, max(top, h_us or 0) * 2)
 
 
+def _watchdog_strip(ax, t, watchdog) -> None:
+    """Where the watchdog held the safe state, as red bars (or "never active")."""
+    wd = np.asarray(watchdog) != 0
+    if wd.any():
+        ax.broken_barh([(t0, t1 - t0) for t0, t1 in _runs(t, wd)], (0, 1), facecolors="tab:red",
+                       label="active (safe state)")
+        ax.legend(loc="center left", bbox_to_anchor=(1.005, 0.5), fontsize=7, frameon=False, handlelength=1)
+    else:
+        ax.text(0.5, 0.5, "never active", ha="center", va="center", fontsize=8, transform=ax.transAxes)
+    ax.set_ylim(0, 1)
+    ax.set_yticks([])
+    ax.set_ylabel("watchdog", rotation=0, ha="right", va="center")
+
+
 def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: dict | None = None,
              metrics: dict | None = None) -> None:
     """HIL report: reference vs HIL vs offline position, tracking error, HIL − offline, pressures, plant
@@ -205,16 +219,7 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
         ax[3].plot(t, np.asarray(hil[name]) / 1e5, lw=1, color=hil_c, label=f"{name.upper()} (HIL)")
     _mode_strips(ax[4:7], t, hil["travel_mode"], hil["friction_mode"], hil.get("spool_mode"))
     _jitter_panel(ax[7], t, hil["jitter_us"])
-    wd = np.asarray(hil["watchdog"]) != 0
-    if wd.any():
-        ax[8].broken_barh([(t0, t1 - t0) for t0, t1 in _runs(t, wd)], (0, 1), facecolors="tab:red",
-                          label="active (safe state)")
-        ax[8].legend(loc="center left", bbox_to_anchor=(1.005, 0.5), fontsize=7, frameon=False, handlelength=1)
-    else:
-        ax[8].text(0.5, 0.5, "never active", ha="center", va="center", fontsize=8, transform=ax[8].transAxes)
-    ax[8].set_ylim(0, 1)
-    ax[8].set_yticks([])
-    ax[8].set_ylabel("watchdog", rotation=0, ha="right", va="center")
+    _watchdog_strip(ax[8], t, hil["watchdog"])
     _fault_spans(ax, t, hil.get("faults"))
     _finish(fig, path, [ax[i] for i in (0, 1, 2, 3, 7)],
             ("position [mm]", "tracking\nerror [mm]", "HIL − offline\n[mm]", "pressure [bar]", "jitter [µs]"), title,
@@ -308,16 +313,7 @@ def plot_recording(path: Path, log: dict, *, events=(), title: str = "", verdict
     ax[3].plot(t, log["ff"], lw=1, color="tab:brown", label="friction force")
     _mode_strips(ax[4:7], t, log["travel_mode"], log["friction_mode"], log.get("spool_mode"))
     _jitter_panel(ax[7], t, log["jitter_us"])
-    wd = np.asarray(log["watchdog"]) != 0
-    if wd.any():
-        ax[8].broken_barh([(t0, t1 - t0) for t0, t1 in _runs(t, wd)], (0, 1), facecolors="tab:red",
-                          label="active (safe state)")
-        ax[8].legend(loc="center left", bbox_to_anchor=(1.005, 0.5), fontsize=7, frameon=False, handlelength=1)
-    else:
-        ax[8].text(0.5, 0.5, "never active", ha="center", va="center", fontsize=8, transform=ax[8].transAxes)
-    ax[8].set_ylim(0, 1)
-    ax[8].set_yticks([])
-    ax[8].set_ylabel("watchdog", rotation=0, ha="right", va="center")
+    _watchdog_strip(ax[8], t, log["watchdog"])
     _fault_spans(ax, t, log.get("faults"))
     for ev in events:
         if t[0] <= ev["t"] <= t[-1]:
