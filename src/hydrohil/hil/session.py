@@ -13,7 +13,6 @@ the machine did to the timing: the state of every step, bit for bit.
 
 from __future__ import annotations
 
-import json
 import time
 from array import array
 from pathlib import Path
@@ -56,9 +55,7 @@ class PanelSession:
     def command(self, u: float) -> None:
         self.cmds.append(u)
         if len(self.cmds) >= FLUSH_EVERY:
-            self.cmds.tofile(self.cmd_file)
-            self.cmd_file.flush()
-            del self.cmds[:]
+            self.flush()
 
     def record_start(self, folder: Path, k: int) -> dict:
         if self.recording is not None:
@@ -147,12 +144,3 @@ def replay_applied(sc, u, events: dict | None = None, keep_from: int = 0) -> dic
         rig.step_applied(k, float(u[k]))
         put(k + 1)
     return cols
-
-
-def session_info(folder: Path) -> dict:
-    """What a session folder holds (for the panel's list and for tests)."""
-    folder = Path(folder)
-    rec = sorted(p.name for p in (folder / "recordings").glob("*") if p.is_dir()) if (folder / "recordings").is_dir() \
-        else []
-    timing = json.loads((folder / "timing.json").read_text()) if (folder / "timing.json").is_file() else None
-    return {"folder": str(folder), "recordings": rec, "timing": timing}

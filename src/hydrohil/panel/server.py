@@ -46,6 +46,7 @@ ACK_TIMEOUT_S = 3.0
 SHOWN = ("xp", "x_ref", "error", "p1", "p2", "ps", "xs", "u", "ff", "travel_mode", "friction_mode", "spool_mode",
          "jitter_us", "watchdog", "faults")
 TOKEN_COOKIE = "hydrohil_token"
+JITTER_EDGES_US = [float(e) for e in JITTER_BINS[1:-1]]     # (sent with every frame: made once)
 
 
 def _view(text: str) -> dict:
@@ -95,8 +96,6 @@ class Panel:
         if controller == "builtin" and not s.closed_loop:
             raise InputError("the panel's built-in controller needs a closed-loop scenario ([controller] + "
                              "[reference]); or use --controller external", source=str(scenario))
-        if controller == "builtin" and s.controller.type == "python":
-            controller = "builtin"        # (the scenario's Python controller runs in the controller process)
         self.own, self.controller_kind, self.lockstep = own, controller, lockstep
         self.h = s.plant_step
         self.host, self.port, self.allow_remote = host, port, allow_remote
@@ -126,7 +125,6 @@ class Panel:
         self.udp = None
         self.url = None
         self.cpu0 = time.process_time()
-        self.k_first = None
 
     # -- state shown on the page -----------------------------------------------------------------
     def _initial_tunables(self) -> dict:
@@ -172,8 +170,6 @@ class Panel:
                 self.peers.setdefault("plant", addr)
                 self.traces.add_plant(k0, rows)
                 self.counters = {**dict(zip(PLANT_COUNTERS, counters)), "telemetry_lost_steps": self.traces.lost}
-                if self.k_first is None:
-                    self.k_first = k0
             elif role == ROLE_CONTROLLER and ncols == len(CONTROLLER_COLUMNS):
                 self.peers.setdefault("controller", addr)
                 self.traces.add_controller(k0, rows)
@@ -267,7 +263,7 @@ class Panel:
         self.counters = {**dict.fromkeys(PLANT_COUNTERS, 0), "telemetry_lost_steps": 0}
         self.peers.clear()
         self.tunables, self.faults, self.gains = self._initial_tunables(), {}, self._initial_gains()
-        self.reference, self.events, self.ended, self.k_first = None, [], None, None
+        self.reference, self.events, self.ended = None, [], None
         self.recording = None
         side = f"127.0.0.1:{self.udp.get_extra_info('sockname')[1]}"
         builtin = self.controller_kind == "builtin"
@@ -314,8 +310,12 @@ class Panel:
                 ch.stop()
         self.running = False
         await self.finish_reports()
+        return self._ended("the plant wrote no timing.json")
+
+    def _ended(self, error: str) -> dict:
+        """The ended session's timing (``error`` when the plant wrote none) with the processes' exit codes."""
         t = self.session / "timing.json"
-        self.ended = json.loads(t.read_text()) if t.is_file() else {"error": "the plant wrote no timing.json"}
+        self.ended = json.loads(t.read_text()) if t.is_file() else {"error": error}
         self.ended["exit_codes"] = {ch.name: ch.returncode for ch in self.children}
         return self.ended
 
@@ -329,10 +329,7 @@ class Panel:
                         ch.stop()
                 self.running = False
                 self._recording_ended()
-                t = self.session / "timing.json"
-                self.ended = json.loads(t.read_text()) if t.is_file() else {
-                    "error": self.children[0].stderr()[-500:]}
-                self.ended["exit_codes"] = {ch.name: ch.returncode for ch in self.children}
+                self._ended(self.children[0].stderr()[-500:])
 
     # -- recordings --------------------------------------------------------------------------------
     async def record_start(self) -> dict:
@@ -402,12 +399,12 @@ class Panel:
         window = float(min(max(view.get("window", 10.0), 0.5), 60.0))
         end = view.get("end_k")
         f = self.traces.frame(window, end, list(SHOWN), int(min(max(view.get("points", 1000), 100), 2000)))
-        total = sum(self.traces.jitter_counts)
+        total = int(self.traces.jitter_counts.sum())
         head = {"seq": self.frames_sent, "h": self.h, "k_max": self.traces.k_max, "level": f["level"],
                 "block": f["block"], "b0": f["b0"], "n": f["n"], "columns": list(SHOWN), "window": window,
                 "counters": self.counters, "running": self.running, "recording": self.recording,
-                "jitter_hist": {"edges_us": [float(e) for e in JITTER_BINS[1:-1]],
-                                "counts": [int(c) for c in self.traces.jitter_counts], "total": int(total)},
+                "jitter_hist": {"edges_us": JITTER_EDGES_US, "counts": self.traces.jitter_counts.tolist(),
+                                "total": total},
                 "server_cpu_s": time.process_time() - self.cpu0}
         hb = json.dumps(head).encode()
         hb += b" " * (-(len(hb) + 4) % 4)
