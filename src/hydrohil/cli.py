@@ -838,6 +838,41 @@ def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop 
         _fail(exc)
 
 
+def run_sequences(sequences: list[Path], out: Path = Path("hydrohil-test"), mode: Optional[str] = None,
+                  controller: Optional[str] = None, junit: Optional[Path] = None, echo=print) -> int:
+    """Run test sequences (:mod:`hydrohil.sequences`): ``out/report.md``, each run in ``out/<name>/``, JUnit
+    XML with ``junit``. ``mode``: offline, lockstep or realtime (default: offline, lockstep with an external
+    ``controller`` program). Returns the exit code: 0 all passed, 1 an expectation failed, 3 a run could not
+    be judged (diverged, a process failed, a real-time run INVALID)."""
+    from hydrohil.sequences.runner import exit_code, run_suite
+    mode = mode or ("lockstep" if controller else "offline")
+    results = run_suite(sequences, out, mode=mode, controller=controller, junit=junit, echo=echo)
+    echo(f"report: {out / 'report.md'}" + (f", JUnit: {junit}" if junit else ""))
+    return exit_code(results)
+
+
+@app.command("test")
+def test_cmd(sequences: list[Path] = typer.Argument(..., help="test sequence TOMLs (examples/sequences/)"),
+             out: Path = typer.Option(Path("hydrohil-test"), "--out", help="report folder (report.md, one folder per "
+                                      "sequence)"),
+             mode: Optional[str] = typer.Option(None, "--mode", help="offline | lockstep | realtime (default: offline; "
+                                                "lockstep with --controller)"),
+             controller: Optional[str] = typer.Option(None, "--controller", help="an external controller program that "
+                                                      "speaks the protocol, e.g. \"./my_ctrl {host} {port}\" ({host} "
+                                                      "{port} {scenario} {duration} {out} are filled in)"),
+             junit: Optional[Path] = typer.Option(None, "--junit", help="write JUnit XML here (for CI systems)")):
+    """Run HIL test sequences: a timeline of actions and faults, expectations with verdicts.
+
+    Exit code 0 when every expectation passed, 1 when one failed, 3 when a run could not be judged
+    (diverged, a process failed, a real-time run INVALID), 2 for bad input.
+    """
+    try:
+        code = run_sequences(sequences, out, mode, controller, junit, echo=typer.echo)
+    except HydrohilError as exc:
+        _fail(exc)
+    raise typer.Exit(code)
+
+
 def _us(v) -> str:
     return "n/a" if v is None else f"{v:.1f} us"
 

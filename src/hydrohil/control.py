@@ -204,12 +204,12 @@ class BuiltinController:
         return lib.hh_controller_update(self.c, self.state, m.x_ref, m.dx_ref, m.x, m.p1, m.p2)
 
 
-def load_callable(spec: str, base: Path | None = None, source: str | None = None) -> Callable:
+def load_callable(spec: str, base: Path | None = None, source: str | None = None,
+                  key: str = "controller.callable") -> Callable:
     """The object named by ``module:name`` or ``file.py:name`` (relative to ``base``), with ``base`` and the
-    file's folder on the import path while it loads. Errors name ``source`` and ``controller.callable``."""
+    file's folder on the import path while it loads. Errors name ``source`` and ``key``."""
     mod_name, _, attr = spec.rpartition(":")
     base = Path(base) if base is not None else Path.cwd()
-    key = "controller.callable"
 
     def fail(msg):
         return InputError(msg, source=source, key=key)

@@ -50,10 +50,13 @@ def c_plant_executable(sc, scenario: Path) -> Path:
     return cached_plant(sc.params, **scenario_options(sc.scenario), label=Path(scenario).name)
 
 
-def plant_command(sc, scenario: Path, out: Path, peer: str, *, lockstep: bool = False, plant: str = "python") -> list:
+def plant_command(sc, scenario: Path, out: Path, peer: str | None, *, lockstep: bool = False,
+                  plant: str = "python") -> list:
     """The command line of the plant process: ``hydrohil plant`` (``plant="python"``) or the standalone C
-    plant of :mod:`hydrohil.export.cplant` built for this scenario (cached), with the same options."""
-    tail = ["--bind", "127.0.0.1:0", "--log", out, "--peer", peer, *(["--lockstep"] if lockstep else [])]
+    plant of :mod:`hydrohil.export.cplant` built for this scenario (cached), with the same options. ``peer``:
+    the only controller address it accepts (None: the first that speaks)."""
+    tail = ["--bind", "127.0.0.1:0", "--log", out, *(["--peer", peer] if peer else []),
+            *(["--lockstep"] if lockstep else [])]
     if plant == "python":
         return cli("plant", "--scenario", scenario, *tail)
     if plant != "c":
@@ -70,14 +73,17 @@ def plant_command(sc, scenario: Path, out: Path, peer: str, *, lockstep: bool = 
 def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
             progress: Callable[[float, float], None] | None = None, plot: bool = True,
             plant: str = "python", params: str | Path | None = None, sets: dict | None = None,
-            panel: bool = False, panel_port: int = 0, ready=print) -> HilResult:
+            panel: bool = False, panel_port: int = 0, ready=print, controller: str | None = None) -> HilResult:
     """Run a scenario as a HIL experiment; writes plant_log.csv, controller_log.csv, timing.json (with the
     verdict), comparison.json and report.png into ``out``. ``plant``: "python" (``hydrohil plant``) or "c"
     (the standalone C plant, built and cached on first use). ``params`` / ``sets`` replace the scenario's
     parameter set / apply on top of its overrides (the scenario as run is written to ``out/scenario.toml``).
     ``panel``: serve the live panel (:mod:`hydrohil.panel`) on ``panel_port`` while it runs (``ready`` prints
     ``PANEL <url>``): live traces, steering (applied changes in ``events.jsonl`` / ``controller_events.jsonl``,
-    replayed by the offline comparison), recordings under ``out/recordings``.
+    replayed by the offline comparison), recordings under ``out/recordings``. ``controller``: the command
+    line of an external controller program that speaks the protocol (docs/protocol.md) instead of the
+    scenario's controller process: ``{host}``, ``{port}`` (the plant's address), ``{scenario}`` (the scenario
+    file as run), ``{duration}`` [s] and ``{out}`` are filled in, e.g. ``"./p_controller {host} {port} 50 0.1"``.
     Raises LinkError / HydrohilError when a process failed, Interrupted on Ctrl-C (after both processes
     finished their logs)."""
     scenario, out = Path(scenario), Path(out)
@@ -89,7 +95,7 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
         raise InputError("hydrohil hil needs a closed-loop scenario ([controller] + [reference])",
                          source=str(scenario))
     hil_cfg = sc.scenario.hil
-    ctl_address = f"127.0.0.1:{free_udp_port()}"
+    ctl_address = f"127.0.0.1:{free_udp_port()}" if controller is None else None
     command = plant_command(sc, scenario, out, ctl_address, lockstep=lockstep, plant=plant)
     out.mkdir(parents=True, exist_ok=True)
     live = side = None
@@ -107,7 +113,9 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     ctl = None
     try:
         address = plant.wait_line("READY ", READY_TIMEOUT_S)
-        ctl = Child(cli("controller", "--scenario", scenario, "--connect", address, "--log", out, "--local",
+        ctl = Child(controller_args(controller, address, scenario, sc.scenario.duration, out)
+                    if controller is not None else
+                    cli("controller", "--scenario", scenario, "--connect", address, "--log", out, "--local",
                         ctl_address, *(side or [])), "controller")
         _supervise(plant, ctl, sc.scenario.duration, hil_cfg, progress)
     except KeyboardInterrupt as exc:         # Ctrl-C (or SIGTERM, see cli._interruptible)
@@ -128,9 +136,28 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
             raise (LinkError if p.returncode == 4 else HydrohilError)(
                 f"{p.name} process failed (exit {p.returncode}): {p.stderr()[-2000:]}")
     timing = json.loads((out / "timing.json").read_text())
-    controller = json.loads((out / "controller.json").read_text())
+    ctl_summary = json.loads((out / "controller.json").read_text()) if controller is None else {"command": controller}
     comparison = compare_offline(scenario, out, plot=plot, verdict=timing.get("verdict"), plant=timing.get("plant"))
-    return HilResult(out, timing, controller, comparison)
+    return HilResult(out, timing, ctl_summary, comparison)
+
+
+def controller_args(template: str, address: str, scenario: Path, duration: float, out: Path) -> list[str]:
+    """An external controller's command line (``run_hil(controller=...)``) with its fields filled in."""
+    import shlex
+    host, _, port = address.rpartition(":")
+    try:
+        text = template.format(host=host, port=port, scenario=shlex.quote(str(scenario)), duration=duration,
+                               out=shlex.quote(str(out)))
+    except (KeyError, IndexError, ValueError) as exc:
+        raise InputError(f"unknown field {exc} in {template!r} (fields: {{host}} {{port}} {{scenario}} "
+                         "{duration} {out})", key="controller") from None
+    args = shlex.split(text)
+    if not args:
+        raise InputError("empty controller command", key="controller")
+    import shutil
+    if shutil.which(args[0]) is None:
+        raise InputError(f"no executable program {args[0]!r} (a path, or a program on PATH)", key="controller")
+    return args
 
 
 def _supervise(plant: Child, ctl: Child, duration: float, hil_cfg, progress) -> None:

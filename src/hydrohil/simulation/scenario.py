@@ -24,6 +24,22 @@ from hydrohil.simulation.faults import Fault
 from hydrohil.core import METHODS
 
 SOLVERS = (*METHODS, "reference")
+EXPERIMENTS_DIR = Path(__file__).resolve().parent.parent / "experiments"    # the paper's experiments, built in
+
+
+def resolve_scenario(name_or_path: str | Path, base: Path | None = None) -> Path:
+    """A scenario file: a path (relative to ``base``, the folder of the file naming it) or the name of a
+    built-in experiment (``fig11_p_control``)."""
+    p = Path(name_or_path)
+    if not p.is_absolute() and base is not None and (base / p).exists():
+        return base / p
+    if p.exists():
+        return p
+    if p.suffix != ".toml" and (EXPERIMENTS_DIR / f"{p}.toml").exists():
+        return EXPERIMENTS_DIR / f"{p}.toml"
+    names = sorted(q.stem for q in EXPERIMENTS_DIR.glob("*.toml"))
+    raise InputError(f"no scenario file {str(base / p) if base is not None and not p.is_absolute() else p}, and not "
+                     f"a built-in experiment ({', '.join(names)})")
 
 
 class SolverCfg(StrictModel):

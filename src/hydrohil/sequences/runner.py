@@ -1,0 +1,186 @@
+"""Run test sequences offline, in lock-step or in real time, and judge their expectations.
+
+``offline``: the compiled scenario through the virtual rig in this process (:func:`~hydrohil.simulation.rig.run_rig`,
+the same sensors, faults and watchdog as the HIL plant), with the scenario's controller or a Python
+callable. ``lockstep`` / ``realtime``: ``hydrohil hil`` with the plant and the controller as two processes
+(the scenario's controller, or an external program that speaks the protocol); a lock-step run steps the
+model exactly as the offline run. A real-time run whose timing is INVALID is an *error*: its signals do not
+show what the controller would do on the rig, so nothing passes.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from hydrohil.errors import HydrohilError, InputError
+from hydrohil.sequences.expectations import Outcome, Predicate, Signals, evaluate, signals_from_columns
+from hydrohil.sequences.sequence import LoadedSequence, load_sequence
+
+MODES = ("offline", "lockstep", "realtime")
+
+
+@dataclass
+class SequenceResult:
+    """A sequence's run: ``status`` pass (every expectation met), fail (one or more not met) or error (the run
+    could not be judged: diverged, a process failed, an INVALID real-time run), its outcomes and signals."""
+    name: str
+    mode: str
+    status: str
+    outcomes: list[Outcome]
+    out: Path
+    source: str = ""
+    error: str | None = None
+    wall_s: float = 0.0
+    signals: Signals | None = field(default=None, repr=False)
+    verdict: dict | None = None
+
+    @property
+    def passed(self) -> bool:
+        return self.status == "pass"
+
+    def counts(self) -> dict[str, int]:
+        return {k: sum(o.status == k for o in self.outcomes) for k in ("pass", "fail", "error")}
+
+    def summary(self) -> dict:
+        return {"name": self.name, "mode": self.mode, "status": self.status, "error": self.error,
+                "source": self.source, "wall_s": self.wall_s, "verdict": self.verdict,
+                "expectations": [{"name": o.name, "type": o.type, "status": o.status, "message": o.message,
+                                  "measured": o.measured, "limit": o.limit} for o in self.outcomes]}
+
+
+def slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")[:80] or "sequence"
+
+
+def _predicates(seq: LoadedSequence, given: dict[int, Callable] | None) -> dict[int, Callable]:
+    from hydrohil.control import load_callable
+    out = dict(given or {})
+    for i, e in enumerate(seq.expectations):
+        if isinstance(e, Predicate) and i not in out:
+            out[i] = load_callable(e.function, seq.source.parent, str(seq.source), key=f"expect[{i}].function")
+    return out
+
+
+def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode: str = "offline",
+                 controller: str | Callable | None = None, predicates: dict[int, Callable] | None = None,
+                 progress: Callable | None = None) -> SequenceResult:
+    """Run one sequence into the folder ``out`` (compiled ``scenario.toml``, the run's logs, ``result.json``)
+    and judge it. ``controller``: None (the scenario's), a Python callable (offline only) or the command line
+    of an external program (``{host} {port} {scenario} {duration} {out}`` filled in; lock-step / real time,
+    :func:`hydrohil.hil.run.run_hil`). ``predicates``: {expectation index: callable} for ``predicate``
+    expectations given in Python. InputError for bad input; every other problem is the result's error."""
+    import time
+    seq = sequence if isinstance(sequence, LoadedSequence) else load_sequence(sequence)
+    if mode not in MODES:
+        raise InputError(f"must be one of {', '.join(MODES)}, got {mode!r}", key="mode")
+    external = isinstance(controller, str)
+    if external and mode == "offline":
+        raise InputError("an external controller program runs against the plant process: use --mode lockstep "
+                         "or realtime", key="controller")
+    if callable(controller) and mode != "offline":
+        raise InputError("a Python callable controller runs offline; in lock-step or real time give a "
+                         "[controller] table (type = \"python\") or a program", key="controller")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    scen = seq.compile(out / "scenario.toml")
+    preds = _predicates(seq, predicates)
+    from hydrohil.simulation.scenario import load_scenario
+    sc = load_scenario(scen)
+    s = sc.scenario
+    if not s.closed_loop:
+        raise InputError("a test sequence needs a closed-loop scenario ([controller] + [reference])",
+                         source=str(seq.source), key="scenario")
+    t0 = time.perf_counter()
+    kw = {"safe_state": s.hil.safe_state, "mode": mode}
+    error = verdict = None
+    cols = None
+    try:
+        if mode == "offline":
+            from hydrohil.simulation.rig import run_rig
+            res = run_rig(sc, controller=controller, progress=progress)
+            from hydrohil.simulation.outputs import write_log_csv
+            write_log_csv(out / "log.csv", res.log, res.columns)
+            cols = {c: res.column(c) for c in ("t", "u", "xs", "p1", "p2", "xp", "vp", "ff", "watchdog", "faults",
+                                               "x_meas", "p1_meas", "p2_meas", "ps_meas")}
+            if len(cols["u"]) > 1:      # the last row's u: the controller's answer to the final state, never applied
+                cols["u"] = np.append(cols["u"][:-1], cols["u"][-2])
+            if res.diverged is not None:
+                error = str(res.diverged)
+        else:
+            from hydrohil.hil.run import read_csv_columns, run_hil
+            hil = run_hil(scen, out, lockstep=mode == "lockstep", plot=False,
+                          controller=controller if external else None)
+            log = read_csv_columns(out / "plant_log.csv")
+            cols = dict(log)
+            if len(log["u"]) > 1:       # the plant logs at row k the command it applied over step k-1 -> k
+                cols["u"] = np.append(log["u"][1:], log["u"][-1])
+            from hydrohil.models.sensors import count_size
+            cols["x_meas"] = log["encoder"] * count_size(sc.params.sensors.encoder_resolution)
+            if mode == "realtime":
+                verdict = hil.verdict
+                if not verdict["valid"]:
+                    error = f"real-time run INVALID: {'; '.join(verdict['reasons'])}"
+    except InputError:
+        raise
+    except HydrohilError as exc:
+        error = f"{type(exc).__name__}: {exc}"
+    wall = time.perf_counter() - t0
+    outcomes: list[Outcome] = []
+    signals = None
+    if cols is not None and len(cols["t"]):
+        signals = signals_from_columns(cols, s.reference.sample(np.asarray(cols["t"], float))[0],
+                                       seq.event_times(), **kw)
+        outcomes = evaluate(seq.expectations, signals, preds)
+    if error is not None:
+        status = "error"
+    elif any(o.status == "error" for o in outcomes):
+        status = "error"
+    else:
+        status = "pass" if all(o.passed for o in outcomes) else "fail"
+    result = SequenceResult(seq.name, mode, status, outcomes, out, str(seq.source), error, wall, signals, verdict)
+    (out / "result.json").write_text(json.dumps(result.summary(), indent=2, default=float) + "\n")
+    return result
+
+
+def run_suite(paths: list[str | Path], out: str | Path, *, mode: str = "offline", controller=None,
+              junit: str | Path | None = None, report: bool = True, echo: Callable | None = None) -> list[SequenceResult]:
+    """Run several sequence files, each into ``out/<name>/``; write ``out/report.md`` (a figure per failed
+    expectation) and, with ``junit``, a JUnit XML file. All files are validated before the first run."""
+    seqs = [load_sequence(p) for p in paths]
+    names = [slug(s.name) for s in seqs]
+    dirs = [Path(out) / (n if names.count(n) == 1 else f"{n}_{i}") for i, n in enumerate(names)]
+    results = []
+    for seq, d in zip(seqs, dirs):
+        if echo:
+            echo(f"{seq.name} ({mode}) ...")
+        r = run_sequence(seq, d, mode=mode, controller=controller)
+        results.append(r)
+        if echo:
+            echo(line(r))
+    if report:
+        from hydrohil.sequences.report import write_report
+        write_report(results, Path(out) / "report.md")
+    if junit is not None:
+        from hydrohil.sequences.report import write_junit
+        write_junit(results, Path(junit))
+    return results
+
+
+def line(r: SequenceResult) -> str:
+    c = r.counts()
+    head = {"pass": "PASS", "fail": "FAIL", "error": "ERROR"}[r.status]
+    tail = f" — {r.error}" if r.error else ""
+    return f"{head}  {r.name}: {c['pass']} passed, {c['fail']} failed, {c['error']} errors{tail}"
+
+
+def exit_code(results: list[SequenceResult]) -> int:
+    """0: every sequence passed; 1: an expectation failed; 3: a run could not be judged (error)."""
+    if any(r.status == "error" for r in results):
+        return 3
+    return 0 if all(r.passed for r in results) else 1
