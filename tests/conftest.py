@@ -1,3 +1,5 @@
+pytest_plugins = ["pytester"]    # tests of the hydrohil pytest plugin (rig fixture) run pytest in pytest
+
 import subprocess
 import sys
 
