@@ -873,6 +873,43 @@ def test_cmd(sequences: list[Path] = typer.Argument(..., help="test sequence TOM
     raise typer.Exit(code)
 
 
+def sweep(study: Path, out: Path = Path("hydrohil-sweep"), scheduler: Optional[str] = None,
+          workers: Optional[int] = None, progress: bool = True, rerun_id: Optional[str] = None, echo=print):
+    """Run a study (:mod:`hydrohil.studies`) on Dask into ``out`` (``results.parquet``, ``summary.json``,
+    ``report.md``, figures), resuming an earlier run there; with ``rerun_id``: write that run's scenario file
+    ``out/rerun/ID.toml`` instead. Returns the :class:`~hydrohil.studies.engine.StudyResult` (or the path)."""
+    from hydrohil.studies.engine import rerun, run_study
+    if rerun_id:
+        dest = rerun(study, rerun_id, out / "rerun" / f"{rerun_id}.toml")
+        echo(f"wrote {dest}")
+        return dest
+    r = run_study(study, out, scheduler=scheduler, workers=workers, progress=progress)
+    s = r.summary
+    lo, hi = s["p_fail_95ci"]
+    echo(f"{r.runs} runs ({r.ran} run now, {r.skipped} already done) in {r.wall_s:.1f} s on {r.workers} worker(s); "
+         f"failed {s['failed']} ({100 * (s['p_fail'] or 0):.2f} %, 95 % interval {100 * lo:.2f}-{100 * hi:.2f} %); "
+         f"status {s['status']}")
+    echo(f"results: {r.table}, report: {out / 'report.md'}")
+    return r
+
+
+@app.command("sweep")
+def sweep_cmd(study: Path = typer.Argument(..., help="study TOML (examples/studies/)"),
+              out: Path = typer.Option(Path("hydrohil-sweep"), "--out", help="results folder (a rerun resumes)"),
+              scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a Dask scheduler, e.g. "
+                                                      "tcp://10.0.0.5:8786 (default: a local cluster)"),
+              workers: Optional[int] = typer.Option(None, "--workers", min=1, help="local cluster: worker processes "
+                                                    "(default: every core)"),
+              progress: bool = typer.Option(True, help="progress bar"),
+              rerun_id: Optional[str] = typer.Option(None, "--rerun", help="write this run's scenario file "
+                                                     "(OUT/rerun/ID.toml) instead of running the study")):
+    """Sweeps and Monte Carlo studies on Dask: Parquet results, resume, figures and the worst runs."""
+    try:
+        sweep(study, out, scheduler, workers, progress, rerun_id, echo=typer.echo)
+    except HydrohilError as exc:
+        _fail(exc)
+
+
 def _us(v) -> str:
     return "n/a" if v is None else f"{v:.1f} us"
 

@@ -1,0 +1,161 @@
+"""One run of a study, as a Dask worker executes it: the run's scenario (or sequence) made from the study's
+base file and the run's inputs, simulated offline, reduced to one row (inputs, metrics, verdicts, status).
+
+A run that diverges or has bad input (a drawn mass below zero, say) is a row with its status and error,
+never an exception that would stop the study. Workers read the study's files at the paths the client gave:
+on a cluster of several machines they need a shared file system (as SLURM clusters have).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import socket
+import tempfile
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+from hydrohil.errors import InputError
+
+METRICS = ("rms_error", "max_abs_error", "max_hold_error", "max_p1", "max_p2", "max_overshoot_pct",
+           "max_settling_time", "max_abs_ss_error", "breakaways")
+METRIC_UNITS = {"rms_error": "m", "max_abs_error": "m", "max_hold_error": "m", "max_p1": "Pa", "max_p2": "Pa",
+                "max_overshoot_pct": "%", "max_settling_time": "s", "max_abs_ss_error": "m", "breakaways": "-"}
+
+
+@functools.lru_cache(maxsize=8)
+def _study(path: str, digest: str):
+    from hydrohil.studies.study import load_study
+    return load_study(path)
+
+
+def run_data(study, inputs: dict) -> tuple[dict, str]:
+    """(the run's table, "scenario" | "sequence"): the base file's table with the run's inputs applied."""
+    from hydrohil.parameters import read_toml
+    from hydrohil.simulation.scenario import scenario_data
+    st = study.settings(inputs)
+    base = Path(st["base"])
+    kind = "sequence" if study.study.sequence is not None else "scenario"
+    if kind == "scenario":
+        data = scenario_data(base, sets=st["sets"] or None)
+    else:
+        data = read_toml(base)
+        from hydrohil.simulation.scenario import resolve_scenario
+        data["scenario"] = str(resolve_scenario(data["scenario"], base.parent).resolve())
+        pred = [e for e in data.get("expect", []) if e.get("type") == "predicate" and ":" in str(e.get("function"))]
+        for e in pred:                      # predicate files stay where the sequence is
+            f, _, name = e["function"].rpartition(":")
+            if f.endswith(".py") and not Path(f).is_absolute():
+                e["function"] = f"{(base.parent / f).resolve()}:{name}"
+        if st["sets"]:
+            data["set"] = {**data.get("set", {}), **st["sets"]}
+    if st["controller"]:
+        if kind == "scenario":
+            data["controller"] = {**data.get("controller", {}), **st["controller"]}
+        else:
+            from hydrohil.simulation.scenario import load_scenario
+            ctl = data.get("controller") or load_scenario(data["scenario"]).scenario.controller.model_dump(
+                mode="json", exclude_none=True)
+            data["controller"] = {**ctl, **st["controller"]}
+    if st["initial"]:
+        data["initial"] = {**data.get("initial", {}), **st["initial"]}
+    if st["duration"] is not None:
+        data["duration"] = st["duration"]
+    return data, kind
+
+
+def hold_error(t, x, x_ref) -> float:
+    """Largest |x_ref − xp| over the second half of every hold of the reference (the settled position error)."""
+    from hydrohil.metrics import holds
+    worst = 0.0
+    for first, last in holds(t, x_ref):
+        mid = first + (last - first) // 2
+        worst = max(worst, float(np.max(np.abs(x_ref[mid:last + 1] - x[mid:last + 1]))))
+    return worst
+
+
+def metrics_of(t, xp, x_ref, p1, p2, sliding=None) -> dict:
+    from hydrohil.metrics import step_metrics
+    m = step_metrics(t, xp, x_ref, p1, p2, sliding=sliding)
+    moves = m["moves"]
+
+    def worst(key, f=lambda v: v):
+        vals = [f(mv[key]) for mv in moves if mv[key] is not None]
+        return float(max(vals)) if vals else None
+    return {"rms_error": m["rms_error"], "max_abs_error": m["max_abs_error"], "max_hold_error": hold_error(t, xp, x_ref),
+            "max_p1": m["max_p1"], "max_p2": m["max_p2"], "max_overshoot_pct": worst("overshoot_pct"),
+            "max_settling_time": worst("settling_time"), "max_abs_ss_error": worst("steady_state_error", abs),
+            "breakaways": float(m.get("breakaways", 0)) if sliding is not None else None}
+
+
+def execute(task: dict) -> dict:
+    """Run one task (``run_id``, ``index``, ``inputs``, ``study``, ``digest``, ``logs``) -> its row."""
+    import tomli_w
+    t0 = time.perf_counter()
+    row = {"run_id": task["run_id"], "index": task["index"], "status": "ok", "error": None}
+    row.update({f"in.{k}": v for k, v in task["inputs"].items()})
+    try:
+        from distributed import get_worker
+        row["worker"] = get_worker().name if isinstance(get_worker().name, str) else get_worker().address
+    except (ImportError, ValueError):
+        row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+    try:
+        study = _study(task["study"], task["digest"])
+        data, kind = run_data(study, task["inputs"])
+        with tempfile.TemporaryDirectory(prefix="hydrohil-run-") as d:
+            path = Path(d) / f"{task['run_id']}.toml"
+            path.write_text(tomli_w.dumps(data))
+            if kind == "scenario":
+                cols, diverged = _run_scenario(path)
+            else:
+                cols, diverged, verdicts = _run_sequence(path, Path(d))
+                row.update(verdicts)
+        row.update(metrics_of(cols["t"], cols["xp"], cols["x_ref"], cols["p1"], cols["p2"], cols.get("friction_mode")))
+        if diverged is not None:
+            row["status"], row["error"] = "diverged", diverged
+        if task.get("logs"):
+            _write_log(Path(task["logs"]) / f"{task['run_id']}.parquet", cols)
+    except InputError as exc:
+        row["status"], row["error"] = "input_error", str(exc)
+    except Exception as exc:             # a study must survive any single run: the row says what happened
+        row["status"] = "error"
+        row["error"] = f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3)[-600:]}"
+    row["wall_s"] = time.perf_counter() - t0
+    return row
+
+
+def _run_scenario(path: Path):
+    from hydrohil.simulation.run import run_scenario
+    from hydrohil.simulation.scenario import load_scenario
+    sc = load_scenario(path)
+    if not sc.scenario.closed_loop:
+        raise InputError("a study's scenario must be closed loop ([controller] + [reference])", source=str(path))
+    res = run_scenario(sc)
+    t = res.column("t")
+    cols = {c: res.column(c) for c in ("t", "xp", "p1", "p2", "u", "xs", "friction_mode")}
+    cols["x_ref"] = sc.scenario.reference.sample(t)[0]
+    return cols, (str(res.diverged) if res.diverged else None)
+
+
+def _run_sequence(path: Path, folder: Path):
+    from hydrohil.sequences.runner import run_sequence
+    r = run_sequence(path, folder / "run")
+    if r.signals is None:
+        raise RuntimeError(r.error or "the sequence's run produced no signals")
+    s = r.signals
+    cols = {c: s[c] for c in ("t", "xp", "p1", "p2", "u", "xs", "x_ref")}
+    verdicts = {f"expect.{i}": o.status for i, o in enumerate(r.outcomes)}
+    verdicts["verdict"] = r.status
+    return cols, r.error if r.status == "error" else None, verdicts
+
+
+def _write_log(path: Path, cols: dict) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".part")
+    pq.write_table(pa.table({k: np.asarray(v, float) for k, v in cols.items()}), tmp)
+    tmp.replace(path)
