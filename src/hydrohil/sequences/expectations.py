@@ -236,6 +236,8 @@ class StepResponse(_Expect):
                 said.append(f"{label} {v * k:.4g} {unit} ≤ {lim * k:g} {unit}")
         plot["window"] = (move["start"], move["hold"][1])
         plot["band"] = (move["to"] - move["band"], move["to"] + move["band"])
+        if self.max_settling_time is not None:
+            plot["deadline"] = move["start"] + self.max_settling_time
         if broken:
             label, v, lim = broken[0]
             if move["settling_time"] is not None:
