@@ -196,18 +196,18 @@ def test_bad_input_names_file_and_key(tmp_path, text, key):
 
 
 def test_pytest_plugin(pytester):
-    pytester.makepyfile(f'''
+    pytester.makepyfile('''
         def test_supply_drop(rig):
             run = rig.run("fig11_p_control", duration=3.0,
-                          actions=[{{"name": "drop", "at": 2.0, "until": 2.5, "type": "supply_pressure", "ps": 4e6}}],
-                          expect=[{{"type": "bounds", "signal": "p_max", "max": 7e6}}])
+                          actions=[{"name": "drop", "at": 2.0, "until": 2.5, "type": "supply_pressure", "ps": 4e6}],
+                          expect=[{"type": "bounds", "signal": "p_max", "max": 7e6}])
             run.assert_passed()
-            run.check({{"type": "tracking", "after": 1.5, "within": 0.2, "until": 2.0, "tol": 1e-3}})
+            run.check({"type": "tracking", "after": 1.5, "within": 0.2, "until": 2.0, "tol": 1e-3})
             assert run.metrics()["moves"][0]["overshoot_pct"] < 1.0
 
         def test_a_failing_expectation(rig):
             run = rig.run("fig11_p_control", duration=2.0)
-            run.check({{"type": "tracking", "tol": 1e-4}})
+            run.check({"type": "tracking", "tol": 1e-4})
     ''')
     res = pytester.runpytest("-q", "-p", "no:cacheprovider")
     res.assert_outcomes(passed=1, failed=1)

@@ -31,7 +31,8 @@ from typing import Callable
 
 import numpy as np
 
-EXPERIMENTS_DIR = Path(__file__).resolve().parent / "experiments"
+from hydrohil.simulation.scenario import EXPERIMENTS_DIR
+
 HIL_KEYS = ("steps", "overruns", "overrun_fraction", "jitter_us_p50", "jitter_us_p99", "jitter_us_p999",
             "jitter_us_max", "compute_us_p50", "compute_us_p99", "rtt_us_p50", "rtt_us_p99", "rtt_seen_us_p50",
             "rtt_seen_us_p99", "rtt_source", "late_commands",

@@ -783,10 +783,10 @@ def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), c
     once the plant is up (handshakes for scripts)."""
     import asyncio
     import signal
-    from importlib.resources import files
     from hydrohil.panel.server import Panel
+    from hydrohil.simulation.scenario import EXPERIMENTS_DIR
     if scenario is None:
-        scenario = Path(str(files("hydrohil") / "experiments" / "fig11_p_control.toml"))
+        scenario = EXPERIMENTS_DIR / "fig11_p_control.toml"
     pn = Panel(scenario, out, controller=controller, lockstep=lockstep, params=params, sets=sets, host=host,
                port=port, allow_remote=allow_remote)
 

@@ -14,8 +14,8 @@ from typing import Callable
 
 from hydrohil.hil.run import run_hil
 from hydrohil.hil.verdict import BUSY_ADVICE
+from hydrohil.simulation.scenario import EXPERIMENTS_DIR
 
-EXPERIMENTS_DIR = Path(__file__).resolve().parent.parent / "experiments"
 EXPERIMENTS = (
     ("fig11", "fig11_p_control.toml", "Fig 11: P control, Kp = 50 1/m, 80 kg, 70 bar, point-to-point"),
     ("fig12", "fig12_steps_ramps.toml", "Fig 12: P control, Kp = 100 1/m, 120 bar, steps and ramps"),

@@ -35,9 +35,7 @@ from hydrohil.models.linear import equilibrium_pressures, linear_model
 from hydrohil.parameters import Parameters, load_parameters, replace_values, save_parameters
 from hydrohil.simulation.outputs import write_json, write_table
 from hydrohil.simulation.run import run_scenario
-from hydrohil.simulation.scenario import load_scenario
-
-EXPERIMENTS_DIR = Path(__file__).resolve().parent.parent / "experiments"
+from hydrohil.simulation.scenario import EXPERIMENTS_DIR, load_scenario
 PAPER_DATASHEET = {"qn_lpm": 25.5, "pn_bar": 35.0, "ps_bar": 70.0, "kq0_lpm": 28.0, "kp0": 36.5, "dpm_bar": 8.0,
                    "ql0_lpm": 1.36}                           # §3.1.2
 PAPER_DRIFT = {"displacement_m": 1.504e-3, "duration_s": 200.0, "p2_pa": 5.28e5}   # §3.2.2

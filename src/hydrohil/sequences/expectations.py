@@ -108,6 +108,18 @@ class _Expect(StrictModel):
     def describe(self) -> str:
         return self.type
 
+    def _first_within(self, t, ok, t0: float, limit: float, plot: dict, subject: str, late: str, met: str) -> Outcome:
+        """Passes when ``ok`` first holds at most ``limit`` after ``t0`` (samples at ``t``): "``subject``
+        never / ``late`` N ms" when it fails, "``met`` after N ms" when it passes."""
+        hit = np.nonzero(ok)[0]
+        delay = float(t[hit[0]] - t0) if hit.size else None
+        if delay is None or delay > limit + 1e-9:
+            when = "never" if delay is None else f"{late} {delay * 1e3:.1f} ms"
+            plot["violation"] = (t0 + limit, None)
+            return Outcome(self.label(), self.type, "fail", f"{subject} {when} (limit {limit * 1e3:g} ms)", delay,
+                           limit, plot)
+        return Outcome(self.label(), self.type, "pass", f"{met} after {delay * 1e3:.1f} ms", delay, limit, plot)
+
 
 def _signal_field(default=None):
     if default is None:
@@ -275,18 +287,10 @@ class Watchdog(_Expect):
             return Outcome(self.label(), self.type, "pass", f"{trips} watchdog trip(s)", trips, self.max_trips, plot)
         w, t = on[m], s.t[m]
         safe = w & ((np.abs(s["u"][m]) <= 1e-12) if s.safe_state == "centre" else True)
-        hit = np.nonzero(safe)[0]
         plot["window"] = (t0, t0 + self.safe_within)
         plot["view"] = (max(0.0, t0 - 0.05), min(t1, t0 + 4 * self.safe_within + 0.05))
         plot["deadline"] = t0 + self.safe_within
-        if not hit.size or t[hit[0]] - t0 > self.safe_within + 1e-9:
-            when = "never" if not hit.size else f"after {(t[hit[0]] - t0) * 1e3:.1f} ms"
-            plot["violation"] = (t0 + self.safe_within, None)
-            return Outcome(self.label(), self.type, "fail", f"safe state reached {when} (limit "
-                           f"{self.safe_within * 1e3:g} ms)", None if not hit.size else float(t[hit[0]] - t0),
-                           self.safe_within, plot)
-        return Outcome(self.label(), self.type, "pass", f"safe state after {(t[hit[0]] - t0) * 1e3:.1f} ms",
-                       float(t[hit[0]] - t0), self.safe_within, plot)
+        return self._first_within(t, safe, t0, self.safe_within, plot, "safe state reached", "after", "safe state")
 
 
 class Reaction(_Expect):
@@ -325,15 +329,8 @@ class Reaction(_Expect):
         else:
             ok = v < self.below if self.below is not None else v > self.above
             plot["level"] = self.above if self.above is not None else self.below
-        hit = np.nonzero(ok)[0]
-        if not hit.size or t[hit[0]] - t0 > self.within + 1e-9:
-            when = "never" if not hit.size else f"only after {(t[hit[0]] - t0) * 1e3:.1f} ms"
-            plot["violation"] = (t0 + self.within, None)
-            return Outcome(self.label(), self.type, "fail", f"{self.signal} reacted {when} (limit "
-                           f"{self.within * 1e3:g} ms)", None if not hit.size else float(t[hit[0]] - t0),
-                           self.within, plot)
-        return Outcome(self.label(), self.type, "pass", f"{self.signal} reacted after {(t[hit[0]] - t0) * 1e3:.1f} ms",
-                       float(t[hit[0]] - t0), self.within, plot)
+        return self._first_within(t, ok, t0, self.within, plot, f"{self.signal} reacted", "only after",
+                                  f"{self.signal} reacted")
 
 
 class Predicate(_Expect):

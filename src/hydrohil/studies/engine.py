@@ -175,8 +175,11 @@ def run_study(path: str | Path, out: str | Path, *, scheduler: str | None = None
             base = {"study": str(study.source.resolve()), "digest": digest, "logs": logs}
             tasks = iter(todo)
             ac = as_completed()
+
+            def submit(run):
+                ac.add(client.submit(execute, {**run, **base}, key=f"hydrohil-{digest}-{run['run_id']}", pure=False))
             for r in [next(tasks) for _ in range(min(window, len(todo)))]:
-                ac.add(client.submit(execute, {**r, **base}, key=f"hydrohil-{digest}-{r['run_id']}", pure=False))
+                submit(r)
             bar = _progress(progress, len(todo), study.name)
             with bar:
                 task_id = bar.add_task("runs", total=len(todo))
@@ -188,8 +191,7 @@ def run_study(path: str | Path, out: str | Path, *, scheduler: str | None = None
                     bar.advance(task_id)
                     nxt = next(tasks, None)
                     if nxt is not None:
-                        ac.add(client.submit(execute, {**nxt, **base}, key=f"hydrohil-{digest}-{nxt['run_id']}",
-                                             pure=False))
+                        submit(nxt)
         finally:
             table.flush()
             if own:

@@ -9,10 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
+from hydrohil.sequences.expectations import DISPLAY
 from hydrohil.studies.runs import METRIC_UNITS, METRICS
 from hydrohil.studies.study import wilson
-
-DISPLAY = {"m": (1e3, "mm"), "Pa": (1e-5, "bar")}
 
 
 def _label(metric: str) -> str:

@@ -166,12 +166,8 @@ class LoadedStudy:
                 if name in SPECIAL:
                     continue
                 root = data if name.split(".")[0] in ("controller", "initial") else params
-                node = root
                 try:
-                    for part in name.split("."):
-                        node = node[part]
-                    if idx is not None:
-                        node = node[idx]
+                    node = _lookup(root, name, idx)
                 except (KeyError, IndexError, TypeError):
                     if v.scale is None and v.dist in ("choice", "grid") and name.split(".")[0] == "controller":
                         continue            # a controller key the base controller does not have (e.g. ki)
@@ -247,6 +243,13 @@ class LoadedStudy:
         return h.hexdigest()[:16]
 
 
+def _lookup(tree: dict, name: str, idx: int | None = None):
+    """The value at the dotted ``name`` (and list entry ``idx``) of a nested table."""
+    for part in name.split("."):
+        tree = tree[part]
+    return tree if idx is None else tree[idx]
+
+
 def _parse_entry(entry: str) -> tuple[str, int | None, float]:
     m = _ENTRY.match(entry)
     return m.group(1), (int(m.group(2)) if m.group(2) is not None else None), float(m.group(3) or 1.0)
@@ -261,10 +264,7 @@ def _set(out: dict, name: str, idx: int | None, value, study: LoadedStudy) -> No
         out["sets"][name] = value
         return
     if name not in out["sets"]:             # a list parameter: the nominal list with this entry replaced
-        node = study.param_values
-        for part in name.split("."):
-            node = node[part]
-        out["sets"][name] = list(node)
+        out["sets"][name] = list(_lookup(study.param_values, name))
     out["sets"][name][idx] = value
 
 
