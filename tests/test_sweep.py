@@ -182,3 +182,17 @@ def test_cli_report_figures_and_rerun(tmp_path):
     ref = load_scenario(out / "rerun" / f"{worst}.toml").scenario.reference.sample(log["t"])[0]
     i = list(t["run_id"]).index(worst)
     assert hold_error(log["t"], log["xp"], ref) == pytest.approx(t["max_hold_error"][i], rel=1e-9)
+
+
+def test_per_run_logs(tmp_path):
+    p = write_study(tmp_path, 'samples = 2\nseed = 9\nlogs = true\n'
+                    '[[vary]]\nname = "load.mass"\ndist = "uniform"\nrel = 0.2\n')
+    r = run_study(p, tmp_path / "out", workers=1, progress=False)
+    t = load_table(r.table)
+    import pyarrow.parquet as pq
+    from hydrohil.studies.runs import hold_error
+    for i, run_id in enumerate(t["run_id"]):
+        log = pq.read_table(tmp_path / "out" / "runs" / f"{run_id}.parquet").to_pydict()
+        assert len(log["t"]) == 12001 and log["t"][-1] == pytest.approx(6.0)
+        xp, ref = np.asarray(log["xp"]), np.asarray(log["x_ref"])
+        assert hold_error(np.asarray(log["t"]), xp, ref) == t["max_hold_error"][i]
