@@ -196,3 +196,15 @@ def test_per_run_logs(tmp_path):
         assert len(log["t"]) == 12001 and log["t"][-1] == pytest.approx(6.0)
         xp, ref = np.asarray(log["xp"]), np.asarray(log["x_ref"])
         assert hold_error(np.asarray(log["t"]), xp, ref) == t["max_hold_error"][i]
+
+
+def test_report_with_a_metric_no_input_moves(tmp_path):
+    """Peak p1 (at the start) does not depend on the valve's null leakage: its histogram is one bin, the
+    report is still written."""
+    p = write_study(tmp_path, 'samples = 3\nseed = 5\n[[vary]]\nname = "valve_leakage"\ndist = "uniform"\n'
+                    'low = 0.7\nhigh = 1.3\nscale = ["valve.k[1]", "valve.k[4]^2", "valve.kt[1]", "valve.kt[4]^2"]\n')
+    r = run_study(p, tmp_path / "out", workers=1, progress=False)
+    t = load_table(r.table)
+    assert np.ptp(t["max_p1"]) < 1e-6 and np.ptp(t["max_hold_error"]) > 1e-5
+    assert (tmp_path / "out" / "figures" / "histograms.png").stat().st_size > 10_000
+    assert "Failed: **0 of 3**" in (tmp_path / "out" / "report.md").read_text()

@@ -121,7 +121,9 @@ def _figures(cols, ok, passed, numeric, metric, folder: Path, name: str) -> list
         fig, axes = plt.subplots(2, 3, figsize=(11, 6), constrained_layout=True)
         for ax, m in zip(axes.flat, shown):
             v = cols[m][ok] * _scale(m)
-            ax.hist(v[np.isfinite(v)], bins=40, color="C0", alpha=0.8)
+            v = v[np.isfinite(v)]
+            spread = np.ptp(v) > 1e-9 * np.abs(v).max() if v.size else False    # (a metric no input moved: 1 bin)
+            ax.hist(v, bins=40 if spread else 1, color="C0", alpha=0.8)
             ax.set_xlabel(_label(m))
             ax.grid(alpha=0.3)
         for ax in list(axes.flat)[len(shown):]:
