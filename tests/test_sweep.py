@@ -208,3 +208,15 @@ def test_report_with_a_metric_no_input_moves(tmp_path):
     assert np.ptp(t["max_p1"]) < 1e-6 and np.ptp(t["max_hold_error"]) > 1e-5
     assert (tmp_path / "out" / "figures" / "histograms.png").stat().st_size > 10_000
     assert "Failed: **0 of 3**" in (tmp_path / "out" / "report.md").read_text()
+
+
+def test_controllers_as_scenario_choice(tmp_path):
+    """Whole controllers compared: the example controller files (full scenarios) as a grid over 'scenario'."""
+    ctl = EXAMPLES / "controllers"
+    p = write_study(tmp_path, f'[[vary]]\nname = "scenario"\ndist = "grid"\n'
+                    f'values = ["{ctl / "fig11_pi.toml"}", "{EXAMPLES / "fig11_p_control.toml"}"]\n')
+    r = run_study(p, tmp_path / "out", workers=1, progress=False)
+    t = load_table(r.table)
+    assert [Path(v).name for v in t["in.scenario"]] == ["fig11_pi.toml", "fig11_p_control.toml"]
+    # the integral removes the P controller's settled error (README, Controllers): at least 5 times smaller
+    assert t["max_hold_error"][0] * 5 < t["max_hold_error"][1]
