@@ -437,7 +437,9 @@ def identify(procedure: str, data: Path, out: Optional[Path] = None, params: str
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         header = (f"written by `hydrohil identify {procedure} {data}`\n"
-                  + "\n".join(f"{f.procedure}: " + ", ".join(f"{k} = {v}" for k, v in f.updates.items()) for f in fits))
+                  + "\n".join(f"{f.procedure}: " + ", ".join(f"{k} = {v}" for k, v in f.updates.items()) for f in fits)
+                  + "".join(f"\n{f.procedure}: {k} not identifiable: {v['why']}" for f in fits
+                            for k, v in f.not_identifiable.items()))
         save_parameters(result, out, header=header)
         doc["params_file"] = str(out)
     if report is not None:
@@ -465,8 +467,11 @@ def identify_cmd(procedure: str = typer.Argument(..., help="spool|valve-static|b
     else:
         for f in doc.get("procedures", [doc]):
             vals = {k: v for k, v in f.items() if k not in ("procedure", "achieved", "curves", "targets",
-                                                          "relative_error", "notes", "per_pressure")}
+                                                          "relative_error", "notes", "per_pressure",
+                                                          "not_identifiable")}
             typer.echo(f"{f['procedure']}: " + json.dumps(vals, default=float))
+            for k, v in f.get("not_identifiable", {}).items():
+                typer.echo(f"  not identifiable: {k}: {v['why']}")
             for n in f.get("notes", []):
                 typer.echo(f"  note: {n}")
         if out:

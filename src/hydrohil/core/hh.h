@@ -30,6 +30,8 @@ enum { HH_M_TRAVEL, HH_M_FRICTION, HH_M_SPOOL, HH_NM };
 enum { HH_FREE, HH_AT_RETRACT, HH_AT_EXTEND };
 enum { HH_STICK, HH_SLIP_POS, HH_SLIP_NEG };
 enum { HH_SPOOL_LINEAR, HH_SPOOL_ACC_LIMITED, HH_SPOOL_VEL_LIMITED, HH_SPOOL_AT_END };
+/* limits of the spool acting (bits; spool_bode.c reports them per Bode point) */
+enum { HH_SPOOL_ACTS_ACC = 1, HH_SPOOL_ACTS_VEL = 2, HH_SPOOL_ACTS_END = 4 };
 
 /* ---- guards of the hybrid statechart (hybrid.c) --------------------------------------------- */
 enum { HH_G_NONE = -1, HH_G_RETRACT, HH_G_EXTEND, HH_G_BREAK_POS, HH_G_BREAK_NEG, HH_G_REVERSE, HH_G_LEAVE };
@@ -216,16 +218,22 @@ void hh_linearise(const double *p, double xs, double p1, double p2, double xp, d
 extern const double hh_spool_steady_tol;
 /* Work doubles needed by hh_spool_bode_point at this frequency. */
 int64_t hh_spool_bode_work(double freq);
-/* The periodic steady state under u = amplitude*sin(2 pi f t) (spool_bode.c): output half peak-to-peak,
- * phase of the fundamental [rad], half periods simulated (at most max_half_periods), residual. */
+/* The periodic steady state under u = amplitude*sin(2 pi f t) (spool_bode.c) of the plant's spool (its limits
+ * and its ends): output half peak-to-peak, phase of the fundamental [rad], half periods simulated (at most
+ * max_half_periods), residual, the limits that acted in the periodic state (HH_SPOOL_ACTS_* bits) and its
+ * peaks[2] = (largest |v̄s| [1/s], largest demanded |a*| [1/s²] before the clamp). */
 void hh_steady_sine_response(const double *p, double amplitude, double freq, int64_t max_half_periods,
-                             double *work, double *a_out, double *phase, int64_t *half_periods, double *residual);
+                             double *work, double *a_out, double *phase, int64_t *half_periods, double *residual,
+                             int64_t *limits, double *peaks);
 /* Periodic steady state of the spool model (SPEC §3.1, §9.1) under u = amplitude*sin(2 pi f t):
- * gain [dB], phase [deg, wrapped], half periods simulated, periodicity residual. */
+ * gain [dB], phase [deg, wrapped], half periods simulated, periodicity residual, limits acting, peaks[2]. */
 void hh_spool_bode_point(const double *p, double amplitude, double freq, int max_periods, double *work,
-                         double *gain_db, double *phase_deg, int64_t *half_periods, double *residual);
+                         double *gain_db, double *phase_deg, int64_t *half_periods, double *residual,
+                         int64_t *limits, double *peaks);
+/* hh_spool_bode_point at n points; peaks[2 * i], peaks[2 * i + 1] of point i. */
 void hh_spool_bode(const double *p, int64_t n, const double *amplitude, const double *freq, int max_periods,
-                   double *work, double *gain_db, double *phase_deg, int64_t *half_periods, double *residual);
+                   double *work, double *gain_db, double *phase_deg, int64_t *half_periods, double *residual,
+                   int64_t *limits, double *peaks);
 
 #ifdef __cplusplus
 }

@@ -6,8 +6,7 @@ HH_INLINE void hybrid_rhs(const double *y, double ud, const int64_t *m, const do
                        double *dy)
 {
     double vp, ff;
-    spool_derivatives(y[HH_XS], y[HH_VS], ud, p, &dy[HH_XS], &dy[HH_VS]);
-    spool_end_block(y[HH_XS], y[HH_VS], &dy[HH_XS], &dy[HH_VS]);
+    spool_rhs(y[HH_XS], y[HH_VS], ud, p, &dy[HH_XS], &dy[HH_VS]);
     if (m[HH_M_TRAVEL] != HH_FREE) {
         vp = 0.0;
         dy[HH_XP] = 0.0;
@@ -166,20 +165,7 @@ HH_INLINE void apply_reset(int gid, double *y, int64_t *m, const double *p)
 /* Keep the state on its mode's manifold and inside physical bounds after a (sub)step. */
 HH_INLINE void project(double *y, const int64_t *m, const double *p)
 {
-    double lv = p[HH_SPOOL_LV];
-    if (y[HH_VS] > lv)
-        y[HH_VS] = lv;
-    else if (y[HH_VS] < -lv)
-        y[HH_VS] = -lv;
-    if (y[HH_XS] >= 1.0) {        /* the spool's mechanical ends (SPEC §3.1): plastic, velocity into it stopped */
-        y[HH_XS] = 1.0;
-        if (y[HH_VS] > 0.0)
-            y[HH_VS] = 0.0;
-    } else if (y[HH_XS] <= -1.0) {
-        y[HH_XS] = -1.0;
-        if (y[HH_VS] < 0.0)
-            y[HH_VS] = 0.0;
-    }
+    spool_project(&y[HH_XS], &y[HH_VS], p[HH_SPOOL_LV]);
     if (y[HH_P1] < HH_P_MIN)
         y[HH_P1] = HH_P_MIN;
     if (y[HH_P2] < HH_P_MIN)

@@ -72,28 +72,41 @@ HH_INLINE double orifice_slope(double area, double dp, double dp_t)
     return k / sqrt(dp_t) * (1.25 - 0.75 * r * r);
 }
 
-/* (dxs/dt, dvs/dt) of the limited second-order spool (SPEC §3.1, eq 1, Fig 3); returns the spool mode. */
-HH_INLINE int spool_derivatives(double xs, double vs, double ud, const double *p, double *dxs, double *dvs)
+/* (dxs/dt, dvs/dt) of the limited second-order spool (SPEC §3.1, eq 1, Fig 3); returns the limits acting
+ * (HH_SPOOL_ACTS_* bits): the acceleration clamp, the limited integrator at ±Lv, the spool at an end. */
+HH_INLINE int spool_limits(double xs, double vs, double ud, const double *p, double *dxs, double *dvs)
 {
     double wn = p[HH_SPOOL_WN], la = p[HH_SPOOL_LA], lv = p[HH_SPOOL_LV];
     double a = wn * wn * (ud - xs) - 2.0 * p[HH_SPOOL_XI] * wn * vs;
-    int mode = HH_SPOOL_LINEAR;
+    int acts = 0;
     if (a > la) {
         a = la;
-        mode = HH_SPOOL_ACC_LIMITED;
+        acts = HH_SPOOL_ACTS_ACC;
     } else if (a < -la) {
         a = -la;
-        mode = HH_SPOOL_ACC_LIMITED;
+        acts = HH_SPOOL_ACTS_ACC;
     }
     if ((vs >= lv && a > 0.0) || (vs <= -lv && a < 0.0)) {   /* limited integrator: no wind-up beyond +-Lv */
         a = 0.0;
-        mode = HH_SPOOL_VEL_LIMITED;
+        acts |= HH_SPOOL_ACTS_VEL;
     }
     if (xs >= 1.0 || xs <= -1.0)
-        mode = HH_SPOOL_AT_END;
+        acts |= HH_SPOOL_ACTS_END;
     *dxs = vs;
     *dvs = a;
-    return mode;
+    return acts;
+}
+
+/* spool_limits as one spool mode (the logs' HH_SPOOL_*: an end before the velocity limit before the
+ * acceleration limit). */
+HH_INLINE int spool_derivatives(double xs, double vs, double ud, const double *p, double *dxs, double *dvs)
+{
+    int acts = spool_limits(xs, vs, ud, p, dxs, dvs);
+    if (acts & HH_SPOOL_ACTS_END)
+        return HH_SPOOL_AT_END;
+    if (acts & HH_SPOOL_ACTS_VEL)
+        return HH_SPOOL_VEL_LIMITED;
+    return acts ? HH_SPOOL_ACC_LIMITED : HH_SPOOL_LINEAR;
 }
 
 /* The spool's mechanical end in the hybrid model (SPEC §3.1: x̄s in [-1, 1]): at an end, motion and
@@ -106,6 +119,34 @@ HH_INLINE void spool_end_block(double xs, double vs, double *dxs, double *dvs)
     } else if (xs <= -1.0 && vs <= 0.0) {
         *dxs = 0.0;
         *dvs = hh_max(*dvs, 0.0);
+    }
+}
+
+/* The spool of the hybrid model (SPEC §3.1): eq 1 with its limits and its mechanical ends, the one
+ * right-hand side of the plant's spool and of identification's sine responses; returns spool_limits' bits. */
+HH_INLINE int spool_rhs(double xs, double vs, double ud, const double *p, double *dxs, double *dvs)
+{
+    int acts = spool_limits(xs, vs, ud, p, dxs, dvs);
+    spool_end_block(xs, vs, dxs, dvs);
+    return acts;
+}
+
+/* After a (sub)step of the hybrid spool: the velocity held in ±Lv (the limited integrator) and the
+ * mechanical ends plastic (x̄s clamped to ±1, velocity into the end stopped). */
+HH_INLINE void spool_project(double *xs, double *vs, double lv)
+{
+    if (*vs > lv)
+        *vs = lv;
+    else if (*vs < -lv)
+        *vs = -lv;
+    if (*xs >= 1.0) {
+        *xs = 1.0;
+        if (*vs > 0.0)
+            *vs = 0.0;
+    } else if (*xs <= -1.0) {
+        *xs = -1.0;
+        if (*vs < 0.0)
+            *vs = 0.0;
     }
 }
 

@@ -12,8 +12,11 @@ HH_INLINE hh_sections pseudo_sections(double x, const double *p);
 HH_INLINE hh_sections pseudo_section_slopes(double x, const double *p);
 HH_INLINE double orifice_flow(double area, double dp, double dp_t);
 HH_INLINE double orifice_slope(double area, double dp, double dp_t);
+HH_INLINE int spool_limits(double xs, double vs, double ud, const double *p, double *dxs, double *dvs);
 HH_INLINE int spool_derivatives(double xs, double vs, double ud, const double *p, double *dxs, double *dvs);
 HH_INLINE void spool_end_block(double xs, double vs, double *dxs, double *dvs);
+HH_INLINE int spool_rhs(double xs, double vs, double ud, const double *p, double *dxs, double *dvs);
+HH_INLINE void spool_project(double *xs, double *vs, double lv);
 HH_INLINE double spool_stop_acceleration(double xs, double vs, const double *p);
 
 #endif

@@ -39,9 +39,12 @@ def plot_spool(fit: Fit, out: Path) -> list[Path]:
         fd = c["model_frequency_hz"][md][o]
         ax[0].plot(fd, c["model_gain_db"][md][o], "-", color=col, lw=1.2, label=f"model {a:.0%}")
         ax[1].plot(fd, c["model_phase_deg"][md][o], "-", color=col, lw=1.2)
-    v = fit.values
-    ax[0].set_title(f"spool: ωn = {v['wn']:.1f} rad/s, ξ = {v['xi']:.3f}, Lv = {v['lv']:.1f} 1/s, "
-                    f"La = {v['la']:.4g} 1/s², Δt = {v['delay'] * 1e3:.3f} ms\n"
+    v, ni = fit.values, fit.not_identifiable
+    limit = {k: (f"{sym} not identifiable (data need ≥ {ni[k]['needs_at_least']:.4g} {unit}; set to "
+                 f"{v[k]:.4g} {unit}, never binding)" if k in ni else f"{sym} = {v[k]:.4g} {unit}")
+             for k, sym, unit in (("lv", "Lv", "1/s"), ("la", "La", "1/s²"))}
+    ax[0].set_title(f"spool: ωn = {v['wn']:.1f} rad/s, ξ = {v['xi']:.3f}, Δt = {v['delay'] * 1e3:.3f} ms\n"
+                    f"{limit['lv']}\n{limit['la']}\n"
                     f"gain RMS {fit.achieved['gain_rms_db']:.2f} dB, phase RMS {fit.achieved['phase_rms_deg']:.1f}°; "
                     "model at its periodic steady state", fontsize=9)
     ax[0].set_ylabel("gain [dB]")
