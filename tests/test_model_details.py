@@ -173,3 +173,21 @@ def test_reference_radau_fallback_and_failure(monkeypatch):
     monkeypatch.setattr(reference, "solve_ivp", lambda *a, **k: Failed())
     failed = run_scenario(sc)
     assert failed.diverged is not None and "Radau (step size too small" in str(failed.diverged)
+
+
+def test_sim_run_refuses_a_zero_log_interval(paper):
+    """Issue #25 §7: hh_sim_run with every = 0 divided by zero (SIGFPE in the C core); now the core answers
+    HH_BAD_ARGUMENT having done nothing, and the Python loop says which argument."""
+    from hydrohil.core import dptr, ffi, lib
+    from hydrohil.models.layout import pack
+    from hydrohil.simulation.loop import Sim
+    sim = Sim(pack(paper), 5e-4)
+    values = np.zeros(11)
+    drive = ffi.new("hh_drive *")
+    drive.kind, drive.v_in, drive.t_in, drive.n_in = lib.HH_DRIVE_OPEN, dptr(values), ffi.NULL, 11
+    log, done, rows = np.zeros((11, lib.HH_NLOG)), ffi.new("int64_t *"), ffi.new("int64_t *")
+    assert lib.hh_sim_run(sim._sim, drive, 10, 0, dptr(log), done, rows) == lib.HH_BAD_ARGUMENT
+    assert done[0] == 0 and rows[0] == 0 and sim._sim.k == 0
+    assert lib.hh_sim_run(sim._sim, drive, 10, 1, dptr(log), done, rows) == lib.HH_OK and rows[0] == 11
+    with pytest.raises(ValueError, match="every >= 1"):
+        sim.run(10, 0, values)

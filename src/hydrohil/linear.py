@@ -22,9 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from hydrohil.core import dptr, ffi, lib
+from hydrohil.core import dptr, lib
 from hydrohil.errors import InputError
 from hydrohil.models.layout import pack
+from hydrohil.models.rest import chamber_pressures, net_force, rest_state
 from hydrohil.parameters import Parameters, replace_values
 
 STATES = ("xs", "vs", "p1", "p2", "vp", "xp")
@@ -121,62 +122,22 @@ def _friction_slope(p: np.ndarray) -> float:
     return 0.5 * (float(p[lib.HH_KV_POS]) + float(p[lib.HH_KV_NEG]))
 
 
-def _flows(p: np.ndarray, xs: float, p1: float, p2: float) -> tuple[float, float]:
-    q = ffi.new("double[2]")
-    lib.hh_valve_flows(dptr(p), xs, p1, p2, q, q + 1)
-    return q[0], q[1]
-
-
-def chamber_pressures(params: Parameters, xs: float, p=None) -> tuple[float, float]:
-    """(p1, p2) at which both chambers' net flows vanish at spool position xs (valve flows and the internal
-    leakage balance): each from its flow balance by a bracketed root, a few sweeps for the weak coupling."""
-    from scipy.optimize import brentq
-    p = pack(params) if p is None else p
-    ps, pt, g = params.supply.ps, params.supply.pt, params.cylinder.g_lkc
-    p1 = p2 = 0.5 * (ps + pt)
-    for _ in range(50):
-        p1n = brentq(lambda v: _flows(p, xs, v, p2)[0] - g * (v - p2), pt, ps, xtol=1e-6)
-        p2n = brentq(lambda v: _flows(p, xs, p1n, v)[1] + g * (p1n - v), pt, ps, xtol=1e-6)
-        done = abs(p1n - p1) < 1e-6 and abs(p2n - p2) < 1e-6
-        p1, p2 = p1n, p2n
-        if done:
-            break
-    return p1, p2
-
-
-def _net_force(params: Parameters, p1: float, p2: float) -> float:
-    c, ld = params.cylinder, params.load
-    return c.a1 * p1 - c.a2 * p2 + ld.gravity_direction * ld.mass * ld.gravity - ld.force
-
-
 def equilibrium(params: Parameters, xp: float, xs: float | None = None) -> OperatingPoint:
-    """The operating point at rest at ``xp`` (module docstring): the spool offset from the force balance by
-    a bracketed root over :func:`chamber_pressures` (monotone). ``xs`` forces the spool offset instead: the
-    flows still balance, the force need not (``net_force``)."""
-    from scipy.optimize import brentq
+    """The operating point at rest at ``xp`` (module docstring): the spool offset from the force balance over
+    the pressures at rest (:mod:`hydrohil.models.rest`). ``xs`` forces the spool
+    offset instead: the flows still balance, the force need not (``net_force``)."""
     L = params.cylinder.stroke
     if not 0.0 <= xp <= L:
         raise InputError(f"must lie in [0, {L}] m (cylinder.stroke), got {xp}", key="xp")
     p = pack(params)
-    ps, ld = params.supply.ps, params.load
-
-    def force(x):
-        return _net_force(params, *chamber_pressures(params, x, p))
-
     if xs is None:
-        lo, hi = -0.999, 0.999
-        f_lo, f_hi = force(lo), force(hi)
-        if f_lo * f_hi > 0:
-            w = _net_force(params, 0.0, 0.0)
-            raise InputError(f"no spool position holds the piston: the net load (gravity and F_L, {w:+.0f} N "
-                             f"along +x) is more than the cylinder gives at a supply pressure of {ps / 1e5:g} bar",
-                             key="load")
-        xs = brentq(force, lo, hi, xtol=1e-14)
+        xs, p1, p2 = rest_state(params, p)
     elif not -1.0 <= xs <= 1.0:
         raise InputError(f"must lie in [-1, 1], got {xs}", key="xs")
-    p1, p2 = chamber_pressures(params, xs, p)
-    return OperatingPoint(float(xp), float(xs), float(p1), float(p2), float(ps), float(ld.force),
-                          float(_net_force(params, p1, p2)))
+    else:
+        p1, p2 = chamber_pressures(params, xs, p)
+    return OperatingPoint(float(xp), float(xs), float(p1), float(p2), float(params.supply.ps),
+                          float(params.load.force), float(net_force(params, p1, p2)))
 
 
 def with_point(params: Parameters, *, ps: float | None = None, load: float | None = None) -> Parameters:

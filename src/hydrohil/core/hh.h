@@ -58,7 +58,7 @@ enum { HH_LOG_T, HH_LOG_U, HH_LOG_UD, HH_LOG_XS, HH_LOG_VS, HH_LOG_P1, HH_LOG_P2
 enum { HH_OUT_T, HH_OUT_Y, HH_OUT_FF = HH_OUT_Y + HH_NY, HH_OUT_TRAVEL, HH_OUT_FRICTION, HH_OUT_SPOOL,
        HH_OUT_EVENTS, HH_OUT_UD, HH_NOUT };
 
-enum { HH_OK = 0, HH_DIVERGED = 1 };
+enum { HH_OK = 0, HH_DIVERGED = 1, HH_BAD_ARGUMENT = 2 };
 
 /* ---- parameters (params.c) ------------------------------------------------------------------ */
 /* Fill the model slots (friction set per direction from friction.asymmetric; reference-model and
@@ -78,10 +78,18 @@ void hh_reference_rhs(const double *y, double ud, const double *p, double *dy);
 double hh_lugre_force(double v, double z, const double *p);
 double hh_external_force(double p1, double p2, const double *p);
 double hh_friction_force(const double *y, const int64_t *m, const double *p);
-/* State at rest (SPEC §6, scenarios): chamber pressures NaN -> closed-port equilibrium at xs; the piston
- * on a stop when pressed onto it, else free with the bristles balancing the net force up to breakaway. */
-void hh_initial_state(const double *p, double xp, double xs, double vs, double p1, double p2, double vp,
-                      double *y, int64_t *m);
+/* The plant at rest (rest.c, SPEC §12.5): (p1, p2) [Pa] at which both chambers' net inflows (valve flows,
+ * internal leakage) vanish with the spool at xs. */
+void hh_rest_pressures(const double *p, double xs, double *p1, double *p2);
+/* The spool offset *xs in [-1, 1] at which the rest pressures hold the piston (force balance, friction
+ * zero) and those pressures; returns 0, or -1 when no spool position holds the load (then *xs = 0 and the
+ * pressures at rest there). */
+int hh_rest_state(const double *p, double *xs, double *p1, double *p2);
+/* Initial state (SPEC §12.5, scenarios): xs NaN -> at rest (hh_rest_state); chamber pressures NaN -> the
+ * pressures at rest at xs; the piston on a stop when pressed onto it, else free with the bristles
+ * balancing the net force up to breakaway. Returns hh_rest_state's status (0 when xs was given). */
+int hh_initial_state(const double *p, double xp, double xs, double vs, double p1, double p2, double vp,
+                     double *y, int64_t *m);
 /* One fixed step h of the hybrid model (y, m in place) with spool input ud; returns the events. */
 int hh_hybrid_step(int method, double *y, int64_t *m, const double *p, double ud, double h);
 double hh_encoder_counts(double xp, double resolution);
@@ -169,7 +177,8 @@ void hh_sim_reset(hh_sim *sim);   /* k = 0, delay line filled with y[XS], out fr
 /* One step of the per-step API with command u: fills sim->out; returns HH_OK or HH_DIVERGED. */
 int hh_sim_step(hh_sim *sim, double u);
 /* n_steps steps from the current state; a log row (HH_NLOG columns) every `every` steps, the first at
- * the start. Returns HH_OK / HH_DIVERGED; *steps_done and *rows written. */
+ * the start. Returns HH_OK / HH_DIVERGED, or HH_BAD_ARGUMENT (nothing done) for every < 1 or n_steps < 0;
+ * *steps_done and *rows written. */
 int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t every, double *log,
                int64_t *steps_done, int64_t *rows);
 /* One log row of the state (y, m) at time t with command u and spool input ud (the rig's Python loop). */

@@ -6,6 +6,7 @@
 #include "rk.c"
 #include "hybrid.c"
 #include "reference.c"
+#include "rest.c"
 #include "sensors.c"
 #include "control.c"
 #include "delay.c"

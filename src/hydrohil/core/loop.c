@@ -1,22 +1,21 @@
 /* loop.c: the sampled loop and the per-step API (see loop.h and hh.h). */
 #include "loop.h"
 
-void hh_initial_state(const double *p, double xp, double xs, double vs, double p1, double p2, double vp,
-                      double *y, int64_t *m)
+int hh_initial_state(const double *p, double xp, double xs, double vs, double p1, double p2, double vp,
+                     double *y, int64_t *m)
 {
-    double ps = p[HH_SUPPLY_PS], pt = p[HH_SUPPLY_PT], L = p[HH_CYLINDER_STROKE], x, f;
-    double as1, a1t, as2, a2t;
-    int i;
-    /* closed-port equilibrium (SPEC §3.2): Q1 = Q2 = 0 with the sections of eq 3 (no fault wear) */
-    x = hh_clamp(xs, -1.0, 1.0);
-    as1 = section(-x, p + HH_VALVE_K1);
-    as2 = section(x, p + HH_VALVE_K1);
-    a1t = section(x, p + HH_VALVE_KT1);
-    a2t = section(-x, p + HH_VALVE_KT1);
+    double L = p[HH_CYLINDER_STROKE], f, r1, r2;
+    int i, status = 0;
+    /* at rest (SPEC §12.5, rest.c): the spool offset that holds the piston, the pressures that balance the
+     * chambers' flows there (no fault wear: fault slots are 0 at the start) */
+    if (isnan(xs))
+        status = hh_rest_state(p, &xs, &r1, &r2);
+    else
+        hh_rest_pressures(p, xs, &r1, &r2);
     if (isnan(p1))
-        p1 = pt + (ps - pt) * (as1 * as1 / (as1 * as1 + a1t * a1t));
+        p1 = r1;
     if (isnan(p2))
-        p2 = pt + (ps - pt) * (as2 * as2 / (as2 * as2 + a2t * a2t));
+        p2 = r2;
     y[HH_XS] = xs;
     y[HH_VS] = vs;
     y[HH_P1] = p1;
@@ -42,6 +41,7 @@ void hh_initial_state(const double *p, double xp, double xs, double vs, double p
         y[HH_Z] = hh_min(hh_max(f, -p[HH_FS_NEG]), p[HH_FS_POS]) / p[HH_FRICTION_SIGMA0];
     }
     m[HH_M_FRICTION] = HH_STICK;
+    return status;
 }
 
 /* Non-finite or far outside any physical range. */
@@ -168,6 +168,10 @@ int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t ever
     int ev, pressures = drive->kind == HH_DRIVE_CLOSED
                         && (drive->controller->kpl != 0.0 || sim->p[HH_SENSORS_PRESSURE_NOISE] > 0.0);
     hh_reading reading = {{0.0, 0.0, 0.0, 0.0}, 0, 0};
+    *steps_done = 0;
+    *rows = 0;
+    if (every < 1 || n_steps < 0)
+        return HH_BAD_ARGUMENT;
     for (k = 0; k <= n_steps; k++) {
         double v, dv;
         t = (double)(k0 + k) * h;

@@ -82,7 +82,7 @@ def plant_config_h(params: Parameters, *, step: float = 5e-4, duration: float = 
     from hydrohil.models.layout import SLOTS, pack
     from hydrohil.simulation.scenario import HilCfg
     hil = hil or HilCfg()
-    initial = {"xp": params.linear.xp0, "xs": 0.0, "p1": None, "p2": None, **(initial or {})}
+    initial = {"xp": params.linear.xp0, "xs": None, "p1": None, "p2": None, **(initial or {})}
     p = pack(params)
     schema = [s for s in SLOTS if s.schema]
     rows, enums = _hil_table(hil)
@@ -97,7 +97,7 @@ def plant_config_h(params: Parameters, *, step: float = 5e-4, duration: float = 
     lines += ["};", "/* enum parameters: their words (value = index); NULL for numbers */",
               "static const char *const PLANT_OPTIONS[HH_NP_SCHEMA] = {"]
     lines += [f"    {_str('|'.join(s.options)) if s.kind == 'enum' else 'NULL'},   /* {s.key} */" for s in schema]
-    lines += ["};", "/* initial state: xp [m], xs [-], p1, p2 [Pa gauge] (NAN: the closed-port equilibrium at xs) */",
+    lines += ["};", "/* initial state: xp [m], xs [-], p1, p2 [Pa gauge] (NAN: at rest, SPEC §12.5) */",
               "static const double PLANT_INITIAL[4] = {" + ", ".join(
                   _c(math.nan if initial[k] is None else initial[k]) for k in ("xp", "xs", "p1", "p2")) + "};", "",
               "enum { SET_REAL, SET_INT, SET_ENUM };",

@@ -11,11 +11,14 @@ rig all run it.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
 from hydrohil.core import dptr, ffi, iptr, lib, method_code, view
-from hydrohil.models.layout import NM, NY, pack
+from hydrohil.errors import InputWarning
+from hydrohil.models.layout import FREE, M_TRAVEL, NM, NY, pack
+from hydrohil.models.rest import unheld_load
 from hydrohil.parameters import Parameters
 
 LOG_COLUMNS = ("t", "u", "ud", "xs", "vs", "p1", "p2", "xp", "vp", "z", "ff", "travel_mode", "friction_mode",
@@ -33,16 +36,25 @@ def split_delay(delay: float, h: float) -> tuple[int, float]:
     return n, alpha[0]
 
 
-def initial_state(params: Parameters, xp: float, xs: float = 0.0, vs: float = 0.0,
+def initial_state(params: Parameters, xp: float, xs: float | None = None, vs: float = 0.0,
                   p1: float | None = None, p2: float | None = None, vp: float = 0.0,
                   p: np.ndarray | None = None):
-    """(y, m) at rest (core): pressures default to the closed-port equilibrium at ``xs`` (SPEC §3.2); on a
-    stop when pressed onto it, else free with the friction state balancing the net force up to breakaway."""
+    """(y, m) by the core (``hh_initial_state``): at rest by default (SPEC §12.5): ``xs`` None -> the spool
+    offset that holds the piston, pressures None -> those at which the chambers' flows balance at the spool
+    position (:mod:`hydrohil.models.rest`); on a stop when pressed onto it, else free with the friction state
+    balancing the net force up to breakaway. When no spool position holds the load (and the piston is free
+    with the default pressures) an :class:`InputWarning` says so and the spool starts centred: the load
+    moves the piston, as it would on the rig."""
     p = pack(params) if p is None else p
     y = np.zeros(NY)
     m = np.zeros(NM, dtype=np.int64)
-    lib.hh_initial_state(dptr(p), float(xp), float(xs), float(vs), math.nan if p1 is None else float(p1),
-                         math.nan if p2 is None else float(p2), float(vp), dptr(y), iptr(m))
+    nan = math.nan
+    status = lib.hh_initial_state(dptr(p), float(xp), nan if xs is None else float(xs), float(vs),
+                                  nan if p1 is None else float(p1), nan if p2 is None else float(p2), float(vp),
+                                  dptr(y), iptr(m))
+    if status != 0 and m[M_TRAVEL] == FREE and (p1 is None or p2 is None):
+        warnings.warn(InputWarning(f"initial.xs: {unheld_load(params)}; the spool starts centred and the load "
+                                   "moves the piston"), stacklevel=2)
     return y, m
 
 
@@ -90,6 +102,8 @@ class Sim:
         pressure noise seeded by ``seed`` at k = 0; a run continued from where the last one stopped goes on
         with the same controller state and noise draws), positions x_ref with their ``slopes``; value k holds over step k
         (n_steps + 1 values), or with ``t_in`` a table sampled by zero-order hold."""
+        if int(every) < 1 or int(n_steps) < 0:
+            raise ValueError(f"need every >= 1 and n_steps >= 0, got every = {every}, n_steps = {n_steps}")
         values = np.ascontiguousarray(values, dtype=float)
         drive = ffi.new("hh_drive *")
         drive.kind = lib.HH_DRIVE_OPEN if controller is None else lib.HH_DRIVE_CLOSED

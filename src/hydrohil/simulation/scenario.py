@@ -51,9 +51,11 @@ class SolverCfg(StrictModel):
 
 class Initial(StrictModel):
     xp: float = Field(description="piston position [m]")
-    xs: float = Field(0.0, ge=-1, le=1, description="spool position [-]")
-    p1: float | None = Field(None, ge=-1e5, le=1e8, description="chamber 1 pressure [Pa]")
-    p2: float | None = Field(None, ge=-1e5, le=1e8, description="chamber 2 pressure [Pa]")
+    xs: float | None = Field(None, ge=-1, le=1, description="spool position [-] (default: the spool offset that "
+                             "holds the piston at rest)")
+    p1: float | None = Field(None, ge=-1e5, le=1e8, description="chamber 1 pressure [Pa] (default: at rest, the "
+                             "chambers' flows balanced at the spool position)")
+    p2: float | None = Field(None, ge=-1e5, le=1e8, description="chamber 2 pressure [Pa] (default: at rest)")
 
 
 class TableInput(StrictModel):

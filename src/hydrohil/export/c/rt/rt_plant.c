@@ -91,11 +91,18 @@ typedef struct {
     double step, duration;
     const char *log_dir;
     double hil[HIL_N];
-    double initial[4];          /* xp [m], xs [-], p1, p2 [Pa] (NaN: closed-port equilibrium) */
+    double initial[4];          /* xp [m], xs [-], p1, p2 [Pa] (NaN: at rest) */
     double p[HH_NP];
 } options;
 
-static void die_usage(const char *fmt, ...)
+#if defined(__GNUC__)
+#define NORETURN __attribute__((noreturn))
+#else
+#define NORETURN
+#endif
+
+/* the message of a bad argument, then exit 2 (never returns) */
+NORETURN static void die_usage(const char *fmt, ...)
 {
     va_list ap;
     fprintf(stderr, "error: ");
@@ -122,7 +129,7 @@ static void parse_address(const char *opt, const char *text, int allow_remote, s
 {
     char host[100];
     const char *colon = strrchr(text, ':');
-    double port;
+    double port = -1.0;
     size_t n;
     if (!colon || !parse_number(colon + 1, &port) || port != floor(port) || port < 0 || port > 65535)
         die_usage("%s %s: expected HOST:PORT, e.g. 127.0.0.1:47000", opt, text);
@@ -261,7 +268,7 @@ static void set_initial(options *o, const char *assignment)
         if (eq && (size_t)(eq - assignment) == strlen(keys[i]) && strncmp(assignment, keys[i], 2) == 0)
             break;
     if (i == 4)
-        die_usage("--initial %s: expected xp=M, xs=X, p1=PA or p2=PA (nan: the closed-port equilibrium)", assignment);
+        die_usage("--initial %s: expected xp=M, xs=X, p1=PA or p2=PA (nan: at rest)", assignment);
     if (!parse_number(eq + 1, &o->initial[i]))
         die_usage("--initial %s: not a number", assignment);
 }
@@ -299,7 +306,8 @@ static void list_settings(const options *o)
             printf("  %-24s %-12g [%s] %s%g .. %g%s: %s\n", s->key, o->hil[i], s->unit, s->lo_strict ? "(" : "[", s->lo,
                    s->hi, s->hi_strict ? ")" : "]", s->description);
     }
-    printf("initial state (--initial KEY=VALUE): xp %g m, xs %g, p1 %g Pa, p2 %g Pa (nan: closed-port equilibrium)\n",
+    printf("initial state (--initial KEY=VALUE): xp %g m, xs %g, p1 %g Pa, p2 %g Pa (nan: at rest: the spool offset "
+           "that holds the piston, the pressures balancing the chambers' flows)\n",
            o->initial[0], o->initial[1], o->initial[2], o->initial[3]);
 }
 
@@ -317,7 +325,7 @@ static void usage(void)
            "  --cpu N               pin the plant to CPU N\n"
            "  --set KEY=VALUE       a parameter of the set (--list shows keys, units, ranges, values)\n"
            "  --hil KEY=VALUE       a [hil] setting (watchdog_timeout, safe_state, command_scale, ...)\n"
-           "  --initial KEY=VALUE   initial state: xp [m], xs [-], p1 / p2 [Pa] (nan: closed-port equilibrium)\n"
+           "  --initial KEY=VALUE   initial state: xp [m], xs [-], p1 / p2 [Pa] (nan, the default: at rest)\n"
            "  --connect-timeout S   wait this long for the controller's first packet (= --hil connect_timeout=S)\n"
            "  --list                print the parameters, settings and initial state, then exit\n\n"
            "Prints READY host:port once bound, PEER host:port once the controller spoke, the verdict at the end.\n"
@@ -395,8 +403,8 @@ static void parse_options(int argc, char **argv, options *o)
         exit(0);
     }
     if (!(o->initial[0] >= 0.0 && o->initial[0] <= o->p[HH_CYLINDER_STROKE]) ||
-        !(o->initial[1] >= -1.0 && o->initial[1] <= 1.0))
-        die_usage("--initial: need 0 <= xp <= cylinder.stroke (%g m) and -1 <= xs <= 1, got xp %g, xs %g",
+        !(isnan(o->initial[1]) || (o->initial[1] >= -1.0 && o->initial[1] <= 1.0)))
+        die_usage("--initial: need 0 <= xp <= cylinder.stroke (%g m) and -1 <= xs <= 1 (or nan), got xp %g, xs %g",
                   o->p[HH_CYLINDER_STROKE], o->initial[0], o->initial[1]);
     parse_address("--bind", bind_text, o->allow_remote, &o->bind, o->bind_text);
     if (peer_text) {
@@ -1004,36 +1012,39 @@ static void json_raw(json_out *j, const char *key, const char *v)
     fputs(v, j->fh);
 }
 
+/* room for the longest reason: "the model failed: " and a fault message (fault[600]) */
+#define REASON_SIZE 640
+
 /* The verdict (hydrohil.hil.verdict.judge, same rules and words): reasons, count returned. */
-static int judge(const plant *pl, int64_t steps, char reasons[][400])
+static int judge(const plant *pl, int64_t steps, char reasons[][REASON_SIZE])
 {
     const double *hil = pl->o->hil;
     int n = 0;
     if (pl->link_error[0])
-        snprintf(reasons[n++], 400, "%s", pl->link_error);
+        snprintf(reasons[n++], REASON_SIZE, "%s", pl->link_error);
     if (pl->fault[0])
-        snprintf(reasons[n++], 400, "the model failed: %s", pl->fault);
+        snprintf(reasons[n++], REASON_SIZE, "the model failed: %s", pl->fault);
     if (!pl->o->lockstep && steps) {
         double late = (double)pl->late_commands, over = (double)pl->overruns, s = (double)steps;
         double stall_us = latency_max_us(&pl->jitter);
         if (late > hil[HIL_MAX_LATE_COMMANDS] * s)
-            snprintf(reasons[n++], 400, "%lld of %lld commands late (%.1f%% > %.1f%%)", (long long)pl->late_commands,
+            snprintf(reasons[n++], REASON_SIZE, "%lld of %lld commands late (%.1f%% > %.1f%%)", (long long)pl->late_commands,
                      (long long)steps, late / s * 100.0, hil[HIL_MAX_LATE_COMMANDS] * 100.0);
         if (over > hil[HIL_MAX_OVERRUNS] * s)
-            snprintf(reasons[n++], 400, "%lld of %lld steps overran (%.1f%% > %.1f%%)", (long long)pl->overruns,
+            snprintf(reasons[n++], REASON_SIZE, "%lld of %lld steps overran (%.1f%% > %.1f%%)", (long long)pl->overruns,
                      (long long)steps, over / s * 100.0, hil[HIL_MAX_OVERRUNS] * 100.0);
         if (isfinite(stall_us) && stall_us > hil[HIL_MAX_STALL] * 1e6)
-            snprintf(reasons[n++], 400, "the plant stalled %.1f ms (> %g ms)", stall_us / 1e3, hil[HIL_MAX_STALL] * 1e3);
+            snprintf(reasons[n++], REASON_SIZE, "the plant stalled %.1f ms (> %g ms)", stall_us / 1e3, hil[HIL_MAX_STALL] * 1e3);
     }
     if ((double)pl->link.trips_unexplained > hil[HIL_MAX_WATCHDOG_TRIPS])
-        snprintf(reasons[n++], 400, "%lld watchdog trip(s) without an injected fault (no command reached the plant "
+        snprintf(reasons[n++], REASON_SIZE, "%lld watchdog trip(s) without an injected fault (no command reached the plant "
                  "for %g ms; allowed %lld)", (long long)pl->link.trips_unexplained, hil[HIL_WATCHDOG_TIMEOUT] * 1e3,
                  (long long)hil[HIL_MAX_WATCHDOG_TRIPS]);
     return n;
 }
 
 static int write_timing(plant *pl, int64_t steps, int64_t t0, int64_t t_end, int64_t drift_ns, FILE *fh,
-                        char reasons[][400])
+                        char reasons[][REASON_SIZE])
 {
     const options *o = pl->o;
     json_out j = {fh, 1};
@@ -1169,7 +1180,10 @@ static int plant_init(plant *pl, options *o)
 static void plant_reset(plant *pl)
 {
     const double *x = pl->o->initial;
-    hh_initial_state(pl->sim.p, x[0], x[1], 0.0, x[2], x[3], 0.0, pl->sim.y, pl->sim.m);
+    if (hh_initial_state(pl->sim.p, x[0], x[1], 0.0, x[2], x[3], 0.0, pl->sim.y, pl->sim.m) != 0
+        && pl->sim.m[HH_M_TRAVEL] == HH_FREE && (isnan(x[2]) || isnan(x[3])))
+        fprintf(stderr, "warning: no spool position holds the piston at rest (the load is more than the cylinder "
+                        "gives at %g bar): the spool starts centred and the load moves the piston\n", pl->sim.p[HH_SUPPLY_PS] / 1e5);
     hh_sim_reset(&pl->sim);
     hh_watchdog_init(&pl->link);
     hh_rng_seed(&pl->noise, (uint64_t)pl->o->hil[HIL_SEED]);   /* an integer <= 2^53 (schema) */
@@ -1222,7 +1236,7 @@ int main(int argc, char **argv)
 {
     static options o;
     static plant pl;
-    static char reasons[8][400];
+    static char reasons[8][REASON_SIZE];
     struct sigaction sa;
     reading r;
     int64_t t0, t_end, last_start, k, k_done = 0, drift_ns;
