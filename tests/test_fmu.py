@@ -168,8 +168,98 @@ def test_bad_parameters_are_refused_with_a_message(fmu):
     f2 = Fmu(*fmu, log=log)
     f2.init()
     with pytest.raises(FMICallException):
-        f2.step(0.0, 3e-4)                  # not a whole multiple of the 0.5 ms internal step
-    assert any("whole multiple" in m for m in messages)
+        f2.set(u=float("nan"))              # a non-finite command stays an error
+    assert any("must be finite" in m for m in messages)
     with pytest.raises(FMICallException):
-        f2.set(u=1.5)
-    assert any("must be in [-1, 1]" in m for m in messages)
+        f2.s.exitInitializationMode()        # not in initialisation mode any more
+    assert any("only in initialisation mode" in m for m in messages), messages
+
+
+def test_starts_at_rest(fmu):
+    """Issue #25 §2: by default the FMU starts at rest (the spool offset that holds the piston, the pressures
+    that balance the chambers' flows and the load): holding u at the calculated parameter xs_rest keeps p1
+    and xp where they are. The old start (closed-port pressures, spool centred) crept 1.2 mm in 0.3 s at
+    u = 0; at_rest = 0 with xs0 = 0 starts there (pressures balanced at the centre) and still does."""
+    from hydrohil.linear import equilibrium
+    params = load_parameters("ferreira2004")
+    rest = equilibrium(params, 0.09)
+    f = Fmu(*fmu)
+    f.init(xp0=0.09)
+    xs_rest, = f.real("xs_rest")
+    assert xs_rest == rest.xs and f.real("xs", "p1", "p2") == [rest.xs, rest.p1, rest.p2]
+    f.set(u=xs_rest)
+    for k in range(600):
+        f.step(k * 5e-4, 5e-4)
+    xp, p1, p2 = f.real("xp", "p1", "p2")
+    assert abs(p1 - rest.p1) < 1e-6 and abs(p2 - rest.p2) < 1e-6 and xp == 0.09   # measured 9e-8 Pa, 0 m
+    g = Fmu(*fmu)
+    g.init(xp0=0.09, at_rest=0.0, xs0=0.0)
+    assert g.real("xs")[0] == 0.0
+    g.set(u=0.0)
+    for k in range(600):
+        g.step(k * 5e-4, 5e-4)
+    assert g.real("xp")[0] - 0.09 > 1e-3             # the centred valve does not hold the load: 1.20 mm
+
+
+def test_command_saturated_as_the_rig_does(fmu):
+    """u outside [-1, 1] drives the valve as u = ±1 (the rig's command path saturates; an importer's
+    controller without its own saturation must not stop the run); getting u returns what was set."""
+    a, b = Fmu(*fmu), Fmu(*fmu)
+    a.init(xp0=0.05)
+    b.init(xp0=0.05)
+    for k in range(300):
+        a.set(u=3.0 if k < 150 else -7.5)
+        b.set(u=1.0 if k < 150 else -1.0)
+        a.step(k * 5e-4, 5e-4)
+        b.step(k * 5e-4, 5e-4)
+    assert a.real("u") == [-7.5]
+    assert a.real("xp", "p1", "p2", "xs") == b.real("xp", "p1", "p2", "xs")
+
+
+def test_any_communication_step(fmu):
+    """canHandleVariableCommunicationStepSize: steps that are not whole internal steps (0.3 ms, then 0.7 ms
+    on a 0.5 ms grid) advance the plant on its own grid; where a communication point meets the grid the
+    state equals that of 0.5 ms steps with the same command (here the command changes on common points
+    only: 1.5 ms and 3.5 ms)."""
+    a, b = Fmu(*fmu), Fmu(*fmu)
+    a.init(xp0=0.05)
+    b.init(xp0=0.05)
+    t = 0.0
+    for k in range(60):                        # 60 x 0.3 ms = 18 ms: on the grid every 1.5 ms
+        a.set(u=0.4 if t < 9e-3 - 1e-12 else -0.3)
+        a.step(t, 3e-4)
+        t += 3e-4
+    for k in range(36):                        # 36 x 0.5 ms = 18 ms
+        b.set(u=0.4 if k < 18 else -0.3)
+        b.step(k * 5e-4, 5e-4)
+    assert a.real("xp", "p1", "p2", "xs") == b.real("xp", "p1", "p2", "xs")
+    a.step(t, 7e-4)                            # 18.7 ms: one internal step (to 18.5 ms) taken, 0.2 ms carried
+    b.step(18e-3, 5e-4)
+    assert a.real("xp", "p1") == b.real("xp", "p1")
+
+
+@pytest.mark.parametrize("version", FMI)
+def test_edge_calls_under_sanitizers(tmp_path, version):
+    """Issue #25 §3, with the FMU's own sources under AddressSanitizer and UBSan (tests/c/fmu_edges.c): calls on
+    a NULL instance and in the wrong FMI state answer an error; a state taken while stepping is set into an
+    instance that was only instantiated and continues exactly; truncated, oversized, untagged, other-version
+    and other-export states are refused with a message, nothing read past the bytes given."""
+    import shutil
+    import subprocess
+    cc = shutil.which("gcc") or shutil.which("cc")
+    path = export_fmu(load_parameters("ferreira2004"), tmp_path / "plant.fmu", fmi=version)
+    src = f"{extract(path, unzipdir=tmp_path / 'u')}/sources"
+    exe = tmp_path / "edges"
+    build = subprocess.run([cc, "-std=c99", "-g", "-O1", f"-DFMI={version}", "-fsanitize=address,undefined",
+                            "-fno-sanitize-recover=all", "-Wall", "-Wextra", "-Werror", "-I", src,
+                            Path(__file__).parent / "c" / "fmu_edges.c", f"{src}/hh_core.c", f"{src}/plant_fmu.c",
+                            f"{src}/fmi{version}Functions.c", "-lm", "-o", exe], capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr
+    r = subprocess.run([exe], capture_output=True, text=True, timeout=120,
+                       env={"ASAN_OPTIONS": "detect_leaks=1", "PATH": "/usr/bin:/bin"})
+    assert r.returncode == 0 and "ok: 0 failed" in r.stdout, r.stdout + r.stderr
+    assert "ERROR: AddressSanitizer" not in r.stderr and "runtime error" not in r.stderr, r.stderr
+    for message in ("too short for a hydrohil FMU state", "not a hydrohil FMU state", "this FMU reads format 1",
+                    "FMU state of another export", "only in step mode", "only in initialisation mode",
+                    "outputs and calculated parameters exist from initialisation mode on"):
+        assert message in r.stdout, (message, r.stdout)

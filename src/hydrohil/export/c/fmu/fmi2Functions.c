@@ -23,6 +23,12 @@ static void forward_log2(void *env, const char *instance, int status, const char
 static fmi2Status st(int s) { return s == PLANT_OK ? fmi2OK : s == PLANT_WARNING ? fmi2Warning : fmi2Error; }
 #define PL(c) (((fmu2 *)(c))->pl)
 #define UNSUPPORTED(c, what) (plant_logf(PL(c), PLANT_ERROR, "%s is not supported", what), fmi2Error)
+/* a call on no instance (NULL) answers fmi2Error: there is no logger to say more */
+#define CHECK(c)                                                                                                \
+    do {                                                                                                        \
+        if (!(c))                                                                                               \
+            return fmi2Error;                                                                                   \
+    } while (0)
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -32,6 +38,7 @@ fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nC
 {
     (void)nCategories;
     (void)categories;
+    CHECK(c);
     ((fmu2 *)c)->logging = loggingOn;
     return fmi2OK;
 }
@@ -78,21 +85,31 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
     (void)tolerance;
     (void)stopTimeDefined;
     (void)stopTime;
-    PL(c)->t0 = startTime;
-    return fmi2OK;
+    CHECK(c);
+    return st(plant_setup(PL(c), startTime));
 }
 
-fmi2Status fmi2EnterInitializationMode(fmi2Component c) { return st(plant_enter_init(PL(c), PL(c)->t0)); }
-fmi2Status fmi2ExitInitializationMode(fmi2Component c) { return st(plant_exit_init(PL(c))); }
+fmi2Status fmi2EnterInitializationMode(fmi2Component c)
+{
+    CHECK(c);
+    return st(plant_enter_init(PL(c), PL(c)->t0));
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c)
+{
+    CHECK(c);
+    return st(plant_exit_init(PL(c)));
+}
 
 fmi2Status fmi2Terminate(fmi2Component c)
 {
-    PL(c)->mode = PLANT_TERMINATED;
-    return fmi2OK;
+    CHECK(c);
+    return st(plant_terminate(PL(c)));
 }
 
 fmi2Status fmi2Reset(fmi2Component c)
 {
+    CHECK(c);
     plant_defaults(PL(c));
     return fmi2OK;
 }
@@ -100,6 +117,9 @@ fmi2Status fmi2Reset(fmi2Component c)
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[])
 {
     size_t i;
+    CHECK(c);
+    if (nvr > 0 && (!vr || !value))
+        return fmi2Error;
     for (i = 0; i < nvr; i++)
         if (plant_get_real(PL(c), vr[i], &value[i]) != PLANT_OK)
             return fmi2Error;
@@ -109,6 +129,9 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[])
 {
     size_t i;
+    CHECK(c);
+    if (nvr > 0 && (!vr || !value))
+        return fmi2Error;
     for (i = 0; i < nvr; i++)
         if (plant_get_integer(PL(c), vr[i], &value[i]) != PLANT_OK)
             return fmi2Error;
@@ -117,6 +140,7 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[])
 {
+    CHECK(c);
     (void)vr;
     (void)value;
     return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2GetBoolean (the FMU has no Boolean variable)");
@@ -124,6 +148,7 @@ fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[])
 {
+    CHECK(c);
     (void)vr;
     (void)value;
     return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2GetString (the FMU has no String variable)");
@@ -132,6 +157,9 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[])
 {
     size_t i;
+    CHECK(c);
+    if (nvr > 0 && (!vr || !value))
+        return fmi2Error;
     for (i = 0; i < nvr; i++)
         if (plant_set_real(PL(c), vr[i], value[i]) != PLANT_OK)
             return fmi2Error;
@@ -140,6 +168,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
 
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[])
 {
+    CHECK(c);
     (void)vr;
     (void)value;
     return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2SetInteger (the FMU's Integer variables are outputs)");
@@ -147,6 +176,7 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[])
 {
+    CHECK(c);
     (void)vr;
     (void)value;
     return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2SetBoolean (the FMU has no Boolean variable)");
@@ -154,38 +184,57 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[])
 {
+    CHECK(c);
     (void)vr;
     (void)value;
     return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2SetString (the FMU has no String variable)");
 }
 
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) { return st(plant_state_get(PL(c), state)); }
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) { return st(plant_state_set(PL(c), state)); }
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state)
+{
+    CHECK(c);
+    if (!state)
+        return fmi2Error;
+    return st(plant_state_get(PL(c), state));
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
+{
+    CHECK(c);
+    return st(plant_state_set(PL(c), state));
+}
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state)
 {
-    (void)c;
-    free(*state);
-    *state = NULL;
+    CHECK(c);
+    if (state) {
+        free(*state);
+        *state = NULL;
+    }
     return fmi2OK;
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size)
 {
-    (void)c;
+    CHECK(c);
+    if (!state || !size) {
+        plant_logf(PL(c), PLANT_ERROR, "the size of no FMU state");
+        return fmi2Error;
+    }
     *size = plant_state_block_size(state);
     return fmi2OK;
 }
 
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte serialized[], size_t size)
 {
+    CHECK(c);
     return st(plant_state_serialize(PL(c), state, serialized, size));
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serialized[], size_t size, fmi2FMUstate *state)
 {
-    (void)c;
-    return st(plant_state_deserialize(serialized, size, state));
+    CHECK(c);
+    return st(plant_state_deserialize(PL(c), serialized, size, state));
 }
 
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
@@ -193,6 +242,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
                                         const fmi2Real dvKnown[], fmi2Real dvUnknown[])
 {
     (void)vUnknown_ref; (void)nUnknown; (void)vKnown_ref; (void)nKnown; (void)dvKnown; (void)dvUnknown;
+    CHECK(c);
     return UNSUPPORTED(c, "fmi2GetDirectionalDerivative");
 }
 
@@ -200,6 +250,7 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
                                        const fmi2Integer order[], const fmi2Real value[])
 {
     (void)vr; (void)nvr; (void)order; (void)value;
+    CHECK(c);
     return UNSUPPORTED(c, "fmi2SetRealInputDerivatives");
 }
 
@@ -207,6 +258,7 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
                                         const fmi2Integer order[], fmi2Real value[])
 {
     (void)vr; (void)nvr; (void)order; (void)value;
+    CHECK(c);
     return UNSUPPORTED(c, "fmi2GetRealOutputDerivatives");
 }
 
@@ -214,36 +266,46 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint)
 {
     (void)noSetFMUStatePriorToCurrentPoint;
+    CHECK(c);
     return st(plant_do_step(PL(c), currentCommunicationPoint, communicationStepSize));
 }
 
-fmi2Status fmi2CancelStep(fmi2Component c) { return UNSUPPORTED(c, "fmi2CancelStep (doStep is synchronous)"); }
+fmi2Status fmi2CancelStep(fmi2Component c)
+{
+    CHECK(c);
+    return UNSUPPORTED(c, "fmi2CancelStep (doStep is synchronous)");
+}
 
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
 {
     (void)s;
+    CHECK(c);
+    if (!value)
+        return fmi2Error;
     *value = PL(c)->mode == PLANT_FAILED ? fmi2Error : fmi2OK;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
 {
-    if (s != fmi2LastSuccessfulTime)
+    CHECK(c);
+    if (s != fmi2LastSuccessfulTime || !value)
         return UNSUPPORTED(c, "fmi2GetRealStatus of this kind");
-    *value = PL(c)->t0 + (double)PL(c)->sim.k * PL(c)->sim.h;
+    *value = PL(c)->t_comm;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value)
 {
     (void)s; (void)value;
+    CHECK(c);
     return UNSUPPORTED(c, "fmi2GetIntegerStatus");
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
 {
-    (void)s;
-    if (s == fmi2Terminated) {
+    CHECK(c);
+    if (s == fmi2Terminated && value) {
         *value = fmi2False;
         return fmi2OK;
     }
@@ -253,5 +315,6 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value)
 {
     (void)s; (void)value;
+    CHECK(c);
     return UNSUPPORTED(c, "fmi2GetStringStatus");
 }

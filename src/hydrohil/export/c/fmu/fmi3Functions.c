@@ -26,8 +26,15 @@ static void forward_log3(void *env, const char *instance, int status, const char
 
 static fmi3Status st(int s) { return s == PLANT_OK ? fmi3OK : s == PLANT_WARNING ? fmi3Warning : fmi3Error; }
 #define PL(c) (((fmu3 *)(c))->pl)
+/* a call on no instance (NULL) answers fmi3Error: there is no logger to say more */
+#define CHECK(c)                                                                                                \
+    do {                                                                                                        \
+        if (!(c))                                                                                               \
+            return fmi3Error;                                                                                   \
+    } while (0)
 static fmi3Status unsupported(fmi3Instance c, const char *what)
 {
+    CHECK(c);
     plant_logf(PL(c), PLANT_ERROR, "%s is not supported by this FMU", what);
     return fmi3Error;
 }
@@ -38,6 +45,7 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean loggingOn, size_t nCa
 {
     (void)nCategories;
     (void)categories;
+    CHECK(c);
     ((fmu3 *)c)->logging = loggingOn;
     return fmi3OK;
 }
@@ -111,20 +119,26 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean toleranceDefi
                                        fmi3Float64 startTime, fmi3Boolean stopTimeDefined, fmi3Float64 stopTime)
 {
     (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
+    CHECK(c);
     return st(plant_enter_init(PL(c), startTime));
 }
 
-fmi3Status fmi3ExitInitializationMode(fmi3Instance c) { return st(plant_exit_init(PL(c))); }
+fmi3Status fmi3ExitInitializationMode(fmi3Instance c)
+{
+    CHECK(c);
+    return st(plant_exit_init(PL(c)));
+}
 fmi3Status fmi3EnterEventMode(fmi3Instance c) { return unsupported(c, "fmi3EnterEventMode"); }
 
 fmi3Status fmi3Terminate(fmi3Instance c)
 {
-    PL(c)->mode = PLANT_TERMINATED;
-    return fmi3OK;
+    CHECK(c);
+    return st(plant_terminate(PL(c)));
 }
 
 fmi3Status fmi3Reset(fmi3Instance c)
 {
+    CHECK(c);
     plant_defaults(PL(c));
     return fmi3OK;
 }
@@ -133,11 +147,14 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
                           size_t nValues)
 {
     size_t i;
+    CHECK(c);
     if (nValues != nvr)
         return unsupported(c, "arrays (nValues != nValueReferences)");
+    if (nvr > 0 && (!vr || !values))
+        return fmi3Error;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == VR_TIME) {
-            values[i] = PL(c)->t0 + (double)PL(c)->sim.k * PL(c)->sim.h;
+            values[i] = PL(c)->t_comm;
             continue;
         }
         if (plant_get_real(PL(c), vr[i], &values[i]) != PLANT_OK)
@@ -150,8 +167,11 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
                           size_t nValues)
 {
     size_t i;
+    CHECK(c);
     if (nValues != nvr)
         return unsupported(c, "arrays (nValues != nValueReferences)");
+    if (nvr > 0 && (!vr || !values))
+        return fmi3Error;
     for (i = 0; i < nvr; i++)
         if (plant_set_real(PL(c), vr[i], values[i]) != PLANT_OK)
             return fmi3Error;
@@ -161,8 +181,11 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
 fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int32 values[], size_t nValues)
 {
     size_t i;
+    CHECK(c);
     if (nValues != nvr)
         return unsupported(c, "arrays (nValues != nValueReferences)");
+    if (nvr > 0 && (!vr || !values))
+        return fmi3Error;
     for (i = 0; i < nvr; i++) {
         int v;
         if (plant_get_integer(PL(c), vr[i], &v) != PLANT_OK)
@@ -177,12 +200,14 @@ fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nv
     fmi3Status NAME(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, T values[], size_t nValues)     \
     {                                                                                                            \
         (void)vr; (void)values; (void)nValues;                                                                  \
+        CHECK(c);                                                                                               \
         return nvr == 0 ? fmi3OK : unsupported(c, #NAME " (no variable of that type)");                         \
     }
 #define NO_SET(NAME, T)                                                                                         \
     fmi3Status NAME(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const T values[], size_t nValues) \
     {                                                                                                            \
         (void)vr; (void)values; (void)nValues;                                                                  \
+        CHECK(c);                                                                                               \
         return nvr == 0 ? fmi3OK : unsupported(c, #NAME " (no settable variable of that type)");                \
     }
 NO_GET(fmi3GetFloat32, fmi3Float32)
@@ -250,33 +275,51 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference depend
     return unsupported(c, "fmi3GetVariableDependencies");
 }
 
-fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *state) { return st(plant_state_get(PL(c), state)); }
-fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState state) { return st(plant_state_set(PL(c), state)); }
+fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *state)
+{
+    CHECK(c);
+    if (!state)
+        return fmi3Error;
+    return st(plant_state_get(PL(c), state));
+}
+
+fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState state)
+{
+    CHECK(c);
+    return st(plant_state_set(PL(c), state));
+}
 
 fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *state)
 {
-    (void)c;
-    free(*state);
-    *state = NULL;
+    CHECK(c);
+    if (state) {
+        free(*state);
+        *state = NULL;
+    }
     return fmi3OK;
 }
 
 fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState state, size_t *size)
 {
-    (void)c;
+    CHECK(c);
+    if (!state || !size) {
+        plant_logf(PL(c), PLANT_ERROR, "the size of no FMU state");
+        return fmi3Error;
+    }
     *size = plant_state_block_size(state);
     return fmi3OK;
 }
 
 fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState state, fmi3Byte serialized[], size_t size)
 {
+    CHECK(c);
     return st(plant_state_serialize(PL(c), state, serialized, size));
 }
 
 fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte serialized[], size_t size, fmi3FMUState *state)
 {
-    (void)c;
-    return st(plant_state_deserialize(serialized, size, state));
+    CHECK(c);
+    return st(plant_state_deserialize(PL(c), serialized, size, state));
 }
 
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,
@@ -413,14 +456,18 @@ fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Float64 x[], si
 
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n)
 {
-    (void)c;
+    CHECK(c);
+    if (!n)
+        return fmi3Error;
     *n = 0;
     return fmi3OK;
 }
 
 fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *n)
 {
-    (void)c;
+    CHECK(c);
+    if (!n)
+        return fmi3Error;
     *n = 0;
     return fmi3OK;
 }
@@ -440,11 +487,16 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 currentCommunicationPoint, fmi
 {
     fmi3Status s;
     (void)noSetFMUStatePriorToCurrentPoint;
+    CHECK(c);
     s = st(plant_do_step(PL(c), currentCommunicationPoint, communicationStepSize));
-    *eventHandlingNeeded = fmi3False;
-    *terminateSimulation = fmi3False;
-    *earlyReturn = fmi3False;
-    *lastSuccessfulTime = PL(c)->t0 + (double)PL(c)->sim.k * PL(c)->sim.h;
+    if (eventHandlingNeeded)
+        *eventHandlingNeeded = fmi3False;
+    if (terminateSimulation)
+        *terminateSimulation = fmi3False;
+    if (earlyReturn)
+        *earlyReturn = fmi3False;
+    if (lastSuccessfulTime)
+        *lastSuccessfulTime = PL(c)->t_comm;
     return s;
 }
 

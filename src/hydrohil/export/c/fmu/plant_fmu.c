@@ -6,6 +6,10 @@
 #include <string.h>
 #include "plant_fmu.h"
 
+#define STATE_TAG "hydrohil FMU state"
+#define STATE_VERSION 1u
+#define DELAY_MAX 100000000       /* a saved delay line longer than this is not one of this plant's */
+
 void plant_logf(plant *pl, int status, const char *fmt, ...)
 {
     char msg[512];
@@ -28,7 +32,8 @@ void plant_defaults(plant *pl)
     pl->f_load = pl->par[HH_LOAD_FORCE];
     pl->ps = pl->par[HH_SUPPLY_PS];
     pl->f_load_set = pl->ps_set = 0;
-    pl->t0 = 0.0;
+    pl->t0 = pl->t_comm = 0.0;
+    pl->xs_rest = 0.0;
     pl->mode = PLANT_INSTANTIATED;
 }
 
@@ -52,6 +57,8 @@ void plant_free(plant *pl)
     }
 }
 
+double plant_time(const plant *pl) { return pl->t0 + (double)pl->sim.k * pl->sim.h; }
+
 int plant_set_real(plant *pl, unsigned vr, double v)
 {
     if (vr < PLANT_NPAR) {
@@ -63,9 +70,9 @@ int plant_set_real(plant *pl, unsigned vr, double v)
         return PLANT_OK;
     }
     switch (vr) {
-    case VR_U:
-        if (!(v >= -1.0 && v <= 1.0)) {
-            plant_logf(pl, PLANT_ERROR, "input u = %g: the normalised valve command must be in [-1, 1]", v);
+    case VR_U:   /* saturated to [-1, 1] when stepping, as the rig's command path does */
+        if (!isfinite(v)) {
+            plant_logf(pl, PLANT_ERROR, "input u = %g: the normalised valve command must be finite", v);
             return PLANT_ERROR;
         }
         pl->u = v;
@@ -93,6 +100,73 @@ int plant_set_real(plant *pl, unsigned vr, double v)
     }
 }
 
+/* The core's parameter vector p[HH_NP] of the parameters as set and the inputs F_load and ps, checked;
+ * PLANT_ERROR with a message when a value is out of range. */
+static int model_params(plant *pl, double *p)
+{
+    double h = pl->par[VR_STEP], xp0 = pl->par[VR_XP0], xs0 = pl->par[VR_XS0], at_rest = pl->par[VR_AT_REST];
+    char msg[400];
+    int i;
+    for (i = 0; i < HH_NP; i++)
+        p[i] = i < HH_NP_SCHEMA ? pl->par[i] : 0.0;
+    if (hh_params_check(p, msg, sizeof msg) >= 0) {
+        plant_logf(pl, PLANT_ERROR, "%s", msg);
+        return PLANT_ERROR;
+    }
+    if (!(h >= 1e-7 && h <= 0.01)) {
+        plant_logf(pl, PLANT_ERROR, "parameter step = %g s: the internal fixed step must be in [1e-7, 0.01] s", h);
+        return PLANT_ERROR;
+    }
+    if (!(xp0 >= 0.0 && xp0 <= p[HH_CYLINDER_STROKE]) || !(xs0 >= -1.0 && xs0 <= 1.0)) {
+        plant_logf(pl, PLANT_ERROR, "initial state xp0 = %g m, xs0 = %g: need 0 <= xp0 <= cylinder.stroke (%g m) "
+                   "and -1 <= xs0 <= 1", xp0, xs0, p[HH_CYLINDER_STROKE]);
+        return PLANT_ERROR;
+    }
+    if (at_rest != 0.0 && at_rest != 1.0) {
+        plant_logf(pl, PLANT_ERROR, "parameter at_rest = %g: 1 (start at rest) or 0 (start at xs0)", at_rest);
+        return PLANT_ERROR;
+    }
+    hh_params_derive(p);
+    p[HH_LOAD_FORCE] = pl->f_load_set ? pl->f_load : p[HH_LOAD_FORCE];
+    p[HH_SUPPLY_PS] = pl->ps_set ? pl->ps : p[HH_SUPPLY_PS];
+    return PLANT_OK;
+}
+
+/* The initial state of the parameters as set (SPEC §12.5): at rest (at_rest = 1: the spool offset that holds
+ * the piston, the pressures balancing the chambers' flows) or with the spool at xs0; sim and its delay line
+ * set up, xs_rest computed. */
+static int prepare(plant *pl)
+{
+    double p[HH_NP], h = pl->par[VR_STEP], alpha, p1, p2;
+    int n, held;
+    if (model_params(pl, p) != PLANT_OK)
+        return PLANT_ERROR;
+    if (!pl->f_load_set)
+        pl->f_load = p[HH_LOAD_FORCE];
+    if (!pl->ps_set)
+        pl->ps = p[HH_SUPPLY_PS];
+    n = hh_delay_steps(p[HH_SPOOL_DELAY], h, &alpha);
+    if (pl->dbuf_size != n + 2) {
+        free(pl->dbuf);
+        pl->dbuf_size = 0;
+        pl->dbuf = malloc(sizeof(double) * (size_t)(n + 2));
+        if (!pl->dbuf) {
+            plant_logf(pl, PLANT_ERROR, "out of memory for a delay line of %d steps", n);
+            return PLANT_ERROR;
+        }
+        pl->dbuf_size = n + 2;
+    }
+    hh_sim_init(&pl->sim, p, HH_MODEL_HYBRID, PLANT_METHOD, h, pl->dbuf, n, alpha);
+    held = hh_rest_state(pl->sim.p, &pl->xs_rest, &p1, &p2) == 0;
+    hh_initial_state(pl->sim.p, pl->par[VR_XP0], pl->par[VR_AT_REST] == 1.0 ? pl->xs_rest : pl->par[VR_XS0], 0.0,
+                     NAN, NAN, 0.0, pl->sim.y, pl->sim.m);
+    hh_sim_reset(&pl->sim);
+    if (!held && pl->par[VR_AT_REST] == 1.0 && pl->sim.m[HH_M_TRAVEL] == HH_FREE)
+        plant_logf(pl, PLANT_WARNING, "no spool position holds the piston at rest: the load is more than the cylinder "
+                   "gives at a supply pressure of %g bar; the spool starts centred and the load moves the piston", p[HH_SUPPLY_PS] / 1e5);
+    return PLANT_OK;
+}
+
 int plant_get_real(plant *pl, unsigned vr, double *v)
 {
     const double *y = pl->sim.y;
@@ -104,6 +178,17 @@ int plant_get_real(plant *pl, unsigned vr, double *v)
     case VR_U: *v = pl->u; return PLANT_OK;
     case VR_F_LOAD: *v = pl->f_load; return PLANT_OK;
     case VR_PS: *v = pl->ps; return PLANT_OK;
+    default: break;
+    }
+    if (pl->mode == PLANT_INSTANTIATED) {
+        plant_logf(pl, PLANT_ERROR, "value reference %u: outputs and calculated parameters exist from "
+                   "initialisation mode on", vr);
+        return PLANT_ERROR;
+    }
+    if (pl->mode == PLANT_INITIALIZING && prepare(pl) != PLANT_OK)   /* the initial values of what is set now */
+        return PLANT_ERROR;
+    switch (vr) {
+    case VR_XS_REST: *v = pl->xs_rest; return PLANT_OK;
     case VR_XP: *v = y[HH_XP]; return PLANT_OK;
     case VR_VP: *v = y[HH_VP]; return PLANT_OK;
     case VR_P1: *v = y[HH_P1]; return PLANT_OK;
@@ -119,96 +204,93 @@ int plant_get_real(plant *pl, unsigned vr, double *v)
 int plant_get_integer(plant *pl, unsigned vr, int *v)
 {
     double res, c;
+    if (vr != VR_TRAVEL && vr != VR_FRICTION && vr != VR_SPOOL && vr != VR_ENCODER) {
+        plant_logf(pl, PLANT_ERROR, "value reference %u is not an Integer", vr);
+        return PLANT_ERROR;
+    }
+    if (pl->mode == PLANT_INSTANTIATED) {
+        plant_logf(pl, PLANT_ERROR, "value reference %u: outputs exist from initialisation mode on", vr);
+        return PLANT_ERROR;
+    }
+    if (pl->mode == PLANT_INITIALIZING && prepare(pl) != PLANT_OK)
+        return PLANT_ERROR;
     switch (vr) {
     case VR_TRAVEL: *v = (int)pl->sim.m[HH_M_TRAVEL]; return PLANT_OK;
     case VR_FRICTION: *v = (int)pl->sim.m[HH_M_FRICTION]; return PLANT_OK;
     case VR_SPOOL: *v = (int)pl->sim.m[HH_M_SPOOL]; return PLANT_OK;
-    case VR_ENCODER:   /* counts of the encoder (sensors.encoder_resolution; 0: ideal, counted in nm) */
+    default:   /* VR_ENCODER: counts of the encoder (sensors.encoder_resolution; 0: ideal, counted in nm) */
         res = pl->par[HH_SENSORS_ENCODER_RESOLUTION];
         c = hh_encoder_counts(pl->sim.y[HH_XP], hh_count_size(res));
         *v = c > 2147483647.0 ? 2147483647 : c < -2147483647.0 ? -2147483647 : (int)c;
         return PLANT_OK;
-    default:
-        plant_logf(pl, PLANT_ERROR, "value reference %u is not an Integer", vr);
-        return PLANT_ERROR;
     }
+}
+
+static int wrong_mode(plant *pl, const char *call, const char *where)
+{
+    static const char *const names[] = {"instantiated", "initialisation", "step", "terminated", "failed"};
+    plant_logf(pl, PLANT_ERROR, "%s: only in %s mode (the instance is in %s mode)", call, where, names[pl->mode]);
+    return PLANT_ERROR;
+}
+
+int plant_setup(plant *pl, double t0)
+{
+    if (pl->mode != PLANT_INSTANTIATED)
+        return wrong_mode(pl, "setting up the experiment", "instantiated");
+    pl->t0 = pl->t_comm = t0;
+    return PLANT_OK;
 }
 
 int plant_enter_init(plant *pl, double t0)
 {
-    pl->t0 = t0;
+    if (pl->mode != PLANT_INSTANTIATED)
+        return wrong_mode(pl, "entering initialisation mode", "instantiated");
+    pl->t0 = pl->t_comm = t0;
     pl->mode = PLANT_INITIALIZING;
     return PLANT_OK;
 }
 
 int plant_exit_init(plant *pl)
 {
-    double p[HH_NP], h = pl->par[VR_STEP], xp0 = pl->par[VR_XP0], xs0 = pl->par[VR_XS0], alpha;
-    char msg[400];
-    int i, n;
-    for (i = 0; i < HH_NP; i++)
-        p[i] = i < HH_NP_SCHEMA ? pl->par[i] : 0.0;
-    if (hh_params_check(p, msg, sizeof msg) >= 0) {
-        plant_logf(pl, PLANT_ERROR, "%s", msg);
+    if (pl->mode != PLANT_INITIALIZING)
+        return wrong_mode(pl, "exiting initialisation mode", "initialisation");
+    if (prepare(pl) != PLANT_OK) {
         pl->mode = PLANT_FAILED;
         return PLANT_ERROR;
     }
-    if (!(h >= 1e-7 && h <= 0.01)) {
-        plant_logf(pl, PLANT_ERROR, "parameter step = %g s: the internal fixed step must be in [1e-7, 0.01] s", h);
-        pl->mode = PLANT_FAILED;
-        return PLANT_ERROR;
-    }
-    if (!(xp0 >= 0.0 && xp0 <= p[HH_CYLINDER_STROKE]) || !(xs0 >= -1.0 && xs0 <= 1.0)) {
-        plant_logf(pl, PLANT_ERROR, "initial state xp0 = %g m, xs0 = %g: need 0 <= xp0 <= cylinder.stroke (%g m) "
-                   "and -1 <= xs0 <= 1", xp0, xs0, p[HH_CYLINDER_STROKE]);
-        pl->mode = PLANT_FAILED;
-        return PLANT_ERROR;
-    }
-    hh_params_derive(p);
-    if (!pl->f_load_set)
-        pl->f_load = p[HH_LOAD_FORCE];
-    if (!pl->ps_set)
-        pl->ps = p[HH_SUPPLY_PS];
-    p[HH_LOAD_FORCE] = pl->f_load;
-    p[HH_SUPPLY_PS] = pl->ps;
-    n = hh_delay_steps(p[HH_SPOOL_DELAY], h, &alpha);
-    free(pl->dbuf);
-    pl->dbuf_size = n + 2;
-    pl->dbuf = malloc(sizeof(double) * (size_t)pl->dbuf_size);
-    if (!pl->dbuf) {
-        plant_logf(pl, PLANT_ERROR, "out of memory for a delay line of %d steps", n);
-        pl->mode = PLANT_FAILED;
-        return PLANT_ERROR;
-    }
-    hh_sim_init(&pl->sim, p, HH_MODEL_HYBRID, PLANT_METHOD, h, pl->dbuf, n, alpha);
-    hh_initial_state(pl->sim.p, xp0, xs0, 0.0, NAN, NAN, 0.0, pl->sim.y, pl->sim.m);
-    hh_sim_reset(&pl->sim);
     pl->mode = PLANT_STEPPING;
     return PLANT_OK;
 }
 
+int plant_terminate(plant *pl)
+{
+    if (pl->mode != PLANT_STEPPING)
+        return wrong_mode(pl, "terminating", "step");
+    pl->mode = PLANT_TERMINATED;
+    return PLANT_OK;
+}
+
+/* A communication step of any size: the plant steps on its own grid t0 + k*h, as many whole internal steps as
+ * end by the communication point t + dt (within 1e-6 h); the rest carries over to the next doStep. Inputs act
+ * from the next internal step on, held over it (zero-order hold, as the sampled controller). */
 int plant_do_step(plant *pl, double t, double dt)
 {
-    double h = pl->sim.h, r;
+    double h = pl->sim.h, u = pl->u > 1.0 ? 1.0 : pl->u < -1.0 ? -1.0 : pl->u;
     long long n, i;
-    if (pl->mode != PLANT_STEPPING) {
-        plant_logf(pl, PLANT_ERROR, "doStep outside step mode (initialise first; a failed instance must be reset)");
+    if (pl->mode != PLANT_STEPPING)
+        return wrong_mode(pl, "doStep", "step (initialise first; a failed instance must be reset)");
+    if (!(dt > 0.0 && isfinite(dt) && isfinite(t))) {
+        plant_logf(pl, PLANT_ERROR, "doStep at t = %g s with a step of %g s: need a finite step > 0", t, dt);
         return PLANT_ERROR;
     }
-    r = dt / h;
-    n = llround(r);
-    if (n < 1 || fabs(r - (double)n) > 1e-6) {
-        plant_logf(pl, PLANT_ERROR, "communication step %g s is not a whole multiple of the internal step %g s", dt, h);
-        return PLANT_ERROR;
-    }
-    if (fabs(t - (pl->t0 + (double)pl->sim.k * h)) > 1e-6 * h + 1e-12) {
-        plant_logf(pl, PLANT_WARNING, "doStep at t = %.9g s, the plant is at t = %.9g s", t,
-                   pl->t0 + (double)pl->sim.k * h);
-    }
+    if (fabs(t - pl->t_comm) > 1e-6 * h + 1e-12 * fabs(t))
+        plant_logf(pl, PLANT_WARNING, "doStep at t = %.9g s, the last communication point was t = %.9g s", t,
+                   pl->t_comm);
+    n = (long long)floor((t + dt - pl->t0) / h + 1e-6) - (long long)pl->sim.k;
     pl->sim.p[HH_LOAD_FORCE] = pl->f_load;
     pl->sim.p[HH_SUPPLY_PS] = pl->ps;
     for (i = 0; i < n; i++) {
-        if (hh_sim_step(&pl->sim, pl->u) != HH_OK) {
+        if (hh_sim_step(&pl->sim, u) != HH_OK) {
             const double *y = pl->sim.y;
             plant_logf(pl, PLANT_ERROR, "the simulation diverged at t = %.6g s (travel %d, friction %d, spool %d): "
                        "xs %g, vs %g, p1 %g Pa, p2 %g Pa, xp %g m, vp %g m/s, z %g m", pl->t0 + pl->sim.out[HH_OUT_T],
@@ -218,26 +300,125 @@ int plant_do_step(plant *pl, double t, double dt)
             return PLANT_ERROR;
         }
     }
+    pl->t_comm = t + dt;
     return PLANT_OK;
 }
 
-static size_t plant_state_size(const plant *pl)
+/* ---- FMU state: values only, as one block ----------------------------------------------------------- */
+typedef struct {
+    char tag[24];                 /* STATE_TAG */
+    uint32_t version;             /* STATE_VERSION */
+    uint32_t header_size;
+    char token[48];               /* PLANT_TOKEN: the export (parameter set, FMI version, step) */
+    uint64_t npar, np, ny, nm, nout, values_size, dbuf_size, total;
+} state_header;
+
+typedef struct {
+    double par[PLANT_NPAR], u, f_load, ps, t0, t_comm, xs_rest;
+    int64_t f_load_set, ps_set, mode;
+    double p[HH_NP], y[HH_NY], out[HH_NOUT], h, delay_alpha;
+    int64_t m[HH_NM], k, model, method, bounded, delay_pos, delay_n;
+} state_values;
+
+static void state_header_of(state_header *hd, uint64_t dbuf_size)
 {
-    return sizeof(plant) + sizeof(double) * (size_t)pl->dbuf_size;
+    memset(hd, 0, sizeof *hd);
+    snprintf(hd->tag, sizeof hd->tag, "%s", STATE_TAG);
+    hd->version = STATE_VERSION;
+    hd->header_size = sizeof(state_header);
+    snprintf(hd->token, sizeof hd->token, "%s", PLANT_TOKEN);
+    hd->npar = PLANT_NPAR;
+    hd->np = HH_NP;
+    hd->ny = HH_NY;
+    hd->nm = HH_NM;
+    hd->nout = HH_NOUT;
+    hd->values_size = sizeof(state_values);
+    hd->dbuf_size = dbuf_size;
+    hd->total = sizeof(state_header) + sizeof(state_values) + sizeof(double) * dbuf_size;
+}
+
+/* Whether `bytes` (size bytes) is a state block of this FMU: its tag, format version, token, layout and size. */
+static int state_check(plant *pl, const void *bytes, size_t size)
+{
+    state_header hd, mine;
+    if (!bytes) {
+        plant_logf(pl, PLANT_ERROR, "no FMU state given");
+        return PLANT_ERROR;
+    }
+    if (size < sizeof hd) {
+        plant_logf(pl, PLANT_ERROR, "FMU state of %zu bytes: too short for a hydrohil FMU state (its header alone "
+                   "has %zu)", size, sizeof hd);
+        return PLANT_ERROR;
+    }
+    memcpy(&hd, bytes, sizeof hd);
+    if (memcmp(hd.tag, STATE_TAG, sizeof STATE_TAG) != 0) {
+        plant_logf(pl, PLANT_ERROR, "not a hydrohil FMU state (no '%s' tag)", STATE_TAG);
+        return PLANT_ERROR;
+    }
+    if (hd.version != STATE_VERSION) {
+        plant_logf(pl, PLANT_ERROR, "FMU state of format %u: this FMU reads format %u", hd.version, STATE_VERSION);
+        return PLANT_ERROR;
+    }
+    hd.token[sizeof hd.token - 1] = '\0';
+    if (strcmp(hd.token, PLANT_TOKEN) != 0) {
+        plant_logf(pl, PLANT_ERROR, "FMU state of another export (token %s; this FMU is %s)", hd.token, PLANT_TOKEN);
+        return PLANT_ERROR;
+    }
+    if (hd.dbuf_size > DELAY_MAX) {
+        plant_logf(pl, PLANT_ERROR, "FMU state with a delay line of %llu steps: not one of this plant's",
+                   (unsigned long long)hd.dbuf_size);
+        return PLANT_ERROR;
+    }
+    state_header_of(&mine, hd.dbuf_size);
+    if (memcmp(&hd, &mine, sizeof hd) != 0 || hd.total != size) {
+        plant_logf(pl, PLANT_ERROR, "FMU state of %zu bytes: its header describes another layout or %llu bytes",
+                   size, (unsigned long long)hd.total);
+        return PLANT_ERROR;
+    }
+    return PLANT_OK;
 }
 
 int plant_state_get(plant *pl, void **state)
 {
-    size_t n = plant_state_size(pl);
-    char *bytes = *state ? realloc(*state, sizeof(size_t) + n) : malloc(sizeof(size_t) + n);
+    state_header hd;
+    state_values v;
+    const hh_sim *s = &pl->sim;
+    char *bytes;
+    int i;
+    state_header_of(&hd, (uint64_t)pl->dbuf_size);
+    bytes = *state ? realloc(*state, hd.total) : malloc(hd.total);
     if (!bytes) {
         plant_logf(pl, PLANT_ERROR, "out of memory for an FMU state");
         return PLANT_ERROR;
     }
-    memcpy(bytes, &n, sizeof n);
-    memcpy(bytes + sizeof n, pl, sizeof(plant));
+    memset(&v, 0, sizeof v);
+    memcpy(v.par, pl->par, sizeof v.par);
+    v.u = pl->u;
+    v.f_load = pl->f_load;
+    v.ps = pl->ps;
+    v.t0 = pl->t0;
+    v.t_comm = pl->t_comm;
+    v.xs_rest = pl->xs_rest;
+    v.f_load_set = pl->f_load_set;
+    v.ps_set = pl->ps_set;
+    v.mode = pl->mode;
+    memcpy(v.p, s->p, sizeof v.p);
+    memcpy(v.y, s->y, sizeof v.y);
+    memcpy(v.out, s->out, sizeof v.out);
+    for (i = 0; i < HH_NM; i++)
+        v.m[i] = s->m[i];
+    v.h = s->h;
+    v.k = s->k;
+    v.model = s->model;
+    v.method = s->method;
+    v.bounded = s->bounded;
+    v.delay_alpha = s->delay.alpha;
+    v.delay_pos = s->delay.pos;
+    v.delay_n = s->delay.n;
+    memcpy(bytes, &hd, sizeof hd);
+    memcpy(bytes + sizeof hd, &v, sizeof v);
     if (pl->dbuf_size > 0)
-        memcpy(bytes + sizeof n + sizeof(plant), pl->dbuf, sizeof(double) * (size_t)pl->dbuf_size);
+        memcpy(bytes + sizeof hd + sizeof v, pl->dbuf, sizeof(double) * (size_t)pl->dbuf_size);
     *state = bytes;
     return PLANT_OK;
 }
@@ -245,53 +426,96 @@ int plant_state_get(plant *pl, void **state)
 int plant_state_set(plant *pl, const void *state)
 {
     const char *bytes = state;
-    plant saved;
-    double *buf = pl->dbuf;
-    size_t n;
+    state_header hd;
+    state_values v;
+    hh_sim *s = &pl->sim;
+    int i;
     if (!state) {
         plant_logf(pl, PLANT_ERROR, "no FMU state given");
         return PLANT_ERROR;
     }
-    memcpy(&n, bytes, sizeof n);
-    memcpy(&saved, bytes + sizeof n, sizeof(plant));
-    if (n != plant_state_size(&saved) || saved.dbuf_size != pl->dbuf_size) {
-        plant_logf(pl, PLANT_ERROR, "FMU state of another configuration (delay line %d vs %d steps)",
-                   saved.dbuf_size, pl->dbuf_size);
+    if (state_check(pl, state, plant_state_block_size(state)) != PLANT_OK)
+        return PLANT_ERROR;
+    memcpy(&hd, bytes, sizeof hd);
+    memcpy(&v, bytes + sizeof hd, sizeof v);
+    if (v.mode < PLANT_INSTANTIATED || v.mode > PLANT_FAILED || v.delay_n + 2 != (int64_t)hd.dbuf_size
+        || (hd.dbuf_size > 0 && !(v.delay_pos >= 0 && v.delay_pos < (int64_t)hd.dbuf_size))) {
+        plant_logf(pl, PLANT_ERROR, "FMU state with inconsistent values (mode %lld, delay line %lld of %llu)",
+                   (long long)v.mode, (long long)v.delay_n, (unsigned long long)hd.dbuf_size);
         return PLANT_ERROR;
     }
-    saved.log = pl->log;        /* this instance's callbacks and memory, the saved values */
-    saved.env = pl->env;
-    memcpy(saved.name, pl->name, sizeof saved.name);
-    saved.dbuf = buf;
-    saved.sim.delay.buf = buf;
-    *pl = saved;
+    if ((uint64_t)pl->dbuf_size != hd.dbuf_size) {   /* e.g. a state set right after instantiation */
+        double *buf = hd.dbuf_size > 0 ? malloc(sizeof(double) * (size_t)hd.dbuf_size) : NULL;
+        if (hd.dbuf_size > 0 && !buf) {
+            plant_logf(pl, PLANT_ERROR, "out of memory for the FMU state's delay line");
+            return PLANT_ERROR;
+        }
+        free(pl->dbuf);
+        pl->dbuf = buf;
+        pl->dbuf_size = (int)hd.dbuf_size;
+    }
+    memcpy(pl->par, v.par, sizeof v.par);
+    pl->u = v.u;
+    pl->f_load = v.f_load;
+    pl->ps = v.ps;
+    pl->t0 = v.t0;
+    pl->t_comm = v.t_comm;
+    pl->xs_rest = v.xs_rest;
+    pl->f_load_set = (int)v.f_load_set;
+    pl->ps_set = (int)v.ps_set;
+    pl->mode = (int)v.mode;
+    memset(s, 0, sizeof *s);
+    memcpy(s->p, v.p, sizeof v.p);
+    memcpy(s->y, v.y, sizeof v.y);
+    memcpy(s->out, v.out, sizeof v.out);
+    for (i = 0; i < HH_NM; i++)
+        s->m[i] = v.m[i];
+    s->h = v.h;
+    s->k = v.k;
+    s->model = (int)v.model;
+    s->method = (int)v.method;
+    s->bounded = (int)v.bounded;
+    s->delay.buf = pl->dbuf;
+    s->delay.size = pl->dbuf_size;
+    s->delay.pos = (int)v.delay_pos;
+    s->delay.n = (int)v.delay_n;
+    s->delay.alpha = v.delay_alpha;
     if (pl->dbuf_size > 0)
-        memcpy(buf, bytes + sizeof n + sizeof(plant), sizeof(double) * (size_t)pl->dbuf_size);
+        memcpy(pl->dbuf, bytes + sizeof hd + sizeof v, sizeof(double) * (size_t)pl->dbuf_size);
     return PLANT_OK;
 }
 
 size_t plant_state_block_size(const void *state)
 {
-    size_t n;
-    memcpy(&n, state, sizeof n);
-    return n + sizeof n;
+    state_header hd;
+    memcpy(&hd, state, sizeof hd);
+    return (size_t)hd.total;
 }
 
 int plant_state_serialize(plant *pl, const void *state, void *bytes, size_t size)
 {
-    if (!state || size != plant_state_block_size(state)) {
-        plant_logf(pl, PLANT_ERROR, "serialising an FMU state into a buffer of another size");
+    if (!state || !bytes || size != plant_state_block_size(state)) {
+        plant_logf(pl, PLANT_ERROR, "serialising an FMU state into a buffer of another size (%zu bytes)", size);
         return PLANT_ERROR;
     }
     memcpy(bytes, state, size);
     return PLANT_OK;
 }
 
-int plant_state_deserialize(const void *bytes, size_t size, void **state)
+int plant_state_deserialize(plant *pl, const void *bytes, size_t size, void **state)
 {
-    void *copy = malloc(size);
-    if (!copy)
+    void *copy;
+    if (!state) {
+        plant_logf(pl, PLANT_ERROR, "deserialising an FMU state: no place for it given");
         return PLANT_ERROR;
+    }
+    if (state_check(pl, bytes, size) != PLANT_OK)
+        return PLANT_ERROR;
+    copy = malloc(size);
+    if (!copy) {
+        plant_logf(pl, PLANT_ERROR, "out of memory for an FMU state of %zu bytes", size);
+        return PLANT_ERROR;
+    }
     memcpy(copy, bytes, size);
     free(*state);
     *state = copy;

@@ -6,6 +6,7 @@
 #define PLANT_FMU_H
 
 #include <stddef.h>
+#include <stdint.h>
 #include "hh.h"
 #include "config.h"
 
@@ -17,10 +18,13 @@ typedef void (*plant_log_fn)(void *env, const char *instance, int status, const 
 
 typedef struct plant {
     hh_sim sim;
-    double par[PLANT_NPAR];         /* the schema's parameters (VR 0..), then step, xp0, xs0 */
-    double u, f_load, ps;           /* inputs; until set, F_load and ps follow load.force and supply.ps */
+    double par[PLANT_NPAR];         /* the schema's parameters (VR 0..), then step, xp0, xs0, at_rest */
+    double u, f_load, ps;           /* inputs as set (u saturated to [-1, 1] when stepping); until set, F_load
+                                     * and ps follow load.force and supply.ps */
     int f_load_set, ps_set;
     double t0;                      /* start time */
+    double t_comm;                  /* the communication point reached by the last doStep */
+    double xs_rest;                 /* the spool offset that holds the piston at rest (calculated parameter) */
     double *dbuf;                   /* delay line of the core (allocated at initialisation) */
     int dbuf_size;
     int mode;
@@ -35,16 +39,21 @@ void plant_defaults(plant *pl);                 /* start values of every variabl
 int plant_set_real(plant *pl, unsigned vr, double v);
 int plant_get_real(plant *pl, unsigned vr, double *v);
 int plant_get_integer(plant *pl, unsigned vr, int *v);
+int plant_setup(plant *pl, double t0);          /* the start time, before initialisation */
 int plant_enter_init(plant *pl, double t0);
 int plant_exit_init(plant *pl);                 /* checks the parameters, sets the initial state */
 int plant_do_step(plant *pl, double t, double dt);
-/* FMU state: a complete copy as one block of plain bytes (its size first, then the instance, then the delay
- * line), so serialising it is a copy. get: (re)allocates *state; set: restores it; size: of the block. */
+int plant_terminate(plant *pl);
+double plant_time(const plant *pl);             /* the plant's time t0 + k*h */
+/* FMU state: the instance's values (no pointers) as one block of bytes: a tag ("hydrohil FMU state"), its
+ * format version, the export's token and the sizes first, then the values and the delay line; serialising is a
+ * copy, deserialising checks the tag, version, token and sizes. get: (re)allocates *state; set: restores it
+ * (in any state of the instance, re-allocating its delay line to the saved one); size: of the block. */
 int plant_state_get(plant *pl, void **state);
 int plant_state_set(plant *pl, const void *state);
 size_t plant_state_block_size(const void *state);
 int plant_state_serialize(plant *pl, const void *state, void *bytes, size_t size);
-int plant_state_deserialize(const void *bytes, size_t size, void **state);
+int plant_state_deserialize(plant *pl, const void *bytes, size_t size, void **state);
 void plant_logf(plant *pl, int status, const char *fmt, ...);
 
 #endif
