@@ -6,6 +6,7 @@ import json
 import os
 import signal
 import socket
+import time
 import urllib.error
 import urllib.request
 
@@ -337,3 +338,42 @@ def test_trace_pyramid_equals_brute_force_over_laps_of_the_ring():
                         assert f["hi"][c, j] == np.float32(data[ks, col].max())
                     checked += 1
     assert checked > 5000 and tr.lost == 0
+
+
+def test_ctrl_c_says_how_it_ended_and_a_browser_going_away_is_one_line(tmp_path):
+    """Issue #25 §4: Ctrl-C ends ``hydrohil panel`` with exit code 130 (the README's) and the sessions and
+    recordings named; a client that disconnects mid-request (a POST whose body never comes, a WebSocket
+    reset) gets one line each on stderr, never a traceback."""
+    import struct
+    p = PanelProcess(tmp_path / "panel", "--lockstep")
+    try:
+        p.wait_steps(50)
+        rec, _ = _record(p, [])
+        host, port = p.url.split("//")[1].split("/")[0].split(":")
+        s = socket.create_connection((host, int(port)))
+        s.sendall(f"POST /api/steer HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Type: application/json\r\n"
+                  f"Content-Length: 500\r\n\r\n{{\"op\": ".encode())
+        s.close()
+        s = socket.create_connection((host, int(port)))
+        s.sendall(f"GET /ws HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                  f"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+                  f"Origin: http://{host}:{port}\r\n\r\n".encode())
+        assert b"101 Switching Protocols" in s.recv(4096)
+        s.recv(1 << 16)                                      # a frame arrived: the page's stream is on
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        s.close()                                            # reset, no close frame
+        deadline = time.monotonic() + 60
+        while sum("went away" in ln for ln in p.child.stderr_lines) < 2:
+            assert time.monotonic() < deadline, p.child.stderr_lines
+            time.sleep(0.05)                                 # waiting for the panel's own lines (a handshake)
+        p.child.send_signal(signal.SIGINT)
+        assert p.child.wait(60) == 130
+    finally:
+        p.close()
+    out = "".join(iter(lambda: p.child.lines.get() or "", ""))
+    assert "panel stopped by SIGINT (Ctrl-C): 1 session(s) in" in out and "recordings: 1" in out
+    assert str(p.session / "recordings" / rec["name"]) in out
+    err = p.child.stderr()
+    assert "Traceback" not in err
+    lines = [ln for ln in err.splitlines() if "went away" in ln]
+    assert len(lines) == 2 and any("POST /api/steer" in ln for ln in lines) and any("GET /ws" in ln for ln in lines), err

@@ -85,6 +85,11 @@ def test_reaction():
     assert judge({"type": "reaction", "after": "step", "within": 0.016, "reverses": True}, s).passed
     o = judge({"type": "reaction", "after": "step", "within": 0.014, "reverses": True}, s)
     assert o.status == "fail" and "15.0 ms" in o.message
+    # the figure's two instants: the deadline (0.214 s) and the late reaction (0.215 s), named apart
+    assert o.plot["deadline"] == pytest.approx(0.214) and o.plot["violation"][0] == pytest.approx(0.215)
+    assert o.plot["violation_label"] == "u reacted (too late)" and "deadline_label" not in o.plot
+    never = judge({"type": "reaction", "after": "step", "within": 0.014, "below": -0.9}, s)
+    assert "violation" not in never.plot and never.plot["deadline_label"] == "deadline (u reacted: never)"
     p1 = np.where(np.arange(1001) >= 530, 1e6, 3e6)        # relieved 30 ms after the cut
     assert judge({"type": "reaction", "after": "cut", "within": 0.031, "signal": "p1", "below": 2e6}, signals(p1=p1)).passed
     assert not judge({"type": "reaction", "after": "cut", "within": 0.029, "signal": "p1", "below": 2e6},
@@ -165,11 +170,19 @@ def test_invalid_realtime_run_is_an_error(tmp_path, tmp_path_factory):
     seq = tmp_path / "rt.toml"      # a stall limit of 1 ns: no machine starts every step that exactly on time
     seq.write_text('scenario = "fig11_p_control"\nduration = 0.5\n[hil]\nmax_stall = 1e-9\n'
                    '[[expect]]\ntype = "bounds"\nsignal = "xp"\nmin = 0.0\n')
+    seq.write_text(seq.read_text() + '[[expect]]\ntype = "bounds"\nsignal = "p1"\nmax = 2e7\n')
     r = hh("test", seq, "--mode", "realtime", "--out", tmp_path / "out", "--junit", tmp_path / "j.xml")
     assert r.returncode == 3, r.stdout + r.stderr
-    assert "ERROR" in r.stdout and "INVALID" in r.stdout
+    # the terminal, report.md, result.json and the JUnit file say the same: 2 expectations not judged
+    assert "ERROR" in r.stdout and "INVALID" in r.stdout and "0 passed, 0 failed, 2 errors" in r.stdout
     junit_schema(tmp_path_factory).validate(str(tmp_path / "j.xml"))
-    assert '<error type="run" message="real-time run INVALID' in (tmp_path / "j.xml").read_text()
+    junit = (tmp_path / "j.xml").read_text()
+    assert '<error type="run" message="real-time run INVALID' in junit and 'errors="2"' in junit
+    assert 'failures="0"' in junit
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "0 passed, 0 failed, 1 errors" in report and "| PASS |" not in report and report.count("| ERROR |") == 2
+    res = json.loads(next((tmp_path / "out").glob("*/result.json")).read_text())
+    assert res["status"] == "error" and [e["status"] for e in res["expectations"]] == ["error", "error"]
 
 
 @pytest.mark.parametrize("text, key", [

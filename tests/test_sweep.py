@@ -199,13 +199,15 @@ def test_per_run_logs(tmp_path):
 
 
 def test_report_with_a_metric_no_input_moves(tmp_path):
-    """Peak p1 (at the start) does not depend on the valve's null leakage: its histogram is one bin, the
-    report is still written."""
-    p = write_study(tmp_path, 'samples = 3\nseed = 5\n[[vary]]\nname = "valve_leakage"\ndist = "uniform"\n'
-                    'low = 0.7\nhigh = 1.3\nscale = ["valve.k[1]", "valve.k[4]^2", "valve.kt[1]", "valve.kt[4]^2"]\n')
+    """The pressure transducers' noise moves nothing in a position loop (the controller reads the encoder):
+    every metric's histogram is one bin, the report is still written (matplotlib refused 40 bins over a
+    3e-9 range)."""
+    p = write_study(tmp_path, 'samples = 3\nseed = 5\n[[vary]]\nname = "sensors.pressure_noise"\n'
+                    'dist = "uniform"\nlow = 0.0\nhigh = 5e3\n')
     r = run_study(p, tmp_path / "out", workers=1, progress=False)
     t = load_table(r.table)
-    assert np.ptp(t["max_p1"]) < 1e-6 and np.ptp(t["max_hold_error"]) > 1e-5
+    assert np.ptp(t["in.sensors.pressure_noise"]) > 100.0
+    assert all(np.ptp(t[m]) == 0.0 for m in ("max_p1", "max_hold_error", "rms_error", "breakaways"))
     assert (tmp_path / "out" / "figures" / "histograms.png").stat().st_size > 10_000
     assert "Failed: **0 of 3**" in (tmp_path / "out" / "report.md").read_text()
 
@@ -220,3 +222,26 @@ def test_controllers_as_scenario_choice(tmp_path):
     assert [Path(v).name for v in t["in.scenario"]] == ["fig11_pi.toml", "fig11_p_control.toml"]
     # the integral removes the P controller's settled error (README, Controllers): at least 5 times smaller
     assert t["max_hold_error"][0] * 5 < t["max_hold_error"][1]
+
+
+def test_criterion_checked_when_read_and_judged_again_when_changed(tmp_path):
+    """Issue #25 §4: a misspelt metric is refused before any run (exit 2, the valid metrics named, nothing
+    written); a finished study whose criterion alone changed judges its stored runs again (no run repeated)."""
+    body = 'samples = 6\nseed = 5\n[[vary]]\nname = "load.mass"\ndist = "uniform"\nrel = 0.2\n'
+    bad = write_study(tmp_path, body + '[criterion]\nmetric = "max_hold_eror"\nmax = 2e-4\n')
+    r = hh("sweep", bad, "--out", tmp_path / "bad", "--no-progress")
+    assert r.returncode == 2 and "criterion.metric" in r.stderr and "unknown metric 'max_hold_eror'" in r.stderr
+    assert "max_hold_error [m]" in r.stderr and "breakaways" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "bad" / "results.parquet").exists()
+    p = write_study(tmp_path, body + '[criterion]\nmetric = "max_hold_error"\nmax = 1.0\n')
+    out = tmp_path / "out"
+    assert hh("sweep", p, "--out", out, "--workers", "1", "--no-progress").returncode == 0
+    assert json.loads((out / "summary.json").read_text())["failed"] == 0
+    t = load_table(out / "results.parquet")
+    p = write_study(tmp_path, body + '[criterion]\nmetric = "max_hold_error"\nmax = 0.0\n')   # every run fails now
+    r = hh("sweep", p, "--out", out, "--no-progress")
+    assert r.returncode == 0, r.stderr
+    s = json.loads((out / "summary.json").read_text())
+    assert s["failed"] == 6 and s["ran_this_time"] == 0 and s["criterion"] == {"metric": "max_hold_error", "max": 0.0}
+    assert "Failed: **6 of 6**" in (out / "report.md").read_text()
+    assert np.array_equal(load_table(out / "results.parquet")["max_hold_error"], t["max_hold_error"])

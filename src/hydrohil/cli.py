@@ -228,18 +228,19 @@ def maxstep_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
 @params_app.command("show")
 def params_show(name: str = typer.Argument("ferreira2004", help="built-in name or TOML path"),
                 as_json: bool = typer.Option(False, "--json", help="print JSON instead of TOML")):
-    """Print a resolved, validated parameter set."""
-    from hydrohil.parameters import load_parameters
+    """Print a resolved, validated parameter set: TOML (it loads back unchanged) with each key's unit and
+    description; groups the file lacks are derived and marked so. --json: {"parameters": the values,
+    "fields": [{key, value, unit, description, derived}], "derived": [groups]}."""
+    from hydrohil.parameters.show import annotated_toml, fields, load_shown
     try:
-        prm = load_parameters(name)
+        prm, derived = load_shown(name)
     except HydrohilError as exc:
         _fail(exc)
-    data = prm.model_dump(mode="json")
     if as_json:
-        typer.echo(json.dumps(data, indent=2))
+        typer.echo(json.dumps({"parameters": prm.model_dump(mode="json"), "fields": fields(prm, derived),
+                               "derived": list(derived)}, indent=2))
     else:
-        import tomli_w
-        typer.echo(tomli_w.dumps(data))
+        typer.echo(annotated_toml(prm, derived), nl=False)
 
 
 @params_app.command("list")
@@ -782,10 +783,11 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
 
 def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), controller: str = "builtin",
           port: int = 8050, open_browser: bool = False, lockstep: bool = False, allow_remote: bool = False,
-          host: str = "0.0.0.0", params: Optional[str] = None, sets: Optional[dict] = None, ready=print) -> None:
+          host: str = "0.0.0.0", params: Optional[str] = None, sets: Optional[dict] = None, ready=print) -> int:
     """Serve the live panel and run a session of the scenario (default: the paper's Fig 11 experiment) until
     SIGINT/SIGTERM; prints ``PANEL <url>`` once the page is served and ``SESSION <folder> plant <address>``
-    once the plant is up (handshakes for scripts)."""
+    once the plant is up (handshakes for scripts), and at the end how it ended and where the sessions and
+    recordings are. Returns the exit code: 130 stopped by SIGINT (Ctrl-C), 143 by SIGTERM."""
     import asyncio
     import signal
     from hydrohil.panel.server import Panel
@@ -795,11 +797,13 @@ def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), c
     pn = Panel(scenario, out, controller=controller, lockstep=lockstep, params=params, sets=sets, host=host,
                port=port, allow_remote=allow_remote)
 
+    stopped_by = []
+
     async def main():
         stop = asyncio.Event()
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
+            loop.add_signal_handler(sig, lambda sig=sig: (stopped_by.append(sig), stop.set()))
         url = await pn.open()
         ready(f"PANEL {url}", flush=True)
         if allow_remote:
@@ -813,6 +817,16 @@ def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), c
         finally:
             await pn.close()
     asyncio.run(main())
+    sig = stopped_by[0] if stopped_by else signal.SIGINT
+    how = "SIGINT (Ctrl-C)" if sig == signal.SIGINT else "SIGTERM"
+    sessions = sorted(out.glob("session-*"))
+    recordings = sorted(out.glob("session-*/recordings/rec-*"))
+    v = (pn.ended or {}).get("verdict")
+    timing = (f", the last one's timing {v['verdict']}" + (f" ({'; '.join(v['reasons'])})" if v.get("reasons") else "")
+              if isinstance(v, dict) else "")
+    ready(f"panel stopped by {how}: {len(sessions)} session(s) in {out}{timing}", flush=True)
+    ready(f"recordings: {len(recordings)}" + "".join(f"\n  {r}" for r in recordings), flush=True)
+    return 128 + int(sig)
 
 
 @app.command("panel")
@@ -838,9 +852,11 @@ def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop 
     try:
         if allow_remote:
             parse_address(f"{host}:{port}", allow_remote=True)
-        panel(scenario, out, controller, port, open_browser, lockstep, allow_remote, host, params, _parse_sets(sets))
+        code = panel(scenario, out, controller, port, open_browser, lockstep, allow_remote, host, params,
+                     _parse_sets(sets))
     except HydrohilError as exc:
         _fail(exc)
+    raise typer.Exit(code)
 
 
 def run_sequences(sequences: list[Path], out: Path = Path("hydrohil-test"), mode: Optional[str] = None,

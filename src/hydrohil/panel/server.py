@@ -27,6 +27,7 @@ import os
 import secrets
 import socket
 import struct
+import sys
 import threading
 import time
 import zipfile
@@ -76,6 +77,12 @@ class SideProtocol(asyncio.DatagramProtocol):
 
     def datagram_received(self, data: bytes, addr) -> None:
         self.panel.on_datagram(data, addr)
+
+
+def went_away(request: web.Request, why) -> None:
+    """One line on stderr for a browser that disconnected mid-request (no traceback: nothing is wrong here)."""
+    print(f"panel: the browser at {request.remote} went away during {request.method} {request.path} ({why})",
+          file=sys.stderr, flush=True)
 
 
 class Panel:
@@ -437,6 +444,9 @@ class Panel:
             return web.json_response({"error": str(exc)}, status=400)
         except HydrohilError as exc:
             return web.json_response({"error": str(exc)}, status=503)
+        except ConnectionError as exc:          # the browser went away mid-request: one line, no traceback
+            went_away(request, exc)
+            return web.Response(status=400, text="the request was cut off\n")   # to nobody: aiohttp drops it
         if self.token and request.query.get("token"):
             resp.set_cookie(TOKEN_COOKIE, self.token, httponly=True, samesite="Strict")
         return resp
@@ -520,6 +530,7 @@ class Panel:
                 if msg.type == WSMsgType.TEXT:
                     view.update(_view(msg.data))
         task = asyncio.ensure_future(reader())
+        lost: BaseException | None = None
         try:
             while not sock.closed and not task.done():
                 t0 = time.monotonic()
@@ -530,11 +541,16 @@ class Panel:
                         await sock.send_bytes(self.frame(view))
                         self.frames_sent += 1
                 await asyncio.sleep(max(FRAME_S - (time.monotonic() - t0), 0.005))
-        except (ConnectionResetError, RuntimeError):
-            pass
+        except (ConnectionError, RuntimeError) as exc:
+            lost = exc
         finally:
             task.cancel()
+            done = await asyncio.gather(task, return_exceptions=True)   # its end retrieved: never a stray traceback
             self.sockets.discard(sock)
+        if isinstance(done[0], Exception) and lost is None:
+            lost = done[0]
+        if lost is not None or sock.close_code not in (None, 1000, 1001):
+            went_away(request, lost or f"WebSocket closed with code {sock.close_code}")
         return sock
 
     def app(self) -> web.Application:

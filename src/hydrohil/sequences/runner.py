@@ -10,6 +10,7 @@ show what the controller would do on the rig, so nothing passes.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from dataclasses import dataclass, field
@@ -137,7 +138,9 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
         signals = signals_from_columns(cols, s.reference.sample(np.asarray(cols["t"], float))[0],
                                        seq.event_times(), **kw)
         outcomes = evaluate(seq.expectations, signals, preds)
-    if error is not None:
+    if error is not None:              # a run that cannot be judged judges none of its expectations
+        outcomes = [dataclasses.replace(o, status="error", message=f"not judged ({error}); measured: {o.message}")
+                    for o in outcomes]
         status = "error"
     elif any(o.status == "error" for o in outcomes):
         status = "error"

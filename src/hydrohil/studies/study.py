@@ -42,11 +42,12 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 
 from hydrohil.errors import InputError
 from hydrohil.parameters import format_validation_error, read_toml
 from hydrohil.parameters.schema import StrictModel
+from hydrohil.studies.runs import METRIC_UNITS, METRICS
 
 DISTS = ("uniform", "normal", "truncnormal", "choice", "grid")
 SPECIAL = ("scenario", "sequence", "duration")        # names that are not parameters
@@ -102,8 +103,15 @@ class Vary(StrictModel):
 
 
 class Criterion(StrictModel):
-    metric: str
-    max: float = Field(description="a run passes when its metric is at most this")
+    metric: str = Field(description="one of the run metrics (hydrohil.studies.runs.METRICS)")
+    max: float = Field(description="a run passes when its metric is at most this (the metric's SI unit)")
+
+    @field_validator("metric")
+    @classmethod
+    def _known(cls, v: str) -> str:
+        if v not in METRICS:
+            raise ValueError(f"unknown metric {v!r}: one of " + ", ".join(f"{m} [{METRIC_UNITS[m]}]" for m in METRICS))
+        return v
 
 
 class Study(StrictModel):
@@ -237,8 +245,11 @@ class LoadedStudy:
         return out
 
     def digest(self) -> str:
-        """A fingerprint of what the runs are (the study's table and its base files): a resumed study must match."""
-        h = hashlib.sha256(json.dumps(self.study.model_dump(mode="json"), sort_keys=True).encode())
+        """A fingerprint of what the runs are (the study's table and its base files): a resumed study must match.
+        The criterion judges the runs, it does not make them: a study whose criterion alone changed judges its
+        stored runs again."""
+        h = hashlib.sha256(json.dumps(self.study.model_dump(mode="json", exclude={"criterion"}),
+                                      sort_keys=True).encode())
         h.update(self.base.read_bytes())
         return h.hexdigest()[:16]
 
