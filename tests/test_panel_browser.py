@@ -86,6 +86,12 @@ def test_panel_in_chromium(browser, tmp_path):
         p.wait_steps(p.api("api/state")["counters"]["steps"] + 200)
         b = png_pixels(el("c-position").screenshot_as_png)
         assert a.shape == b.shape and np.mean(np.any(a != b, axis=-1)) > 1e-3     # > 0.1 % of the pixels changed
+        # the axes tick at round values (issue #25 §5: they read 212.6 / -584.6 / 1.033e+4)
+        ticks = browser.execute_script("return [niceTicks(212.6, 1033.2, 4), niceTicks(-584.6, 10330, 4), "
+                                       "niceTicks(0.0123, 0.0187, 4), niceTicks(-2.5, 2.5, 4)].map("
+                                       "(t) => t.map((x) => x[1]))")
+        assert ticks == [["250", "500", "750", "1000"], ["0", "5000", "10000"], ["0.014", "0.016", "0.018"],
+                         ["-2", "0", "2"]]
         assert wait_until(lambda: el("status").text.startswith("running"), "status 'running'")
         # record, change the supply pressure (bar on the page) and the load, inject and clear a hose burst
         el("record").click()

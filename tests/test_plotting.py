@@ -58,8 +58,11 @@ def test_plot_run_has_three_labelled_mode_strips(tmp_path, figures, offline):
     texts = _texts(fig)
     for strip in ("travel", "friction", "spool"):
         assert strip in [a.get_ylabel() for a in fig.axes]
-    for name in (*TRAVEL_NAMES, *FRICTION_NAMES, *SPOOL_NAMES):
-        assert any(t.startswith(name) for t in texts), name
+    for _, names, shown, _ in plotting.MODE_STRIPS:     # every state named as a person reads it, not its code
+        assert len(shown) == len(names)
+        for name in shown:
+            assert any(t.startswith(name) for t in texts), name
+    assert not any(t.startswith(code) for t in texts for code in ("at_retract_stop", "slip_pos", "acc_limited"))
 
 
 @pytest.mark.parametrize("verdict, banner, jitter", [
@@ -93,6 +96,25 @@ def test_plot_hil_jitter_log_watchdog_and_difference_apart(tmp_path, figures, of
     assert any(t.startswith("p50 = 2 µs") for t in labels) and any(t.startswith("p99 = ") for t in labels)
     assert not any("watchdog" in t for t in labels)                  # the watchdog has its own strip
     assert any("active" in t for t in _texts(fig) if t) and _axis(fig, "watchdog") is not jit
-    track, diff = _axis(fig, "tracking\nerror [mm]"), _axis(fig, "HIL − offline\n[mm]")
+    track, diff = _axis(fig, "error\nx_ref − xp [mm]"), _axis(fig, "HIL − offline\n[mm]")
     assert track is not diff
     assert diff.get_ylim()[1] < 1.0                                  # 0.1 mm, not drowned by the tracking error
+
+
+def test_step_metrics_stand_above_the_curves(tmp_path, figures):
+    """Issue #25 §5: the moves' figures were a 6.5 pt box inside the position axis, over the Fig 11 down-ramp;
+    they are the axis' left title now (outside the data, 8 pt)."""
+    from hydrohil.metrics import metrics_lines, step_metrics
+    full = run_scenario(load_scenario(EXAMPLES / "fig11_p_control.toml"))
+    c = full.column
+    ref = load_scenario(EXAMPLES / "fig11_p_control.toml").scenario.reference.sample(c("t"))[0]
+    m = step_metrics(c("t"), c("xp"), ref)
+    plotting.plot_run(tmp_path / "m.png", c("t"), c("xp"), c("p1"), c("p2"), c("u"), c("xs"), c("travel_mode"),
+                      c("friction_mode"), c("spool_mode"), xref=ref, metrics=m)
+    fig, = figures
+    pos = _axis(fig, "position [mm]")
+    title = pos.get_title(loc="left")
+    assert title == "\n".join(metrics_lines(m)) and len(m["moves"]) == 2
+    assert pos._left_title.get_fontsize() >= 8
+    legends = [a for a in pos.get_children() if a.__class__.__name__ == "Legend"]
+    assert not any("rise" in t.get_text() for lg in legends for t in lg.get_texts())   # no box over the data

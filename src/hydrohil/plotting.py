@@ -12,10 +12,15 @@ import numpy as np  # noqa: E402
 
 from hydrohil.models.layout import FRICTION_NAMES, SPOOL_NAMES, TRAVEL_NAMES  # noqa: E402
 
-# The three state machines of the hybrid model, one strip each: (label, state names, colour per state)
-MODE_STRIPS = (("travel", TRAVEL_NAMES, ("0.85", "tab:blue", "tab:red")),
-               ("friction", FRICTION_NAMES, ("0.35", "tab:green", "tab:purple")),
-               ("spool", SPOOL_NAMES, ("0.85", "tab:orange", "tab:red", "k")))
+# The three state machines of the hybrid model, one strip each: (label, state names as the logs write them,
+# as a person reads them, colour per state)
+MODE_STRIPS = (("travel", TRAVEL_NAMES, ("free", "at the retract stop", "at the extend stop"),
+                ("0.85", "tab:blue", "tab:red")),
+               ("friction", FRICTION_NAMES, ("stick", "slip, extending", "slip, retracting"),
+                ("0.35", "tab:green", "tab:purple")),
+               ("spool", SPOOL_NAMES, ("linear", "acceleration-limited", "velocity-limited", "at its end"),
+                ("0.85", "tab:orange", "tab:red", "k")))
+ERROR_LABEL = "error x_ref − xp [mm]"     # one sign of the tracking error everywhere (figures and the panel)
 
 
 def _stack(heights, figsize, banner: float = 0.0):
@@ -62,18 +67,20 @@ def plot_run(path: Path, t, xp, p1, p2, u, xs, travel, friction, spool=None, *, 
 
 
 def _metrics_marks(ax, metrics: dict) -> None:
-    """A triangle at each move's settling instant and the moves' figures in a box (step-response metrics)."""
+    """A triangle at each move's settling instant, and the moves' figures (step-response metrics) above the
+    axis, where they cover no curve."""
     from hydrohil.metrics import metrics_lines
     for i, mv in enumerate(metrics["moves"]):
         if mv["settling_time"] is not None:
             ax.plot(mv["start"] + mv["settling_time"], mv["to"] * 1e3, "v", color="k", ms=5,
                     label="settled (band)" if i == 0 else None)
-    lines = metrics_lines(metrics)
-    if lines:       # a legend of text only: matplotlib places it where it hides the least data
-        from matplotlib.lines import Line2D
-        box = ax.legend([Line2D([], [], lw=0)] * len(lines), lines, loc="best", handlelength=0, handletextpad=0,
-                        prop={"family": "monospace", "size": 6.5}, framealpha=0.85)
-        ax.add_artist(box)
+    _text_above(ax, metrics_lines(metrics))
+
+
+def _text_above(ax, lines: list[str]) -> None:
+    """Lines of figures (monospace, 8 pt) as the axis' left title: above the data, never over it."""
+    if lines:
+        ax.set_title("\n".join(lines), loc="left", fontsize=8, family="monospace")
 
 
 def _fault_spans(ax, t, faults) -> None:
@@ -108,9 +115,9 @@ def _mode_strips(ax, t, *columns) -> None:
     state a colour, named in the strip's legend; ``None`` columns are skipped."""
     t = np.asarray(t, float)
     strips = [(m, c) for m, c in zip(MODE_STRIPS, columns) if c is not None]
-    for a, ((label, names, colours), col) in zip(ax, strips):
+    for a, ((label, names, shown, colours), col) in zip(ax, strips):
         code = _codes(col, names)
-        for i, (name, colour) in enumerate(zip(names, colours)):
+        for i, (name, colour) in enumerate(zip(shown, colours)):
             spans = [(t0, t1 - t0) for t0, t1 in _runs(t, code == i)]
             a.broken_barh(spans, (0, 1), facecolors=colour, label=name if spans else f"{name} (never)")
         a.set_ylim(0, 1)
@@ -211,7 +218,7 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
     ax[0].plot(to, xo * 1e3, ":", lw=1.5, label="offline simulation")
     if metrics:
         _metrics_marks(ax[0], metrics)
-    ax[1].plot(t[:n], (xp - xr) * 1e3, lw=1, label=f"HIL − reference\n(RMS {rms(xp - xr) * 1e3:.2f} mm)")
+    ax[1].plot(t[:n], (xr - xp) * 1e3, lw=1, label=f"x_ref − xp (HIL)\n(RMS {rms(xr - xp) * 1e3:.2f} mm)")
     ax[2].plot(t[:n], (xp - xo) * 1e3, lw=1, color="tab:red",
                label=f"HIL − offline\n(RMS {rms(xp - xo) * 1e3:.3g} mm)")
     for name, hil_c, off_c in (("p1", "C0", "navy"), ("p2", "C1", "saddlebrown")):   # offline under HIL
@@ -222,7 +229,8 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
     _watchdog_strip(ax[8], t, hil["watchdog"])
     _fault_spans(ax, t, hil.get("faults"))
     _finish(fig, path, [ax[i] for i in (0, 1, 2, 3, 7)],
-            ("position [mm]", "tracking\nerror [mm]", "HIL − offline\n[mm]", "pressure [bar]", "jitter [µs]"), title,
+            ("position [mm]", ERROR_LABEL.replace("error ", "error\n"), "HIL − offline\n[mm]", "pressure [bar]",
+             "jitter [µs]"), title,
             banner=top)
 
 
@@ -248,12 +256,9 @@ def plot_compare(path: Path, runs, *, title: str = "") -> None:
         lines.append(f"{r.label}: RMS e {m['rms_error'] * 1e3:.2f} mm, |e_ss| ≤ {ess * 1e6:.1f} µm, OS ≤ {os_:.1f} %"
                      + (f", {m['breakaways']} breakaways" if "breakaways" in m else ""))
     ax[1].axhline(0, color="k", lw=0.5)
-    from matplotlib.lines import Line2D
-    box = ax[0].legend([Line2D([], [], lw=0)] * len(lines), lines, loc="best", handlelength=0, handletextpad=0,
-                       prop={"family": "monospace", "size": 7}, framealpha=0.85)
-    ax[0].add_artist(box)
-    _finish(fig, path, ax, ("position [mm]", "error x_ref − x [mm]", "velocity [mm/s]", "command ū [-]",
-                            "pressure [bar]"), title)
+    _text_above(ax[0], lines)
+    _finish(fig, path, ax, ("position [mm]", ERROR_LABEL, "velocity [mm/s]", "command ū [-]", "pressure [bar]"),
+            title)
 
 
 def plot_bode(path: Path, by_loop: dict, *, title: str = "") -> None:

@@ -115,7 +115,11 @@ class _Expect(StrictModel):
         delay = float(t[hit[0]] - t0) if hit.size else None
         if delay is None or delay > limit + 1e-9:
             when = "never" if delay is None else f"{late} {delay * 1e3:.1f} ms"
-            plot["violation"] = (t0 + limit, None)
+            if delay is None:
+                plot["deadline_label"] = f"deadline ({met}: never)"
+            else:
+                plot["violation"] = (t0 + delay, None)
+                plot["violation_label"] = f"{met} (too late)"
             return Outcome(self.label(), self.type, "fail", f"{subject} {when} (limit {limit * 1e3:g} ms)", delay,
                            limit, plot)
         return Outcome(self.label(), self.type, "pass", f"{met} after {delay * 1e3:.1f} ms", delay, limit, plot)
@@ -254,6 +258,9 @@ class StepResponse(_Expect):
             label, v, lim = broken[0]
             if move["settling_time"] is not None:
                 plot["violation"] = (move["start"] + move["settling_time"], None)
+                plot["violation_label"] = "settled in the band"
+            if self.max_settling_time is not None:
+                plot["deadline_label"] = "settling deadline"
             return Outcome(self.label(), self.type, "fail", "; ".join(said), v, lim, plot)
         return Outcome(self.label(), self.type, "pass", "; ".join(said), None, None, plot)
 

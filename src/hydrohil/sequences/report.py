@@ -79,20 +79,22 @@ def failure_figure(result, index: int, outcome: Outcome, path: Path) -> Path:
         ax.axhspan(lo * k, hi * k, color="C2", alpha=0.15, label="settling band")
     ax.axvspan(t0, t1, color="0.9", zorder=0, label="judged window")
     if p.get("deadline") is not None:
-        ax.axvline(p["deadline"], color="C3", lw=1, label="deadline")
+        ax.axvline(p["deadline"], color="C3", lw=1.2, label=p.get("deadline_label", "deadline"))
     if p.get("also"):
         ax2 = ax.twinx()
         ax2.plot(t[m], s[p["also"]][m], color="C1", lw=0.8, alpha=0.8)
         ax2.set_ylabel(f"{p['also']} [-]", color="C1")
     v = p.get("violation")
     if v is not None:
-        if v[1] is None:
-            ax.axvline(v[0], color="C3", lw=2, alpha=0.6)
+        if v[1] is None:         # an instant (a reaction, a settling): not a second deadline
+            ax.axvline(v[0], color="C4", ls="-.", lw=1.5, label=p.get("violation_label", "first violation"))
         else:
-            ax.plot([v[0]], [v[1] * k], "x", color="C3", ms=12, mew=2.5, label="first violation")
+            ax.plot([v[0]], [v[1] * k], "x", color="C3", ms=12, mew=2.5,
+                    label=p.get("violation_label", "first violation"))
     ax.set_xlabel("t [s]")
     ax.set_ylabel(f"{name} [{unit}]")
-    ax.set_title(f"{result.name}: {outcome.name}", fontsize=10)
+    import textwrap
+    ax.set_title(textwrap.fill(f"{result.name}: {outcome.name}", 95), fontsize=10)
     ax.legend(fontsize=7, loc="best")
     ax.grid(alpha=0.3)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -23,6 +23,26 @@ def _scale(metric: str) -> float:
     return DISPLAY.get(METRIC_UNITS.get(metric, "-"), (1.0, ""))[0]
 
 
+# units of the study inputs that are not parameters of the schema (those take theirs from it)
+OTHER_INPUT_UNITS = {"duration": "s", "initial.xp": "m", "initial.xs": "-", "initial.p1": "Pa", "initial.p2": "Pa",
+                     "controller.kp": "1/m", "controller.ki": "1/(m·s)", "controller.kd": "s/m",
+                     "controller.kff": "s/m", "controller.kpl": "1/Pa"}
+
+
+def input_axis(study, name: str) -> tuple[float, str]:
+    """(scale, axis label) of the study input ``name`` as people read it: a factor on several entries as
+    '× nominal', a parameter in its unit (Pa shown in bar, m in mm)."""
+    from hydrohil.models.layout import SLOTS
+    vary = next((v for v in study.study.vary if v.name == name), None)
+    if vary is not None and vary.scale:
+        return 1.0, f"{name} [× nominal]"
+    unit = {s.key: s.unit for s in SLOTS}.get(name) or OTHER_INPUT_UNITS.get(name)
+    if unit is None:
+        return 1.0, name
+    k, shown = DISPLAY.get(unit, (1.0, unit))
+    return k, f"{name} [{shown}]"
+
+
 def load_table(path: Path) -> dict[str, np.ndarray]:
     import pyarrow.parquet as pq
     t = pq.read_table(path)
@@ -67,7 +87,7 @@ def write_study_report(study, table_path: Path, out: Path, *, wall_s: float, ran
                          **{c[3:]: (cols[c][i].item() if hasattr(cols[c][i], "item") else cols[c][i]) for c in inputs}}
                         for i in worst]
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
-    figs = _figures(cols, ok, passed, numeric, order_metric, out / "figures", study.name)
+    figs = _figures(study, cols, ok, passed, numeric, order_metric, out / "figures")
     _markdown(study, summary, figs, out)
     return summary
 
@@ -80,10 +100,13 @@ def _quantiles(v) -> dict:
     return dict(zip(("min", "p5", "median", "p95", "max"), map(float, q)))
 
 
-def _figures(cols, ok, passed, numeric, metric, folder: Path, name: str) -> list[Path]:
+def _figures(study, cols, ok, passed, numeric, metric, folder: Path) -> list[Path]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
+    name = study.name
+    axis = {c: input_axis(study, c[3:]) for c in numeric}
     folder.mkdir(parents=True, exist_ok=True)
     for old in folder.glob("*.png"):
         old.unlink()
@@ -94,8 +117,9 @@ def _figures(cols, ok, passed, numeric, metric, folder: Path, name: str) -> list
         fig, axes = plt.subplots(1, len(numeric), figsize=(3.6 * len(numeric), 3.3), squeeze=False,
                                  constrained_layout=True)
         for ax, c in zip(axes[0], numeric):
-            ax.scatter(cols[c][ok], cols[metric][ok] * k, s=6, c=colors[ok], alpha=0.7, lw=0)
-            ax.set_xlabel(c[3:])
+            ax.scatter(cols[c][ok] * axis[c][0], cols[metric][ok] * k, s=6, c=colors[ok], alpha=0.7, lw=0)
+            ax.set_xlabel(axis[c][1])
+            ax.xaxis.set_major_locator(MaxNLocator(5))
             ax.grid(alpha=0.3)
         axes[0][0].set_ylabel(_label(metric))
         fig.suptitle(f"{name}: {metric} against each input (red: fails)", fontsize=10)
@@ -105,10 +129,12 @@ def _figures(cols, ok, passed, numeric, metric, folder: Path, name: str) -> list
     if len(numeric) >= 2:
         a, b = numeric[:2]
         fig, ax = plt.subplots(figsize=(5.2, 4.2), constrained_layout=True)
-        ax.scatter(cols[a][passed], cols[b][passed], s=10, c="C0", label=f"pass ({int(passed.sum())})", lw=0)
-        ax.scatter(cols[a][~passed], cols[b][~passed], s=14, c="C3", marker="x", label=f"fail ({int((~passed).sum())})")
-        ax.set_xlabel(a[3:])
-        ax.set_ylabel(b[3:])
+        (ka, la), (kb, lb) = axis[a], axis[b]
+        ax.scatter(cols[a][passed] * ka, cols[b][passed] * kb, s=10, c="C0", label=f"pass ({int(passed.sum())})", lw=0)
+        ax.scatter(cols[a][~passed] * ka, cols[b][~passed] * kb, s=14, c="C3", marker="x",
+                   label=f"fail ({int((~passed).sum())})")
+        ax.set_xlabel(la)
+        ax.set_ylabel(lb)
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
         ax.set_title(f"pass/fail over {a[3:]} and {b[3:]}", fontsize=10)
@@ -125,7 +151,11 @@ def _figures(cols, ok, passed, numeric, metric, folder: Path, name: str) -> list
             spread = np.ptp(v) > 1e-9 * np.abs(v).max() if v.size else False    # (a metric no input moved: 1 bin)
             ax.hist(v, bins=40 if spread else 1, color="C0", alpha=0.8)
             ax.set_xlabel(_label(m))
+            ax.xaxis.set_major_locator(MaxNLocator(5))      # tick labels that never run into each other
+            ax.yaxis.set_major_locator(MaxNLocator(5, integer=True))
             ax.grid(alpha=0.3)
+        for ax in axes[:, 0]:
+            ax.set_ylabel("runs")
         for ax in list(axes.flat)[len(shown):]:
             ax.axis("off")
         fig.suptitle(f"{name}: metrics over {int(ok.sum())} runs", fontsize=10)

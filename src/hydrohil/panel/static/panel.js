@@ -60,6 +60,20 @@ function xRange(f) {
   return [t1 - f.window, t1, t0];
 }
 
+// Ticks at round values (1, 2, 2.5 or 5 × 10^k apart, about n of them over [lo, hi]), labelled with as many
+// decimals as the step needs: 200 / 400 / 600, not 212.6 / 420.3 / 628.0.
+function niceTicks(lo, hi, n) {
+  const raw = (hi - lo) / n, mag = Math.pow(10, Math.floor(Math.log10(raw))), r = raw / mag;
+  const m = r <= 1 ? 1 : r <= 2 ? 2 : r <= 2.5 ? 2.5 : r <= 5 ? 5 : 10, step = m * mag;
+  const dec = Math.min(20, Math.max(0, -Math.floor(Math.log10(step) + 1e-9) + (m === 2.5 ? 1 : 0)));
+  const out = [];
+  for (let i = Math.ceil(lo / step - 1e-9); i * step <= hi + step * 1e-9; i++) {
+    const v = i * step;
+    out.push([v, (Math.abs(v) < step * 1e-9 ? 0 : v).toFixed(dec)]);
+  }
+  return out;
+}
+
 function drawPlot(c, series, f) {
   const g = sizeCanvas(c), W = c.clientWidth, H = +c.getAttribute("height"), L = 52, R = 8, T = 14, B = 14;
   g.clearRect(0, 0, W, H);
@@ -80,9 +94,9 @@ function drawPlot(c, series, f) {
   const [t0, t1] = xRange(f), span = f.block * f.h;
   const X = (t) => L + (t - t0) / (t1 - t0) * (W - L - R), Y = (v) => T + (ymax - v) / (ymax - ymin) * (H - T - B);
   g.strokeStyle = "#eee"; g.fillStyle = "#666"; g.lineWidth = 1;
-  for (let i = 0; i <= 4; i++) {
-    const v = ymin + (ymax - ymin) * i / 4, y = Y(v);
-    g.beginPath(); g.moveTo(L, y); g.lineTo(W - R, y); g.stroke(); g.fillText(v.toPrecision(4), 2, y + 4);
+  for (const [v, label] of niceTicks(ymin, ymax, 4)) {
+    const y = Y(v);
+    g.beginPath(); g.moveTo(L, y); g.lineTo(W - R, y); g.stroke(); g.fillText(label, 2, y + 4);
   }
   g.fillText(t0.toFixed(2) + " s", L, H - 2); g.fillText(t1.toFixed(2) + " s", W - R - 50, H - 2);
   for (const [col, color, s, dash] of series) {
