@@ -10,14 +10,15 @@ import re
 import tomllib
 import types
 import typing
+import warnings
 from pathlib import Path
 from typing import Any, Mapping
 
 import tomli_w
 from pydantic import BaseModel, ValidationError
 
-from hydrohil.errors import InputError, unknown_name
-from hydrohil.parameters.schema import Parameters
+from hydrohil.errors import InputError, InputWarning, unknown_name
+from hydrohil.parameters.schema import Parameters, implausible, with_derived_linear
 
 BUILTIN_DIR = Path(__file__).parent
 __all__ = ["Parameters", "load_parameters", "builtin_names", "read_toml", "apply_overrides",
@@ -164,18 +165,23 @@ def _unit_of(field) -> str | None:
 
 
 def validate_parameters(data: Mapping[str, Any], source: str) -> Parameters:
+    """A validated parameter set (an :class:`InputError` naming ``source`` and the key otherwise); a value that
+    is valid but probably in another unit is an :class:`InputWarning` (``warning: …`` on the terminal)."""
     try:
-        return Parameters.model_validate(data)
+        params = Parameters.model_validate(data)
     except ValidationError as exc:
         key, msg = format_validation_error(exc, Parameters)
         raise InputError(msg, source=source, key=key) from None
+    for key, msg in implausible(params):
+        warnings.warn(InputWarning(f"{source}: {key}: {msg}"), stacklevel=3)
+    return params
 
 
 def load_parameters(name_or_path: str | Path = "ferreira2004",
                     overrides: Mapping[str, Any] | None = None) -> Parameters:
     """Load and validate a parameter set by built-in name or TOML path, with optional dotted overrides."""
     path = _resolve_source(name_or_path)
-    data = read_toml(path)
+    data = with_derived_linear(read_toml(path))
     if overrides:
         data = apply_overrides(data, overrides)
     try:

@@ -6,9 +6,15 @@ Each field carries its unit and admissible range; loading a file that breaks one
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+try:
+    from hydrohil.parameters.characteristics import derived_linear
+except ImportError:     # core/build.py loads this file alone to lay out the C parameter vector: no files read
+    derived_linear = None
 
 
 class StrictModel(BaseModel):
@@ -93,13 +99,15 @@ class Load(StrictModel):
 
 
 class Linear(StrictModel):
-    xp0: float = _f(0, 10, unit="m", doc="linearisation position")
-    xs0: float = _f(-1, 1, unit="-", doc="equilibrium spool position")
-    friction_factor: float = _f(0, 1e8, unit="N.s/m", doc="friction factor f")
-    kq: float = _f(gt=0, hi=1.0, unit="m^3/s", doc="flow gain coefficient")
-    kp1: float = _f(-1e4, 1e4, unit="-", doc="pressure gain chamber 1 per Ps")
-    kp2: float = _f(-1e4, 1e4, unit="-", doc="pressure gain chamber 2 per Ps")
-    pn: float = _f(gt=0, hi=1e8, unit="Pa", doc="nominal pressure drop")
+    """The paper's linearised model (eq 18-20, SPEC §7) and the default piston position; derived from the
+    other groups when a file has no [linear] (:func:`hydrohil.parameters.characteristics.derived_linear`)."""
+    xp0: float = _f(0, 10, unit="m", doc="linearisation position, and the default initial piston position")
+    xs0: float = _f(-1, 1, unit="-", doc="spool position of the paper's linearised model (eq 19-20)")
+    friction_factor: float = _f(0, 1e8, unit="N.s/m", doc="friction factor f of eq 20")
+    kq: float = _f(gt=0, hi=1.0, unit="m^3/s", doc="flow gain per unit spool at pn on each edge (eq 19)")
+    kp1: float = _f(-1e4, 1e4, unit="-", doc="pressure gain dP1/dxs per Ps, ports closed (eq 19)")
+    kp2: float = _f(-1e4, 1e4, unit="-", doc="pressure gain dP2/dxs per Ps, ports closed (eq 19)")
+    pn: float = _f(gt=0, hi=1e8, unit="Pa", doc="nominal pressure drop of kq")
 
 
 class Sensors(StrictModel):
@@ -121,6 +129,13 @@ class Parameters(StrictModel):
     linear: Linear
     sensors: Sensors
 
+    @model_validator(mode="before")
+    @classmethod
+    def _derive_linear(cls, data):
+        """A file without [linear] gets it derived from its other groups (they are checked after this: what
+        cannot be derived from is left to their own errors)."""
+        return with_derived_linear(data)
+
     @model_validator(mode="after")
     def _geometry(self):
         if self.linear.xp0 > self.cylinder.stroke:
@@ -132,3 +147,35 @@ class Parameters(StrictModel):
         """(positive, negative) static friction sets actually used by the models."""
         f = self.friction
         return (f.positive, f.negative) if f.asymmetric else (f.symmetric, f.symmetric)
+
+
+def with_derived_linear(data):
+    """``data`` (a parameter file's tables) with a derived ``linear`` group when it has none; unchanged when
+    it has one or when its other groups are not complete enough to derive it from."""
+    if not isinstance(data, dict) or "linear" in data or derived_linear is None:
+        return data
+    try:
+        return {**data, "linear": derived_linear(data)}
+    except (KeyError, TypeError, ValueError, IndexError):
+        return data
+
+
+# Values that load but are probably in another unit than the schema's: (dotted key, test, what to say)
+PLAUSIBLE = (
+    ("spool.wn", lambda v: v < 2 * math.pi * 15,
+     lambda v: f"{v:g} rad/s is {v / (2 * math.pi):.3g} Hz: spools of servo and proportional valves have "
+               f"20-300 Hz; if {v:g} is in Hz, give {2 * math.pi * v:.6g} rad/s"),
+    ("spool.delay", lambda v: v > 0.01,
+     lambda v: f"{v:g} s is {v * 1e3:g} ms: valve delays are 0.1-5 ms; if {v:g} is in ms, give {v * 1e-3:g} s"),
+)
+
+
+def implausible(params: "Parameters") -> list[tuple[str, str]]:
+    """(dotted key, message) for each value that is valid but probably a unit mistake."""
+    out = []
+    for key, bad, say in PLAUSIBLE:
+        group, name = key.split(".")
+        v = getattr(getattr(params, group), name)
+        if bad(v):
+            out.append((key, say(v)))
+    return out
