@@ -10,7 +10,9 @@ static const hh_tableau HH_TABLEAUS[HH_NMETHODS] = {
 };
 
 /* One explicit RK step of size h from y0 -> yout. Always inlined with a constant tableau and right-hand
- * side, so the stage loops unroll, zero coefficients vanish and the model is inlined into each stage. */
+ * side, so the model is inlined into each stage. Whether the stage loops unroll and the zero tableau
+ * coefficients drop out is the compiler's choice: gcc 12 at -O3 keeps work for them (a prototype with the
+ * stages written out saved 73 instructions an RK3 step, issue #29). */
 HH_INLINE void rk_step(const hh_tableau *tab, hh_rhs rhs, const double *y0, double h, double ud,
                        const int64_t *m, const double *p, const double *sc, double *yout)
 {
