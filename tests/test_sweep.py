@@ -245,3 +245,22 @@ def test_criterion_checked_when_read_and_judged_again_when_changed(tmp_path):
     assert s["failed"] == 6 and s["ran_this_time"] == 0 and s["criterion"] == {"metric": "max_hold_error", "max": 0.0}
     assert "Failed: **6 of 6**" in (out / "report.md").read_text()
     assert np.array_equal(load_table(out / "results.parquet")["max_hold_error"], t["max_hold_error"])
+
+
+def test_study_figures_label_inputs_with_units(tmp_path):
+    """Issue #25 §5: the scatter and pass/fail axes had bare names; each input now reads in its unit as
+    people read it (Pa in bar, m in mm), a factor on several entries as '× nominal'."""
+    from hydrohil.studies.report import input_axis
+    from hydrohil.studies.study import load_study
+    p = write_study(tmp_path, 'samples = 2\nseed = 1\n'
+                    '[[vary]]\nname = "supply.ps"\ndist = "uniform"\nrel = 0.1\n'
+                    '[[vary]]\nname = "friction"\ndist = "uniform"\nlow = 0.7\nhigh = 1.3\n'
+                    'scale = ["friction.positive.fc"]\n'
+                    '[[vary]]\nname = "initial.xp"\ndist = "uniform"\nlow = 0.02\nhigh = 0.04\n'
+                    '[[vary]]\nname = "controller.kp"\ndist = "grid"\nvalues = [40.0, 60.0]\n')
+    st = load_study(p)
+    assert input_axis(st, "supply.ps") == (1e-5, "supply.ps [bar]")
+    assert input_axis(st, "friction") == (1.0, "friction [× nominal]")
+    assert input_axis(st, "initial.xp") == (1e3, "initial.xp [mm]")
+    assert input_axis(st, "controller.kp") == (1.0, "controller.kp [1/m]")
+    assert input_axis(st, "load.mass") == (1.0, "load.mass [kg]")
