@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from hydrohil.errors import InputError
-from hydrohil.studies.runs import METRICS, execute
+from hydrohil.studies.runs import execute
+from hydrohil.studies.study import METRICS
 from hydrohil.studies.study import LoadedStudy, load_study
 
 FLUSH_ROWS = 200

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from hydrohil.sequences.expectations import DISPLAY
-from hydrohil.studies.runs import METRIC_UNITS, METRICS
+from hydrohil.studies.study import METRIC_UNITS, METRICS
 from hydrohil.studies.study import wilson
 
 

@@ -19,16 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from hydrohil.errors import InputError
+from hydrohil.studies.study import load_study
 
-METRICS = ("rms_error", "max_abs_error", "max_hold_error", "max_p1", "max_p2", "max_overshoot_pct",
-           "max_settling_time", "max_abs_ss_error", "breakaways")
-METRIC_UNITS = {"rms_error": "m", "max_abs_error": "m", "max_hold_error": "m", "max_p1": "Pa", "max_p2": "Pa",
-                "max_overshoot_pct": "%", "max_settling_time": "s", "max_abs_ss_error": "m", "breakaways": "-"}
 
 
 @functools.lru_cache(maxsize=8)
 def _study(path: str, digest: str):
-    from hydrohil.studies.study import load_study
     return load_study(path)
 
 

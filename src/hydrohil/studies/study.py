@@ -47,9 +47,13 @@ from pydantic import Field, ValidationError, field_validator, model_validator
 from hydrohil.errors import InputError
 from hydrohil.parameters import format_validation_error, read_toml
 from hydrohil.parameters.schema import StrictModel
-from hydrohil.studies.runs import METRIC_UNITS, METRICS
 
 DISTS = ("uniform", "normal", "truncnormal", "choice", "grid")
+# the metrics of a run's row (studies/runs.py computes them) and their SI units: what a [criterion] may name
+METRICS = ("rms_error", "max_abs_error", "max_hold_error", "max_p1", "max_p2", "max_overshoot_pct",
+           "max_settling_time", "max_abs_ss_error", "breakaways")
+METRIC_UNITS = {"rms_error": "m", "max_abs_error": "m", "max_hold_error": "m", "max_p1": "Pa", "max_p2": "Pa",
+                "max_overshoot_pct": "%", "max_settling_time": "s", "max_abs_ss_error": "m", "breakaways": "-"}
 SPECIAL = ("scenario", "sequence", "duration")        # names that are not parameters
 _ENTRY = re.compile(r"^([A-Za-z_][A-Za-z0-9_.]*)(?:\[(\d+)\])?(?:\^(\d+(?:\.\d+)?))?$")
 
@@ -103,7 +107,7 @@ class Vary(StrictModel):
 
 
 class Criterion(StrictModel):
-    metric: str = Field(description="one of the run metrics (hydrohil.studies.runs.METRICS)")
+    metric: str = Field(description="one of the run metrics (METRICS)")
     max: float = Field(description="a run passes when its metric is at most this (the metric's SI unit)")
 
     @field_validator("metric")
