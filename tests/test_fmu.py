@@ -242,8 +242,10 @@ def test_any_communication_step(fmu):
 def test_edge_calls_under_sanitizers(tmp_path, version):
     """Issue #25 §3, with the FMU's own sources under AddressSanitizer and UBSan (tests/c/fmu_edges.c): calls on
     a NULL instance and in the wrong FMI state answer an error; a state taken while stepping is set into an
-    instance that was only instantiated and continues exactly; truncated, oversized, untagged, other-version
-    and other-export states are refused with a message, nothing read past the bytes given."""
+    instance that was only instantiated and continues exactly; states taken before initialisation are set
+    back into a stepping instance, which then runs as a fresh one; a doStep back in time is refused;
+    truncated, oversized, untagged, other-version and other-export states are refused with a message, nothing
+    read past the bytes given."""
     import shutil
     import subprocess
     cc = shutil.which("gcc") or shutil.which("cc")
@@ -261,5 +263,15 @@ def test_edge_calls_under_sanitizers(tmp_path, version):
     assert "ERROR: AddressSanitizer" not in r.stderr and "runtime error" not in r.stderr, r.stderr
     for message in ("too short for a hydrohil FMU state", "not a hydrohil FMU state", "this FMU reads format 1",
                     "FMU state of another export", "only in step mode", "only in initialisation mode",
-                    "outputs and calculated parameters exist from initialisation mode on"):
+                    "outputs and calculated parameters exist from initialisation mode on",
+                    "before the last communication point"):
         assert message in r.stdout, (message, r.stdout)
+
+
+def test_xs0_without_at_rest_0_is_said(fmu):
+    """An importer that sets xs0 as it did before (at_rest = 1 by default) is told that it is not used."""
+    messages = []
+    f = Fmu(*fmu, log=lambda m: messages.append(m.decode() if isinstance(m, bytes) else str(m)))
+    f.init(xp0=0.09, xs0=0.1)
+    assert any("xs0 = 0.1 is not used" in m and "at_rest = 0" in m for m in messages), messages
+    assert f.real("xs")[0] == f.real("xs_rest")[0]

@@ -341,11 +341,14 @@ def test_trace_pyramid_equals_brute_force_over_laps_of_the_ring():
 
 
 def test_ctrl_c_says_how_it_ended_and_a_browser_going_away_is_one_line(tmp_path):
-    """Issue #25 §4: Ctrl-C ends ``hydrohil panel`` with exit code 130 (the README's) and the sessions and
-    recordings named; a client that disconnects mid-request (a POST whose body never comes, a WebSocket
+    """Issue #25 §4: Ctrl-C ends ``hydrohil panel`` with exit code 130 (the README's) and this run's sessions
+    and recordings named (not an earlier run's in the same folder); a client that disconnects mid-request (a POST whose body never comes, a WebSocket
     reset) gets one line each on stderr, never a traceback."""
     import struct
+    old = tmp_path / "panel" / "session-001" / "recordings" / "rec-001"      # an earlier run's, same folder
+    old.mkdir(parents=True)
     p = PanelProcess(tmp_path / "panel", "--lockstep")
+    assert p.session.name == "session-002"
     try:
         p.wait_steps(50)
         rec, _ = _record(p, [])
@@ -372,7 +375,7 @@ def test_ctrl_c_says_how_it_ended_and_a_browser_going_away_is_one_line(tmp_path)
         p.close()
     out = "".join(iter(lambda: p.child.lines.get() or "", ""))
     assert "panel stopped by SIGINT (Ctrl-C): 1 session(s) in" in out and "recordings: 1" in out
-    assert str(p.session / "recordings" / rec["name"]) in out
+    assert str(p.session / "recordings" / rec["name"]) in out and str(old) not in out
     err = p.child.stderr()
     assert "Traceback" not in err
     lines = [ln for ln in err.splitlines() if "went away" in ln]

@@ -156,3 +156,44 @@ def test_probable_unit_mistakes_warn(tmp_path):
     from conftest import hh
     r = hh("params", "show", _without_linear(tmp_path, wn="80.0"))
     assert r.returncode == 0 and "warning:" in r.stderr and "spool.wn" in r.stderr and "mine.toml" in r.stderr
+
+
+def test_derived_linear_follows_changed_values(tmp_path):
+    """A derived [linear] is derived again when the values it comes from change (an override when loading,
+    replace_values in a sweep), and left out of a saved file; a key that sets one of its values makes it
+    given."""
+    from hydrohil.parameters import replace_values
+    p = load_parameters(_without_linear(tmp_path), overrides={"cylinder.stroke": 0.08})
+    assert p.derived_groups == {"linear"} and p.linear.xp0 == pytest.approx(0.04)
+    q = replace_values(p, {"friction.positive.kv": 2000.0, "friction.negative.kv": 1000.0})
+    assert q.linear.friction_factor == pytest.approx(1500.0) and q.derived_groups == {"linear"}
+    r = replace_values(p, {"linear.xp0": 0.03})
+    assert r.linear.xp0 == 0.03 and r.derived_groups == frozenset() and r.linear.kq == p.linear.kq
+    save_parameters(q, tmp_path / "saved.toml")
+    assert "[linear]" not in (tmp_path / "saved.toml").read_text()
+    assert load_parameters(tmp_path / "saved.toml").linear == q.linear
+    assert load_parameters("ferreira2004").derived_groups == frozenset()
+
+
+def test_derived_pressure_gains_are_the_closed_port_slopes(tmp_path, paper):
+    """The derived kp1, kp2 are the slopes at the valve's centre of the closed-port pressures written out
+    here from eq 3 (P1/Ps = As1²/(As1² + A1t²)), differentiated analytically: a self-consistent check (the
+    paper's own 19 / -15.6 were measured at its x̄s0 = 0.009, so they are near, not equal)."""
+    k, kt = paper.valve.k, paper.valve.kt
+
+    def sec(x, c):        # value and slope of one pseudo-section at x (inside its sqrt's domain)
+        q = c[2] * x * x + c[3] * x + c[4]
+        return c[0] * x + c[1] + np.sqrt(q), c[0] + (2 * c[2] * x + c[3]) / (2 * np.sqrt(q))
+
+    def ratio_slope(a, da, b, db):    # d/dx of a² / (a² + b²)
+        return (2 * a * da * (a * a + b * b) - a * a * (2 * a * da + 2 * b * db)) / (a * a + b * b) ** 2
+    as1, das1 = sec(0.0, k)
+    das1 = -das1                       # As1(x) = section(-x)
+    a1t, da1t = sec(0.0, kt)
+    as2, das2 = sec(0.0, k)
+    a2t, da2t = sec(0.0, kt)
+    da2t = -da2t
+    lin = load_parameters(_without_linear(tmp_path)).linear
+    assert lin.kp1 == pytest.approx(ratio_slope(as1, das1, a1t, da1t), rel=1e-6)
+    assert lin.kp2 == pytest.approx(ratio_slope(as2, das2, a2t, da2t), rel=1e-6)
+    assert lin.kq == pytest.approx((das1 - da1t) * np.sqrt(35.0) / 60000.0, rel=1e-6)

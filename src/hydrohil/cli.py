@@ -819,8 +819,8 @@ def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), c
     asyncio.run(main())
     sig = stopped_by[0] if stopped_by else signal.SIGINT
     how = "SIGINT (Ctrl-C)" if sig == signal.SIGINT else "SIGTERM"
-    sessions = sorted(out.glob("session-*"))
-    recordings = sorted(out.glob("session-*/recordings/rec-*"))
+    sessions = pn.sessions                         # this panel's, not older ones in the same folder
+    recordings = [r for s in sessions for r in sorted((s / "recordings").glob("rec-*"))]
     v = (pn.ended or {}).get("verdict")
     timing = (f", the last one's timing {v['verdict']}" + (f" ({'; '.join(v['reasons'])})" if v.get("reasons") else "")
               if isinstance(v, dict) else "")

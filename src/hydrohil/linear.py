@@ -137,7 +137,7 @@ def equilibrium(params: Parameters, xp: float, xs: float | None = None) -> Opera
     else:
         p1, p2 = chamber_pressures(params, xs, p)
     return OperatingPoint(float(xp), float(xs), float(p1), float(p2), float(params.supply.ps),
-                          float(params.load.force), float(net_force(params, p1, p2)))
+                          float(params.load.force), float(net_force(params, p1, p2, p)))
 
 
 def with_point(params: Parameters, *, ps: float | None = None, load: float | None = None) -> Parameters:

@@ -187,6 +187,38 @@ int main(void)
     EXPECT(deserialize(b, copy, n, &bad) == ERR, "a state of another export");
     EXPECT(bad == NULL, "no state made of a refused one");
 
+    /* 5. states taken before initialisation (no delay line yet) set back into a stepping instance; and a
+     * doStep that goes back in time */
+    {
+        inst c = make("c"), d = make("d");
+        fstate s_inst = NULL, s_init = NULL;
+        double xc = 0.0, xd = 0.0;
+        EXPECT(get_state(c, &s_inst) == OK, "a state right after instantiation");
+        EXPECT(setup(c) == OK && enter_init(c) == OK && get_state(c, &s_init) == OK, "a state in initialisation");
+        EXPECT(exit_init(c) == OK, "exit initialisation (c)");
+        for (k = 0; k < 50; k++)
+            EXPECT(set_real(c, VR_U, 0.5) == OK && do_step(c, k * 5e-4, 5e-4) == OK, "doStep c");
+        EXPECT(do_step(c, 10 * 5e-4, 5e-4) == ERR, "a doStep before the last communication point");
+        EXPECT(set_state(c, s_init) == OK, "the initialisation-mode state set back after stepping");
+        EXPECT(exit_init(c) == OK, "initialisation completed again");
+        EXPECT(set_state(c, s_inst) == OK, "the instantiated state set back");
+        EXPECT(do_step(c, 0.0, 5e-4) == ERR, "no doStep in the restored instantiated state");
+        EXPECT(setup(c) == OK && enter_init(c) == OK && exit_init(c) == OK, "initialised again");
+        EXPECT(setup(d) == OK && enter_init(d) == OK && exit_init(d) == OK, "a fresh instance");
+        for (k = 0; k < 200; k++) {
+            set_real(c, VR_U, -0.3);
+            set_real(d, VR_U, -0.3);
+            EXPECT(do_step(c, k * 5e-4, 5e-4) == OK && do_step(d, k * 5e-4, 5e-4) == OK, "doStep c, d");
+        }
+        get_real(c, VR_XP, &xc);
+        get_real(d, VR_XP, &xd);
+        EXPECT(xc == xd, "an instance reset through a state runs as a fresh one");
+        free_state(c, &s_inst);
+        free_state(c, &s_init);
+        free_instance(c);
+        free_instance(d);
+    }
+
     EXPECT(terminate(a) == OK && terminate(a) == ERR, "terminate once");
     free_state(a, &sa);
     free_state(b, &sb);

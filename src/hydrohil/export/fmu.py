@@ -37,8 +37,8 @@ METHOD_RK3 = 2
 
 # value references beyond the schema's parameters (those are 0 .. n-1, in schema order)
 EXTRA_PARAMETERS = (   # name, unit, description, min, max (start values: _extra_starts)
-    ("step", "s", "internal fixed step of the hybrid model (RK3); communication steps are whole multiples",
-     1e-7, 0.01),
+    ("step", "s", "internal fixed step of the hybrid model (RK3); a communication step of any size takes the "
+     "internal steps that end by its communication point", 1e-7, 0.01),
     ("xp0", "m", "initial piston position", 0.0, None),
     ("xs0", "", "initial spool position (normalised) when at_rest = 0; the chamber pressures then balance the "
      "chambers' flows at it", -1.0, 1.0),

@@ -228,14 +228,20 @@ def _wrap_rad(d_deg: np.ndarray) -> np.ndarray:
     return np.radians((np.asarray(d_deg) + 180.0) % 360.0 - 180.0)
 
 
-def _fit_linear(a, f, g_data, ph_data, sw) -> tuple[float, float, float]:
-    """(ωn, ξ, Δt) of the linear spool (:func:`linear_response`) minimising the weighted complex log error
-    over every point, from starts around the −3 dB point of the smallest-amplitude curve."""
+def _wn_3db(a, f, g_data) -> float:
+    """A first ωn [rad/s]: the −3 dB point of the smallest-amplitude curve (twice its last frequency if the
+    curve never falls that far)."""
     small = a == a.min()
     fs, gs = f[small], g_data[small]
     order = np.argsort(fs)
     below = np.flatnonzero(gs[order] < -3.0)
-    wn3 = 2 * np.pi * (fs[order][below[0]] if below.size else 2 * fs.max())
+    return 2 * np.pi * (fs[order][below[0]] if below.size else 2 * fs.max())
+
+
+def _fit_linear(a, f, g_data, ph_data, sw) -> tuple[float, float, float]:
+    """(ωn, ξ, Δt) of the linear spool (:func:`linear_response`) minimising the weighted complex log error
+    over every point, from starts around the −3 dB point of the smallest-amplitude curve."""
+    wn3 = _wn_3db(a, f, g_data)
     lo, hi = np.log(SEARCH_BOUNDS[0][[0, 1]]), np.log(SEARCH_BOUNDS[1][[0, 1]])
 
     def residuals(theta):
@@ -310,10 +316,7 @@ def identify_spool(data: dict[str, np.ndarray] | str | Path, *, progress=None,
     lv0 = max(2 * np.pi * np.max(f * a_out), 1e-3)
     la0 = max(np.max((2 * np.pi * f) ** 2 * a_out), 1e-3)
     starts = [np.r_[x_lin[:2], np.log([lv0 * s, la0 * s]), x_lin[4]] for s in (1.0, 0.6)]
-    small = a == a.min()
-    order = np.argsort(f[small])
-    below = np.flatnonzero(g_data[small][order] < -3.0)
-    wn3 = 2 * np.pi * (f[small][order][below[0]] if below.size else 2 * f.max())
+    wn3 = _wn_3db(a, f, g_data)
     starts += [np.r_[np.log([wn3, xi0, lv0 * s, la0 * s]), x_lin[4]] for xi0 in (0.5, 0.8) for s in (1.0, 0.6)]
     x_lim, cost_lim = None, np.inf
     for i, x0 in enumerate(starts):

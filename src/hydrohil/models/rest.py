@@ -21,10 +21,10 @@ def chamber_pressures(params: Parameters, xs: float, p: np.ndarray | None = None
     return out[0], out[1]
 
 
-def net_force(params: Parameters, p1: float, p2: float) -> float:
-    """Force on the piston along +x [N] from the pressures, gravity and the load force (friction zero)."""
-    c, ld = params.cylinder, params.load
-    return c.a1 * p1 - c.a2 * p2 + ld.gravity_direction * ld.mass * ld.gravity - ld.force
+def net_force(params: Parameters, p1: float, p2: float, p: np.ndarray | None = None) -> float:
+    """Force on the piston along +x [N] from the pressures, gravity and the load force (friction zero): eq 28's
+    external force, by the core (``external_force`` of core/cylinder.c)."""
+    return lib.hh_external_force(float(p1), float(p2), dptr(pack(params) if p is None else p))
 
 
 def unheld_load(params: Parameters) -> str:

@@ -115,6 +115,7 @@ class Panel:
         self.next_id = 1
         self.session: Path | None = None
         self.session_n = 0
+        self.sessions: list[Path] = []               # the session folders this panel made
         self.running = False
         self.stopping = False                        # a stop is under way (the watcher leaves the children alone)
         self.children: list = []
@@ -264,6 +265,7 @@ class Panel:
             self.session_n += 1
         folder = self.session = self.out / f"session-{self.session_n:03d}"
         folder.mkdir(parents=True)
+        self.sessions.append(folder)
         scenario = write_scenario(self.scenario_path, folder / "scenario.toml", params=self.params_arg, sets=self.sets,
                                   tables=self.session_tables())
         self.traces = Traces(self.h)

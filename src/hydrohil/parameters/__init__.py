@@ -164,16 +164,18 @@ def _unit_of(field) -> str | None:
     return " or ".join(units) if units else None
 
 
-def validate_parameters(data: Mapping[str, Any], source: str) -> Parameters:
+def validate_parameters(data: Mapping[str, Any], source: str, changed: set[str] | None = None) -> Parameters:
     """A validated parameter set (an :class:`InputError` naming ``source`` and the key otherwise); a value that
-    is valid but probably in another unit is an :class:`InputWarning` (``warning: …`` on the terminal)."""
+    is valid but probably in another unit is an :class:`InputWarning` (``warning: …`` on the terminal), said
+    of the keys ``changed`` only when given (a set changed by overrides was judged when it was read)."""
     try:
         params = Parameters.model_validate(data)
     except ValidationError as exc:
         key, msg = format_validation_error(exc, Parameters)
         raise InputError(msg, source=source, key=key) from None
     for key, msg in implausible(params):
-        warnings.warn(InputWarning(f"{source}: {key}: {msg}"), stacklevel=3)
+        if changed is None or key in changed:
+            warnings.warn(InputWarning(f"{source}: {key}: {msg}"), stacklevel=3)
     return params
 
 
@@ -181,7 +183,9 @@ def load_parameters(name_or_path: str | Path = "ferreira2004",
                     overrides: Mapping[str, Any] | None = None) -> Parameters:
     """Load and validate a parameter set by built-in name or TOML path, with optional dotted overrides."""
     path = _resolve_source(name_or_path)
-    data = with_derived_linear(read_toml(path))
+    data = read_toml(path)
+    if overrides and any(k.startswith("linear.") for k in overrides):
+        data = with_derived_linear(data)          # an override of a derived value needs the group to set it in
     if overrides:
         data = apply_overrides(data, overrides)
     try:
@@ -193,13 +197,20 @@ def load_parameters(name_or_path: str | Path = "ferreira2004",
 
 
 def replace_values(params: Parameters, values: Mapping[str, Any], source: str = "overrides") -> Parameters:
-    """A copy of ``params`` with dotted keys set (``{"supply.ps": 1.2e7}``), validated again."""
-    return validate_parameters(apply_overrides(params.model_dump(mode="python"), values, source), source)
+    """A copy of ``params`` with dotted keys set (``{"supply.ps": 1.2e7}``), validated again. Groups the set
+    derived (:attr:`Parameters.derived_groups`) are derived again from the new values, unless a key sets one
+    of their values (the group is then given)."""
+    data = params.model_dump(mode="python")
+    for group in params.derived_groups:
+        if not any(k.startswith(group + ".") for k in values):
+            del data[group]
+    return validate_parameters(apply_overrides(data, values, source), source, changed=set(values))
 
 
 def save_parameters(params: Parameters, path: str | Path, header: str = "") -> None:
-    """Write a parameter set as TOML that :func:`load_parameters` reads back unchanged."""
-    text = tomli_w.dumps(params.model_dump(mode="python"))
+    """Write a parameter set as TOML that :func:`load_parameters` reads back unchanged (derived groups are
+    left out: they are derived again when it is read)."""
+    text = tomli_w.dumps(params.model_dump(mode="python", exclude=set(params.derived_groups)))
     if header:
         text = "".join(f"# {line}\n" for line in header.splitlines()) + "\n" + text
     tmp = Path(str(path) + ".part")   # never leave a half-written parameter file

@@ -76,7 +76,9 @@ def leakage_flow(x, ps_bar, k, kt):
 
 def derived_linear(data: Mapping[str, Any]) -> dict[str, float]:
     """The ``[linear]`` group (eq 18-20) of a parameter set whose file has none, from its other groups (raw
-    TOML tables): at mid-stroke (xp0 = stroke/2) and the valve's centre (xs0 = 0); the flow gain kq per unit
+    TOML tables): at mid-stroke (xp0 = stroke/2) and the valve's centre (xs0 = 0: the paper's model is about a
+    spool offset near 0; the plant linearised at its own load-dependent rest offset is ``hydrohil linear``,
+    :mod:`hydrohil.linear`); the flow gain kq per unit
     spool with Pn = 35 bar on each edge, kq = (dAs1/dx − dA1t/dx)·sqrt(Pn [bar]) [l/min -> m³/s] (the paper's
     kq1 = kq·sqrt(Ps/(2Pn))); the closed-port pressure gains kp1, kp2 = d(P1/Ps)/dx, d(P2/Ps)/dx; the friction
     factor f = the steady-state friction's viscous slope (mean of the directions' kv). On the paper's k-set

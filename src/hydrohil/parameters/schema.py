@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
 try:
     from hydrohil.parameters.characteristics import derived_linear
@@ -129,12 +129,24 @@ class Parameters(StrictModel):
     linear: Linear
     sensors: Sensors
 
-    @model_validator(mode="before")
+    _derived: frozenset = PrivateAttr(default=frozenset())     # groups derived rather than given
+
+    @model_validator(mode="wrap")
     @classmethod
-    def _derive_linear(cls, data):
+    def _derive_linear(cls, data, handler):
         """A file without [linear] gets it derived from its other groups (they are checked after this: what
-        cannot be derived from is left to their own errors)."""
-        return with_derived_linear(data)
+        cannot be derived from is left to their own errors); the set remembers it (:attr:`derived_groups`), so
+        a changed value re-derives it (:func:`hydrohil.parameters.replace_values`)."""
+        derived = isinstance(data, dict) and "linear" not in data and derived_linear is not None
+        params = handler(with_derived_linear(data))
+        if derived:
+            params._derived = frozenset({"linear"})
+        return params
+
+    @property
+    def derived_groups(self) -> frozenset:
+        """The groups derived from the others because the set's file did not give them."""
+        return self._derived
 
     @model_validator(mode="after")
     def _geometry(self):

@@ -10,7 +10,7 @@ from typing import Any
 import tomli_w
 from pydantic import BaseModel
 
-from hydrohil.parameters import _resolve_source, load_parameters, read_toml
+from hydrohil.parameters import load_parameters
 from hydrohil.parameters.schema import Parameters
 
 DERIVED_NOTE = {"linear": "derived: the file has no [linear] (mid-stroke, the valve's centre; see "
@@ -68,5 +68,4 @@ def annotated_toml(params: Parameters, derived: tuple[str, ...] = ()) -> str:
 def load_shown(name_or_path: str | Path) -> tuple[Parameters, tuple[str, ...]]:
     """(the validated set, the groups derived because its file lacks them)."""
     params = load_parameters(name_or_path)
-    raw = read_toml(_resolve_source(name_or_path))
-    return params, tuple(g for g in ("linear",) if g not in raw)
+    return params, tuple(sorted(params.derived_groups))

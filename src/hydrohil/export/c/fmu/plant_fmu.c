@@ -34,6 +34,7 @@ void plant_defaults(plant *pl)
     pl->f_load_set = pl->ps_set = 0;
     pl->t0 = pl->t_comm = 0.0;
     pl->xs_rest = 0.0;
+    pl->prepared = 0;
     pl->mode = PLANT_INSTANTIATED;
 }
 
@@ -57,8 +58,6 @@ void plant_free(plant *pl)
     }
 }
 
-double plant_time(const plant *pl) { return pl->t0 + (double)pl->sim.k * pl->sim.h; }
-
 int plant_set_real(plant *pl, unsigned vr, double v)
 {
     if (vr < PLANT_NPAR) {
@@ -67,6 +66,7 @@ int plant_set_real(plant *pl, unsigned vr, double v)
             return PLANT_ERROR;
         }
         pl->par[vr] = v;
+        pl->prepared = 0;
         return PLANT_OK;
     }
     switch (vr) {
@@ -84,6 +84,7 @@ int plant_set_real(plant *pl, unsigned vr, double v)
         }
         pl->f_load = v;
         pl->f_load_set = 1;
+        pl->prepared = 0;
         return PLANT_OK;
     case VR_PS:
         if (!(isfinite(v) && v > pl->par[HH_SUPPLY_PT] && v <= 1e8)) {
@@ -93,6 +94,7 @@ int plant_set_real(plant *pl, unsigned vr, double v)
         }
         pl->ps = v;
         pl->ps_set = 1;
+        pl->prepared = 0;
         return PLANT_OK;
     default:
         plant_logf(pl, PLANT_ERROR, "value reference %u is not a settable Real", vr);
@@ -164,6 +166,10 @@ static int prepare(plant *pl)
     if (!held && pl->par[VR_AT_REST] == 1.0 && pl->sim.m[HH_M_TRAVEL] == HH_FREE)
         plant_logf(pl, PLANT_WARNING, "no spool position holds the piston at rest: the load is more than the cylinder "
                    "gives at a supply pressure of %g bar; the spool starts centred and the load moves the piston", p[HH_SUPPLY_PS] / 1e5);
+    if (pl->par[VR_AT_REST] == 1.0 && pl->par[VR_XS0] != 0.0)
+        plant_logf(pl, PLANT_WARNING, "xs0 = %g is not used: at_rest = 1 starts the spool at the offset that holds "
+                   "the piston (%g); set at_rest = 0 to start at xs0", pl->par[VR_XS0], pl->xs_rest);
+    pl->prepared = 1;
     return PLANT_OK;
 }
 
@@ -185,8 +191,8 @@ int plant_get_real(plant *pl, unsigned vr, double *v)
                    "initialisation mode on", vr);
         return PLANT_ERROR;
     }
-    if (pl->mode == PLANT_INITIALIZING && prepare(pl) != PLANT_OK)   /* the initial values of what is set now */
-        return PLANT_ERROR;
+    if (pl->mode == PLANT_INITIALIZING && !pl->prepared && prepare(pl) != PLANT_OK)   /* the initial values of */
+        return PLANT_ERROR;                                                            /* what is set now */
     switch (vr) {
     case VR_XS_REST: *v = pl->xs_rest; return PLANT_OK;
     case VR_XP: *v = y[HH_XP]; return PLANT_OK;
@@ -212,7 +218,7 @@ int plant_get_integer(plant *pl, unsigned vr, int *v)
         plant_logf(pl, PLANT_ERROR, "value reference %u: outputs exist from initialisation mode on", vr);
         return PLANT_ERROR;
     }
-    if (pl->mode == PLANT_INITIALIZING && prepare(pl) != PLANT_OK)
+    if (pl->mode == PLANT_INITIALIZING && !pl->prepared && prepare(pl) != PLANT_OK)
         return PLANT_ERROR;
     switch (vr) {
     case VR_TRAVEL: *v = (int)pl->sim.m[HH_M_TRAVEL]; return PLANT_OK;
@@ -254,7 +260,7 @@ int plant_exit_init(plant *pl)
 {
     if (pl->mode != PLANT_INITIALIZING)
         return wrong_mode(pl, "exiting initialisation mode", "initialisation");
-    if (prepare(pl) != PLANT_OK) {
+    if (!pl->prepared && prepare(pl) != PLANT_OK) {
         pl->mode = PLANT_FAILED;
         return PLANT_ERROR;
     }
@@ -271,8 +277,9 @@ int plant_terminate(plant *pl)
 }
 
 /* A communication step of any size: the plant steps on its own grid t0 + k*h, as many whole internal steps as
- * end by the communication point t + dt (within 1e-6 h); the rest carries over to the next doStep. Inputs act
- * from the next internal step on, held over it (zero-order hold, as the sampled controller). */
+ * end by the communication point t + dt (within 1e-6 h); the rest carries over to the next doStep. The outputs
+ * are those of the last grid point at or before the communication point; inputs set there drive the internal
+ * steps the next doStep takes (the first of them begins at that grid point), each held over its step. */
 int plant_do_step(plant *pl, double t, double dt)
 {
     double h = pl->sim.h, u = pl->u > 1.0 ? 1.0 : pl->u < -1.0 ? -1.0 : pl->u;
@@ -283,9 +290,14 @@ int plant_do_step(plant *pl, double t, double dt)
         plant_logf(pl, PLANT_ERROR, "doStep at t = %g s with a step of %g s: need a finite step > 0", t, dt);
         return PLANT_ERROR;
     }
-    if (fabs(t - pl->t_comm) > 1e-6 * h + 1e-12 * fabs(t))
-        plant_logf(pl, PLANT_WARNING, "doStep at t = %.9g s, the last communication point was t = %.9g s", t,
-                   pl->t_comm);
+    if (t < pl->t_comm - 1e-6 * h - 1e-12 * fabs(t)) {
+        plant_logf(pl, PLANT_ERROR, "doStep at t = %.9g s, before the last communication point t = %.9g s (set an "
+                   "FMU state to go back)", t, pl->t_comm);
+        return PLANT_ERROR;
+    }
+    if (t > pl->t_comm + 1e-6 * h + 1e-12 * fabs(t))
+        plant_logf(pl, PLANT_WARNING, "doStep at t = %.9g s, the last communication point was t = %.9g s: the plant "
+                   "steps through the gap with the inputs held", t, pl->t_comm);
     n = (long long)floor((t + dt - pl->t0) / h + 1e-6) - (long long)pl->sim.k;
     pl->sim.p[HH_LOAD_FORCE] = pl->f_load;
     pl->sim.p[HH_SUPPLY_PS] = pl->ps;
@@ -423,6 +435,22 @@ int plant_state_get(plant *pl, void **state)
     return PLANT_OK;
 }
 
+/* Whether a state's values are ones this FMU makes: a state taken before initialisation has no delay line
+ * and no model yet; one taken after has the hybrid model, the FMU's method and step, modes in their ranges. */
+static int state_values_valid(const state_values *v, uint64_t dbuf_size)
+{
+    if (v->mode < PLANT_INSTANTIATED || v->mode > PLANT_FAILED)
+        return 0;
+    if (dbuf_size == 0)
+        return v->mode <= PLANT_INITIALIZING && v->delay_n == 0;
+    return v->delay_n + 2 == (int64_t)dbuf_size && v->delay_pos >= 0 && v->delay_pos < (int64_t)dbuf_size
+           && v->model == HH_MODEL_HYBRID && v->method == PLANT_METHOD && isfinite(v->h) && v->h > 0.0
+           && v->h == v->par[VR_STEP] && v->k >= 0 && v->m[HH_M_TRAVEL] >= HH_FREE
+           && v->m[HH_M_TRAVEL] <= HH_AT_EXTEND && v->m[HH_M_FRICTION] >= HH_STICK
+           && v->m[HH_M_FRICTION] <= HH_SLIP_NEG && v->m[HH_M_SPOOL] >= HH_SPOOL_LINEAR
+           && v->m[HH_M_SPOOL] <= HH_SPOOL_AT_END;
+}
+
 int plant_state_set(plant *pl, const void *state)
 {
     const char *bytes = state;
@@ -438,10 +466,10 @@ int plant_state_set(plant *pl, const void *state)
         return PLANT_ERROR;
     memcpy(&hd, bytes, sizeof hd);
     memcpy(&v, bytes + sizeof hd, sizeof v);
-    if (v.mode < PLANT_INSTANTIATED || v.mode > PLANT_FAILED || v.delay_n + 2 != (int64_t)hd.dbuf_size
-        || (hd.dbuf_size > 0 && !(v.delay_pos >= 0 && v.delay_pos < (int64_t)hd.dbuf_size))) {
-        plant_logf(pl, PLANT_ERROR, "FMU state with inconsistent values (mode %lld, delay line %lld of %llu)",
-                   (long long)v.mode, (long long)v.delay_n, (unsigned long long)hd.dbuf_size);
+    if (!state_values_valid(&v, hd.dbuf_size)) {
+        plant_logf(pl, PLANT_ERROR, "FMU state with inconsistent values (mode %lld, model %lld, method %lld, step %g s, "
+                   "k %lld, delay line %lld of %llu)", (long long)v.mode, (long long)v.model, (long long)v.method,
+                   v.h, (long long)v.k, (long long)v.delay_n, (unsigned long long)hd.dbuf_size);
         return PLANT_ERROR;
     }
     if ((uint64_t)pl->dbuf_size != hd.dbuf_size) {   /* e.g. a state set right after instantiation */
@@ -464,6 +492,7 @@ int plant_state_set(plant *pl, const void *state)
     pl->f_load_set = (int)v.f_load_set;
     pl->ps_set = (int)v.ps_set;
     pl->mode = (int)v.mode;
+    pl->prepared = 0;
     memset(s, 0, sizeof *s);
     memcpy(s->p, v.p, sizeof v.p);
     memcpy(s->y, v.y, sizeof v.y);

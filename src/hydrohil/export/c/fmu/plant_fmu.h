@@ -28,6 +28,7 @@ typedef struct plant {
     double *dbuf;                   /* delay line of the core (allocated at initialisation) */
     int dbuf_size;
     int mode;
+    int prepared;                   /* initialisation mode: the initial state is that of the values set now */
     char name[80];
     plant_log_fn log;
     void *env;
@@ -44,7 +45,6 @@ int plant_enter_init(plant *pl, double t0);
 int plant_exit_init(plant *pl);                 /* checks the parameters, sets the initial state */
 int plant_do_step(plant *pl, double t, double dt);
 int plant_terminate(plant *pl);
-double plant_time(const plant *pl);             /* the plant's time t0 + k*h */
 /* FMU state: the instance's values (no pointers) as one block of bytes: a tag ("hydrohil FMU state"), its
  * format version, the export's token and the sizes first, then the values and the delay line; serialising is a
  * copy, deserialising checks the tag, version, token and sizes. get: (re)allocates *state; set: restores it
