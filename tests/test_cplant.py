@@ -182,9 +182,51 @@ def test_lockstep_c_plant_equals_python_plant_bit_for_bit(tmp_path):
         assert t["packets_rx"] - t["commands_delivered"] in (1, 2), t
 
 
-def test_hil_with_the_c_plant_refuses_fault_scenarios(tmp_path):
-    r = hh("hil", EXAMPLES / "faults" / "sensor_noise.toml", "--out", tmp_path, "--plant", "c")
-    assert r.returncode == 2 and "does not inject [[faults]]" in r.stderr and "--plant python" in r.stderr
+FAULT_EXAMPLES = sorted((EXAMPLES / "faults").glob("*.toml"))
+
+
+@pytest.mark.parametrize("scen", FAULT_EXAMPLES, ids=lambda p: p.stem)
+def test_lockstep_c_plant_equals_python_plant_with_every_fault(tmp_path, scen):
+    """Issue #26: one rig step in C (core/rig.c: command path, watchdog, the fault table, sensing) in both
+    plants: with each fault example, in lock-step, both plants write the same log bit for bit (the random
+    faults draw from the same streams) and the same fault figures in timing.json."""
+    text = scen.read_text()
+    if "[controller]" not in text:      # an open-loop example: a P loop holds the start position instead
+        head, _, rest = text.partition("[input]")
+        text = head + ('[controller]\ntype = "p"\nkp = 50.0\n[reference]\ntype = "table"\nt = [0.0]\nx = [0.09]\n'
+                       + rest[rest.index("[[faults]]"):])
+    short = tmp_path / scen.name
+    short.write_text(text)
+    logs, timing = {}, {}
+    for kind in ("python", "c"):
+        r = hh("hil", short, "--out", tmp_path / kind, "--lockstep", "--plant", kind)
+        assert r.returncode == 0, r.stderr
+        logs[kind] = read_csv_columns(tmp_path / kind / "plant_log.csv")
+        timing[kind] = json.loads((tmp_path / kind / "timing.json").read_text())
+    py, c = logs["python"], logs["c"]
+    assert list(py) == list(c) and len(py["k"]) == 12001
+    for col in py:
+        if col not in TIMING_COLUMNS:
+            assert np.array_equal(py[col], c[col]), col
+    assert np.any(py["faults"] != 0)                       # the fault was on during the run
+    for key in ("faults_injected", "watchdog_trips", "watchdog_trips_unexplained", "commands_delivered"):
+        assert timing["python"][key] == timing["c"][key], key
+
+
+def test_c_plant_refuses_bad_faults(c_plant):
+    exe = c_plant
+    for arg, message in (("hose_brust:start=1", "unknown fault type 'hose_brust'"),
+                         ("hose_burst:start=1,line=3", "line is one of 1|2, got 3"),
+                         ("hose_burst:start=1", "hose_burst needs line"),
+                         ("sensor_noise:start=1,sensor=p3,std=1", "sensor is one of position|p1|p2|ps|pt"),
+                         ("packet_loss:start=1,probability=1.5", "probability must be > 0 and <= 1"),
+                         ("load_change:start=1", "load_change needs mass and/or force"),
+                         ("seal_wear:start=2,end=1,g_lkc=1e-12", "end (1 s) must be after start (2 s)"),
+                         ("spool_stuck:start=1,colour=red", "spool_stuck has no field 'colour'")):
+        r = subprocess.run([exe, "--fault", arg, "--list"], capture_output=True, text=True, timeout=60)
+        assert r.returncode == 2 and message in r.stderr, (arg, r.stderr)
+    r = subprocess.run([exe, "--fault", "hose_burst:start=1,line=2", "--list"], capture_output=True, text=True)
+    assert r.returncode == 0 and "1 given" in r.stdout
 
 
 def test_c_decoder_agrees_with_the_python_one_on_the_fuzz_corpus():

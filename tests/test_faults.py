@@ -10,9 +10,7 @@ import pytest
 from hydrohil.errors import InputError
 from hydrohil.hil.protocol import ST_FAULT_INJECTED, ST_WATCHDOG
 from hydrohil.hil.run import read_csv_columns
-from hydrohil.models.layout import pack
-from hydrohil.parameters import load_parameters
-from hydrohil.simulation.faults import FAULT_TYPES, FaultInjector, NetworkDelay, PacketLoss, Reordering
+from hydrohil.simulation.faults import FAULT_TYPES, NetworkDelay, PacketLoss, Reordering
 from hydrohil.simulation.rig import VirtualRig
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import load_scenario
@@ -149,31 +147,31 @@ def test_controller_silence_trips_the_watchdog_after_its_timeout():
     assert np.all(r.column("u")[wd][:-1] == 0.0) and r.column("u")[wd][-1] != 0.0
 
 
-def test_network_faults_on_the_injector():
-    p = pack(load_parameters("ferreira2004"))
-    y = np.zeros(7)
-    inj = FaultInjector([PacketLoss(type="packet_loss", probability=0.4, start=0.0)], p, H, seed=3)
-    got = []
-    for k in range(20000):
-        inj.begin_step(k, p, y)
-        got.append(inj.deliver(float(k)))
-    assert sum(g is not None for g in got) / len(got) == pytest.approx(0.6, abs=0.015)
-    inj = FaultInjector([NetworkDelay(type="network_delay", delay=0.01, start=0.0, end=0.1)], p, H)
+def _delivered(fault, n, seed=0):
+    """The commands u_k = k·1e-4 sent through the rig's network faults (core/rig.c) for n steps: per step the
+    command that reached the plant (None: none did), from the watchdog's count and held command."""
+    sc = load_scenario(FAULTS / "packet_loss.toml")
+    s = sc.scenario
+    rig = VirtualRig(sc.params, H, s.hil.model_copy(update={"seed": seed, "watchdog_timeout": 10.0}), [fault],
+                     {"xp": 0.09})
     out = []
-    for k in range(400):
-        inj.begin_step(k, p, y)
-        out.append(inj.deliver(float(k)))
-    assert out[:20] == [None] * 20 and out[20:199] == [float(k - 20) for k in range(20, 199)]
-    assert out[250:] == [float(k) for k in range(250, 400)]                 # delay over: newest again
-    inj = FaultInjector([Reordering(type="reordering", probability=0.3, start=0.0)], p, H, seed=1)
-    vals = []
-    for k in range(10000):
-        inj.begin_step(k, p, y)
-        v = inj.deliver(float(k))
-        if v is not None:
-            vals.append(v)
+    for k in range(n):
+        before = rig.link.delivered
+        rig.step(k, k * 1e-4)
+        out.append(rig.link.u_held if rig.link.delivered > before else None)
+    return out
+
+
+def test_network_faults_in_the_rig_step():
+    got = _delivered(PacketLoss(type="packet_loss", probability=0.4, start=0.0), 8000, seed=3)
+    assert sum(g is not None for g in got) / len(got) == pytest.approx(0.6, abs=0.02)
+    out = _delivered(NetworkDelay(type="network_delay", delay=0.01, start=0.0, end=0.1), 400)
+    assert out[:20] == [None] * 20 and out[20:199] == [(k - 20) * 1e-4 for k in range(20, 199)]
+    assert out[250:] == [k * 1e-4 for k in range(250, 400)]                  # delay over: newest again
+    vals = [v for v in _delivered(Reordering(type="reordering", probability=0.3, start=0.0), 8000, seed=1)
+            if v is not None]
     assert all(b > a for a, b in zip(vals, vals[1:]))                     # stale commands never applied
-    assert 0.7 < len(vals) / 10000 < 0.85
+    assert 0.7 < len(vals) / 8000 < 0.85
 
 
 def test_rig_flags_faults_in_sensor_status():

@@ -213,6 +213,78 @@ int64_t hh_count_to_int(double counts);     /* NaN -> 0, saturated at +-2^62 */
 double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, double h, double timeout, int hold,
                            double hold_kp, double xp);
 
+/* ---- the rig step: command path, watchdog, fault injection, sensing (rig.c) ------------------ */
+/* Status bits the rig knows (the wire protocol's, docs/protocol.md; the plant server adds the others). */
+enum { HH_ST_WATCHDOG = 1 << 0, HH_ST_AT_RETRACT = 1 << 2, HH_ST_AT_EXTEND = 1 << 3, HH_ST_STICK = 1 << 4,
+       HH_ST_SATURATED = 1 << 6, HH_ST_FAULT_INJECTED = 1 << 10 };
+/* Fault types (the [[faults]] of a scenario, simulation/faults.py; names: hh_fault_type_name) and sensors. */
+enum { HH_FAULT_SENSOR_STUCK, HH_FAULT_SENSOR_OFFSET, HH_FAULT_SENSOR_NOISE, HH_FAULT_SENSOR_DROPOUT,
+       HH_FAULT_ENCODER_COUNT_LOSS, HH_FAULT_SPOOL_STUCK, HH_FAULT_VALVE_BANDWIDTH, HH_FAULT_VALVE_LEAKAGE,
+       HH_FAULT_COMMAND_INVERSION, HH_FAULT_SUPPLY_PRESSURE, HH_FAULT_SEAL_WEAR, HH_FAULT_HOSE_BURST,
+       HH_FAULT_LOAD_CHANGE, HH_FAULT_PACKET_LOSS, HH_FAULT_NETWORK_DELAY, HH_FAULT_REORDERING,
+       HH_FAULT_CONTROLLER_SILENCE, HH_NFAULT_TYPES };
+enum { HH_SENSOR_POSITION, HH_SENSOR_P1, HH_SENSOR_P2, HH_SENSOR_PS, HH_SENSOR_PT, HH_NSENSORS };
+#define HH_MAX_FAULTS 62
+#define HH_NEVER ((int64_t)1 << 62)
+/* One fault of the table. a, b: its parameters in the order its schema declares them (sensor_offset: offset,
+ * drift; sensor_noise: std; encoder_count_loss: fraction; valve_bandwidth: factor; valve_leakage: section;
+ * supply_pressure: ps; seal_wear: g_lkc; hose_burst: line, section; load_change: mass, force (NaN: unchanged);
+ * packet_loss and reordering: probability; network_delay: delay [s]). Active on k_start <= k < k_end. */
+typedef struct {
+    int type, sensor;
+    double a, b;
+    double start;               /* [s] as written: sensor_offset's drift counts from it */
+    int64_t k_start, k_end;
+    hh_rng rng;                 /* its own stream, seeded by the run's seed and its slot */
+    double stuck;               /* sensor_stuck: the value held (NaN until the first reading while active) */
+} hh_fault;
+/* The rig around one sim: the faults act on the parameters through a copy of the fault-free ones (base), the
+ * model reads only sim->p. fifo: network_delay's commands in flight, fifo_cap >= its longest delay in steps + 2. */
+typedef struct {
+    hh_sim *sim;
+    double base[HH_NP];
+    hh_fault fault[HH_MAX_FAULTS];
+    int nfault;
+    uint64_t mask;              /* bit i: fault i active at the current step */
+    uint64_t seed;
+    double count;               /* m per encoder count */
+    double timeout, hold_kp;    /* watchdog timeout [s]; the 'hold' safe state's gain [1/m] */
+    int hold;                   /* safe state: 1 hold the position, 0 centre the valve */
+    hh_watchdog link;
+    hh_rng noise;               /* the pressure transducers' noise */
+    double lost_counts, last_counts;   /* encoder_count_loss: counts lost so far; the last true count */
+    int have_last;
+    double *fifo;
+    int64_t fifo_cap, fifo_head, fifo_n;
+    double held_back;           /* reordering: the command held back (NaN: none) */
+} hh_rig;
+typedef struct {
+    int64_t encoder;            /* counts, as the rig reports them */
+    double p[4];                /* p1, p2, ps, pt as the transducers report [Pa gauge] */
+    uint32_t status;            /* HH_ST_* */
+    uint64_t faults;            /* bit i: fault i active */
+} hh_rig_reading;
+const char *hh_fault_type_name(int type);    /* "sensor_stuck", ...; NULL beyond the last */
+/* Set up the rig around sim (its p: the fault-free parameters); the watchdog counts from step 0. */
+void hh_rig_init(hh_rig *r, hh_sim *sim, double count, uint64_t seed, double timeout, int hold, double hold_kp,
+                 double *fifo, int64_t fifo_cap);
+/* A scheduled fault (its k_start, k_end set) in the next slot; returns the slot, -1 when the table is full. */
+int hh_rig_add(hh_rig *r, const hh_fault *f);
+/* A fault switched on from step k until hh_rig_end (the live panel): the first free slot (never used, or its
+ * fault ended by k) or the next; its random stream restarts from the slot's seed. Returns the slot or -1. */
+int hh_rig_add_live(hh_rig *r, const hh_fault *f, int64_t k);
+/* Switch the fault in `slot` off from step k on; -1 when no fault is active there. */
+int hh_rig_end(hh_rig *r, int slot, int64_t k);
+void hh_rig_set_base(hh_rig *r, const double *base);   /* new fault-free parameters (tunables) */
+void hh_rig_begin(hh_rig *r, int64_t k);   /* the faults of step k: the active set, the parameters */
+/* Step k -> k+1 with the command that arrived for it (arrived = 0: none): network faults, the watchdog and
+ * its safe state, command faults, the model step, the faults of k + 1. *u_valve: what drove the valve.
+ * Returns HH_OK or HH_DIVERGED. */
+int hh_rig_step(hh_rig *r, int64_t k, int arrived, double u, double *u_valve);
+int hh_rig_step_applied(hh_rig *r, int64_t k, double u);   /* the same with the valve's command (a replay) */
+/* What the sensors report of the current state: interface models and sensor faults, the status bits. */
+void hh_rig_sense(hh_rig *r, hh_rig_reading *out);
+
 /* ---- the plant linearised at rest (linear.c) ------------------------------------------------ */
 /* Net valve flows into the chambers [m^3/s] (SPEC §3.2, no leakage): q1 = q_s1 - q_1t, q2 = q_s2 - q_2t. */
 void hh_valve_flows(const double *p, double xs, double p1, double p2, double *q1, double *q2);

@@ -76,6 +76,37 @@ def _hil_table(hil) -> tuple[list[str], list[str]]:
     return rows, enums
 
 
+FAULT_SLOTS = ("FIELD_START", "FIELD_END", "FIELD_SENSOR", "FIELD_A", "FIELD_B")
+
+
+def _fault_table() -> list[str]:
+    """C rows of the fault types and their fields (simulation/faults.py, in the core's order): name, where the
+    value goes (start, end, sensor, the parameters a, b), range, default (NaN: none), options, unit."""
+    from hydrohil.core.layout import _bounds
+    from hydrohil.parameters import _unit_of
+    from hydrohil.simulation.faults import _CLASSES, FAULT_TYPES, PARAMS
+    rows = []
+    for name, cls in zip(FAULT_TYPES, _CLASSES):
+        fields = []
+        for key, f in cls.model_fields.items():
+            if key == "type":
+                continue
+            slot = {"start": 0, "end": 1, "sensor": 2}.get(key, 3 + PARAMS[name].index(key) if key in PARAMS[name]
+                                                            else None)
+            unit = _unit_of(f) or "-"
+            args = typing.get_args(f.annotation) if typing.get_origin(f.annotation) is typing.Literal else ()
+            options = "|".join(str(a) for a in args)
+            lo, hi, lo_s, hi_s = _bounds(f)
+            dflt = math.nan if f.is_required() or f.default is None else f.default
+            required = int(f.is_required())
+            fields.append(f"{{{_str(key)}, {FAULT_SLOTS[slot]}, {_c(-math.inf if lo is None else lo)}, "
+                          f"{_c(math.inf if hi is None else hi)}, {int(lo_s)}, {int(hi_s)}, {required}, "
+                          f"{_c(dflt if isinstance(dflt, float) else math.nan)}, "
+                          f"{_str(options) if options else 'NULL'}, {_str(unit)}}}")
+        rows.append(f"    {{{_str(name)}, {len(fields)}, {{{', '.join(fields)}}}}},")
+    return rows
+
+
 def plant_config_h(params: Parameters, *, step: float = 5e-4, duration: float = 10.0, hil=None,
                    initial: dict | None = None, label: str = "custom") -> str:
     """``plant_config.h``: this export's parameter values, defaults of the plant's options, [hil] table."""
@@ -105,8 +136,29 @@ def plant_config_h(params: Parameters, *, step: float = 5e-4, duration: float = 
               "    double value, lo, hi;    /* default (enum: index) and admissible range */",
               "    int lo_strict, hi_strict;", "    const char *unit, *options, *description;", "} plant_setting;",
               "enum { " + ", ".join(f"HIL_{k.upper()}" for k in PLANT_HIL_KEYS) + ", HIL_N };", *enums,
-              "static const plant_setting HIL_SETTINGS[HIL_N] = {", *rows, "};", "", "#endif", ""]
+              "static const plant_setting HIL_SETTINGS[HIL_N] = {", *rows, "};", "",
+              "/* the faults --fault accepts (simulation/faults.py): each field's place, range, default and options */",
+              f"enum {{ {', '.join(FAULT_SLOTS)} }};",
+              "typedef struct {", "    const char *key;", "    int slot;",
+              "    double lo, hi;", "    int lo_strict, hi_strict, required;",
+              "    double value;               /* default (NAN: none) */",
+              "    const char *options, *unit;  /* options: the admissible values (sensor names or numbers) */",
+              "} fault_field;",
+              "typedef struct {", "    const char *type;", "    int nfields;", "    fault_field fields[6];",
+              "} fault_kind;",
+              "static const fault_kind FAULT_KINDS[HH_NFAULT_TYPES] = {", *_fault_table(), "};", "", "#endif", ""]
     return "\n".join(lines)
+
+
+def fault_options(faults) -> list[str]:
+    """The C plant's command-line options of a scenario's [[faults]]: ``--fault TYPE:key=value,...`` each
+    (values as Python writes them, which the plant reads back exactly)."""
+    out = []
+    for f in faults:
+        fields = [f"{k}={v if isinstance(v, str) else repr(float(v))}" for k, v in f.model_dump().items()
+                  if k != "type" and v is not None]
+        out += ["--fault", f"{f.type}:" + ",".join(fields)]
+    return out
 
 
 def scenario_options(s) -> dict:

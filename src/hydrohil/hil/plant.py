@@ -461,7 +461,7 @@ class PlantServer:
             "watchdog_trips": cnt["watchdog_trips"],
             "watchdog_trips_unexplained": cnt["watchdog_trips_unexplained"],
             "commands_delivered": cnt["commands_delivered"],
-            "faults_injected": [f.type for f in self.rig.faults.faults if f is not None],
+            "faults_injected": [f.type for f in self.rig.fault_models if f is not None],
             "simulated_s": sim_t, "wall_s": (t_end - t0) / 1e9,
             # wall clock at the last step's start minus its scheduled instant t0 + (steps-1)*h
             "drift_ms": drift_ns / 1e6 if not self.lockstep else None,

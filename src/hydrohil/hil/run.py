@@ -61,13 +61,11 @@ def plant_command(sc, scenario: Path, out: Path, peer: str | None, *, lockstep: 
         return cli("plant", "--scenario", scenario, *tail)
     if plant != "c":
         raise InputError(f"--plant must be one of {', '.join(PLANTS)}, got {plant!r}", key="plant")
+    from hydrohil.export.cplant import fault_options
     s = sc.scenario
-    if s.faults:
-        raise InputError("the C plant does not inject [[faults]]: run this scenario with --plant python",
-                         source=str(scenario), key="faults")
     exe = c_plant_executable(sc, scenario)
     cpu = s.hil.cpus()[0]
-    return [exe, *tail, *(["--cpu", cpu] if cpu is not None else [])]
+    return [exe, *tail, *(["--cpu", cpu] if cpu is not None else []), *fault_options(s.faults)]
 
 
 def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,

@@ -135,7 +135,7 @@ def replay_applied(sc, u, events: dict | None = None, keep_from: int = 0) -> dic
         out = rig.out
         for col, i in pairs:
             col[k - k0] = out[i]
-        faults[k - k0] = rig.faults.mask
+        faults[k - k0] = rig.mask
 
     put(0)
     for k in range(n):

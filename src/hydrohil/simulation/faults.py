@@ -1,10 +1,11 @@
-"""Fault injection: the ``[[faults]]`` entries of a scenario and the injector that applies them.
+"""Fault injection: the ``[[faults]]`` entries of a scenario, as the C core's rig step injects them.
 
 Each fault is active on the steps k with ``start <= k*h < end`` (``end`` omitted: to the end of the run).
-The same :class:`FaultInjector` runs inside the virtual rig (:mod:`hydrohil.simulation.rig`) offline, in
-lock-step and in real time, so a scenario's faults act identically in all three. Random faults (sensor
-noise, packet loss, reordering) draw from their own generator seeded by ``[hil] seed`` and the fault's
-index, so a run is reproducible.
+The rig step (``core/rig.c``: a fault table apart from the model's parameters) runs inside every plant —
+the virtual rig offline (:mod:`hydrohil.simulation.rig`), the Python HIL plant and the standalone C plant —
+so a scenario's faults act identically offline, in lock-step and in real time, bit for bit. Random faults
+(sensor noise, packet loss, reordering) draw from their own stream (xoshiro256**) seeded by ``[hil] seed``
+and the fault's slot, so a run is reproducible.
 
 =====================  ====================================================================================
 type                   effect (parameters)
@@ -34,13 +35,11 @@ controller_silence     no command reaches the plant (the watchdog trips after it
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import Annotated, Literal, Union
 
-import numpy as np
 from pydantic import Field, model_validator
 
-from hydrohil.models.layout import BURST1, BURST2, FLOAD, G_LKC, LV, MASS, PS, PT, VALVE_WEAR, VS, WN
+from hydrohil.core import ffi, lib
 from hydrohil.parameters.schema import StrictModel
 
 SENSORS = ("position", "p1", "p2", "ps", "pt")
@@ -162,164 +161,32 @@ PARAMETER = ("spool_stuck", "valve_bandwidth", "valve_leakage", "supply_pressure
              "load_change")
 
 
-class FaultInjector:
-    """Applies a scenario's faults step by step (see the module docstring).
+# the fields of a fault that are its parameters (the C table's a, b, in declaration order), per type
+PARAMS = {t: tuple(n for n in c.model_fields if n not in ("type", "start", "end", "sensor"))
+          for t, c in zip(FAULT_TYPES, _CLASSES)}
 
-    Per step k: :meth:`begin_step` (parameter faults into the model's vector ``p``, state resets),
-    :meth:`deliver` (network faults on the controller's command), :meth:`valve_command` (command
-    faults), and after the step :meth:`sense_position` / :meth:`sense_pressure` (sensor faults).
-    ``mask`` has bit i set while fault i is active (logged every step).
-    """
 
-    def __init__(self, faults: list, base_p: np.ndarray, h: float, seed: int = 0):
-        self.faults = list(faults)
-        if len(self.faults) > 62:
-            raise ValueError("at most 62 faults per scenario")
-        self.base = base_p.copy()
-        self.h = h
-        self.k_start = [int(math.ceil(f.start / h - 1e-9)) for f in self.faults]
-        self.k_end = [int(math.ceil(f.end / h - 1e-9)) if f.end is not None else 1 << 62 for f in self.faults]
-        self.seed = seed
-        self.rng = [np.random.default_rng([seed, i]) for i in range(len(self.faults))]
-        self.mask = 0
-        self.stuck_value: dict[int, float] = {}
-        self.lost_counts = 0.0
-        self.last_counts: float | None = None
-        self.delay_fifo: deque = deque()
-        self.held_back: float | None = None
-        self.k = 0
+_C_NAMES = tuple(ffi.string(lib.hh_fault_type_name(i)).decode() for i in range(lib.HH_NFAULT_TYPES))
+if _C_NAMES != FAULT_TYPES or lib.HH_NSENSORS != len(SENSORS) or max(map(len, PARAMS.values())) > 2:
+    raise ImportError(f"hydrohil's C core knows the faults {_C_NAMES}, this package {FAULT_TYPES}: rebuild it "
+                      "(pip install -e .)")
 
-    def active(self, i: int) -> bool:
-        return bool(self.mask >> i & 1)
 
-    def _of_type(self, *types):
-        return [(i, f) for i, f in enumerate(self.faults) if self.mask >> i & 1 and f.type in types]
+def k_range(fault, h: float) -> tuple[int, int]:
+    """(first step, step after the last) a scheduled fault is active: start <= k·h < end."""
+    never = 1 << 62
+    return (int(math.ceil(fault.start / h - 1e-9)),
+            int(math.ceil(fault.end / h - 1e-9)) if fault.end is not None else never)
 
-    def begin_step(self, k: int, p: np.ndarray, y: np.ndarray) -> int:
-        """Update the active set for step k; on a change rebuild ``p`` from the base values plus the active
-        parameter faults (in file order). Returns the mask."""
-        self.k = k
-        mask = 0
-        for i in range(len(self.faults)):
-            if self.k_start[i] <= k < self.k_end[i]:
-                mask |= 1 << i
-        if mask != self.mask:
-            started = mask & ~self.mask
-            self.mask = mask
-            self.rebuild(p, y, started)
-        return mask
 
-    def rebuild(self, p: np.ndarray, y: np.ndarray, started: int = 0) -> None:
-        """``p`` = the base values plus the active parameter faults (in slot order); ``started``: the faults
-        that begin now (a stuck spool stops where it is)."""
-        mask = self.mask
-        p[:] = self.base
-        for i, f in self._of_type(*PARAMETER):
-            if f.type == "spool_stuck":
-                p[LV] = 0.0
-                if started >> i & 1:
-                    y[VS] = 0.0
-            elif f.type == "valve_bandwidth":
-                p[WN] = self.base[WN] * f.factor
-            elif f.type == "valve_leakage":
-                p[VALVE_WEAR] += f.section
-            elif f.type == "supply_pressure":
-                p[PS] = max(f.ps, self.base[PT])
-            elif f.type == "seal_wear":
-                p[G_LKC] = f.g_lkc
-            elif f.type == "hose_burst":
-                p[BURST1 if f.line == 1 else BURST2] += f.section
-            elif f.type == "load_change":
-                if f.mass is not None:
-                    p[MASS] = f.mass
-                if f.force is not None:
-                    p[FLOAD] = f.force
-        for i in range(len(self.faults)):
-            if not (mask >> i & 1):
-                self.stuck_value.pop(i, None)
-
-    def add(self, fault, k: int) -> int:
-        """Switch ``fault`` on from step k until :meth:`end` (the live panel): the first slot that is free
-        (never used, or its fault ended by k) is reused; its random draws restart from the slot's seed."""
-        for i, end in enumerate(self.k_end):
-            if end <= k and not self.mask >> i & 1:
-                break
-        else:
-            i = len(self.faults)
-            if i >= 62:
-                raise ValueError("at most 62 faults at a time")
-            self.faults.append(None)
-            self.k_start.append(0)
-            self.k_end.append(0)
-            self.rng.append(None)
-        self.faults[i], self.k_start[i], self.k_end[i] = fault, k, 1 << 62
-        self.rng[i] = np.random.default_rng([self.seed, i])
-        return i
-
-    def end(self, i: int, k: int) -> None:
-        """Switch the fault in slot ``i`` off from step k on."""
-        if not 0 <= i < len(self.faults) or self.k_end[i] <= k:
-            raise ValueError(f"no active fault in slot {i}")
-        self.k_end[i] = k
-
-    def silence_active(self) -> bool:
-        """True while an injected controller silence keeps every command from the plant (this step)."""
-        return bool(self._of_type("controller_silence"))
-
-    def deliver(self, u: float | None) -> float | None:
-        """Network faults on the command sent for this step (None: nothing sent). Returns the command that
-        reaches the plant this step, or None (the plant holds its last command)."""
-        delay_steps = 0
-        for i, f in self._of_type(*NETWORK):
-            if f.type == "controller_silence":
-                u = None
-            elif f.type == "packet_loss" and u is not None and self.rng[i].random() < f.probability:
-                u = None
-            elif f.type == "network_delay":
-                delay_steps = max(delay_steps, int(round(f.delay / self.h)))
-            elif f.type == "reordering" and u is not None:
-                if self.held_back is not None:       # the held-back command arrives after this one: stale
-                    self.held_back = None
-                elif self.rng[i].random() < f.probability:
-                    self.held_back, u = u, None
-        if delay_steps or self.delay_fifo:
-            self.delay_fifo.append(u)
-            if len(self.delay_fifo) <= delay_steps:
-                return None
-            while len(self.delay_fifo) > delay_steps + 1:      # the delay shrank or ended: newest wins
-                self.delay_fifo.popleft()
-            return self.delay_fifo.popleft()
-        return u
-
-    def valve_command(self, u: float) -> float:
-        return -u if self._of_type("command_inversion") else u
-
-    def _sense(self, sensor: str, value: float, t: float) -> float:
-        for i, f in self._of_type("sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout"):
-            if f.sensor != sensor:
-                continue
-            if f.type == "sensor_stuck":
-                value = self.stuck_value.setdefault(i, value)
-            elif f.type == "sensor_offset":
-                value += f.offset + f.drift * max(t - f.start, 0.0)
-            elif f.type == "sensor_noise":
-                value += f.std * self.rng[i].standard_normal()
-            else:
-                value = 0.0
-        return value
-
-    def sense_position(self, counts: float, resolution: float, t: float) -> float:
-        """Encoder counts as reported: count loss, then the position sensor faults (in metres)."""
-        if self.last_counts is not None:
-            for _, f in self._of_type("encoder_count_loss"):
-                self.lost_counts += math.copysign(f.fraction * abs(counts - self.last_counts),
-                                                  counts - self.last_counts)
-        self.last_counts = counts
-        c = counts - round(self.lost_counts)
-        if not self.mask:
-            return c
-        x = self._sense("position", c * resolution, t)
-        return float(np.floor(x / resolution + 0.5))
-
-    def sense_pressure(self, sensor: str, value: float, t: float) -> float:
-        return self._sense(sensor, value, t) if self.mask else value
+def fault_struct(fault, h: float):
+    """The C core's ``hh_fault`` of a validated fault (its step range from start/end at step h)."""
+    f = ffi.new("hh_fault *")
+    f.type = FAULT_TYPES.index(fault.type)
+    f.sensor = SENSORS.index(fault.sensor) if hasattr(fault, "sensor") else lib.HH_SENSOR_POSITION
+    values = [getattr(fault, n) for n in PARAMS[fault.type]]
+    values = [math.nan if v is None else float(v) for v in values] + [0.0] * (2 - len(values))
+    f.a, f.b = values
+    f.start = fault.start
+    f.k_start, f.k_end = k_range(fault, h)
+    return f

@@ -1,10 +1,11 @@
 """The virtual rig: the hybrid plant as a controller sees it, one step at a time.
 
-Hybrid model (:class:`~hydrohil.simulation.loop.HybridPlant`) + interface models (encoder, pressure
-sensors, command saturation) + fault injection + the watchdog. The HIL plant server calls it once per
-step with whatever command arrived; offline runs of scenarios with ``[[faults]]`` drive the very same
-object from the P controller in a Python loop (:func:`run_rig`), so faults, watchdog and sensors act
-identically offline, in lock-step and in real time.
+Hybrid model (:class:`~hydrohil.simulation.loop.HybridPlant`) + the C core's rig step (``core/rig.c``:
+interface models of the encoder and the pressure sensors, command saturation, the watchdog, the fault table).
+The Python HIL plant server calls it once per step with whatever command arrived, the standalone C plant
+calls the same C; offline runs of scenarios with ``[[faults]]`` drive the very same object from the
+controller in a Python loop (:func:`run_rig`), so faults, watchdog and sensors act identically offline, in
+lock-step and in real time, in either plant.
 
 Watchdog: silence is counted in plant steps since the last command that reached the plant (network
 faults included): longer than ``[hil] watchdog_timeout`` -> safe state (``centre``: ū = 0; ``hold``: P
@@ -21,15 +22,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from hydrohil.control import Measurement, call_controller, make_controller
-from hydrohil.core import ffi, lib
+from hydrohil.core import dptr, ffi, lib, view
 from hydrohil.errors import HydrohilError
-from hydrohil.hil.protocol import (ST_AT_EXTEND, ST_AT_RETRACT, ST_FAULT_INJECTED, ST_SATURATED, ST_STICK,
-                                   ST_WATCHDOG)
-from hydrohil.models.layout import AT_EXTEND, AT_RETRACT, PS, PT, STICK
-from hydrohil.models.sensors import count_size, encoder_counts
+from hydrohil.models.sensors import count_size
 from hydrohil.parameters import Parameters
-from hydrohil.simulation.faults import FaultInjector
-from hydrohil.simulation.loop import NLOG, HybridPlant
+from hydrohil.simulation.diagnostics import divergence_error
+from hydrohil.simulation.faults import fault_struct
+from hydrohil.simulation.loop import NLOG, HybridPlant, initial_state
 from hydrohil.simulation.run import SimulationResult
 from hydrohil.simulation.scenario import HilCfg
 
@@ -52,131 +51,125 @@ class Reading:
 
 
 class VirtualRig:
+    """The hybrid plant behind the rig step of the C core (``hh_rig``, core/rig.c: command path, watchdog,
+    the fault table, sensing): the same step the standalone C plant takes."""
+
     def __init__(self, params: Parameters, h: float, hil: HilCfg | None = None, faults: list | None = None,
                  initial: dict | None = None):
         self.params, self.h = params, float(h)
         self.hil = hil or HilCfg()
         self.initial = dict(initial or {})
         self.plant = HybridPlant(params, h=self.h, **self.initial)
-        self.faults = FaultInjector(faults or [], self.plant.p, self.h, seed=self.hil.seed)
-        self.faults.begin_step(0, self.plant.p, self.plant.y)
-        self.noise = ffi.new("hh_rng *")                    # the core's generator: the C plant draws the same
-        lib.hh_rng_seed(self.noise, self.hil.seed)
-        self._nz = ffi.new("double[4]")
-        self._sat = ffi.new("int *")
-        self._reading = ffi.new("hh_reading *")
-        self._sim = self.plant.sim._sim
-        self._faulty = bool(self.faults.faults)     # without faults: one C call per step for the sensors
         self.res = count_size(params.sensors.encoder_resolution)   # m per encoder count
-        self.link = ffi.new("hh_watchdog *")                # command path: saturation, watchdog, safe state
-        lib.hh_watchdog_init(self.link)
-        self._hold = self.hil.safe_state == "hold"
-        self.base0 = self.faults.base.copy()              # the scenario's parameter vector (tunables apply on it)
+        self.c = ffi.new("hh_rig *")
+        self._fifo = None                                   # network_delay's commands in flight (on demand)
+        lib.hh_rig_init(self.c, self.plant.sim._sim, self.res, int(self.hil.seed), self.hil.watchdog_timeout,
+                        self.hil.safe_state == "hold", self.hil.hold_kp, ffi.NULL, 0)
+        self.fault_models: list = []                        # slot -> the fault (None: a free slot never used)
+        for f in faults or []:
+            self._need_fifo(f)
+            if lib.hh_rig_add(self.c, fault_struct(f, self.h)) < 0:
+                raise ValueError(f"at most {lib.HH_MAX_FAULTS} faults per scenario")
+            self.fault_models.append(f)
+        lib.hh_rig_begin(self.c, 0)
+        self._u = ffi.new("double *")
+        self._r = ffi.new("hh_rig_reading *")
+        self._base = view(self.c.base, np.float64, lib.HH_NP)           # the rig's fault-free parameters (a view)
+        self.base0 = self._base.copy()                       # the scenario's parameters (tunables act on it)
         self.tunables: dict[str, float] = {}
+
+    def _need_fifo(self, fault) -> None:
+        """A network delay needs its delay line: up to 1 s of commands (the schema's bound), made once."""
+        if fault.type == "network_delay" and self._fifo is None:
+            self._fifo = np.full(int(np.ceil(1.0 / self.h)) + 2, np.nan)
+            self.c.fifo, self.c.fifo_cap = dptr(self._fifo), len(self._fifo)
 
     # -- steering (hydrohil.hil.steering: the live panel, and its offline replay) ---------------------
     def tune(self, name: str, value: float) -> None:
         """Set a tunable (:data:`hydrohil.hil.steering.TUNABLES`) from the next step on."""
         from hydrohil.hil.steering import tuned_base
         self.tunables[name] = float(value)
-        self.faults.base[:] = tuned_base(self.base0, self.tunables)
-        self.faults.rebuild(self.plant.p, self.plant.y)
+        lib.hh_rig_set_base(self.c, dptr(np.ascontiguousarray(tuned_base(self.base0, self.tunables))))
 
     def fault_on(self, fault, k: int) -> int:
         """Switch a fault on from step k on; returns its slot (bit of the ``faults`` column)."""
-        slot = self.faults.add(fault, k)
-        self._faulty = True
-        self.faults.begin_step(k, self.plant.p, self.plant.y)
+        self._need_fifo(fault)
+        slot = lib.hh_rig_add_live(self.c, fault_struct(fault, self.h), k)
+        if slot < 0:
+            raise ValueError(f"at most {lib.HH_MAX_FAULTS} faults at a time")
+        self.fault_models[slot:slot + 1] = [fault]
         return slot
 
     def fault_off(self, slot: int, k: int) -> None:
-        self.faults.end(slot, k)
-        self.faults.begin_step(k, self.plant.p, self.plant.y)
+        if lib.hh_rig_end(self.c, int(slot), k) != 0:
+            raise ValueError(f"no active fault in slot {slot}")
 
     def reset(self) -> None:
-        """The model back to the scenario's initial state (plant time 0); tunables and faults stay."""
-        self.plant.reset(**self.initial)
+        """The model back to the scenario's initial state (plant time 0) of the fault-free parameters (the
+        rig's base, tunables applied: a fault active then hits a rig at rest); tunables and faults stay."""
+        kw = dict(self.initial)
+        y, m = initial_state(self.params, kw.pop("xp", self.params.linear.xp0), p=self._base, **kw)
+        self.plant.sim.set_state(y, m)
+
+    @property
+    def mask(self) -> int:
+        """Bit i: fault i active at the current step."""
+        return int(self.c.mask)
+
+    @property
+    def link(self):
+        """The command path's watchdog (``hh_watchdog``: active, trips, delivered, ...)."""
+        return self.c.link
 
     @property
     def watchdog(self) -> bool:
-        return bool(self.link.active)
+        return bool(self.c.link.active)
 
     @property
     def watchdog_trips(self) -> int:
-        return int(self.link.trips)
+        return int(self.c.link.trips)
 
     @property
     def watchdog_trips_unexplained(self) -> int:
-        return int(self.link.trips_unexplained)
+        return int(self.c.link.trips_unexplained)
 
     @property
     def commands_delivered(self) -> int:
-        return int(self.link.delivered)
+        return int(self.c.link.delivered)
 
     def warm_up(self) -> None:
         """Run one step and restore the initial state: pages in the code and data a step touches, so the
         first step of a real-time run does not pay for it."""
         self.plant.step(0.0)
-        self.plant.reset(**self.initial)
+        self.reset()
 
     @property
     def out(self) -> np.ndarray:
         return self.plant.out
 
+    def _diverged(self):
+        return divergence_error(self.plant.out[lib.HH_OUT_T], self.plant.y, self.plant.m)
+
     def step(self, k: int, command: float | None) -> float:
         """Advance step k -> k+1 with the command the controller sent for it (ū; None: none arrived).
         Returns the command that drove the valve."""
-        plant, faults = self.plant, self.faults if self._faulty else None   # no faults: skip the injector
-        u = command
-        if faults is not None:
-            faults.begin_step(k, plant.p, plant.y)
-            u = faults.deliver(command)
-            if (command is not None and u is None) or faults.silence_active():
-                self.link.k_interfered = k     # an injected fault held the controller's command back this step
-        u = lib.hh_watchdog_command(self.link, k, u is not None, 0.0 if u is None else u, self.h,
-                                    self.hil.watchdog_timeout, self._hold, self.hil.hold_kp, float(plant.out[5]))
-        if faults is not None:
-            u = faults.valve_command(u)
-        plant.step(u)
-        if faults is not None:
-            faults.begin_step(k + 1, plant.p, plant.y)     # faults of t_(k+1): its sensor reading and step
-        return u
+        if lib.hh_rig_step(self.c, k, command is not None, 0.0 if command is None else command, self._u) != 0:
+            raise self._diverged()
+        return self._u[0]
 
     def step_applied(self, k: int, u: float) -> None:
         """Advance step k -> k+1 with the command that drove the valve (a log's ``u``): the replay of a run."""
-        if self._faulty:
-            self.faults.begin_step(k, self.plant.p, self.plant.y)
-        self.plant.step(u)
-        if self._faulty:
-            self.faults.begin_step(k + 1, self.plant.p, self.plant.y)
+        if lib.hh_rig_step_applied(self.c, k, u) != 0:
+            raise self._diverged()
 
     def read(self) -> Reading:
-        """Sensor readings of the current state (interface models, then sensor faults) and the status bits of
-    the wire protocol the rig knows (the server adds lock-step, overrun and final)."""
-        out, s, p, f = self.plant.out, self.params.sensors, self.plant.p, self.faults
-        if not self._faulty:               # the core's sensor models in one call (the C plant's too)
-            r = self._reading
-            lib.hh_rig_read(self._sim, self.res, self.noise, r)
-            vals, sat, enc, mask = (r.p[0], r.p[1], r.p[2], r.p[3]), r.saturated, r.encoder, 0
-        else:
-            t = float(out[0])
-            enc = lib.hh_count_to_int(f.sense_position(float(encoder_counts(out[5], self.res)), self.res, t))
-            nz = self._nz
-            if s.pressure_noise > 0:
-                lib.hh_rng_normals(self.noise, 4, nz)
-            noise = [nz[i] * s.pressure_noise for i in range(4)] if s.pressure_noise > 0 else (0.0, 0.0, 0.0, 0.0)
-            true = (out[3], out[4], p[PS], p[PT])
-            vals, sat = [], False
-            for name, v, n in zip(("p1", "p2", "ps", "pt"), true, noise):
-                vals.append(lib.hh_pressure_reading(f.sense_pressure(name, float(v), t), s.pressure_range,
-                                                    s.pressure_resolution, n, self._sat))
-                sat |= bool(self._sat[0])
-            mask = f.mask
-        travel, friction = int(out[9]), int(out[10])
-        status = (ST_SATURATED if sat else 0) | (ST_WATCHDOG if self.link.active else 0)
-        status |= ST_AT_RETRACT if travel == AT_RETRACT else ST_AT_EXTEND if travel == AT_EXTEND else 0
-        status |= (ST_STICK if friction == STICK else 0) | (ST_FAULT_INJECTED if mask else 0)
-        return Reading(float(out[0]), enc, *vals, status, travel, friction, int(out[11]), mask)
+        """Sensor readings of the current state (interface models and sensor faults, core/rig.c) and the
+        status bits of the wire protocol the rig knows (the server adds lock-step, overrun and final)."""
+        r, out = self._r, self.plant.out
+        lib.hh_rig_sense(self.c, r)
+        return Reading(float(out[lib.HH_OUT_T]), int(r.encoder), r.p[0], r.p[1], r.p[2], r.p[3], int(r.status),
+                       int(out[lib.HH_OUT_TRAVEL]), int(out[lib.HH_OUT_FRICTION]), int(out[lib.HH_OUT_SPOOL]),
+                       int(r.faults))
 
 
 RIG_COLUMNS = ("faults", "x_meas", "p1_meas", "p2_meas", "ps_meas", "watchdog")
@@ -235,12 +228,12 @@ def run_rig(sc, *, controller=None, progress=None, events=None, controller_event
             except HydrohilError as exc:
                 diverged = exc
                 break
-            ud = float(plant.out[13])
+            ud = float(plant.out[lib.HH_OUT_UD])
         else:
-            u_valve, ud = u, float(plant.out[13])
+            u_valve, ud = u, float(plant.out[lib.HH_OUT_UD])
         if record:
-            plant.sim.log_row(k * h, u_valve, ud, y_prev, m_prev, plant.out[12], log[rows])
-            extra[rows] = (r.faults, x, r.p1, r.p2, r.ps, r.status & ST_WATCHDOG)
+            plant.sim.log_row(k * h, u_valve, ud, y_prev, m_prev, plant.out[lib.HH_OUT_EVENTS], log[rows])
+            extra[rows] = (r.faults, x, r.p1, r.p2, r.ps, r.status & lib.HH_ST_WATCHDOG)
             rows += 1
         if progress is not None and k % 2000 == 0:
             progress(k)

@@ -93,6 +93,9 @@ typedef struct {
     double hil[HIL_N];
     double initial[4];          /* xp [m], xs [-], p1, p2 [Pa] (NaN: at rest) */
     double p[HH_NP];
+    hh_fault faults[HH_MAX_FAULTS];   /* --fault: the scheduled faults (start, end [s]: steps set at init) */
+    double fault_end[HH_MAX_FAULTS];  /* [s], NaN: to the end of the run */
+    int nfault;
 } options;
 
 #if defined(__GNUC__)
@@ -273,6 +276,97 @@ static void set_initial(options *o, const char *assignment)
         die_usage("--initial %s: not a number", assignment);
 }
 
+/* One --fault TYPE:key=value,... (the [[faults]] entry of a scenario; FAULT_KINDS: the schema's fields). */
+static void set_fault(options *o, const char *text)
+{
+    char buf[512], *type, *rest, *item, *save = NULL;
+    const fault_kind *kind = NULL;
+    hh_fault *f;
+    int i, given[6] = {0, 0, 0, 0, 0, 0};
+    if (o->nfault >= HH_MAX_FAULTS)
+        die_usage("--fault %s: at most %d faults", text, HH_MAX_FAULTS);
+    snprintf(buf, sizeof buf, "%s", text);
+    type = buf;
+    rest = strchr(buf, ':');
+    if (rest)
+        *rest++ = '\0';
+    for (i = 0; i < HH_NFAULT_TYPES; i++)
+        if (strcmp(FAULT_KINDS[i].type, type) == 0)
+            kind = &FAULT_KINDS[i];
+    if (!kind) {
+        fprintf(stderr, "error: --fault %s: unknown fault type '%s'; one of:", text, type);
+        for (i = 0; i < HH_NFAULT_TYPES; i++)
+            fprintf(stderr, " %s", FAULT_KINDS[i].type);
+        fprintf(stderr, "\n");
+        exit(2);
+    }
+    f = &o->faults[o->nfault];
+    memset(f, 0, sizeof *f);
+    f->type = (int)(kind - FAULT_KINDS);
+    f->a = f->b = NAN;
+    o->fault_end[o->nfault] = NAN;
+    for (i = 0; i < kind->nfields; i++) {      /* defaults */
+        const fault_field *fd = &kind->fields[i];
+        if (fd->slot == FIELD_A)
+            f->a = fd->value;
+        else if (fd->slot == FIELD_B)
+            f->b = fd->value;
+    }
+    for (item = rest ? strtok_r(rest, ",", &save) : NULL; item; item = strtok_r(NULL, ",", &save)) {
+        char *eq = strchr(item, '=');
+        const fault_field *fd = NULL;
+        double v;
+        int j;
+        if (eq)
+            *eq++ = '\0';
+        for (j = 0; j < kind->nfields; j++)
+            if (strcmp(kind->fields[j].key, item) == 0)
+                fd = &kind->fields[j];
+        if (!eq || !fd) {
+            fprintf(stderr, "error: --fault %s: %s has no field '%s'; its fields:", text, kind->type, item);
+            for (j = 0; j < kind->nfields; j++)
+                fprintf(stderr, " %s", kind->fields[j].key);
+            fprintf(stderr, "\n");
+            exit(2);
+        }
+        j = (int)(fd - kind->fields);
+        if (fd->slot == FIELD_SENSOR) {
+            v = option_index(fd->options, eq);
+            if (v < 0)
+                die_usage("--fault %s: %s is one of %s, got '%s'", text, fd->key, fd->options, eq);
+        } else {
+            if (!parse_number(eq, &v) || !isfinite(v))
+                die_usage("--fault %s: %s: not a number: '%s'", text, fd->key, eq);
+            if (fd->options) {             /* numbers of a list (hose_burst's line) */
+                char word[32];
+                snprintf(word, sizeof word, "%g", v);
+                if (option_index(fd->options, word) < 0)
+                    die_usage("--fault %s: %s is one of %s, got %s", text, fd->key, fd->options, eq);
+            } else if ((fd->lo_strict ? !(v > fd->lo) : !(v >= fd->lo)) || (fd->hi_strict ? !(v < fd->hi) : !(v <= fd->hi))) {
+                die_usage("--fault %s: %s must be %s %g and %s %g %s, got %s", text, fd->key, fd->lo_strict ? ">" : ">=",
+                          fd->lo, fd->hi_strict ? "<" : "<=", fd->hi, fd->unit, eq);
+            }
+        }
+        given[j] = 1;
+        switch (fd->slot) {
+        case FIELD_START: f->start = v; break;
+        case FIELD_END: o->fault_end[o->nfault] = v; break;
+        case FIELD_SENSOR: f->sensor = (int)v; break;
+        case FIELD_A: f->a = v; break;
+        default: f->b = v;
+        }
+    }
+    for (i = 0; i < kind->nfields; i++)
+        if (kind->fields[i].required && !given[i])
+            die_usage("--fault %s: %s needs %s", text, kind->type, kind->fields[i].key);
+    /* the schema's rules across fields (simulation/faults.py) */
+    if (!isnan(o->fault_end[o->nfault]) && !(o->fault_end[o->nfault] > f->start))
+        die_usage("--fault %s: end (%g s) must be after start (%g s)", text, o->fault_end[o->nfault], f->start);
+    if (f->type == HH_FAULT_LOAD_CHANGE && isnan(f->a) && isnan(f->b))
+        die_usage("--fault %s: load_change needs mass and/or force", text);
+    o->nfault++;
+}
+
 static void list_settings(const options *o)
 {
     char v[40];
@@ -309,6 +403,20 @@ static void list_settings(const options *o)
     printf("initial state (--initial KEY=VALUE): xp %g m, xs %g, p1 %g Pa, p2 %g Pa (nan: at rest: the spool offset "
            "that holds the piston, the pressures balancing the chambers' flows)\n",
            o->initial[0], o->initial[1], o->initial[2], o->initial[3]);
+    printf("faults (--fault TYPE:KEY=VALUE,...; %d given):\n", o->nfault);
+    for (i = 0; i < HH_NFAULT_TYPES; i++) {
+        const fault_kind *kd = &FAULT_KINDS[i];
+        int j;
+        printf("  %-20s", kd->type);
+        for (j = 0; j < kd->nfields; j++) {
+            const fault_field *fd = &kd->fields[j];
+            printf(" %s%s%s%s", fd->key, fd->required ? "" : "?", fd->options ? " in " : "",
+                   fd->options ? fd->options : "");
+            if (!fd->options && strcmp(fd->unit, "-") != 0)
+                printf(" %s", fd->unit);
+        }
+        printf("\n");
+    }
 }
 
 static void usage(void)
@@ -326,6 +434,8 @@ static void usage(void)
            "  --set KEY=VALUE       a parameter of the set (--list shows keys, units, ranges, values)\n"
            "  --hil KEY=VALUE       a [hil] setting (watchdog_timeout, safe_state, command_scale, ...)\n"
            "  --initial KEY=VALUE   initial state: xp [m], xs [-], p1 / p2 [Pa] (nan, the default: at rest)\n"
+           "  --fault TYPE:KEY=VALUE,...  a scheduled fault, as a [[faults]] entry (repeatable), e.g.\n"
+           "                        --fault hose_burst:start=2,end=2.3,line=2 (--list shows the types and fields)\n"
            "  --connect-timeout S   wait this long for the controller's first packet (= --hil connect_timeout=S)\n"
            "  --list                print the parameters, settings and initial state, then exit\n\n"
            "Prints READY host:port once bound, PEER host:port once the controller spoke, the verdict at the end.\n"
@@ -336,7 +446,7 @@ static void usage(void)
 static void parse_options(int argc, char **argv, options *o)
 {
     enum { O_BIND = 1, O_PEER, O_REMOTE, O_STEP, O_DURATION, O_LOG, O_LOCKSTEP, O_CPU, O_SET, O_HIL, O_INITIAL,
-           O_CONNECT, O_LIST, O_HELP };
+           O_CONNECT, O_FAULT, O_LIST, O_HELP };
     static const struct option longs[] = {
         {"bind", required_argument, 0, O_BIND}, {"peer", required_argument, 0, O_PEER},
         {"allow-remote", no_argument, 0, O_REMOTE}, {"step", required_argument, 0, O_STEP},
@@ -344,6 +454,7 @@ static void parse_options(int argc, char **argv, options *o)
         {"lockstep", no_argument, 0, O_LOCKSTEP}, {"cpu", required_argument, 0, O_CPU},
         {"set", required_argument, 0, O_SET}, {"hil", required_argument, 0, O_HIL},
         {"initial", required_argument, 0, O_INITIAL}, {"connect-timeout", required_argument, 0, O_CONNECT},
+        {"fault", required_argument, 0, O_FAULT},
         {"list", no_argument, 0, O_LIST}, {"help", no_argument, 0, O_HELP}, {0, 0, 0, 0}};
     const char *bind_text = "127.0.0.1:47000", *peer_text = NULL;
     char msg[400], buf[80];
@@ -383,6 +494,7 @@ static void parse_options(int argc, char **argv, options *o)
         case O_SET: set_parameter(o, optarg); break;
         case O_HIL: set_hil(o, optarg); break;
         case O_INITIAL: set_initial(o, optarg); break;
+        case O_FAULT: set_fault(o, optarg); break;
         case O_CONNECT:
             snprintf(buf, sizeof buf, "connect_timeout=%s", optarg);
             set_hil(o, buf);
@@ -609,9 +721,8 @@ typedef struct {
     options *o;
     hh_sim sim;
     double *delay_buf;
-    hh_watchdog link;
-    hh_rng noise;
-    double count;               /* m per encoder count */
+    hh_rig rig;                 /* the core's rig step: command path, watchdog, faults, sensing */
+    double *fifo;               /* network_delay's commands in flight (when a network_delay is given) */
     int sock;
     int kernel_stamps;
     struct sockaddr_in peer;
@@ -637,24 +748,13 @@ typedef struct {
     int os_cpu_granted, timer_slack, memory_locked;
 } plant;
 
-typedef struct {
-    int64_t encoder;
-    double p[4];                /* p1, p2, ps, pt as the transducers report */
-    uint32_t status;
-} reading;
+typedef hh_rig_reading reading;
 
-/* The sensors' readings (the core's rig model, as the Python rig's) and the status bits of the wire. */
+/* The sensors' readings (the core's rig step, as the Python plant's) and the status bits of the wire. */
 static void read_sensors(plant *pl, reading *r)
 {
-    hh_reading hr;
-    int64_t travel = pl->sim.m[HH_M_TRAVEL];
-    hh_rig_read(&pl->sim, pl->count, &pl->noise, &hr);
-    memcpy(r->p, hr.p, sizeof r->p);
-    r->encoder = hr.encoder;
-    r->status = (hr.saturated ? HHIL_ST_SATURATED : 0) | (pl->link.active ? HHIL_ST_WATCHDOG : 0) |
-                (travel == HH_AT_RETRACT ? HHIL_ST_AT_RETRACT : travel == HH_AT_EXTEND ? HHIL_ST_AT_EXTEND : 0) |
-                (pl->sim.m[HH_M_FRICTION] == HH_STICK ? HHIL_ST_STICK : 0) |
-                (pl->o->lockstep ? HHIL_ST_LOCKSTEP : 0);
+    hh_rig_sense(&pl->rig, r);
+    r->status |= pl->o->lockstep ? HHIL_ST_LOCKSTEP : 0;
 }
 
 static void send_to_peer(plant *pl, const uint8_t *buf, size_t n)
@@ -863,7 +963,7 @@ static int wait_for_controller(plant *pl)
 /* What step k uses: the command that arrived for it (1, *u) or none (0). Counts a late command. */
 static int take_command(plant *pl, int64_t k, double *u)
 {
-    if (pl->cmd_echo < k && !pl->link.active)
+    if (pl->cmd_echo < k && !pl->rig.link.active)
         pl->late_commands++;
     if (!pl->cmd_new)
         return 0;
@@ -887,7 +987,7 @@ static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t
     row[C_U] = u;
     row[C_CMD_SEQ] = (double)pl->cmd_seq;
     row[C_CMD_AGE] = pl->cmd_seq >= 0 ? (double)(k - 1 - pl->cmd_echo) : -1.0;
-    row[C_WATCHDOG] = pl->link.active;
+    row[C_WATCHDOG] = pl->rig.link.active;
     row[C_XS] = out[HH_OUT_Y + HH_XS];
     row[C_P1] = out[HH_OUT_Y + HH_P1];
     row[C_P2] = out[HH_OUT_Y + HH_P2];
@@ -901,7 +1001,7 @@ static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t
     row[C_P1_MEAS] = r->p[0];
     row[C_P2_MEAS] = r->p[1];
     row[C_PS_MEAS] = r->p[2];
-    row[C_FAULTS] = 0.0;
+    row[C_FAULTS] = (double)r->faults;
     row[C_STATUS] = (double)r->status;
     log_push(&pl->log, row);
 }
@@ -1036,9 +1136,9 @@ static int judge(const plant *pl, int64_t steps, char reasons[][REASON_SIZE])
         if (isfinite(stall_us) && stall_us > hil[HIL_MAX_STALL] * 1e6)
             snprintf(reasons[n++], REASON_SIZE, "the plant stalled %.1f ms (> %g ms)", stall_us / 1e3, hil[HIL_MAX_STALL] * 1e3);
     }
-    if ((double)pl->link.trips_unexplained > hil[HIL_MAX_WATCHDOG_TRIPS])
+    if ((double)pl->rig.link.trips_unexplained > hil[HIL_MAX_WATCHDOG_TRIPS])
         snprintf(reasons[n++], REASON_SIZE, "%lld watchdog trip(s) without an injected fault (no command reached the plant "
-                 "for %g ms; allowed %lld)", (long long)pl->link.trips_unexplained, hil[HIL_WATCHDOG_TIMEOUT] * 1e3,
+                 "for %g ms; allowed %lld)", (long long)pl->rig.link.trips_unexplained, hil[HIL_WATCHDOG_TIMEOUT] * 1e3,
                  (long long)hil[HIL_MAX_WATCHDOG_TRIPS]);
     return n;
 }
@@ -1078,10 +1178,17 @@ static int write_timing(plant *pl, int64_t steps, int64_t t0, int64_t t_end, int
     json_int(&j, "packets_reordered", pl->packets_reordered);
     json_int(&j, "late_commands", pl->late_commands);
     json_int(&j, "packets_dropped_kernel", pl->packets_dropped_kernel);
-    json_int(&j, "watchdog_trips", pl->link.trips);
-    json_int(&j, "watchdog_trips_unexplained", pl->link.trips_unexplained);
-    json_int(&j, "commands_delivered", pl->link.delivered);
-    json_raw(&j, "faults_injected", "[]");
+    json_int(&j, "watchdog_trips", pl->rig.link.trips);
+    json_int(&j, "watchdog_trips_unexplained", pl->rig.link.trips_unexplained);
+    json_int(&j, "commands_delivered", pl->rig.link.delivered);
+    json_key(&j, "faults_injected");
+    fputc('[', fh);
+    for (i = 0; i < o->nfault; i++) {
+        if (i)
+            fputs(", ", fh);
+        json_string_value(fh, hh_fault_type_name(o->faults[i].type));
+    }
+    fputc(']', fh);
     json_num(&j, "simulated_s", (double)steps * o->step);
     json_num(&j, "wall_s", (double)(t_end - t0) / 1e9);
     json_num(&j, "drift_ms", lock ? na : (double)drift_ns / 1e6);
@@ -1163,7 +1270,28 @@ static int plant_init(plant *pl, options *o)
         return -1;
     }
     hh_sim_init(&pl->sim, o->p, HH_MODEL_HYBRID, HH_RK3, o->step, pl->delay_buf, n, alpha);
-    pl->count = hh_count_size(res);
+    {   /* the rig: its watchdog counts from step 0, the faults of step 0 apply (as the Python plant's) */
+        int64_t cap = 0;
+        int i;
+        for (i = 0; i < o->nfault; i++)
+            if (o->faults[i].type == HH_FAULT_NETWORK_DELAY && !pl->fifo) {   /* up to 1 s (the schema's bound) */
+                cap = (int64_t)ceil(1.0 / o->step) + 2;
+                pl->fifo = malloc(sizeof(double) * (size_t)cap);
+                if (!pl->fifo) {
+                    fprintf(stderr, "error: out of memory for a network delay of %lld steps\n", (long long)cap);
+                    return -1;
+                }
+            }
+        hh_rig_init(&pl->rig, &pl->sim, hh_count_size(res), (uint64_t)o->hil[HIL_SEED], o->hil[HIL_WATCHDOG_TIMEOUT],
+                    o->hil[HIL_SAFE_STATE] == HIL_SAFE_STATE_HOLD, o->hil[HIL_HOLD_KP], pl->fifo, cap);
+        for (i = 0; i < o->nfault; i++) {
+            hh_fault f = o->faults[i];
+            f.k_start = (int64_t)ceil(f.start / o->step - 1e-9);      /* as Python's math.ceil (faults.k_range) */
+            f.k_end = isnan(o->fault_end[i]) ? HH_NEVER : (int64_t)ceil(o->fault_end[i] / o->step - 1e-9);
+            hh_rig_add(&pl->rig, &f);
+        }
+        hh_rig_begin(&pl->rig, 0);
+    }
     pl->n = (int64_t)nearbyint(o->duration / o->step);     /* half to even, as Python's round() */
     pl->h_ns = (int64_t)nearbyint(o->step * 1e9);
     pl->spin = o->hil[HIL_WAIT] == HIL_WAIT_SPIN;
@@ -1177,16 +1305,16 @@ static int plant_init(plant *pl, options *o)
     return 0;
 }
 
+/* The model at its initial state (plant time 0), of the fault-free parameters (the rig's base: a fault active
+ * at step 0 hits a rig at rest); the rig's watchdog, faults and noise go on (as the Python plant's). */
 static void plant_reset(plant *pl)
 {
     const double *x = pl->o->initial;
-    if (hh_initial_state(pl->sim.p, x[0], x[1], 0.0, x[2], x[3], 0.0, pl->sim.y, pl->sim.m) != 0
+    if (hh_initial_state(pl->rig.base, x[0], x[1], 0.0, x[2], x[3], 0.0, pl->sim.y, pl->sim.m) != 0
         && pl->sim.m[HH_M_TRAVEL] == HH_FREE && (isnan(x[2]) || isnan(x[3])))
         fprintf(stderr, "warning: no spool position holds the piston at rest (the load is more than the cylinder "
-                        "gives at %g bar): the spool starts centred and the load moves the piston\n", pl->sim.p[HH_SUPPLY_PS] / 1e5);
+                        "gives at %g bar): the spool starts centred and the load moves the piston\n", pl->rig.base[HH_SUPPLY_PS] / 1e5);
     hh_sim_reset(&pl->sim);
-    hh_watchdog_init(&pl->link);
-    hh_rng_seed(&pl->noise, (uint64_t)pl->o->hil[HIL_SEED]);   /* an integer <= 2^53 (schema) */
 }
 
 /* %.6g as Python formats it ("nan", "inf", "-inf"; glibc would write "-nan") */
@@ -1312,10 +1440,7 @@ int main(int argc, char **argv)
             }
             check_signal(&pl);
             arrived = take_command(&pl, k, &u);
-            u = hh_watchdog_command(&pl.link, k, arrived, u, o.step, o.hil[HIL_WATCHDOG_TIMEOUT],
-                                    o.hil[HIL_SAFE_STATE] == HIL_SAFE_STATE_HOLD, o.hil[HIL_HOLD_KP],
-                                    pl.sim.out[HH_OUT_Y + HH_XP]);
-            if (hh_sim_step(&pl.sim, u) != HH_OK) {
+            if (hh_rig_step(&pl.rig, k, arrived, u, &u) != HH_OK) {
                 describe_divergence(&pl);
                 send_sensor(&pl, k + 1, HHIL_ST_FAULT | HHIL_ST_FINAL, &r);
                 break;
@@ -1372,5 +1497,6 @@ int main(int argc, char **argv)
     code = pl.link_error[0] ? 4 : pl.fault[0] ? 1 : pl.stop_signal ? 128 + pl.stop_signal : nreasons ? 3 : 0;
     close(pl.sock);
     free(pl.delay_buf);
+    free(pl.fifo);
     return code;
 }
