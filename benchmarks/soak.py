@@ -19,7 +19,7 @@ import numpy as np
 
 from hydrohil.bench import emit, hil_scenario, machine
 from hydrohil.hil.processes import Child, cli, free_udp_port
-from hydrohil.hil.run import read_csv_columns
+from hydrohil.simulation.outputs import read_csv_columns
 
 
 def rss_mb(pid: int) -> float | None:

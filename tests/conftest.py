@@ -22,11 +22,15 @@ def rms(e):
     return float(np.sqrt(np.mean(np.asarray(e) ** 2)))
 
 
+def hh_command(*args) -> list[str]:
+    """The ``hydrohil`` command line (what a user types) with this interpreter."""
+    return [sys.executable, "-m", "hydrohil.cli", *map(str, args)]
+
+
 def hh(*args, cwd=None, timeout=300, env=None):
     """Run the ``hydrohil`` CLI as a subprocess (what a user types); ``env``: extra environment variables."""
     full_env = None if env is None else {**__import__("os").environ, **env}
-    return subprocess.run([sys.executable, "-m", "hydrohil.cli", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, timeout=timeout, env=full_env)
+    return subprocess.run(hh_command(*args), capture_output=True, text=True, cwd=cwd, timeout=timeout, env=full_env)
 
 
 @pytest.fixture(scope="session")
@@ -37,16 +41,17 @@ def c_plant():
 
 
 def plant_cmd(kind: str, c_plant, *args) -> list:
-    """The command line of a plant server: ``hydrohil plant`` or the standalone C plant, same options."""
-    from hydrohil.hil.processes import cli
-    return cli("plant", *args) if kind == "python" else [c_plant, *args]
+    """The command line of a plant server: the Python plant as the library starts it (``python -m hydrohil.hil
+    plant``, the options of ``hydrohil plant``) or the standalone C plant, same options."""
+    from hydrohil.hil.processes import process_command
+    return process_command("plant", *args) if kind == "python" else [c_plant, *args]
 
 
 def lockstep_equals_offline(scen, out, *args, steps: int):
     """Run ``hydrohil hil SCEN --lockstep`` into ``out`` and the same scenario offline; assert that the plant
     stepped the model exactly as the offline run did (``steps`` + 1 rows, state bit for bit). Returns (plant
     log columns, offline result)."""
-    from hydrohil.hil.run import read_csv_columns
+    from hydrohil.simulation.outputs import read_csv_columns
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import load_scenario
     r = hh("hil", scen, "--out", out, "--lockstep", *args, timeout=600)
@@ -64,8 +69,8 @@ class PanelProcess:
     a handshake (the PANEL / SESSION lines, a step count in /api/state), never a fixed time."""
 
     def __init__(self, out, *args):
-        from hydrohil.hil.processes import Child, cli
-        self.child = Child(cli("panel", "--out", out, "--port", "0", *args), "panel")
+        from hydrohil.hil.processes import Child
+        self.child = Child(hh_command("panel", "--out", out, "--port", "0", *args), "panel")
         self.url = self.child.wait_line("PANEL ", 120)
         self.session = Path(self.child.wait_line("SESSION ", 120).split()[0])     # (``out`` is absolute)
 

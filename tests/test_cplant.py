@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import EXAMPLES, hh
-from hydrohil.hil.run import read_csv_columns
+from hydrohil.simulation.outputs import read_csv_columns
 from hydrohil.hil.verdict import judge
 from hydrohil.simulation.scenario import HilCfg, load_scenario
 

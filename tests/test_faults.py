@@ -9,7 +9,7 @@ import pytest
 
 from hydrohil.errors import InputError
 from hydrohil.hil.protocol import ST_FAULT_INJECTED, ST_WATCHDOG
-from hydrohil.hil.run import read_csv_columns
+from hydrohil.simulation.outputs import read_csv_columns
 from hydrohil.simulation.faults import FAULT_TYPES, NetworkDelay, PacketLoss, Reordering
 from hydrohil.simulation.rig import VirtualRig
 from hydrohil.simulation.run import run_scenario

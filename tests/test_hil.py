@@ -13,11 +13,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import EXAMPLES, hh, plant_cmd
+from conftest import EXAMPLES, hh, hh_command, plant_cmd
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.controller import PlantClient
-from hydrohil.hil.processes import Child, cli
-from hydrohil.hil.run import read_csv_columns
+from hydrohil.hil.processes import Child, process_command
+from hydrohil.simulation.outputs import read_csv_columns
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import load_scenario
 
@@ -152,7 +152,7 @@ def test_watchdog_trips_to_centre_and_recovers(tmp_path, kind, c_plant):
 def start_controller(tmp_path, addr, *args):
     """The reference controller process, once it has heard the plant (its signal handlers are installed
     before it says CONNECTED)."""
-    c = Child(cli("controller", "--connect", f"{addr[0]}:{addr[1]}", "--log", tmp_path, *args), "controller")
+    c = Child(process_command("controller", "--connect", f"{addr[0]}:{addr[1]}", "--log", tmp_path, *args), "controller")
     c.wait_line("CONNECTED ", 120)
     return c
 
@@ -425,7 +425,7 @@ def test_clock_driven_controller_runs_the_loop(tmp_path):
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_ctrl_c_or_sigterm_on_hil_stops_both_with_the_logs(tmp_path, sig):
     scen = short_scenario(tmp_path, 30.0)
-    hil = Child(cli("hil", scen, "--out", tmp_path / "out"), "hil")
+    hil = Child(hh_command("hil", scen, "--out", tmp_path / "out"), "hil")
     wait_rows(tmp_path / "out" / "plant_log.csv", 500)
     hil.send_signal(sig)                                        # SIGINT: what Ctrl-C sends
     hil.wait(60)

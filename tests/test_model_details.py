@@ -141,7 +141,7 @@ def test_spool_modes_and_mechanical_end(paper):
 
 
 def test_reference_spool_end_is_a_stiff_stop(paper):
-    from hydrohil.solvers.reference import solve_reference
+    from hydrohil.simulation.reference import solve_reference
     from hydrohil.models.layout import pack
     from hydrohil.simulation.loop import initial_state
     p = pack(paper)
@@ -158,7 +158,7 @@ def test_reference_radau_fallback_and_failure(monkeypatch):
     from conftest import EXAMPLES
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import load_scenario
-    from hydrohil.solvers import reference
+    from hydrohil.simulation import reference
     sc = load_scenario(EXAMPLES / "fig11_p_control.toml", duration=0.05, solver="reference")
     normal = run_scenario(sc)
     assert normal.extra["reference_radau_fallbacks"] == 0

@@ -13,10 +13,10 @@ import urllib.request
 import numpy as np
 import pytest
 
-from conftest import EXAMPLES, PanelProcess
-from hydrohil.hil.run import read_csv_columns
+from conftest import EXAMPLES, PanelProcess, hh_command
+from hydrohil.simulation.outputs import read_csv_columns
 from hydrohil.hil.session import replay_session
-from hydrohil.hil.steering import read_events
+from hydrohil.simulation.steering import read_events
 from hydrohil.simulation.rig import run_rig
 from hydrohil.simulation.scenario import load_scenario
 
@@ -226,7 +226,7 @@ def _wait_file_growth(path, n_steps, timeout=120):
 def test_hil_panel_run_replays_its_changes_offline(tmp_path):
     """hydrohil hil --panel --lockstep: changes made while it runs are in the run's event logs and the
     offline comparison replays them: the HIL and offline positions are equal bit for bit."""
-    from hydrohil.hil.processes import Child, cli
+    from hydrohil.hil.processes import Child
     import shutil
     scen = tmp_path / "long.toml"
     shutil.copy(FIG11, scen)
@@ -234,7 +234,7 @@ def test_hil_panel_run_replays_its_changes_offline(tmp_path):
     assert "duration = 6.0" in text
     scen.write_text(text.replace("duration = 6.0", "duration = 60.0"))
     out = tmp_path / "run"
-    ch = Child(cli("hil", scen, "--out", out, "--lockstep", "--panel", "--panel-port", "0"), "hil")
+    ch = Child(hh_command("hil", scen, "--out", out, "--lockstep", "--panel", "--panel-port", "0"), "hil")
     url = ch.wait_line("PANEL ", 120)
     import time
     import urllib.request as ur

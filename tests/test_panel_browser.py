@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from conftest import PanelProcess
-from hydrohil.hil.run import read_csv_columns
+from hydrohil.simulation.outputs import read_csv_columns
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 CHROMEDRIVER = shutil.which("chromedriver")

@@ -139,7 +139,7 @@ def test_examples_cli_report_and_junit(tmp_path, tmp_path_factory):
 
 
 def test_lockstep_equals_offline(tmp_path):
-    from hydrohil.hil.run import read_csv_columns
+    from hydrohil.simulation.outputs import read_csv_columns
     from hydrohil.sequences.runner import run_sequence
     off = run_sequence(SEQ / "p_hose_burst.toml", tmp_path / "off")
     ls = run_sequence(SEQ / "p_hose_burst.toml", tmp_path / "ls", mode="lockstep")

@@ -175,7 +175,7 @@ def test_cli_report_figures_and_rerun(tmp_path):
     assert hh("sweep", p, "--out", out, "--rerun", worst).returncode == 0
     # the rerun file, simulated by hand, gives the row's metric (an independent path: hydrohil simulate)
     assert hh("simulate", out / "rerun" / f"{worst}.toml", "--out", tmp_path / "sim", "--no-plot").returncode == 0
-    from hydrohil.hil.run import read_csv_columns
+    from hydrohil.simulation.outputs import read_csv_columns
     from hydrohil.studies.runs import hold_error
     from hydrohil.simulation.scenario import load_scenario
     log = read_csv_columns(tmp_path / "sim" / "log.csv")

@@ -7,13 +7,14 @@ from __future__ import annotations
 
 import json
 import sys
-import warnings
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-from hydrohil.errors import HydrohilError, InputWarning
+from hydrohil.errors import HydrohilError
+from hydrohil.hil.commands import controller_cmd, plant_cmd
+from hydrohil.terminal import fail, interruptible, show_warnings_as_lines
 
 # rich_markup_mode=None: help texts are plain text, so bracketed units such as "[s]", "[s:m]" and "[hil]"
 # are printed as written (rich markup would swallow them as style tags)
@@ -43,25 +44,6 @@ def _print_version(value: bool):
 def _main(version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
                                        help="print the version and exit")):
     pass    # the app's help text is the one given to typer.Typer above
-
-
-def _interruptible() -> None:
-    """SIGINT (Ctrl-C) and SIGTERM raise KeyboardInterrupt (with the signal's number as ``signum``), also when
-    the process was started with SIGINT ignored (a background job of a non-interactive shell inherits that):
-    the commands that run a plant and a controller must stop both cleanly, and exit 130 / 143."""
-    import signal
-
-    def _raise(signum, frame):
-        exc = KeyboardInterrupt()
-        exc.signum = signum
-        raise exc
-    signal.signal(signal.SIGINT, _raise)
-    signal.signal(signal.SIGTERM, _raise)
-
-
-def _fail(exc: HydrohilError):
-    typer.echo(f"error: {exc}", err=True)
-    raise typer.Exit(exc.exit_code)
 
 
 def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Optional[float] = None,
@@ -124,7 +106,7 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
     try:
         s = simulate(scenario, out, solver, step, plot, params=params, sets=_parse_sets(sets))
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     written = ", ".join(["log.csv", "summary.json"] + (["simulation.png"] if plot else []))
     typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']}: wall {s['wall_time_s']:.3f} s, "
                f"real-time factor {s['realtime_factor']:.0f}; final xp = {s['final_state']['xp'] * 1e3:.3f} mm; "
@@ -148,7 +130,7 @@ def compare_cmd(runs: list[Path] = typer.Argument(..., help="scenario TOMLs (sim
         result = compare(runs, out, labels=labels.split(",") if labels else None, params=params,
                          sets=_parse_sets(sets), title=title)
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     for r in result:
         typer.echo(f"{r.label}: RMS error {r.metrics['rms_error'] * 1e3:.3f} mm, max |error| "
                    f"{r.metrics['max_abs_error'] * 1e3:.3f} mm, {r.metrics['breakaways']} breakaways")
@@ -185,7 +167,7 @@ def freqresp_cmd(scenario: Path = typer.Argument(..., help="scenario TOML (its p
             s = freqresp(sc, out, fmin=fmin, fmax=fmax, points=points, amplitude=amplitude, u_amplitude=u_amplitude,
                          loops=loops[loop], workers=workers, progress=lambda k, n: bar.update(task, completed=k))
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     for name, info in s["loops"].items():
         line = f"{name} loop: {info['points']} points, {info['unconverged']} not converged"
         if "bandwidth_hz" in info:
@@ -218,7 +200,7 @@ def maxstep_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
         res = max_stable_step(sc, model, solver, tol_x=tol_x, tol_p=tol_p,
                               progress=lambda h, r: typer.echo(f"  h = {h:.3e} s: {r['reason']}", err=True))
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     except ValueError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2)
@@ -235,7 +217,7 @@ def params_show(name: str = typer.Argument("ferreira2004", help="built-in name o
     try:
         prm, derived = load_shown(name)
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     if as_json:
         typer.echo(json.dumps({"parameters": prm.model_dump(mode="json"), "fields": fields(prm, derived),
                                "derived": list(derived)}, indent=2))
@@ -301,7 +283,7 @@ def linear_cmd(params: Optional[str] = typer.Option(None, "--params", help="para
     try:
         models = linear(params, _parse_sets(sets), scenario, xp, xs, ps, load, friction, out)
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     if as_json:
         typer.echo(json.dumps([m.to_dict() for m in models] if len(models) > 1 else models[0].to_dict(), indent=2))
         return
@@ -343,7 +325,7 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", help="FMU file to writ
     try:
         path = export_fmu(out, params, fmi, step)
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation, internal step {step:g} s)")
 
 
@@ -377,7 +359,7 @@ def export_c_cmd(out: Path = typer.Option(..., "--out", help="folder to write th
     try:
         folder = export_c(out, params, step, duration, scenario, make)
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     typer.echo(f"wrote {folder} (C sources, Makefile" + (f"; built {folder / 'hydrohil_plant'})" if make else
                "; build with: make -C " + str(folder) + ")"))
 
@@ -462,7 +444,7 @@ def identify_cmd(procedure: str = typer.Argument(..., help="spool|valve-static|b
     try:
         doc = identify(procedure, data, out, params, report, _parse_sets(sets))
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     if as_json:
         typer.echo(json.dumps(doc, indent=2, default=float))
     else:
@@ -481,247 +463,9 @@ def identify_cmd(procedure: str = typer.Argument(..., help="spool|valve-static|b
             typer.echo(f"wrote {len(doc['report'])} figure(s) to {report}")
 
 
-def _reference_table(text: str):
-    """'t0:x0,t1:x1,...' [s:m] -> t -> (x_ref, slope), linear between the points."""
-    from hydrohil.errors import InputError
-    from hydrohil.simulation.scenario import Table
-    try:
-        pts = [tuple(float(v) for v in item.split(":")) for item in text.split(",") if item.strip()]
-        t, x = zip(*pts)
-    except ValueError:
-        raise InputError("expected t:x pairs in s:m, e.g. 0:0.03,0.5:0.03,1.5:0.15", source="--reference",
-                         key=text) from None
-    if any(b < a for a, b in zip(t, t[1:])):
-        raise InputError("times must be non-decreasing", source="--reference", key=text)
-    return Table(t, x).at
-
-
-def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", step: float = 5e-4,
-                duration: Optional[float] = None, log: Optional[Path] = None, lockstep: bool = False,
-                scenario: Optional[Path] = None, allow_remote: bool = False, cpu: Optional[int] = None,
-                peer: Optional[str] = None, connect_timeout: Optional[float] = None, ready=print,
-                panel: Optional[str] = None, rows: bool = True) -> dict:
-    """Run the plant server until the run ends; streams ``log/plant_log.csv`` and writes ``log/timing.json``
-    with the run's verdict, whatever the end (also on SIGINT/SIGTERM, or when no controller spoke). With
-    ``scenario`` the parameters, step, duration, initial state, [hil] settings and [[faults]] come from it.
-    ``peer``: the only controller address accepted (default: first sender). ``ready`` prints
-    ``READY host:port`` once bound and ``PEER host:port`` once the controller has spoken (handshakes for
-    scripts). ``panel``: HOST:PORT of the live panel's side channel (telemetry out, steering in; the session's
-    events and applied commands go to ``log``); ``rows=False``: no ``plant_log.csv`` of the whole run (a panel
-    session: recordings only). Returns the timing summary; :func:`hydrohil.hil.verdict.raise_for_outcome` maps
-    it to an exit."""
-    import signal
-    from hydrohil.hil.plant import PlantServer, finite_or_none, parse_address
-    from hydrohil.parameters import load_parameters
-    from hydrohil.simulation.outputs import write_json
-    from hydrohil.simulation.scenario import HilCfg, load_scenario
-
-    stop: list[int] = []
-    for sig in (signal.SIGINT, signal.SIGTERM):      # first thing: a signal during start-up ends it cleanly too
-        signal.signal(sig, lambda signum, frame: stop.append(signum))
-    host_port = parse_address(bind, allow_remote=allow_remote)
-    peer_addr = parse_address(peer, allow_remote=allow_remote) if peer else None
-    initial, hil, faults = {}, HilCfg(), []
-    if scenario is not None:
-        sc = load_scenario(scenario)
-        s = sc.scenario
-        prm, hil = sc.params, s.hil
-        step, duration = s.plant_step, s.duration if duration is None else duration
-        initial = s.initial.model_dump()
-        cpu = hil.cpus()[0] if cpu is None else cpu
-        faults = s.faults
-    else:
-        prm = load_parameters(params)
-        duration = 10.0 if duration is None else duration
-    if connect_timeout is not None:
-        hil = hil.model_copy(update={"connect_timeout": connect_timeout})
-    if log is not None:
-        log.mkdir(parents=True, exist_ok=True)
-    server = PlantServer(prm, step=step, duration=duration, bind=host_port, lockstep=lockstep, hil=hil,
-                         initial=initial, cpu=cpu, faults=faults, peer=peer_addr,
-                         log=(log / "plant_log.csv") if log is not None and rows else None,
-                         panel=parse_address(panel) if panel else None, session=log)
-    server.on_peer = lambda addr: ready(f"PEER {addr[0]}:{addr[1]}", flush=True)
-
-    def _stop(signum, frame):
-        server.stop_requested = True
-        server.stop_signal = signum
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, _stop)
-    if stop:
-        _stop(stop[0], None)
-    server.warm_up()
-    host, port = server.address
-    ready(f"READY {host}:{port}", flush=True)
-    try:
-        timing = finite_or_none(server.run())
-    finally:
-        server.close()
-    if log is not None:
-        write_json(log / "timing.json", timing)
-    return timing
-
-
-@app.command("plant")
-def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (name or path)"),
-              bind: str = typer.Option("127.0.0.1:47000", help="HOST:PORT to listen on (port 0: any free port)"),
-              step: float = typer.Option(5e-4, help="plant step [s]"),
-              duration: Optional[float] = typer.Option(None, help="simulated time to serve [s] (default: the "
-                                                       "scenario's, else 10; 0: until stopped)"),
-              log: Optional[Path] = typer.Option(None, help="folder for plant_log.csv and timing.json"),
-              lockstep: bool = typer.Option(False, help="advance one step per command, as fast as possible"),
-              scenario: Optional[Path] = typer.Option(None, help="take params/step/duration/initial/[hil] from it"),
-              allow_remote: bool = typer.Option(False, help="allow binding a non-loopback address"),
-              cpu: Optional[int] = typer.Option(None, help="pin the plant to this CPU"),
-              peer: Optional[str] = typer.Option(None, help="accept commands only from this HOST:PORT "
-                                                 "(default: the first valid sender)"),
-              connect_timeout: Optional[float] = typer.Option(None, help="wait this long for the controller's "
-                                                              "first packet [s] (default: [hil] connect_timeout, 30)"),
-              panel: Optional[str] = typer.Option(None, help="HOST:PORT of a live panel: telemetry to it, steering "
-                                                  "from it (loopback)"),
-              rows: bool = typer.Option(True, help="write plant_log.csv of the whole run (--no-rows: a panel "
-                                        "session, recordings only)")):
-    """Serve the virtual rig over UDP (protocol: docs/protocol.md), locked to the wall clock.
-
-    Ends with the run's verdict (VALID / INVALID and why) on stdout; exit 3 when INVALID, 4 when no
-    controller spoke, 130/143 when stopped by SIGINT/SIGTERM (logs and timing.json are written in every case).
-    """
-    from hydrohil.hil.verdict import raise_for_outcome, summary_line
-    try:
-        t = serve_plant(params, bind, step, duration, log, lockstep, scenario, allow_remote, cpu, peer,
-                        connect_timeout, panel=panel, rows=rows)
-        typer.echo(json.dumps(t), err=True)
-        typer.echo(f"verdict: {summary_line(t)}", err=False)
-        raise_for_outcome(t, "plant run")
-    except HydrohilError as exc:
-        _fail(exc)
-
-
-def run_controller(connect: str, scenario: Optional[Path] = None, kp: float = 50.0,
-                   reference: str = "0:0.03,0.5:0.03,1.5:0.15,3:0.15,4:0.03,6:0.03", log: Optional[Path] = None,
-                   mode: str = "packet", allow_remote: bool = False, busy_poll: bool | None = None,
-                   local: Optional[str] = None, link_timeout: Optional[float] = None, ready=print,
-                   panel: Optional[str] = None) -> dict:
-    """The paper's P position controller as a separate process talking to a plant server.
-
-    ``local``: bind the controller's socket to HOST:PORT (the address a plant started with ``--peer``
-    expects). ``ready`` prints ``CONNECTED host:port`` at the plant's first sensor packet (a handshake for
-    scripts). Raises LinkError when no plant answers within ``link_timeout`` (default ``[hil]
-    link_timeout``, 5 s) or it goes silent; ``controller.json`` is written in every case (``error``)."""
-    import signal
-    stop: list[int] = []
-    for sig in (signal.SIGINT, signal.SIGTERM):      # first thing: finish the log and controller.json, then exit
-        signal.signal(sig, lambda signum, frame: stop.append(signum))
-    import os
-
-    from hydrohil.errors import InputError, LinkError
-    from hydrohil.hil.controller import PlantClient, run_position_controller, warm_up
-    from hydrohil.hil.plant import parse_address
-    from hydrohil.simulation.outputs import write_json
-    from hydrohil.simulation.scenario import HilCfg
-
-    addr = parse_address(connect, allow_remote=allow_remote)
-    local_addr = parse_address(local, allow_remote=allow_remote) if local else None
-    enc, scale, sample, spin, hil = 1e-6, 1.0, 5e-4, False, HilCfg()
-    if scenario is not None:
-        from hydrohil.simulation.scenario import load_scenario
-        sc = load_scenario(scenario)
-        s = sc.scenario
-        hil = s.hil
-        mode, scale = s.hil.controller_mode, s.hil.command_scale
-        sample = s.plant_step
-        if s.controller is None:
-            raise InputError("an open-loop scenario has no controller to run", source=str(scenario), key="controller")
-        ctl = sc.make_controller(sample)
-        enc = sc.params.sensors.encoder_resolution
-        ref = s.reference.sampler().at
-        cpu = s.hil.cpus()[1]
-        spin = s.hil.wait != "sleep" and (os.cpu_count() or 1) > 1   # never spin on a single CPU
-        busy_poll = (s.hil.busy_poll or spin) if busy_poll is None else busy_poll
-        if cpu is not None:
-            try:
-                os.sched_setaffinity(0, {cpu})
-            except OSError:
-                pass
-    else:
-        from hydrohil.control import PControllerCfg, make_controller
-        from hydrohil.parameters import load_parameters
-        ref = _reference_table(reference)
-        if not 0 < kp <= 1e5:
-            raise InputError(f"must be > 0 and <= 1e5 [ū/m], got {kp}", source="--kp")
-        ctl = make_controller(PControllerCfg(type="p", kp=kp), load_parameters("ferreira2004"), sample)
-    timeout = hil.link_timeout if link_timeout is None else link_timeout
-    busy_poll = bool(busy_poll)
-    if log is not None:
-        log.mkdir(parents=True, exist_ok=True)
-    warm_up()
-    try:
-        if spin:
-            os.setpriority(os.PRIO_PROCESS, 0, -20)
-        elif scenario is not None:     # a controller that sleeps between packets: woken first (below the plant's
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(49))     # 50), whatever else the machine runs
-    except (OSError, AttributeError):
-        pass
-    summary: dict = {"error": None}
-    side = None
-    if panel:
-        from hydrohil.hil.sidechannel import CONTROLLER_COLUMNS, ROLE_CONTROLLER, SideChannel
-        side = SideChannel(parse_address(panel), ROLE_CONTROLLER, CONTROLLER_COLUMNS)
-    try:
-        with PlantClient(addr, timeout=timeout, command_scale=scale, busy_poll=busy_poll, period=sample,
-                         nap=not spin, bind=local_addr, should_stop=lambda: bool(stop),
-                         on_connect=lambda s: ready(f"CONNECTED {addr[0]}:{addr[1]}", flush=True)) as client:
-            try:
-                summary.update(run_position_controller(client, ctl, ref, encoder_resolution=enc, mode=mode,
-                                                sample_time=sample,
-                                                log_path=(log / "controller_log.csv") if log else None,
-                                                should_stop=lambda: bool(stop), side=side,
-                                                events_path=(log / "controller_events.jsonl") if log else None))
-            except LinkError as exc:
-                summary.update(error=str(exc), commands_sent=client.seq, sensor_packets=client.received)
-                raise
-    except OSError as exc:                        # e.g. the --local address taken by another process meanwhile
-        summary["error"] = f"cannot use the local address {local or 'any'}: {exc}"
-        raise LinkError(summary["error"]) from None
-    finally:
-        summary["stop_signal"] = stop[0] if stop else None
-        if side is not None:
-            side.close()
-        if log is not None:
-            write_json(log / "controller.json", summary)
-    return summary
-
-
-@app.command("controller")
-def controller_cmd(connect: str = typer.Option("127.0.0.1:47000", help="plant HOST:PORT"),
-                   scenario: Optional[Path] = typer.Option(None, help="take Kp, reference and [hil] from it"),
-                   kp: float = typer.Option(50.0, help="P gain [1/m] on ū"),
-                   reference: str = typer.Option("0:0.03,0.5:0.03,1.5:0.15,3:0.15,4:0.03,6:0.03",
-                                                 help="trajectory t:x pairs [s:m], linear between points "
-                                                 "(repeat a time for a step)"),
-                   mode: str = typer.Option("packet", help="packet (answer each sensor packet) | clock"),
-                   log: Optional[Path] = typer.Option(None, help="folder for controller_log.csv"),
-                   local: Optional[str] = typer.Option(None, help="bind to this local HOST:PORT (the plant's "
-                                                       "--peer)"),
-                   link_timeout: Optional[float] = typer.Option(None, help="give up when the plant does not "
-                                                                "answer for this long [s] (default 5)"),
-                   panel: Optional[str] = typer.Option(None, help="HOST:PORT of a live panel: telemetry to it, "
-                                                       "gains and reference from it (loopback)")):
-    """Run the reference P position controller against a plant server.
-
-    Exit 4 when no plant answers within the link timeout (or it goes silent), 130/143 when stopped by
-    SIGINT/SIGTERM; controller_log.csv and controller.json are written in every case.
-    """
-    from hydrohil.errors import Interrupted
-    try:
-        s = run_controller(connect, scenario, kp, reference, log, mode, local=local, link_timeout=link_timeout,
-                           panel=panel)
-        typer.echo(json.dumps(s), err=True)
-        if s.get("stop_signal"):
-            raise Interrupted(s["stop_signal"], f"controller stopped by signal after {s.get('commands_sent')} "
-                              "commands")
-    except HydrohilError as exc:
-        _fail(exc)
+# the HIL processes: their command lines are defined beside them (python -m hydrohil.hil runs the same)
+app.command("plant")(plant_cmd)
+app.command("controller")(controller_cmd)
 
 
 def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True, plant: str = "python",
@@ -737,9 +481,15 @@ def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True
         bar.start()
         task = bar.add_task(f"HIL {scenario.name}" + (" (lock-step)" if lockstep else " (real time)"), total=1)
         cb = lambda t, n: bar.update(task, completed=t, total=n)  # noqa: E731
+    live = None
+    if panel:
+        from functools import partial
+
+        from hydrohil.panel.server import PanelThread
+        live = partial(PanelThread, lockstep=lockstep, port=panel_port)
     try:
         return run_hil(scenario, out, lockstep=lockstep, progress=cb, plant=plant, params=params, sets=sets,
-                       panel=panel, panel_port=panel_port, ready=ready)
+                       live=live, ready=ready)
     finally:
         if bar:
             bar.stop()
@@ -764,7 +514,7 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
     """
     from hydrohil.errors import RunInvalid
     from hydrohil.hil.verdict import BUSY_ADVICE, summary_line
-    _interruptible()
+    interruptible()
     try:
         r = hil(scenario, out, lockstep, plant=plant, params=params, sets=_parse_sets(sets), panel=panel,
                 panel_port=panel_port)
@@ -778,7 +528,7 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
             raise RunInvalid(f"the run is INVALID ({'; '.join(r.verdict['reasons'])}); {BUSY_ADVICE}",
                              r.verdict["reasons"])
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
 
 
 def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), controller: str = "builtin",
@@ -855,7 +605,7 @@ def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop 
         code = panel(scenario, out, controller, port, open_browser, lockstep, allow_remote, host, params,
                      _parse_sets(sets))
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     raise typer.Exit(code)
 
 
@@ -890,7 +640,7 @@ def test_cmd(sequences: list[Path] = typer.Argument(..., help="test sequence TOM
     try:
         code = run_sequences(sequences, out, mode, controller, junit, echo=typer.echo)
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     raise typer.Exit(code)
 
 
@@ -928,7 +678,7 @@ def sweep_cmd(study: Path = typer.Argument(..., help="study TOML (examples/studi
     try:
         sweep(study, out, scheduler, workers, progress, rerun_id, echo=typer.echo)
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
 
 
 def _us(v) -> str:
@@ -972,7 +722,7 @@ def demo_cmd(out: Path = typer.Option(Path("hydrohil-demo"), "--out", help="repo
     """
     from hydrohil.errors import RunInvalid
     from hydrohil.hil.verdict import BUSY_ADVICE, summary_line
-    _interruptible()
+    interruptible()
     try:
         res = demo(out, lockstep)
         for name, r in res.items():
@@ -985,7 +735,7 @@ def demo_cmd(out: Path = typer.Option(Path("hydrohil-demo"), "--out", help="repo
         if bad:
             raise RunInvalid(f"{', '.join(bad)} INVALID: {BUSY_ADVICE}", bad)
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
 
 
 class _Stages:
@@ -1039,7 +789,7 @@ def reproduce_cmd(out: Path = typer.Option(Path("hydrohil-reproduce"), "--out", 
     try:
         res = reproduce(out, quick, lockstep, params=params, sets=_parse_sets(sets))
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     st = res["step-size"]
     typer.echo(f"hybrid step {st['hybrid_s']:.3g} s vs stiff model {st['continuous_s']:.3g} s; "
                f"{sum(len(v) for v in res['figures'].values())} figures; {res['wall_time_s']['total']:.0f} s; "
@@ -1070,23 +820,13 @@ def bench_cmd(json_path: Optional[Path] = typer.Option(None, "--json", help="wri
     try:
         res = bench(json_path, markdown_path, seconds, quick)
     except HydrohilError as exc:
-        _fail(exc)
+        fail(exc)
     typer.echo(markdown(res))
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None):
-    """Input warnings as one ``warning: ...`` line on stderr (no source location); others as Python's."""
-    if issubclass(category, InputWarning):
-        typer.echo(f"warning: {message}", err=True)
-    else:
-        _python_showwarning(message, category, filename, lineno, file, line)
-
-
-_python_showwarning = warnings.showwarning
-
 
 def main():
-    warnings.showwarning = _show_warning
+    show_warnings_as_lines()
     app()
 
 

@@ -175,10 +175,14 @@ def freqresp(sc, out: Path, *, fmin: float = 0.5, fmax: float = 50.0, points: in
         fr = np.array([r.freq for r in pts])
         lin = linear_prediction(sc, fr, loop)
         dense = np.geomspace(fmin, fmax, 200)
-        by_loop[loop] = (pts, dense, linear_prediction(sc, dense, loop))
+        lin_dense = linear_prediction(sc, dense, loop)
         g = np.array([r.gain for r in pts])
         db = 20 * np.log10(np.abs(g))
         ph = phase_deg(g)
+        by_loop[loop] = {"freq": fr, "gain_db": db, "phase_deg": ph,
+                         "converged": np.array([r.converged for r in pts], dtype=bool),
+                         "linear": None if lin_dense is None else
+                         (dense, 20 * np.log10(np.abs(lin_dense)), phase_deg(lin_dense))}
         ldb = 20 * np.log10(np.abs(lin)) if lin is not None else np.full(len(pts), np.nan)
         lph = phase_deg(lin) if lin is not None else np.full(len(pts), np.nan)
         for r, a, b, c, d in zip(pts, db, ph, ldb, lph):

@@ -21,7 +21,7 @@ from hydrohil.models.layout import pack
 from hydrohil.simulation.loop import STATUS_OK, Sim, initial_state
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import LoadedScenario
-from hydrohil.solvers.reference import solve_reference
+from hydrohil.simulation.reference import solve_reference
 
 
 def continuous_run(sc: LoadedScenario, solver: str, h: float):

@@ -262,23 +262,20 @@ def plot_compare(path: Path, runs, *, title: str = "") -> None:
 
 
 def plot_bode(path: Path, by_loop: dict, *, title: str = "") -> None:
-    """Bode plots, one column per loop (``by_loop``: loop -> (points of :mod:`hydrohil.freqresp`, frequencies
-    and the linear prediction there, or None)): the nonlinear model's stepped sines as markers (points
-    without a periodic steady state, e.g. at an end stop, are left out and counted in the legend), the linear
-    model as a line."""
+    """Bode plots, one column per loop (``by_loop``: loop -> {"freq", "gain_db", "phase_deg", "converged"}
+    of the stepped sines of :mod:`hydrohil.freqresp`, and "linear": (frequencies, gain [dB], phase [deg]) of
+    the linear prediction, or None): the nonlinear model's stepped sines as markers (points without a periodic
+    steady state, e.g. at an end stop, are left out and counted in the legend), the linear model as a line."""
     loops = list(by_loop)
     fig, ax = plt.subplots(2, len(loops), figsize=(6 * len(loops), 7), sharex="col", squeeze=False)
     names = {"closed": "closed loop x / x_ref", "open": "open loop x / ū [m per unit ū]"}
     for j, loop in enumerate(loops):
-        pts, f_lin, lin = by_loop[loop]
-        f = np.array([p.freq for p in pts])
-        g = np.array([p.gain for p in pts])
-        ok = np.array([p.converged for p in pts])
-        from hydrohil.freqresp import phase_deg
-        db, ph = 20 * np.log10(np.abs(g)), phase_deg(g)
-        if lin is not None:
-            ax[0, j].semilogx(f_lin, 20 * np.log10(np.abs(lin)), "-", color="k", lw=1.2, label="linear model")
-            ax[1, j].semilogx(f_lin, phase_deg(lin), "-", color="k", lw=1.2, label="linear model")
+        d = by_loop[loop]
+        f, db, ph, ok = d["freq"], d["gain_db"], d["phase_deg"], d["converged"]
+        if d["linear"] is not None:
+            f_lin, lin_db, lin_ph = d["linear"]
+            ax[0, j].semilogx(f_lin, lin_db, "-", color="k", lw=1.2, label="linear model")
+            ax[1, j].semilogx(f_lin, lin_ph, "-", color="k", lw=1.2, label="linear model")
         missing = f" ({int((~ok).sum())} points without steady state left out)" if (~ok).any() else ""
         for a, v in ((ax[0, j], db), (ax[1, j], ph)):
             a.semilogx(f[ok], v[ok], "o", color="C0", ms=5, label="nonlinear model (stepped sines)" + missing)

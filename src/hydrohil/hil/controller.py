@@ -21,8 +21,9 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 from hydrohil.control import BuiltinController, Measurement, call_controller, p_control
-from hydrohil.errors import HydrohilError, LinkError
+from hydrohil.errors import HydrohilError, InputError, LinkError
 from hydrohil.hil import protocol as pr
+from hydrohil.hil.protocol import parse_address
 from hydrohil.models.sensors import count_size
 from hydrohil.simulation.outputs import CsvStream
 
@@ -202,10 +203,10 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
     periodic clock of ``sample_time``, using the latest sensor packet. The log is streamed to ``log_path``
     (CSV) while running. ``should_stop`` is polled every cycle (signal handlers set it). ``side``: the live
     panel's side channel (:mod:`hydrohil.hil.sidechannel`): telemetry (reference, measurement, command) out,
-    steering events (:mod:`hydrohil.hil.steering`) in, applied before the command answering the next sensor
+    steering events (:mod:`hydrohil.simulation.steering`) in, applied before the command answering the next sensor
     packet k and logged with that k in ``events_path``. Returns a summary.
     """
-    from hydrohil.hil.steering import EventLog, SteerableController, parse_event
+    from hydrohil.simulation.steering import EventLog, SteerableController, parse_event
     ctl = controller
     builtin = controller.update if isinstance(controller, BuiltinController) else None   # the core's law: no
     res = count_size(encoder_resolution)                                                # Measurement needed
@@ -279,3 +280,110 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
             events.close()
     return {"commands_sent": client.seq, "sensor_packets": client.received, "sensor_packets_bad": client.bad,
             "sensor_packets_lost": client.lost, "stopped_by_signal": bool(should_stop())}
+
+
+def reference_table(text: str):
+    """'t0:x0,t1:x1,...' [s:m] -> t -> (x_ref, slope), linear between the points."""
+    from hydrohil.simulation.scenario import Table
+    try:
+        pts = [tuple(float(v) for v in item.split(":")) for item in text.split(",") if item.strip()]
+        t, x = zip(*pts)
+    except ValueError:
+        raise InputError("expected t:x pairs in s:m, e.g. 0:0.03,0.5:0.03,1.5:0.15", source="--reference",
+                         key=text) from None
+    if any(b < a for a, b in zip(t, t[1:])):
+        raise InputError("times must be non-decreasing", source="--reference", key=text)
+    return Table(t, x).at
+
+
+def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
+                   reference: str = "0:0.03,0.5:0.03,1.5:0.15,3:0.15,4:0.03,6:0.03", log: Path | None = None,
+                   mode: str = "packet", allow_remote: bool = False, busy_poll: bool | None = None,
+                   local: str | None = None, link_timeout: float | None = None, ready=print,
+                   panel: str | None = None) -> dict:
+    """The controller process (``hydrohil controller``, ``python -m hydrohil.hil controller``): the scenario's
+    controller (or the paper's P position controller) as a separate process talking to a plant server.
+
+    ``local``: bind the controller's socket to HOST:PORT (the address a plant started with ``--peer``
+    expects). ``ready`` prints ``CONNECTED host:port`` at the plant's first sensor packet (a handshake for
+    scripts). Raises LinkError when no plant answers within ``link_timeout`` (default ``[hil]
+    link_timeout``, 5 s) or it goes silent; ``controller.json`` is written in every case (``error``)."""
+    import signal
+    stop: list[int] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):      # first thing: finish the log and controller.json, then exit
+        signal.signal(sig, lambda signum, frame: stop.append(signum))
+    import os
+
+    from hydrohil.simulation.outputs import write_json
+    from hydrohil.simulation.scenario import HilCfg
+
+    addr = parse_address(connect, allow_remote=allow_remote)
+    local_addr = parse_address(local, allow_remote=allow_remote) if local else None
+    enc, scale, sample, spin, hil = 1e-6, 1.0, 5e-4, False, HilCfg()
+    if scenario is not None:
+        from hydrohil.simulation.scenario import load_scenario
+        sc = load_scenario(scenario)
+        s = sc.scenario
+        hil = s.hil
+        mode, scale = s.hil.controller_mode, s.hil.command_scale
+        sample = s.plant_step
+        if s.controller is None:
+            raise InputError("an open-loop scenario has no controller to run", source=str(scenario), key="controller")
+        ctl = sc.make_controller(sample)
+        enc = sc.params.sensors.encoder_resolution
+        ref = s.reference.sampler().at
+        cpu = s.hil.cpus()[1]
+        spin = s.hil.wait != "sleep" and (os.cpu_count() or 1) > 1   # never spin on a single CPU
+        busy_poll = (s.hil.busy_poll or spin) if busy_poll is None else busy_poll
+        if cpu is not None:
+            try:
+                os.sched_setaffinity(0, {cpu})
+            except OSError:
+                pass
+    else:
+        from hydrohil.control import PControllerCfg, make_controller
+        from hydrohil.parameters import load_parameters
+        ref = reference_table(reference)
+        if not 0 < kp <= 1e5:
+            raise InputError(f"must be > 0 and <= 1e5 [ū/m], got {kp}", source="--kp")
+        ctl = make_controller(PControllerCfg(type="p", kp=kp), load_parameters("ferreira2004"), sample)
+    timeout = hil.link_timeout if link_timeout is None else link_timeout
+    busy_poll = bool(busy_poll)
+    if log is not None:
+        log.mkdir(parents=True, exist_ok=True)
+    warm_up()
+    try:
+        if spin:
+            os.setpriority(os.PRIO_PROCESS, 0, -20)
+        elif scenario is not None:     # a controller that sleeps between packets: woken first (below the plant's
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(49))     # 50), whatever else the machine runs
+    except (OSError, AttributeError):
+        pass
+    summary: dict = {"error": None}
+    side = None
+    if panel:
+        from hydrohil.hil.sidechannel import CONTROLLER_COLUMNS, ROLE_CONTROLLER, SideChannel
+        side = SideChannel(parse_address(panel), ROLE_CONTROLLER, CONTROLLER_COLUMNS)
+    try:
+        with PlantClient(addr, timeout=timeout, command_scale=scale, busy_poll=busy_poll, period=sample,
+                         nap=not spin, bind=local_addr, should_stop=lambda: bool(stop),
+                         on_connect=lambda s: ready(f"CONNECTED {addr[0]}:{addr[1]}", flush=True)) as client:
+            try:
+                summary.update(run_position_controller(client, ctl, ref, encoder_resolution=enc, mode=mode,
+                                                sample_time=sample,
+                                                log_path=(log / "controller_log.csv") if log else None,
+                                                should_stop=lambda: bool(stop), side=side,
+                                                events_path=(log / "controller_events.jsonl") if log else None))
+            except LinkError as exc:
+                summary.update(error=str(exc), commands_sent=client.seq, sensor_packets=client.received)
+                raise
+    except OSError as exc:                        # e.g. the --local address taken by another process meanwhile
+        summary["error"] = f"cannot use the local address {local or 'any'}: {exc}"
+        raise LinkError(summary["error"]) from None
+    finally:
+        summary["stop_signal"] = stop[0] if stop else None
+        if side is not None:
+            side.close()
+        if log is not None:
+            write_json(log / "controller.json", summary)
+    return summary

@@ -183,7 +183,7 @@ def fuzz_live_plant(n: int = 1_000_000, rate_hz: float = 20_000.0, seed: int = 0
     """Fuzz a real-time plant (loopback) while the P controller runs against it: ``hydrohil plant``, or
     with ``plant="c"`` the standalone C plant; see the module docstring for what is checked. Returns the
     figures."""
-    from hydrohil.hil.processes import Child, cli, free_udp_port
+    from hydrohil.hil.processes import Child, free_udp_port, process_command
     from hydrohil.hil.run import plant_command
     from hydrohil.simulation.scenario import load_scenario
     duration = n / rate_hz + 120.0      # an upper bound: the plant is stopped once everything is sent
@@ -200,7 +200,7 @@ def fuzz_live_plant(n: int = 1_000_000, rate_hz: float = 20_000.0, seed: int = 0
     ctl = None
     try:
         host, port = plant.wait_line("READY ", 120.0).rsplit(":", 1)
-        ctl = Child(cli("controller", "--scenario", scen, "--connect", f"{host}:{port}", "--log", out / "controller",
+        ctl = Child(process_command("controller", "--scenario", scen, "--connect", f"{host}:{port}", "--log", out / "controller",
                         "--local", ctl_address), "controller")
         plant.wait_line("PEER ", 120.0)                   # the controller is the peer: the fuzzer can only be foreign
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)

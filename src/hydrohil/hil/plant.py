@@ -14,9 +14,9 @@ answers it, step — deterministic, as fast as the two processes go.
 from __future__ import annotations
 
 import gc
-import math
 import os
 import select
+import signal
 import socket
 import time
 from dataclasses import dataclass
@@ -24,32 +24,21 @@ from pathlib import Path
 
 from hydrohil.errors import HydrohilError, InputError
 from hydrohil.hil import protocol as pr
+from hydrohil.hil.protocol import parse_address
 from hydrohil.hil.netstamp import enable_kernel_timestamps, recv_stamped
 from hydrohil.hil.session import PanelSession
 from hydrohil.hil.stats import LatencyHistogram
 from hydrohil.models.layout import FRICTION_NAMES, PS, SPOOL_NAMES, TRAVEL_NAMES
-from hydrohil.parameters import Parameters
-from hydrohil.simulation.outputs import CsvStream
+from hydrohil.parameters import Parameters, load_parameters
+from hydrohil.simulation.outputs import CsvStream, finite_or_none, write_json
 from hydrohil.simulation.rig import Reading, VirtualRig
-from hydrohil.simulation.scenario import HilCfg
+from hydrohil.simulation.scenario import HilCfg, load_scenario
 
 SPIN_NS = 150_000            # busy-wait the last 150 us before a deadline ...
 SPIN_FRACTION = 0.3          # ... but at most 30 % of a step: spinning ~all the time trips the kernel's RT throttling
 LOG_COLUMNS = ("k", "t", "wall", "jitter_us", "compute_us", "u", "cmd_seq", "cmd_age", "watchdog", "xs", "p1",
                "p2", "xp", "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas",
                "p2_meas", "ps_meas", "faults", "status")
-
-
-def parse_address(text: str, *, allow_remote: bool = False) -> tuple[str, int]:
-    """'HOST:PORT' -> (host, port); a non-loopback host needs ``allow_remote``."""
-    host, sep, port = text.rpartition(":")
-    if not sep or not port.isdigit() or not 0 <= int(port) <= 65535:
-        raise InputError("expected HOST:PORT, e.g. 127.0.0.1:47000", source="address", key=text)
-    host = host or "127.0.0.1"
-    if not allow_remote and host not in ("127.0.0.1", "localhost", "::1"):
-        raise InputError("binding a non-loopback address exposes the plant to the network; pass --allow-remote",
-                         source="address", key=text)
-    return host, int(port)
 
 
 def _pin(cpu: int | None):
@@ -383,7 +372,7 @@ class PlantServer:
 
     def _steer(self, msg: dict, k: int) -> None:
         """Apply one steering message at the boundary of step k (before it is taken), log it, answer it."""
-        from hydrohil.hil.steering import apply_plant_event, parse_event
+        from hydrohil.simulation.steering import apply_plant_event, parse_event
         op = msg.get("op")
         try:
             if op == "stop":
@@ -490,5 +479,62 @@ class PlantServer:
         self.sock.close()
 
 
-def finite_or_none(d: dict) -> dict:
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
+def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", step: float = 5e-4,
+                duration: float | None = None, log: Path | None = None, lockstep: bool = False,
+                scenario: Path | None = None, allow_remote: bool = False, cpu: int | None = None,
+                peer: str | None = None, connect_timeout: float | None = None, ready=print,
+                panel: str | None = None, rows: bool = True) -> dict:
+    """The plant process (``hydrohil plant``, ``python -m hydrohil.hil plant``): run the plant server until the
+    run ends; streams ``log/plant_log.csv`` and writes ``log/timing.json``
+    with the run's verdict, whatever the end (also on SIGINT/SIGTERM, or when no controller spoke). With
+    ``scenario`` the parameters, step, duration, initial state, [hil] settings and [[faults]] come from it.
+    ``peer``: the only controller address accepted (default: first sender). ``ready`` prints
+    ``READY host:port`` once bound and ``PEER host:port`` once the controller has spoken (handshakes for
+    scripts). ``panel``: HOST:PORT of the live panel's side channel (telemetry out, steering in; the session's
+    events and applied commands go to ``log``); ``rows=False``: no ``plant_log.csv`` of the whole run (a panel
+    session: recordings only). Returns the timing summary; :func:`hydrohil.hil.verdict.raise_for_outcome` maps
+    it to an exit."""
+    stop: list[int] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):      # first thing: a signal during start-up ends it cleanly too
+        signal.signal(sig, lambda signum, frame: stop.append(signum))
+    host_port = parse_address(bind, allow_remote=allow_remote)
+    peer_addr = parse_address(peer, allow_remote=allow_remote) if peer else None
+    initial, hil, faults = {}, HilCfg(), []
+    if scenario is not None:
+        sc = load_scenario(scenario)
+        s = sc.scenario
+        prm, hil = sc.params, s.hil
+        step, duration = s.plant_step, s.duration if duration is None else duration
+        initial = s.initial.model_dump()
+        cpu = hil.cpus()[0] if cpu is None else cpu
+        faults = s.faults
+    else:
+        prm = load_parameters(params)
+        duration = 10.0 if duration is None else duration
+    if connect_timeout is not None:
+        hil = hil.model_copy(update={"connect_timeout": connect_timeout})
+    if log is not None:
+        log.mkdir(parents=True, exist_ok=True)
+    server = PlantServer(prm, step=step, duration=duration, bind=host_port, lockstep=lockstep, hil=hil,
+                         initial=initial, cpu=cpu, faults=faults, peer=peer_addr,
+                         log=(log / "plant_log.csv") if log is not None and rows else None,
+                         panel=parse_address(panel) if panel else None, session=log)
+    server.on_peer = lambda addr: ready(f"PEER {addr[0]}:{addr[1]}", flush=True)
+
+    def _stop(signum, frame):
+        server.stop_requested = True
+        server.stop_signal = signum
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _stop)
+    if stop:
+        _stop(stop[0], None)
+    server.warm_up()
+    host, port = server.address
+    ready(f"READY {host}:{port}", flush=True)
+    try:
+        timing = finite_or_none(server.run())
+    finally:
+        server.close()
+    if log is not None:
+        write_json(log / "timing.json", timing)
+    return timing

@@ -18,9 +18,12 @@ import time
 from hydrohil.errors import HydrohilError
 
 
-def cli(*args) -> list[str]:
-    """The ``hydrohil`` command line of this interpreter."""
-    return [sys.executable, "-m", "hydrohil.cli", *map(str, args)]
+def process_command(role: str, *args) -> list[str]:
+    """The command line of a HIL process (``role``: ``plant`` or ``controller``) with this interpreter:
+    ``python -m hydrohil.hil ROLE ARGS`` (:mod:`hydrohil.hil.commands`, the options of ``hydrohil ROLE``)."""
+    if role not in ("plant", "controller"):
+        raise ValueError(f"no HIL process {role!r}")
+    return [sys.executable, "-m", "hydrohil.hil", role, *map(str, args)]
 
 
 def free_udp_port(host: str = "127.0.0.1") -> int:

@@ -17,6 +17,8 @@ import struct
 import zlib
 from typing import NamedTuple
 
+from hydrohil.errors import InputError
+
 MAGIC = b"HHIL"
 VERSION = 1
 T_SENSOR, T_COMMAND, T_HELLO, T_BYE = 1, 2, 3, 4
@@ -128,3 +130,15 @@ def decode(data: bytes) -> Header | Sensor | Command | None:
             return None   # NaN/inf command: bad packet
         return Command(hdr, u, flags)
     return hdr
+
+
+def parse_address(text: str, *, allow_remote: bool = False) -> tuple[str, int]:
+    """'HOST:PORT' -> (host, port); a non-loopback host needs ``allow_remote``."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise InputError("expected HOST:PORT, e.g. 127.0.0.1:47000", source="address", key=text)
+    host = host or "127.0.0.1"
+    if not allow_remote and host not in ("127.0.0.1", "localhost", "::1"):
+        raise InputError("binding a non-loopback address exposes the plant to the network; pass --allow-remote",
+                         source="address", key=text)
+    return host, int(port)

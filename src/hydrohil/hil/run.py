@@ -17,12 +17,13 @@ import signal
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Protocol
 
 import numpy as np
 
 from hydrohil.errors import HydrohilError, InputError, Interrupted, LinkError
-from hydrohil.hil.processes import Child, cli, free_udp_port
+from hydrohil.hil.processes import Child, free_udp_port, process_command
+from hydrohil.simulation.outputs import read_csv_columns
 from hydrohil.simulation.scenario import load_scenario
 
 READY_TIMEOUT_S = 120.0    # a child that has not bound its socket by then is stuck (a loaded machine: seconds)
@@ -44,6 +45,15 @@ class HilResult:
 PLANTS = ("python", "c")
 
 
+class LiveView(Protocol):
+    """What ``run_hil(live=...)`` attaches to a run (the live panel, :class:`hydrohil.panel.server.PanelThread`):
+    a side channel for both processes, a URL to print, and a close at the end."""
+    url: str
+    side_address: str
+
+    def close(self) -> None: ...
+
+
 def c_plant_executable(sc, scenario: Path) -> Path:
     """The standalone C plant built for a loaded scenario (:func:`hydrohil.export.cplant.cached_plant`)."""
     from hydrohil.export.cplant import cached_plant, scenario_options
@@ -58,7 +68,7 @@ def plant_command(sc, scenario: Path, out: Path, peer: str | None, *, lockstep: 
     tail = ["--bind", "127.0.0.1:0", "--log", out, *(["--peer", peer] if peer else []),
             *(["--lockstep"] if lockstep else [])]
     if plant == "python":
-        return cli("plant", "--scenario", scenario, *tail)
+        return process_command("plant", "--scenario", scenario, *tail)
     if plant != "c":
         raise InputError(f"--plant must be one of {', '.join(PLANTS)}, got {plant!r}", key="plant")
     from hydrohil.export.cplant import fault_options
@@ -71,14 +81,17 @@ def plant_command(sc, scenario: Path, out: Path, peer: str | None, *, lockstep: 
 def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
             progress: Callable[[float, float], None] | None = None, plot: bool = True,
             plant: str = "python", params: str | Path | None = None, sets: dict | None = None,
-            panel: bool = False, panel_port: int = 0, ready=print, controller: str | None = None) -> HilResult:
+            live: Callable[[Path, Path], LiveView] | None = None, ready=print,
+            controller: str | None = None) -> HilResult:
     """Run a scenario as a HIL experiment; writes plant_log.csv, controller_log.csv, timing.json (with the
     verdict), comparison.json and report.png into ``out``. ``plant``: "python" (``hydrohil plant``) or "c"
     (the standalone C plant, built and cached on first use). ``params`` / ``sets`` replace the scenario's
     parameter set / apply on top of its overrides (the scenario as run is written to ``out/scenario.toml``).
-    ``panel``: serve the live panel (:mod:`hydrohil.panel`) on ``panel_port`` while it runs (``ready`` prints
-    ``PANEL <url>``): live traces, steering (applied changes in ``events.jsonl`` / ``controller_events.jsonl``,
-    replayed by the offline comparison), recordings under ``out/recordings``. ``controller``: the command
+    ``live``: a live view to attach while it runs, made as ``live(scenario as run, out)`` (the panel:
+    ``functools.partial(hydrohil.panel.server.PanelThread, port=..., lockstep=...)``; ``ready`` prints
+    ``PANEL <url>``): both processes send it telemetry and take steering from it through its side channel
+    (applied changes in ``events.jsonl`` / ``controller_events.jsonl``, replayed by the offline
+    comparison). ``controller``: the command
     line of an external controller program that speaks the protocol (docs/protocol.md) instead of the
     scenario's controller process: ``{host}``, ``{port}`` (the plant's address), ``{scenario}`` (the scenario
     file as run), ``{duration}`` [s] and ``{out}`` are filled in, e.g. ``"./p_controller {host} {port} 50 0.1"``.
@@ -96,27 +109,26 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     ctl_address = f"127.0.0.1:{free_udp_port()}" if controller is None else None
     command = plant_command(sc, scenario, out, ctl_address, lockstep=lockstep, plant=plant)
     out.mkdir(parents=True, exist_ok=True)
-    live = side = None
-    if panel:
+    view = side = None
+    if live is not None:
         if plant != "python":
             raise InputError("the live panel steers the Python plant: run with --plant python", key="plant")
-        from hydrohil.panel.server import PanelThread
         for name in ("events.jsonl", "controller_events.jsonl"):    # a run folder used again: this run's only
             (out / name).unlink(missing_ok=True)
-        live = PanelThread(scenario, out, lockstep=lockstep, port=panel_port)
-        side = ["--panel", live.side_address]
+        view = live(scenario, out)
+        side = ["--panel", view.side_address]
         command += side
-        ready(f"PANEL {live.url}", flush=True)
+        ready(f"PANEL {view.url}", flush=True)
     plant = Child(command, "plant")
     ctl = None
     try:
         address = plant.wait_line("READY ", READY_TIMEOUT_S)
         ctl = Child(controller_args(controller, address, scenario, sc.scenario.duration, out)
                     if controller is not None else
-                    cli("controller", "--scenario", scenario, "--connect", address, "--log", out, "--local",
+                    process_command("controller", "--scenario", scenario, "--connect", address, "--log", out, "--local",
                         ctl_address, *(side or [])), "controller")
         _supervise(plant, ctl, sc.scenario.duration, hil_cfg, progress)
-    except KeyboardInterrupt as exc:         # Ctrl-C (or SIGTERM, see cli._interruptible)
+    except KeyboardInterrupt as exc:         # Ctrl-C (or SIGTERM, see terminal.interruptible)
         for p in (ctl, plant):
             if p is not None:
                 p.stop()
@@ -125,8 +137,8 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
         for p in (ctl, plant):
             if p is not None and p.poll() is None:
                 p.stop()
-        if live is not None:
-            live.close()
+        if view is not None:
+            view.close()
     # a plant that crashed explains a controller that then found it silent: report the plant first
     order = (plant, ctl) if plant.returncode not in (0, 3, 4, 130, 143) else (ctl, plant)
     for p in order:
@@ -179,22 +191,6 @@ def _supervise(plant: Child, ctl: Child, duration: float, hil_cfg, progress) -> 
         progress(duration, duration)
 
 
-def read_csv_columns(path: Path) -> dict[str, np.ndarray]:
-    import csv
-    with open(path, newline="") as fh:
-        r = csv.reader(fh)
-        header = next(r)
-        rows = list(r)
-    out = {}
-    for j, name in enumerate(header):
-        col = [row[j] for row in rows]
-        try:
-            out[name] = np.array(col, dtype=float)
-        except ValueError:
-            out[name] = np.array(col)
-    return out
-
-
 def replay_commands(sc, hil: dict, events: dict | None = None) -> np.ndarray:
     """The plant log's applied valve commands (column ``u``) and the run's plant events replayed through the
     model (:func:`hydrohil.hil.session.replay_applied`): the piston positions they give. Equal to the log's
@@ -207,7 +203,7 @@ def compare_offline(scenario: Path, out: Path, *, plot: bool = True, verdict: di
                     plant: str | None = None) -> dict:
     """Offline run of the same scenario; position RMS/max difference to the HIL plant log; the replay of
     the plant's applied commands (:func:`replay_commands`)."""
-    from hydrohil.hil.steering import read_events
+    from hydrohil.simulation.steering import read_events
     from hydrohil.simulation.run import run_scenario
     sc = load_scenario(scenario)
     hil = read_csv_columns(out / "plant_log.csv")

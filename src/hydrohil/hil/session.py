@@ -2,7 +2,7 @@
 
 Session folder (``hydrohil panel --out DIR``: ``DIR/session-N``)::
 
-    events.jsonl            every applied steering event with its step index k (hydrohil.hil.steering)
+    events.jsonl            every applied steering event with its step index k (hydrohil.simulation.steering)
     commands.f64            the valve command applied at each step (float64, little-endian, k = 0, 1, ...)
     timing.json             the whole session's timing and verdict (at its end)
     recordings/NAME/        plant_log.csv + timing.json of the recorded steps (+ the panel's report)
@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from hydrohil.hil.stats import LatencyHistogram
-from hydrohil.hil.steering import EventLog
+from hydrohil.simulation.steering import EventLog
 
 COMMANDS_FILE = "commands.f64"
 FLUSH_EVERY = 2000        # commands buffered in memory between two writes (1 s at 0.5 ms: 16 kB)
@@ -70,8 +70,7 @@ class PanelSession:
         self.recording = None
         rec.log.close()
         self.flush()
-        from hydrohil.hil.plant import finite_or_none
-        from hydrohil.simulation.outputs import write_json
+        from hydrohil.simulation.outputs import finite_or_none, write_json
         s = self.server
         timing = finite_or_none(s._timing(k - rec.k0, s.t0, time.perf_counter_ns(), s.rt, 0, window=rec))
         write_json(rec.folder / "timing.json", timing)
@@ -101,7 +100,7 @@ def read_commands(folder: Path) -> np.ndarray:
 def replay_session(sc, folder: Path, steps: int | None = None, keep_from: int = 0) -> dict[str, np.ndarray]:
     """A session's applied commands and plant events (:func:`replay_applied`) up to step ``steps``; the
     columns of steps ``keep_from`` .. ``steps`` kept (index k − keep_from)."""
-    from hydrohil.hil.steering import read_events
+    from hydrohil.simulation.steering import read_events
     u = read_commands(folder)
     n = len(u) if steps is None else min(int(steps), len(u))
     return replay_applied(sc, u[:n], read_events(Path(folder) / "events.jsonl", "plant"), keep_from=keep_from)
@@ -118,7 +117,7 @@ def replay_applied(sc, u, events: dict | None = None, keep_from: int = 0) -> dic
     :data:`REPLAY_COLUMNS` and ``faults``. Equal to the run's bit for bit when it stepped the model right,
     however late its commands came. ``keep_from``: only steps from there on are kept (index k − keep_from),
     so a long session's recording needs memory for its own steps only."""
-    from hydrohil.hil.steering import apply_plant_event
+    from hydrohil.simulation.steering import apply_plant_event
     from hydrohil.simulation.rig import VirtualRig
     s = sc.scenario
     events = events or {}

@@ -46,7 +46,7 @@ def _label(ev: dict, slots: dict) -> str:
 
 
 def finish_recording(sc, session: Path, folder: Path, k0: int, k1: int) -> dict:
-    from hydrohil.hil.run import read_csv_columns
+    from hydrohil.simulation.outputs import read_csv_columns
     from hydrohil.hil.session import replay_session
     from hydrohil.hil.verdict import judge
     from hydrohil.models.sensors import count_size

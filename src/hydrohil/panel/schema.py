@@ -1,5 +1,5 @@
 """What the page's forms are built from: the fault types of :mod:`hydrohil.simulation.faults` and the
-tunables of :mod:`hydrohil.hil.steering`, read from their schemas (one source: a new fault type or bound
+tunables of :mod:`hydrohil.simulation.steering`, read from their schemas (one source: a new fault type or bound
 appears on the page by itself)."""
 
 from __future__ import annotations
@@ -36,5 +36,5 @@ def fault_schema() -> list[dict]:
 
 
 def tunable_schema() -> list[dict]:
-    from hydrohil.hil.steering import TUNABLES
+    from hydrohil.simulation.steering import TUNABLES
     return [{"name": n, "unit": u, "min": lo, "max": hi, "description": d} for n, (u, lo, hi, d) in TUNABLES.items()]

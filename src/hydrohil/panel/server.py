@@ -143,7 +143,7 @@ class Panel:
         c = self.sc.scenario.controller
         if c is None or self.controller_kind != "builtin" or c.type == "python":
             return {}
-        from hydrohil.hil.steering import GAINS
+        from hydrohil.simulation.steering import GAINS
         return {g: getattr(c, g) for g in GAINS if g in type(c).model_fields}
 
     def state(self) -> dict:
@@ -218,7 +218,7 @@ class Panel:
     async def steer(self, body: dict) -> dict:
         """Validate a change here (clear errors before anything is sent), send it to the process it concerns,
         keep what the page shows in step with what was applied."""
-        from hydrohil.hil.steering import parse_event
+        from hydrohil.simulation.steering import parse_event
         k_requested = self.traces.k_max     # the newest step the plant had reported when the request came
         op = body.get("op")
         role = "controller" if op in ("gains", "reference") or body.get("target") == "controller" else "plant"
@@ -256,7 +256,7 @@ class Panel:
         return tables
 
     async def start_session(self) -> None:
-        from hydrohil.hil.processes import Child, cli, free_udp_port
+        from hydrohil.hil.processes import Child, free_udp_port, process_command
         from hydrohil.simulation.scenario import write_scenario
         if self.running:
             raise InputError("a session is running: stop it first", source="panel")
@@ -278,7 +278,7 @@ class Panel:
         builtin = self.controller_kind == "builtin"
         ctl_addr = f"127.0.0.1:{free_udp_port()}" if builtin else None
         bind = "127.0.0.1:0" if builtin else f"127.0.0.1:{self.plant_port}"
-        plant = Child(cli("plant", "--scenario", scenario, "--bind", bind, "--log", folder, "--panel", side,
+        plant = Child(process_command("plant", "--scenario", scenario, "--bind", bind, "--log", folder, "--panel", side,
                           "--no-rows", "--duration", "0", *(["--peer", ctl_addr] if builtin else []),
                           *(["--lockstep"] if self.lockstep else []),
                           *([] if builtin else ["--connect-timeout", "3600"])), "plant")
@@ -286,7 +286,7 @@ class Panel:
         loop = asyncio.get_running_loop()
         address = await loop.run_in_executor(None, plant.wait_line, "READY ", 120.0)
         if builtin:
-            self.children.append(Child(cli("controller", "--scenario", scenario, "--connect", address, "--local",
+            self.children.append(Child(process_command("controller", "--scenario", scenario, "--connect", address, "--local",
                                            ctl_addr, "--panel", side, "--log", folder), "controller"))
         self.running = True
         print(f"SESSION {folder} plant {address}", flush=True)
@@ -375,7 +375,7 @@ class Panel:
         rec, self.recording = self.recording, None
         if rec is None:
             return
-        from hydrohil.hil.run import read_csv_columns
+        from hydrohil.simulation.outputs import read_csv_columns
         folder = Path(rec["dir"])
         try:
             k = read_csv_columns(folder / "plant_log.csv")["k"]

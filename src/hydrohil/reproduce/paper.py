@@ -54,3 +54,10 @@ SPEC_SANITY: dict[str, tuple[float, str, str]] = {
     "p20_bar": (44.9, "bar", "SPEC §8, eq 18 at Ps = 70 bar"),
     "as1_at_1": (4.31, "l/min/√bar", "SPEC §8, eq 3 with the paper's k-set"),
 }
+
+# the experiments of the paper that reproduce stands in for with synthetic data
+PAPER_DATASHEET = {"qn_lpm": 25.5, "pn_bar": 35.0, "ps_bar": 70.0, "kq0_lpm": 28.0, "kp0": 36.5, "dpm_bar": 8.0,
+                   "ql0_lpm": 1.36}                           # §3.1.2
+PAPER_DRIFT = {"displacement_m": 1.504e-3, "duration_s": 200.0, "p2_pa": 5.28e5}   # §3.2.2
+BULK_PRESSURES = (5e6, 7e6, 1e7, 1.4e7)                       # Pa, supply pressures of the Fig 7 tests
+BULK_FRICTION = (6500.0, 8100.0, 9500.0, 12000.0)             # N·s/m, f per pressure (8100 at 70 bar, §3.2.1)

@@ -3,13 +3,10 @@
 from __future__ import annotations
 
 import platform
-from typing import TYPE_CHECKING
 
 from hydrohil.identification.bulk_modulus import beta_eq21
-from hydrohil.reproduce.paper import PAPER, SPEC_SANITY
-
-if TYPE_CHECKING:
-    from hydrohil.reproduce.runner import Reproduction
+from hydrohil.reproduce.paper import BULK_FRICTION, PAPER, SPEC_SANITY
+from hydrohil.reproduce.state import Reproduction
 
 FIGURES = (   # (result key, figure path in the report folder, heading): one heading per figure, each naming it
     ("spool", "figures/fig4_spool_bode.png", "Fig 4 — spool Bode gain and phase at 5/25/50 %"),
@@ -116,7 +113,6 @@ def round_trip_rows(r: Reproduction) -> list[str]:
 
     for k in ("wn", "xi", "lv", "la", "delay"):
         add("spool", k, getattr(t.spool, k), fits["spool"].values[k])
-    from hydrohil.reproduce.runner import BULK_FRICTION
     for row, f_true in zip(fits["bulk-modulus"].values["per_pressure"], BULK_FRICTION):
         ps = f"Ps = {row['ps'] / 1e5:g} bar"
         add("bulk modulus", f"βe1 ({ps})", beta_eq21(row["p10"], t.cylinder.b, t.cylinder.c), row["beta1"])

@@ -27,57 +27,19 @@ from hydrohil.identification import (identify_bulk_modulus, identify_friction_dy
 from hydrohil.identification.bulk_modulus import synthetic_accel
 from hydrohil.identification.friction_dynamic import ForceSimulator
 from hydrohil.identification.friction_static import synthetic_friction
-from hydrohil.identification.report import write_report
 from hydrohil.identification.spool import synthetic_bode
 from hydrohil.identification.valve_static import characteristics
 from hydrohil.models.layout import REFERENCE_STOP_C, REFERENCE_STOP_K
 from hydrohil.models.linear import equilibrium_pressures, linear_model
-from hydrohil.parameters import Parameters, load_parameters, replace_values, save_parameters
-from hydrohil.simulation.outputs import write_json, write_table
+from hydrohil.parameters import Parameters, replace_values, save_parameters
+from hydrohil.reproduce.paper import BULK_FRICTION, BULK_PRESSURES, PAPER_DATASHEET, PAPER_DRIFT
+from hydrohil.reproduce.state import Reproduction
+from hydrohil.simulation.outputs import write_json
 from hydrohil.simulation.run import run_scenario
 from hydrohil.simulation.scenario import EXPERIMENTS_DIR, load_scenario
-PAPER_DATASHEET = {"qn_lpm": 25.5, "pn_bar": 35.0, "ps_bar": 70.0, "kq0_lpm": 28.0, "kp0": 36.5, "dpm_bar": 8.0,
-                   "ql0_lpm": 1.36}                           # §3.1.2
-PAPER_DRIFT = {"displacement_m": 1.504e-3, "duration_s": 200.0, "p2_pa": 5.28e5}   # §3.2.2
-BULK_PRESSURES = (5e6, 7e6, 1e7, 1.4e7)                       # Pa, supply pressures of the Fig 7 tests
-BULK_FRICTION = (6500.0, 8100.0, 9500.0, 12000.0)             # N·s/m, f per pressure (8100 at 70 bar, §3.2.1)
+
 STEPS = ("characteristics", "spool", "valve-static", "bulk-modulus", "leakage", "friction-static",
          "friction-dynamic", "fig11", "fig12", "step-size")
-
-
-class Reproduction:
-    """State of one reproduce run: output folder, truth and identified parameters, results, figures."""
-
-    def __init__(self, out: Path, quick: bool, lockstep: bool, params: str | Path | None = None,
-                 sets: dict | None = None):
-        self.out, self.quick, self.lockstep = out, quick, lockstep
-        self.params, self.sets = params, sets    # the rig reproduced: the paper's set unless told otherwise
-        self.truth = load_parameters(params or "ferreira2004", sets)
-        self.data = out / "data"
-        self.data.mkdir(parents=True, exist_ok=True)
-        self.identified = self.truth
-        self.results: dict = {"mode": {"quick": quick, "hil": "lock-step" if lockstep else "real time"}}
-        self.figures: dict[str, list[str]] = {}
-        self.fits = {}
-
-    def scenario(self, name: str, **kw):
-        """An experiment file of the paper, on the rig reproduced (``--params`` / ``--set``)."""
-        return load_scenario(EXPERIMENTS_DIR / name, params=self.params, sets=self.sets, **kw)
-
-    def rel(self, paths) -> list[str]:
-        return [str(Path(p).relative_to(self.out)) for p in paths]
-
-    def save_data(self, name: str, cols: dict[str, np.ndarray]) -> Path:
-        path = self.data / name
-        write_table(path, list(cols), np.column_stack([np.asarray(v, float) for v in cols.values()]))
-        return path
-
-    def chain(self, fit) -> None:
-        """Record a fit, its report figures, and carry its values into the identified set."""
-        self.fits[fit.procedure] = fit
-        self.identified = fit.apply(self.identified)
-        self.figures[fit.procedure] = self.rel(write_report(fit, self.out / "figures"))
-        self.results[fit.procedure] = fit.to_json()
 
 
 def step_characteristics(r: Reproduction) -> None:

@@ -12,6 +12,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from hydrohil.sequences.expectations import DISPLAY, UNITS, Outcome
+from hydrohil.sequences.sequence import slug
 
 
 def write_junit(results, path: Path) -> Path:
@@ -106,7 +107,6 @@ def failure_figure(result, index: int, outcome: Outcome, path: Path) -> Path:
 def write_report(results, path: Path) -> Path:
     """``report.md``: a table per sequence (every expectation with its verdict and what was measured) and a
     figure for each failed one (``figures/``)."""
-    from hydrohil.sequences.runner import slug
     path = Path(path)
     figs = path.parent / "figures"
     for old in figs.glob("*.png"):            # a report folder used again: this run's figures only

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -21,7 +20,7 @@ import numpy as np
 
 from hydrohil.errors import HydrohilError, InputError
 from hydrohil.sequences.expectations import Outcome, Predicate, Signals, evaluate, signals_from_columns
-from hydrohil.sequences.sequence import LoadedSequence, load_sequence
+from hydrohil.sequences.sequence import LoadedSequence, load_sequence, slug
 
 MODES = ("offline", "lockstep", "realtime")
 
@@ -53,10 +52,6 @@ class SequenceResult:
                 "source": self.source, "wall_s": self.wall_s, "verdict": self.verdict,
                 "expectations": [{"name": o.name, "type": o.type, "status": o.status, "message": o.message,
                                   "measured": o.measured, "limit": o.limit} for o in self.outcomes]}
-
-
-def slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")[:80] or "sequence"
 
 
 def _predicates(seq: LoadedSequence, given: dict[int, Callable] | None) -> dict[int, Callable]:
@@ -114,7 +109,8 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
             if res.diverged is not None:
                 error = str(res.diverged)
         else:
-            from hydrohil.hil.run import read_csv_columns, run_hil
+            from hydrohil.hil.run import run_hil
+            from hydrohil.simulation.outputs import read_csv_columns
             hil = run_hil(scen, out, lockstep=mode == "lockstep", plot=False,
                           controller=controller if external else None)
             log = read_csv_columns(out / "plant_log.csv")

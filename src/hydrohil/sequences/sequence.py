@@ -38,6 +38,7 @@ Format (``examples/sequences/``)::
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
@@ -232,3 +233,8 @@ def load_sequence(path: str | Path, *, allow_empty: bool = False) -> LoadedSeque
                 raise InputError(unknown_name(v, events, what="action name"), source=str(path),
                                  key=f"expect[{i}].{key}")
     return loaded
+
+
+def slug(text: str) -> str:
+    """A sequence's (or an expectation's) name as a file name: letters, digits, ``_.-``; at most 80 chars."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")[:80] or "sequence"

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import csv
 import json
+import math
 import time
 from pathlib import Path
 
@@ -36,6 +38,11 @@ def write_log_csv(path: Path, log: np.ndarray, extra: dict[str, np.ndarray] | No
     arr = np.column_stack([log, *(np.asarray(v, float)[: log.shape[0]] for v in extra.values())]) if extra else log
     names = {LOG_COLUMNS.index(c): v for c, v in MODE_COLUMNS.items()}
     write_table(path, [*LOG_COLUMNS, *extra], arr, names=names, ints={LOG_COLUMNS.index("events")})
+
+
+def finite_or_none(d: dict) -> dict:
+    """``d`` with its non-finite float values as None (JSON has no NaN or Infinity)."""
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
 
 
 def write_json(path: Path, data: dict) -> None:
@@ -82,3 +89,20 @@ class CsvStream:
         if not self.fh.closed:
             self.flush()
             self.fh.close()
+
+
+def read_csv_columns(path: Path) -> dict[str, np.ndarray]:
+    """A CSV log (plant_log.csv, controller_log.csv, log.csv) as {column: array}: numbers as floats, a
+    column of names (modes) as strings."""
+    with open(path, newline="") as fh:
+        r = csv.reader(fh)
+        header = next(r)
+        rows = list(r)
+    out = {}
+    for j, name in enumerate(header):
+        col = [row[j] for row in rows]
+        try:
+            out[name] = np.array(col, dtype=float)
+        except ValueError:
+            out[name] = np.array(col)
+    return out

@@ -29,7 +29,7 @@ from hydrohil.parameters import Parameters
 from hydrohil.simulation.diagnostics import divergence_error
 from hydrohil.simulation.faults import fault_struct
 from hydrohil.simulation.loop import NLOG, HybridPlant, initial_state
-from hydrohil.simulation.run import SimulationResult
+from hydrohil.simulation.result import SimulationResult
 from hydrohil.simulation.scenario import HilCfg
 
 
@@ -84,10 +84,10 @@ class VirtualRig:
             self._fifo = np.full(int(np.ceil(1.0 / self.h)) + 2, np.nan)
             self.c.fifo, self.c.fifo_cap = dptr(self._fifo), len(self._fifo)
 
-    # -- steering (hydrohil.hil.steering: the live panel, and its offline replay) ---------------------
+    # -- steering (hydrohil.simulation.steering: the live panel, and its offline replay) ---------------------
     def tune(self, name: str, value: float) -> None:
-        """Set a tunable (:data:`hydrohil.hil.steering.TUNABLES`) from the next step on."""
-        from hydrohil.hil.steering import tuned_base
+        """Set a tunable (:data:`hydrohil.simulation.steering.TUNABLES`) from the next step on."""
+        from hydrohil.simulation.steering import tuned_base
         self.tunables[name] = float(value)
         lib.hh_rig_set_base(self.c, dptr(np.ascontiguousarray(tuned_base(self.base0, self.tunables))))
 
@@ -179,11 +179,11 @@ def run_rig(sc, *, controller=None, progress=None, events=None, controller_event
     """Offline run of a scenario through the virtual rig (the path of scenarios with ``[[faults]]`` or a
     Python controller): closed loop = the scenario's controller (or ``controller``, a callable taking a
     :class:`~hydrohil.control.Measurement`) on what the rig's sensors report, exactly as the HIL controller
-    process. ``events`` / ``controller_events`` ({k: [event]}, :func:`hydrohil.hil.steering.read_events`)
+    process. ``events`` / ``controller_events`` ({k: [event]}, :func:`hydrohil.simulation.steering.read_events`)
     replay a steered session (the live panel) at the steps they were applied; ``steps`` replaces the
-    scenario's step count. Returns a :class:`~hydrohil.simulation.run.SimulationResult` with the extra
+    scenario's step count. Returns a :class:`~hydrohil.simulation.result.SimulationResult` with the extra
     columns :data:`RIG_COLUMNS` (what the sensors reported, active faults, watchdog)."""
-    from hydrohil.hil.steering import SteerableController, apply_plant_event
+    from hydrohil.simulation.steering import SteerableController, apply_plant_event
     s = sc.scenario
     h, n = s.solver.step, s.n_steps() if steps is None else int(steps)
     rig = VirtualRig(sc.params, h, s.hil, s.faults, s.initial.model_dump())
