@@ -18,18 +18,13 @@ from scipy.optimize import least_squares, minimize
 from hydrohil.errors import InputError
 from hydrohil.identification.data import Column, read_table
 from hydrohil.identification.result import Fit
+from hydrohil.models.friction import steady_state_friction
 
 COLUMNS = (
     Column("v", "m/s", -10.0, 10.0, "velocity in m/s"),
     Column("ff", "N", -1e6, 1e6),
 )
 MIN_POINTS_PER_SIDE = 6
-
-
-def stribeck_curve(v, fc, fs, vs, kv):
-    """Steady-state friction force [N] of eq 25 (fs = breakaway force)."""
-    v = np.asarray(v, float)
-    return (fc + (fs - fc) * np.exp(-(v / vs) ** 2)) * np.sign(v) + kv * v
 
 
 def _fit_side(v, ff) -> tuple[dict[str, float], float, float]:
@@ -102,6 +97,6 @@ def synthetic_friction(pos: dict, neg: dict, v=None, noise=0.0, seed=0) -> dict[
         half = np.concatenate([np.linspace(0.002, 0.02, 10), np.linspace(0.025, 0.2, 15)])
         v = np.concatenate([-half[::-1], half])
     v = np.asarray(v, float)
-    ff = np.where(v > 0, stribeck_curve(v, **pos), stribeck_curve(v, **neg))
+    ff = np.where(v > 0, steady_state_friction(v, **pos), steady_state_friction(v, **neg))
     rng = np.random.default_rng(seed)
     return {"v": v, "ff": ff + noise * rng.standard_normal(v.size)}

@@ -12,7 +12,7 @@ from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter  # noqa
 import numpy as np  # noqa: E402
 
 from hydrohil.identification.bulk_modulus import beta_eq21  # noqa: E402
-from hydrohil.identification.friction_static import stribeck_curve  # noqa: E402
+from hydrohil.models.friction import steady_state_friction  # noqa: E402
 from hydrohil.identification.result import Fit  # noqa: E402
 from hydrohil.models import valve  # noqa: E402
 
@@ -127,8 +127,8 @@ def plot_friction_static(fit: Fit, out: Path) -> list[Path]:
     s, p, n = fit.values["symmetric"], fit.values["positive"], fit.values["negative"]
     fig, ax = plt.subplots(figsize=(8, 5))
     ax.plot(v, ff, "o", ms=4, label="data")
-    ax.plot(vv, stribeck_curve(vv, **s), "-", label=f"symmetric (RMS {fit.achieved['rms_symmetric_n']:.1f} N)")
-    ax.plot(vv, np.where(vv > 0, stribeck_curve(vv, **p), stribeck_curve(vv, **n)), "--",
+    ax.plot(vv, steady_state_friction(vv, **s), "-", label=f"symmetric (RMS {fit.achieved['rms_symmetric_n']:.1f} N)")
+    ax.plot(vv, np.where(vv > 0, steady_state_friction(vv, **p), steady_state_friction(vv, **n)), "--",
             label=f"asymmetric (RMS {fit.achieved['rms_positive_n']:.1f} / {fit.achieved['rms_negative_n']:.1f} N)")
     ax.set_xlabel("velocity [m/s]")
     ax.set_ylabel("friction force [N]")

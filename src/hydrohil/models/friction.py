@@ -11,8 +11,3 @@ def steady_state_friction(v, fc, fs, vs, kv):
     v = np.asarray(v, dtype=float)
     return (fc + (fs - fc) * np.exp(-(v / vs) ** 2)) * np.sign(v) + kv * v
 
-
-def steady_state_friction_asym(v, pos, neg):
-    """Eq 25 with a (fc, fs, vs, kv) set per direction."""
-    v = np.asarray(v, dtype=float)
-    return np.where(v >= 0, steady_state_friction(v, *pos), steady_state_friction(v, *neg))
