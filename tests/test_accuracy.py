@@ -131,6 +131,7 @@ def sensible_scenarios(draw, mass=(5.0, 500.0), ps=(20e5, 250e5), kp=(10.0, 150.
                           source="hypothesis")
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(sc=sensible_scenarios())
 def test_hybrid_never_diverges_at_half_millisecond(sc):
@@ -147,6 +148,7 @@ def _moving_average(v, n=40):
     return np.convolve(v, np.ones(n) / n, mode="valid")
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(sc=sensible_scenarios(mass=(20.0, 200.0), ps=(50e5, 200e5), kp=(20.0, 100.0)))
 def test_random_scenarios_match_reference(sc):

@@ -62,6 +62,7 @@ SCENARIO_LEAVES = list(leaves(SCENARIO))
 MUTATION = st.sampled_from(["replace", "replace", "replace", "delete", "unknown"])
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(path=st.sampled_from(PARAM_LEAVES), op=MUTATION, value=BAD_VALUES)
 def test_mutated_parameter_files_load_or_name_file_and_key(tmp_path, path, op, value):

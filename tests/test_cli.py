@@ -73,6 +73,7 @@ def test_params_show_and_missing_file(tmp_path):
     assert r.returncode == 2 and "file not found" in r.stderr
 
 
+@pytest.mark.slow
 def test_maxstep_hybrid_vs_continuous(tmp_path):
     src = (EXAMPLES / "maxstep_endstop.toml").read_text().replace("duration = 0.25", "duration = 0.2")
     f = tmp_path / "m.toml"
@@ -119,6 +120,7 @@ def _log(path):
         return list(csv.reader(fh))
 
 
+@pytest.mark.slow
 def test_set_and_params_on_simulate_equal_the_same_values_in_files(tmp_path):
     # three routes to a 200 kg load must give the same run, bit for bit: --set, --params FILE (a copy of
     # the paper's set with the mass changed), and the scenario's own [overrides] written by hand
@@ -159,6 +161,7 @@ def test_bad_command_line_parameters_exit_2(tmp_path, args, message):
     assert not (tmp_path / "log.csv").exists()
 
 
+@pytest.mark.slow
 def test_hil_records_the_scenario_as_run_and_matches_offline_with_the_same_set(tmp_path):
     scen = tmp_path / "short.toml"
     scen.write_text((EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 1.0"))

@@ -273,6 +273,7 @@ def _scenario_file(tmp_path, source, duration, extra=""):
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, plant, noisy", [("fig11_pi.toml", "python", False),
                                                 ("fig12_pressure_feedback.toml", "c", True),
                                                 ("fig11_python_pi.toml", "python", False)])
@@ -288,6 +289,7 @@ def test_lockstep_hil_equals_offline_exactly(tmp_path, name, plant, noisy):
     assert len(cmp["step_response_hil"]["moves"]) == (1 if name.startswith("fig12") else 0)   # holds within 1 s
 
 
+@pytest.mark.slow
 def test_python_controller_found_when_the_run_folder_holds_the_scenario(tmp_path):
     # with --set, hil writes the scenario into the run folder and both processes read it from there: the
     # controller's module must still be found (its folder is recorded as an absolute path)

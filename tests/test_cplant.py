@@ -27,6 +27,7 @@ def scenario(tmp_path, duration, name="fig11_p_control.toml", extra=""):
     return path
 
 
+@pytest.mark.slow
 def test_export_and_make_with_the_users_compiler(tmp_path):
     out = tmp_path / "plant"
     r = hh("export", "c", "--out", out, "--no-make", "--params", "ferreira2004")
@@ -63,6 +64,7 @@ def test_export_and_make_with_the_users_compiler(tmp_path):
     assert row.split()[1] == "80" and "[kg]" in row
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cc", ["gcc", "clang"])
 @pytest.mark.parametrize("opt", ["-O0", "-O2", "-O3"])
 def test_c_plant_builds_without_a_warning(tmp_path, cc, opt):
@@ -97,6 +99,7 @@ def test_bad_arguments_are_refused_with_the_key_and_range(c_plant, args, message
     assert r.returncode == 2 and message in r.stderr, r.stderr
 
 
+@pytest.mark.slow
 def test_hil_real_time_c_plant_against_the_python_controller(tmp_path):
     # 2 s in real time: what any machine can promise (the timing figures live in the benchmark): the run
     # has a verdict, the logs are whole, the plant stepped the model exactly with the commands it applied,
@@ -185,6 +188,7 @@ def test_lockstep_c_plant_equals_python_plant_bit_for_bit(tmp_path):
 FAULT_EXAMPLES = sorted((EXAMPLES / "faults").glob("*.toml"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scen", FAULT_EXAMPLES, ids=lambda p: p.stem)
 def test_lockstep_c_plant_equals_python_plant_with_every_fault(tmp_path, scen):
     """Issue #26: one rig step in C (core/rig.c: command path, watchdog, the fault table, sensing) in both
@@ -235,6 +239,7 @@ def test_c_decoder_agrees_with_the_python_one_on_the_fuzz_corpus():
     assert d["rejected"] > 20_000 and d["accepted"] > 1_000
 
 
+@pytest.mark.slow
 def test_live_c_plant_survives_fuzzing_and_counts_every_datagram():
     from hydrohil.hil.fuzz import fuzz_live_plant
     r = fuzz_live_plant(8_000, 4_000.0, seed=6, plant="c")
@@ -247,6 +252,7 @@ def test_live_c_plant_survives_fuzzing_and_counts_every_datagram():
         assert r["packets_bad"] == r["sent_malformed"] and r["packets_foreign"] == r["sent_well_formed"]
 
 
+@pytest.mark.slow
 def test_cached_build_is_reused_and_rebuilt_when_the_sources_change(tmp_path, monkeypatch):
     from hydrohil.export.cplant import cached_plant
     from hydrohil.parameters import load_parameters

@@ -258,6 +258,7 @@ def test_lockstep_hil_with_faults_matches_offline_exactly(tmp_path):
     assert timing["watchdog_trips"] == 1 and len(timing["faults_injected"]) == 9
 
 
+@pytest.mark.slow
 def test_real_time_hil_with_controller_silence(tmp_path):
     text = (FAULTS / "controller_silence.toml").read_text().replace("duration = 6.0", "duration = 2.0")
     scen = tmp_path / "silence.toml"

@@ -82,6 +82,7 @@ def fmu(request, tmp_path_factory):
     return path, extract(path, unzipdir=tmp / "unzipped")
 
 
+@pytest.mark.slow
 def test_validates_with_fmpy(fmu):
     assert validate_fmu(str(fmu[0])) == []
 
@@ -238,6 +239,7 @@ def test_any_communication_step(fmu):
     assert a.real("xp", "p1") == b.real("xp", "p1")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("version", FMI)
 def test_edge_calls_under_sanitizers(tmp_path, version):
     """Issue #25 §3, with the FMU's own sources under AddressSanitizer and UBSan (tests/c/fmu_edges.c): calls on

@@ -200,6 +200,7 @@ def test_controller_sigterm_finishes_its_log(tmp_path):
     assert len(log["seq"]) >= 100 and np.all(np.diff(log["seq"]) == 1)
 
 
+@pytest.mark.slow
 def test_sigkill_leaves_readable_logs_up_to_the_last_flush(tmp_path, kind, c_plant):
     plant, addr = start_plant(tmp_path, "--duration", "60", kind=kind, c_plant=c_plant)
     ctl = start_controller(tmp_path, addr)
@@ -217,6 +218,7 @@ def test_sigkill_leaves_readable_logs_up_to_the_last_flush(tmp_path, kind, c_pla
     assert not (tmp_path / "timing.json").exists()
 
 
+@pytest.mark.slow
 def test_no_controller_plant_still_writes_timing_and_logs(tmp_path, kind, c_plant):
     plant, addr = start_plant(tmp_path, "--duration", "1", "--connect-timeout", "1.5", kind=kind, c_plant=c_plant)
     stranger = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -267,6 +269,7 @@ def test_configured_peer_ignores_everyone_else(tmp_path, kind, c_plant):
     assert np.all(log["u"][1:] == -0.2)                        # only our commands drove the valve
 
 
+@pytest.mark.slow
 def test_fuzzing_decoder_and_live_plant():
     from hydrohil.hil.fuzz import fuzz_decoder, fuzz_live_plant
     d = fuzz_decoder(30_000, seed=5)
@@ -390,6 +393,7 @@ def test_safe_state_hold_keeps_the_position_centre_does_not(tmp_path):
     assert runs["hold"] < 1e-3 and runs["centre"] > 3 * runs["hold"]
 
 
+@pytest.mark.slow
 def test_command_scale_on_the_wire(tmp_path):
     # [hil] command_scale = 10 (a +-10 V valve input): a command of 5.0 on the wire is u = 0.5 at the valve
     scen = _with_hil(tmp_path, "fig11_p_control.toml", ["command_scale = 10.0"], duration=0.05)
@@ -407,6 +411,7 @@ def test_command_scale_on_the_wire(tmp_path):
     assert np.array_equal(hil["xp"], run_scenario(load_scenario(scen)).column("xp"))
 
 
+@pytest.mark.slow
 def test_clock_driven_controller_runs_the_loop(tmp_path):
     # [hil] controller_mode = "clock": the controller acts on its own 0.5 ms clock on the newest packet
     scen = _with_hil(tmp_path, "fig11_p_control.toml", ['controller_mode = "clock"'], duration=2.0)
@@ -422,6 +427,7 @@ def test_clock_driven_controller_runs_the_loop(tmp_path):
     assert json.loads((tmp_path / "out" / "comparison.json").read_text())["replay_xp_max_abs_m"] == 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_ctrl_c_or_sigterm_on_hil_stops_both_with_the_logs(tmp_path, sig):
     scen = short_scenario(tmp_path, 30.0)
@@ -448,6 +454,7 @@ def test_ideal_encoder_is_exact_in_the_rig(tmp_path):
         assert abs(r.encoder * rig.res - rig.out[5]) <= 0.5e-9 and rig.res == 1e-9
 
 
+@pytest.mark.slow
 def test_lockstep_plant_gives_up_on_a_dead_controller(tmp_path):
     # a lock-step plant waits for each command; a controller killed mid-run must not leave it waiting
     # link_timeout per remaining step: it ends the run with a link error (exit 4), logs and timing written

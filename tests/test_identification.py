@@ -35,6 +35,7 @@ def write_csv(path, cols):
 
 # ---- spool (eq 2) ---------------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_spool_round_trip_recovers_parameters():
     """Data and fit from the same steady-state sine response (tests/test_spool_steady_state.py checks it
     against an independent generator). Measured: ωn 0.28 %, ξ 0.34 %, Lv 1.12 %, La 0.01 %, Δt 0.62 %
@@ -89,6 +90,7 @@ ONE_CURVE = [(1007.01, 0.48, 7.625e-4, 0.05, np.arange(10.0, 301.0, 10.0)),
              (800.0, 0.6, 5.0e-4, 0.25, np.geomspace(5.0, 300.0, 20))]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("wn, xi, delay, amplitude, freqs", ONE_CURVE)
 def test_spool_one_linear_datasheet_curve_gives_the_exact_parameters(wn, xi, delay, amplitude, freqs):
     """Issue #25 §1: ωn, ξ, Δt exact from one amplitude (measured <= 9e-9 relative over these cases), the
@@ -122,6 +124,7 @@ def test_spool_limits_shown_by_one_curve_are_identified():
     assert set(fit.not_identifiable) == {"la"}
 
 
+@pytest.mark.slow
 def test_cli_spool_not_identifiable_in_terminal_json_file_and_figure(tmp_path):
     data = write_csv(tmp_path / "bode.csv", linear_bode(*ONE_CURVE[3]))
     r = hh("identify", "spool", data, "--json", "--out", tmp_path / "p.toml", "--report", tmp_path / "rep")
@@ -176,6 +179,7 @@ def test_valve_static_under_determined_note_and_inconsistent_leakage():
 
 # ---- bulk modulus (eq 20-21) ----------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_bulk_modulus_round_trip_recovers_betas_and_eq21(paper):
     B, C = 8.0e-10, 1.3e-3
     pressures, fs = [5e6, 7e6, 1e7, 1.4e7], [6000.0, 8000.0, 9000.0, 12000.0]
@@ -287,6 +291,7 @@ def test_bad_experiment_pressures_in_bar(tmp_path):
 
 # ---- CLI ----------------------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_cli_valve_static_json_and_params_file(tmp_path):
     out = tmp_path / "valve.toml"
     r = hh("identify", "valve-static", EXAMPLES / "identification" / "valve_datasheet.toml", "--out", out, "--json",
@@ -299,6 +304,7 @@ def test_cli_valve_static_json_and_params_file(tmp_path):
     assert (tmp_path / "rep" / "fig5_valve_static.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_cli_identify_all_chain_feeds_simulator(tmp_path):
     out = tmp_path / "identified.toml"
     r = hh("identify", "all", EXAMPLES / "identification" / "all.toml", "--out", out, "--json", "--report",
@@ -325,6 +331,7 @@ def test_cli_identify_all_chain_feeds_simulator(tmp_path):
     assert r.returncode == 0, r.stderr
 
 
+@pytest.mark.slow
 def test_cli_bad_input_exit_2(tmp_path):
     bad = tmp_path / "ds.toml"
     bad.write_text("qn_lpm = 25.5\npn_bar = 35\nps_bar = 70\nkq0_lpm = 28\nkp0 = 36.5\n")
@@ -333,3 +340,24 @@ def test_cli_bad_input_exit_2(tmp_path):
     assert not (tmp_path / "x.toml").exists()
     r = hh("identify", "nonsense", bad)
     assert r.returncode == 2 and "unknown procedure" in r.stderr
+
+
+def test_identify_all_chains_the_quick_procedures(tmp_path):
+    """identify_all on a chain of the procedures that need no simulation (datasheet, drift test, friction
+    points): one parameter set carrying every fit, in chain order, the rest of the starting set kept."""
+    from hydrohil.identification.chain import identify_all
+    ex = EXAMPLES / "identification"
+    cfg = tmp_path / "chain.toml"
+    cfg.write_text(f'params = "ferreira2004"\n[valve-static]\nfile = "{ex / "valve_datasheet.toml"}"\n'
+                   f'[leakage]\nfile = "{ex / "drift_test.toml"}"\n'
+                   f'[friction-static]\nfile = "{ex / "friction_static.csv"}"\n')
+    started = []
+    prm, fits = identify_all(cfg, on_start=started.append)
+    assert started == [f.procedure for f in fits] == ["valve-static", "leakage", "friction-static"]
+    paper = load_parameters("ferreira2004")
+    assert rel(prm.cylinder.g_lkc, 1.248e-14) < 1e-3                       # eq 23 on the paper's drift numbers
+    assert rel(prm.friction.positive.fs, paper.friction.positive.fs) < 0.01
+    assert prm.spool == paper.spool and prm.cylinder.b == paper.cylinder.b   # not identified here: kept
+    for fit in fits:                                                        # each fit's values are in the set
+        again = fit.apply(prm)
+        assert again.model_dump() == prm.model_dump(), fit.procedure

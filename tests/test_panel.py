@@ -45,6 +45,7 @@ def _record(p, steer, steps_between=400):
     return rec, answers
 
 
+@pytest.mark.slow
 def test_steered_lockstep_session_replays_offline_bit_for_bit(lockstep_panel, tmp_path):
     """A panel session with every kind of change (tunables, a fault on and off, gains, a held reference, a
     reset) replays offline — plant and controller, from the event logs — to the same result bit for bit."""
@@ -159,6 +160,7 @@ def _ws_handshake(port, path, origin=None, host="127.0.0.1"):
         return int(s.recv(200).split(b" ")[1])
 
 
+@pytest.mark.slow
 def test_remote_access_needs_the_token_and_the_panels_origin(tmp_path):
     p = PanelProcess(tmp_path / "panel", "--lockstep", "--allow-remote", "--host", "127.0.0.1")
     try:
@@ -188,6 +190,7 @@ def test_loopback_panel_refuses_foreign_hosts_and_origins(tmp_path):
         p.close()
 
 
+@pytest.mark.slow
 def test_a_stalled_panel_costs_the_plant_telemetry_not_steps(tmp_path):
     """The panel process frozen (SIGSTOP): the plant goes on stepping (lock-step: as fast as the controller
     answers); its telemetry is dropped (the kernel drops what the frozen panel's buffer cannot hold; the
@@ -223,6 +226,7 @@ def _wait_file_growth(path, n_steps, timeout=120):
     raise AssertionError(f"{path} did not reach {n_steps} steps")
 
 
+@pytest.mark.slow
 def test_hil_panel_run_replays_its_changes_offline(tmp_path):
     """hydrohil hil --panel --lockstep: changes made while it runs are in the run's event logs and the
     offline comparison replays them: the HIL and offline positions are equal bit for bit."""
@@ -340,6 +344,7 @@ def test_trace_pyramid_equals_brute_force_over_laps_of_the_ring():
     assert checked > 5000 and tr.lost == 0
 
 
+@pytest.mark.slow
 def test_ctrl_c_says_how_it_ended_and_a_browser_going_away_is_one_line(tmp_path):
     """Issue #25 §4: Ctrl-C ends ``hydrohil panel`` with exit code 130 (the README's) and this run's sessions
     and recordings named (not an earlier run's in the same folder); a client that disconnects mid-request (a POST whose body never comes, a WebSocket

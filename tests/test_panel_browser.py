@@ -16,6 +16,8 @@ import pytest
 from conftest import PanelProcess
 from hydrohil.simulation.outputs import read_csv_columns
 
+pytestmark = pytest.mark.slow      # a real Chromium driving the panel for half a minute
+
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 CHROMEDRIVER = shutil.which("chromedriver")
 

@@ -20,6 +20,7 @@ def repro(tmp_path_factory):
     return out, res
 
 
+@pytest.mark.slow
 def test_every_figure_and_file_written(repro):
     out, res = repro
     expected = ["figures/fig4_spool_bode.png", "figures/fig5_valve_static.png", "figures/fig7_acceleration.png",
@@ -37,6 +38,7 @@ def test_every_figure_and_file_written(repro):
     load_parameters(out / "identified.toml")          # the identified set is a valid parameter file
 
 
+@pytest.mark.slow
 def test_report_has_a_row_for_every_paper_number(repro):
     out, _ = repro
     text = (out / "report.md").read_text()
@@ -63,6 +65,7 @@ def test_report_headings_one_per_figure():
         assert sum(h.startswith(fig + " ") for h in headings) == 1
 
 
+@pytest.mark.slow
 def test_key_numbers(repro):
     _, res = repro
     ch = res["characteristics"]
@@ -85,6 +88,7 @@ def test_key_numbers(repro):
         assert res[fig]["timing"]["steps"] == 12000
 
 
+@pytest.mark.slow
 def test_bench_quick_measures_every_section(tmp_path):
     res = bench(tmp_path / "bench.json", tmp_path / "bench.md", quick=True, progress=False)
     on_disk = json.loads((tmp_path / "bench.json").read_text())
@@ -100,6 +104,7 @@ def test_bench_quick_measures_every_section(tmp_path):
     assert table.count("\n|") >= 14 and "None" not in table
 
 
+@pytest.mark.slow
 def test_reproduce_another_rig_with_set(tmp_path):
     # --set changes the rig reproduced: every experiment runs on it (the HIL runs record it), and the
     # identified set carries it
@@ -110,3 +115,65 @@ def test_reproduce_another_rig_with_set(tmp_path):
     res = json.loads((tmp_path / "results.json").read_text())
     assert res["step-size"]["damper_rate_per_s"] == pytest.approx(REFERENCE_STOP_C / 120.0, rel=1e-12)
     assert "mass = 120.0" in (tmp_path / "identified.toml").read_text()
+
+
+def test_datasheet_drift_and_friction_steps_give_back_the_rig(tmp_path):
+    """The reproduce steps that need no long run, as reproduce runs them (one Reproduction, its RUNNERS):
+    the valve datasheet of §3.1.2, the drift test of §3.2.2 and the friction points of Fig 9 give back the
+    rig's values, and each later step starts from the values identified before it."""
+    from hydrohil.reproduce.runner import RUNNERS
+    from hydrohil.reproduce.state import Reproduction
+    r = Reproduction(tmp_path, quick=True, lockstep=True)
+    for name in ("characteristics", "valve-static", "leakage", "friction-static"):
+        RUNNERS[name](r)
+    ch = r.results["characteristics"]
+    assert ch["p10_bar"] == pytest.approx(25.1, abs=0.1) and ch["p20_bar"] == pytest.approx(44.9, abs=0.1)
+    v = r.results["valve-static"]["achieved"]
+    assert v["dpm_bar"] == pytest.approx(8.0, rel=1e-6) and v["kq0_lpm"] == pytest.approx(28.0, rel=1e-6)
+    # measured: 0.017 % off the value from the paper's own numbers (0.5 µm / 0.02 bar noise on the drift)
+    assert r.results["leakage"]["g_lkc"] == pytest.approx(r.results["leakage"]["g_lkc_from_paper_numbers"], rel=6e-4)
+    assert r.identified.cylinder.g_lkc == r.results["leakage"]["g_lkc"]          # carried into the set
+    # measured (2 N noise, seed 15): breakaway force within 0.13 %, Coulomb within 4.2 % (negative side)
+    for side in ("positive", "negative"):
+        truth, fit = getattr(r.truth.friction, side), getattr(r.identified.friction, side)
+        assert fit.fs == pytest.approx(truth.fs, rel=4e-3) and fit.fc == pytest.approx(truth.fc, rel=0.13)
+    assert r.figures == {"valve-static": ["figures/fig5_valve_static.png"], "leakage": ["figures/leakage_drift.png"],
+                         "friction-static": ["figures/fig9_friction_static.png"]}
+    for paths in r.figures.values():
+        assert (tmp_path / paths[0]).stat().st_size > 20_000
+
+
+def test_fig10_numbers_are_the_differences_of_the_runs(tmp_path):
+    """plot_fig10's RMS figures, checked against numpy on the two runs it is given: zero for a run against
+    itself, and for a different σ0 the differences of the logged columns."""
+    import numpy as np
+
+    from hydrohil.reproduce.figures import plot_fig10
+    from hydrohil.simulation.run import run_scenario
+    from hydrohil.simulation.scenario import EXPERIMENTS_DIR, load_scenario
+    sc = load_scenario(EXPERIMENTS_DIR / "fig10_open_loop_sine.toml", duration=0.5)
+    rig, model = run_scenario(sc), run_scenario(load_scenario(EXPERIMENTS_DIR / "fig10_open_loop_sine.toml",
+                                                              duration=0.5, sets={"friction.sigma0": 2e6}))
+    cyl = sc.params.cylinder
+    same = plot_fig10(tmp_path / "same.png", rig, rig, cyl)
+    assert same["fh_rms_n"] == same["xp_rms_mm"] == same["p1_rms_bar"] == 0.0
+    other = plot_fig10(tmp_path / "other.png", rig, model, cyl)
+    fh = lambda r: r.column("p1") * cyl.a1 - r.column("p2") * cyl.a2       # noqa: E731
+    assert other["fh_rms_n"] == pytest.approx(np.sqrt(np.mean((fh(rig) - fh(model)) ** 2)), rel=1e-12)
+    assert other["xp_rms_mm"] == pytest.approx(1e3 * np.sqrt(np.mean((rig.column("xp") - model.column("xp")) ** 2)),
+                                               rel=1e-12)
+    assert other["xp_rms_mm"] > 0 and other["fh_amplitude_n"] == pytest.approx(np.ptp(fh(rig)) / 2, rel=1e-12)
+    assert (tmp_path / "other.png").stat().st_size > 50_000
+
+
+def test_bench_sections_measure_what_they_say():
+    """Two of bench's sections on short runs: the compiled loop's time per step is its wall time over the
+    steps (checked against the real-time factor it reports), the per-step API's a positive median."""
+    from hydrohil.bench import compiled_loop, markdown, per_step_api
+    c = compiled_loop(duration=0.5, repeats=1)
+    for loop in ("open_loop", "closed_loop"):
+        ns, rtf = c[loop]["ns_per_step"], c[loop]["realtime_factor"]
+        assert ns > 0 and rtf == pytest.approx(0.5 / (ns * 1e-9 * 1000), rel=1e-9)   # 1000 steps of 0.5 ms
+    assert per_step_api(n=500, repeats=1)["us_per_call"] > 0
+    with pytest.raises(KeyError):                 # the table needs every section: no silent blanks
+        markdown({"compiled_loop": c, "machine": {}})

@@ -150,6 +150,7 @@ def test_lockstep_equals_offline(tmp_path):
     assert len(log["t"]) == 8001 and off.status == ls.status == "fail"
 
 
+@pytest.mark.slow
 def test_external_c_controller(tmp_path):
     """The protocol's C example controller (holds a constant reference) tested as any program would be."""
     exe = tmp_path / "p_controller"

@@ -137,6 +137,7 @@ def datasheets():
 LIMITS = {"wn": 0.009, "xi": 0.016, "lv": 0.009, "la": 0.009, "delay": 0.018}   # ~3x the worst of the two sets
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(SETS))
 def test_fit_recovers_parameters_from_independent_steady_state_data(datasheets, name):
     true = SETS[name]

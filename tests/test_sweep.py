@@ -75,6 +75,7 @@ def _wait_file(path, proc, timeout=120):
     return json.loads(path.read_text())["address"]
 
 
+@pytest.mark.slow
 def test_external_cluster_survives_a_killed_worker(tmp_path, mc60):
     from distributed import Client
     bin_dir = Path(os.sys.executable).parent
@@ -117,6 +118,7 @@ def test_external_cluster_survives_a_killed_worker(tmp_path, mc60):
             assert np.array_equal(t[c], tl[c]), c
 
 
+@pytest.mark.slow
 def test_resume_after_interruption(tmp_path):
     p = write_study(tmp_path, 'samples = 24\nseed = 3\n[[vary]]\nname = "load.mass"\ndist = "uniform"\nrel = 0.2\n')
 
@@ -140,6 +142,7 @@ def test_resume_after_interruption(tmp_path):
     assert res.returncode == 2 and "another study" in res.stderr
 
 
+@pytest.mark.slow
 def test_bad_runs_are_rows_and_sequence_verdicts(tmp_path):
     p = write_study(tmp_path, 'samples = 6\nseed = 1\n[[vary]]\nname = "load.mass"\ndist = "normal"\nmean = 10\n'
                     'std = 40\n')
@@ -158,6 +161,7 @@ def test_bad_runs_are_rows_and_sequence_verdicts(tmp_path):
     assert list(t["expect.0"]) == ["fail", "pass"]     # a stiffer P controller keeps the sag below 2 mm
 
 
+@pytest.mark.slow
 def test_cli_report_figures_and_rerun(tmp_path):
     p = write_study(tmp_path, 'samples = 12\nseed = 5\n[criterion]\nmetric = "max_hold_error"\nmax = 2.2e-4\n'
                     '[[vary]]\nname = "load.mass"\ndist = "uniform"\nrel = 0.2\n'
@@ -224,6 +228,7 @@ def test_controllers_as_scenario_choice(tmp_path):
     assert t["max_hold_error"][0] * 5 < t["max_hold_error"][1]
 
 
+@pytest.mark.slow
 def test_criterion_checked_when_read_and_judged_again_when_changed(tmp_path):
     """Issue #25 §4: a misspelt metric is refused before any run (exit 2, the valid metrics named, nothing
     written); a finished study whose criterion alone changed judges its stored runs again (no run repeated)."""

@@ -37,15 +37,19 @@ def _fmt(v) -> str:
 
 def run_demo(out: str | Path = "hydrohil-demo", *, lockstep: bool = False,
              on_experiment: Callable[[str, str], None] | None = None,
-             progress: Callable[[float, float], None] | None = None) -> dict:
-    """Run both experiments; returns {name: {"timing", "comparison", "controller"}} and writes the report."""
+             progress: Callable[[float, float], None] | None = None,
+             experiments=EXPERIMENTS) -> dict:
+    """Run the experiments (default the paper's two; else (name, scenario file, title) triples, a file name
+    without a folder being one of the package's experiments); returns {name: {"timing", "comparison",
+    "controller"}} and writes the report."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     results = {}
-    for name, fname, title in EXPERIMENTS:
+    for name, fname, title in experiments:
         if on_experiment:
             on_experiment(name, title)
-        r = run_hil(EXPERIMENTS_DIR / fname, out / name, lockstep=lockstep, progress=progress)
+        scenario = Path(fname) if Path(fname).parent != Path(".") else EXPERIMENTS_DIR / fname
+        r = run_hil(scenario, out / name, lockstep=lockstep, progress=progress)
         results[name] = {"title": title, "timing": r.timing, "comparison": r.comparison, "controller": r.controller}
     (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
     _write_markdown(out, results, lockstep)
