@@ -1,0 +1,200 @@
+/* rt_log.c: plant_log.csv of the standalone plant (rt_plant.h): the step loop copies a row into a ring,
+ * a writer thread formats rows (the same text as the Python plant's) and hands whole lines to the OS. */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <math.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "rt_plant.h"
+
+#define LOG_RING (1 << 14)        /* rows between the step loop and the log writer (8 s at 2 kHz) */
+#define LOG_FLUSH_ROWS 2000
+#define LOG_FLUSH_NS 500000000LL
+
+static const char *const COLUMNS[NCOL] = {
+    "k", "t", "wall", "jitter_us", "compute_us", "u", "cmd_seq", "cmd_age", "watchdog", "xs", "p1", "p2", "xp",
+    "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas", "p2_meas", "ps_meas", "faults",
+    "status"};
+const char *const TRAVEL_NAMES[] = {"free", "at_retract_stop", "at_extend_stop"};
+const char *const FRICTION_NAMES[] = {"stick", "slip_pos", "slip_neg"};
+const char *const SPOOL_NAMES[] = {"linear", "acc_limited", "vel_limited", "at_end"};
+
+
+/* ---- numbers as text ---------------------------------------------------------------------------- */
+/* Shortest text that reads back to the same double (as Python's repr); "nan" / "inf" / "-inf". */
+void fmt_double(char *buf, size_t size, double v)
+{
+    int prec;
+    if (isnan(v)) {
+        snprintf(buf, size, "nan");
+        return;
+    }
+    if (isinf(v)) {
+        snprintf(buf, size, v > 0 ? "inf" : "-inf");
+        return;
+    }
+    for (prec = 15; prec < 17; prec++) {
+        snprintf(buf, size, "%.*g", prec, v);
+        if (strtod(buf, NULL) == v)
+            return;
+    }
+    snprintf(buf, size, "%.17g", v);
+}
+
+/* ---- the log writer: a ring of rows filled by the step loop, formatted by a thread --------------- */
+
+
+#define LOG_TEXT (1 << 20)          /* formatted rows handed to the OS as whole lines */
+
+/* One row as CSV text (modes as names, counters as integers, floats exact) at t; returns its length. */
+static size_t format_row(char *t, const double *r)
+{
+    char v[40];
+    size_t n = 0;
+    int j;
+    for (j = 0; j < NCOL; j++) {
+        const char *word = NULL;
+        if (j)
+            t[n++] = ',';
+        switch (j) {
+        case C_TRAVEL: word = TRAVEL_NAMES[(int)r[j] % 3]; break;
+        case C_FRICTION: word = FRICTION_NAMES[(int)r[j] % 3]; break;
+        case C_SPOOL: word = SPOOL_NAMES[(int)r[j] % 4]; break;
+        case C_K: case C_CMD_SEQ: case C_CMD_AGE: case C_WATCHDOG: case C_ENCODER: case C_FAULTS: case C_STATUS:
+            snprintf(v, sizeof v, "%lld", (long long)r[j]);
+            word = v;
+            break;
+        default:
+            fmt_double(v, sizeof v, r[j]);
+            /* Python's repr of a whole float keeps ".0": the same text in both plants' logs */
+            if (isfinite(r[j]) && !strpbrk(v, ".e"))
+                strcat(v, ".0");
+            word = v;
+        }
+        memcpy(t + n, word, strlen(word));
+        n += strlen(word);
+    }
+    t[n++] = '\n';
+    return n;
+}
+
+/* Hand the formatted text to the OS: whole lines only, so a plant killed with SIGKILL leaves a log that
+ * ends with a complete row. */
+static void flush_text(log_writer *w)
+{
+    size_t done = 0;
+    while (done < w->text_len) {
+        ssize_t k = write(fileno(w->fh), w->text + done, w->text_len - done);
+        if (k < 0) {
+            if (errno == EINTR)
+                continue;
+            break;
+        }
+        done += (size_t)k;
+    }
+    w->text_len = 0;
+}
+
+static void *log_thread(void *arg)
+{
+    log_writer *w = arg;
+    int64_t last_flush = mono_ns();
+    uint64_t since_flush = 0;
+    for (;;) {
+        uint32_t head = __atomic_load_n(&w->head, __ATOMIC_ACQUIRE), tail = w->tail;
+        int done = __atomic_load_n(&w->done, __ATOMIC_ACQUIRE);
+        while (tail != head) {
+            if (w->text_len + 2048 > LOG_TEXT)
+                flush_text(w);
+            w->text_len += format_row(w->text + w->text_len, w->rows[tail % LOG_RING]);
+            tail++;
+            since_flush++;
+            __atomic_store_n(&w->tail, tail, __ATOMIC_RELEASE);
+        }
+        if (since_flush >= LOG_FLUSH_ROWS || (since_flush && mono_ns() - last_flush >= LOG_FLUSH_NS)) {
+            flush_text(w);          /* a plant killed with SIGKILL leaves a readable log to here */
+            since_flush = 0;
+            last_flush = mono_ns();
+        }
+        if (done && tail == __atomic_load_n(&w->head, __ATOMIC_ACQUIRE))
+            break;
+        if (tail == head) {
+            struct timespec nap = {0, 2000000};   /* 2 ms: the step loop never signals (no syscall for it) */
+            nanosleep(&nap, NULL);
+        }
+    }
+    flush_text(w);
+    return NULL;
+}
+
+int log_open(log_writer *w, const char *dir)
+{
+    char path[4096];
+    int j;
+    memset(w, 0, sizeof *w);
+    if (!dir)
+        return 0;
+    snprintf(path, sizeof path, "%s/plant_log.csv", dir);
+    w->fh = fopen(path, "w");
+    if (!w->fh) {
+        fprintf(stderr, "error: cannot write %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    w->rows = calloc(LOG_RING, sizeof *w->rows);
+    w->text = malloc(LOG_TEXT);
+    if (!w->rows || !w->text) {
+        fprintf(stderr, "error: out of memory for the log ring\n");
+        return -1;
+    }
+    for (j = 0; j < NCOL; j++)
+        fprintf(w->fh, "%s%s", j ? "," : "", COLUMNS[j]);
+    fputc('\n', w->fh);
+    fflush(w->fh);              /* the header by stdio; the rows by write(2) on the same descriptor */
+    {
+        sigset_t block, old;
+        int rc;
+        sigemptyset(&block);
+        sigaddset(&block, SIGINT);
+        sigaddset(&block, SIGTERM);
+        pthread_sigmask(SIG_BLOCK, &block, &old);      /* the writer inherits the mask: signals go to the loop */
+        rc = pthread_create(&w->thread, NULL, log_thread, w);
+        pthread_sigmask(SIG_SETMASK, &old, NULL);
+        if (rc != 0) {
+            fprintf(stderr, "error: cannot start the log writer thread\n");
+            return -1;
+        }
+    }
+    w->started = 1;
+    return 0;
+}
+
+void log_push(log_writer *w, const double *row)
+{
+    uint32_t head = w->head;
+    if (!w->fh)
+        return;
+    if ((uint32_t)(head - __atomic_load_n(&w->tail, __ATOMIC_ACQUIRE)) >= LOG_RING) {
+        w->dropped++;               /* the writer fell 8 s behind: lose a row, never a step */
+        return;
+    }
+    memcpy(w->rows[head % LOG_RING], row, sizeof(double) * NCOL);
+    __atomic_store_n(&w->head, head + 1U, __ATOMIC_RELEASE);
+}
+
+void log_close(log_writer *w)
+{
+    if (!w->fh)
+        return;
+    if (w->started) {
+        __atomic_store_n(&w->done, 1, __ATOMIC_RELEASE);
+        pthread_join(w->thread, NULL);
+    }
+    fclose(w->fh);
+    free(w->rows);
+    free(w->text);
+    w->fh = NULL;
+}
+
