@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import EXAMPLES, hh
+from hydrohil.core import shape
 from hydrohil.simulation.outputs import read_csv_columns
 from hydrohil.hil.verdict import judge
 from hydrohil.simulation.scenario import HilCfg, load_scenario
@@ -121,8 +122,8 @@ def test_hil_real_time_c_plant_against_the_python_controller(tmp_path):
     # the same keys as the Python plant's timing.json (a lock-step run of it is enough to list them)
     py = hh("hil", scen, "--out", tmp_path / "py", "--lockstep")
     assert py.returncode == 0, py.stderr
-    keys_py = set(json.loads((tmp_path / "py" / "timing.json").read_text()))
-    assert keys_py - {"steps_per_s"} | {"os_memory_locked"} == set(t)
+    keys_py = list(json.loads((tmp_path / "py" / "timing.json").read_text()))
+    assert keys_py == list(shape.timing_keys("lockstep")) and list(t) == list(shape.timing_keys("realtime"))
 
 
 def test_invalid_run_reasons_are_the_python_verdicts_word_for_word(tmp_path, c_plant):
@@ -172,13 +173,15 @@ def test_lockstep_c_plant_equals_python_plant_bit_for_bit(tmp_path):
         assert r.returncode == 0, r.stderr
         logs[kind] = read_csv_columns(tmp_path / kind / "plant_log.csv")
     py, c = logs["python"], logs["c"]
-    assert list(py) == list(c) and len(py["k"]) == 3001
+    assert list(py) == list(c) == list(shape.PLANT_LOG_COLUMNS) and len(py["k"]) == 3001   # one description
     for col in py:
         if col not in TIMING_COLUMNS:
             assert np.array_equal(py[col], c[col]), col
     assert np.any(py["status"].astype(int) & 64) and np.unique(py["p1_meas"] % 1e3).size == 1   # clipped, quantised
     assert np.std(py["p1_meas"] - py["p1"]) > 5e3                                              # noisy
     tp, tc = (json.loads((tmp_path / k / "timing.json").read_text()) for k in ("python", "c"))
+    assert list(tp) == list(tc) == list(shape.timing_keys("lockstep"))           # the same keys, in order
+    assert list(tp["verdict"]["criteria"]) == list(tc["verdict"]["criteria"]) == [k for k, _ in shape.VERDICT_CRITERIA]
     for key in ("steps", "packets_lost", "late_commands", "commands_delivered", "watchdog_trips"):
         assert tp[key] == tc[key], key
     for t in (tp, tc):      # + the HELLO, + the controller's BYE when it arrives before the plant has ended

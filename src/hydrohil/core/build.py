@@ -1,7 +1,7 @@
 """Build of the core's Python binding (cffi, out-of-line API mode), run by ``pip install``.
 
-Writes ``hh_params.h`` from the pydantic schema (:mod:`hydrohil.core.layout`, loaded by path: the package
-is not importable yet), derives cffi's declarations from ``hh.h`` (the one header of the interface) and
+Writes ``hh_params.h`` from the pydantic schema (:mod:`hydrohil.core.layout`) and ``hh_shape.h`` from the
+plant's shape (:mod:`hydrohil.core.shape`), both loaded by path (the package is not importable yet), derives cffi's declarations from ``hh.h`` (the one header of the interface) and
 compiles ``hh_core.c`` into the extension ``hydrohil.core._hh``. The C calls release the GIL.
 """
 
@@ -39,15 +39,20 @@ def _load(name: str, path: Path):
     return mod
 
 
-def write_params_header(directory: Path = HERE) -> Path:
-    """(Re)write ``hh_params.h`` in ``directory`` from the schema; returns its path."""
+def write_headers(directory: Path = HERE) -> list[Path]:
+    """(Re)write the generated headers in ``directory``: ``hh_params.h`` from the schema
+    (:mod:`hydrohil.core.layout`) and ``hh_shape.h`` from the plant's shape (:mod:`hydrohil.core.shape`);
+    returns their paths."""
     schema = _load("_hh_schema", HERE.parent / "parameters" / "schema.py")
     layout = _load("_hh_layout", HERE / "layout.py")
-    path = directory / "hh_params.h"
-    text = layout.c_header(schema.Parameters)
-    if not path.exists() or path.read_text() != text:
-        path.write_text(text)
-    return path
+    shape = _load("_hh_shape", HERE / "shape.py")
+    out = []
+    for name, text in (("hh_params.h", layout.c_header(schema.Parameters)), ("hh_shape.h", shape.c_header())):
+        path = directory / name
+        if not path.exists() or path.read_text() != text:
+            path.write_text(text)
+        out.append(path)
+    return out
 
 
 def _macros(text: str) -> dict[str, str]:
@@ -57,7 +62,7 @@ def _macros(text: str) -> dict[str, str]:
 def cdef_text() -> str:
     """The declarations of ``hh.h`` as cffi reads them: preprocessor lines and C++ guards dropped, the
     integer macros of ``hh.h``/``hh_params.h`` kept as constants and substituted in array sizes."""
-    header = (HERE / "hh.h").read_text()
+    header = (HERE / "hh_shape.h").read_text() + (HERE / "hh.h").read_text()    # hh.h includes hh_shape.h
     macros = _macros((HERE / "hh_params.h").read_text())
     macros.update(_macros(header))
     body = re.sub(r"#ifdef __cplusplus.*?#endif", "", header, flags=re.S)
@@ -76,7 +81,7 @@ extern "Python" void hh_py_progress(void *, int64_t);
 
 def ffibuilder() -> FFI:
     """The cffi builder of ``hydrohil.core._hh`` (setup.py's ``cffi_modules`` calls this)."""
-    write_params_header()
+    write_headers()
     ffi = FFI()
     ffi.cdef(cdef_text())
     rel = Path(os.path.relpath(HERE))          # setuptools wants paths relative to setup.py's folder

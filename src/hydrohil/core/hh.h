@@ -16,20 +16,13 @@
 #include <stddef.h>
 #include <stdint.h>
 #include "hh_params.h"
+#include "hh_shape.h"            /* the plant's shape (state, modes, outputs, logs, sensors, status bits) */
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* ---- state vector y[HH_NY] ------------------------------------------------------------------ */
-enum { HH_XS, HH_VS, HH_P1, HH_P2, HH_XP, HH_VP, HH_Z, HH_NY };
-/* spool position [-], spool velocity [1/s], chamber pressures [Pa gauge], piston [m, m/s], bristle [m] */
-
-/* ---- modes m[HH_NM] ------------------------------------------------------------------------- */
-enum { HH_M_TRAVEL, HH_M_FRICTION, HH_M_SPOOL, HH_NM };
-enum { HH_FREE, HH_AT_RETRACT, HH_AT_EXTEND };
-enum { HH_STICK, HH_SLIP_POS, HH_SLIP_NEG };
-enum { HH_SPOOL_LINEAR, HH_SPOOL_ACC_LIMITED, HH_SPOOL_VEL_LIMITED, HH_SPOOL_AT_END };
+/* ---- state y[HH_NY], modes m[HH_NM] and their values, out[HH_NOUT], log columns: hh_shape.h ------ */
 /* limits of the spool acting (bits; spool_bode.c reports them per Bode point) */
 enum { HH_SPOOL_ACTS_ACC = 1, HH_SPOOL_ACTS_VEL = 2, HH_SPOOL_ACTS_END = 4 };
 
@@ -50,13 +43,6 @@ typedef void (*hh_progress_fn)(void *ctx, int64_t k);
 #define HH_P_ATM 1e5                    /* Pa: the atmospheric pressure of eq 21 */
 #define HH_LPM_PER_SQRT_BAR (1.0 / 60000.0 / 316.22776601683796)  /* (l/min)/sqrt(bar) in (m^3/s)/sqrt(Pa) */
 #define HH_IDEAL_COUNT 1e-9             /* m: count size of an ideal encoder where counts must be integers */
-
-/* ---- log / per-step output columns ---------------------------------------------------------- */
-enum { HH_LOG_T, HH_LOG_U, HH_LOG_UD, HH_LOG_XS, HH_LOG_VS, HH_LOG_P1, HH_LOG_P2, HH_LOG_XP, HH_LOG_VP,
-       HH_LOG_Z, HH_LOG_FF, HH_LOG_TRAVEL, HH_LOG_FRICTION, HH_LOG_SPOOL, HH_LOG_EVENTS, HH_NLOG };
-/* out[] of hh_sim_step: t, the state (7), ff, three modes, events of the step, delayed input */
-enum { HH_OUT_T, HH_OUT_Y, HH_OUT_FF = HH_OUT_Y + HH_NY, HH_OUT_TRAVEL, HH_OUT_FRICTION, HH_OUT_SPOOL,
-       HH_OUT_EVENTS, HH_OUT_UD, HH_NOUT };
 
 enum { HH_OK = 0, HH_DIVERGED = 1, HH_BAD_ARGUMENT = 2 };
 
@@ -203,7 +189,7 @@ typedef struct {
     double hold_x;              /* position held by the 'hold' safe state [m] */
 } hh_watchdog;
 typedef struct {
-    double p[4];                /* p1, p2, ps, pt as the transducers report [Pa gauge] */
+    double p[HH_NPRESSURES];    /* p1, p2, ps, pt as the transducers report [Pa gauge] (HH_PRESSURE_*) */
     int64_t encoder;            /* encoder reading [counts] */
     int saturated;              /* a pressure reading is clipped */
 } hh_reading;
@@ -214,16 +200,14 @@ double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, dou
                            double hold_kp, double xp);
 
 /* ---- the rig step: command path, watchdog, fault injection, sensing (rig.c) ------------------ */
-/* Status bits the rig knows (the wire protocol's, docs/protocol.md; the plant server adds the others). */
-enum { HH_ST_WATCHDOG = 1 << 0, HH_ST_AT_RETRACT = 1 << 2, HH_ST_AT_EXTEND = 1 << 3, HH_ST_STICK = 1 << 4,
-       HH_ST_SATURATED = 1 << 6, HH_ST_FAULT_INJECTED = 1 << 10 };
-/* Fault types (the [[faults]] of a scenario, simulation/faults.py; names: hh_fault_type_name) and sensors. */
+/* Status bits (HH_ST_*, hh_shape.h: the wire protocol's, docs/protocol.md): the rig sets watchdog, the end
+ * stops, stick, saturated and fault_injected; the plant servers the others. */
+/* Fault types (the [[faults]] of a scenario, simulation/faults.py; names: hh_fault_type_name). */
 enum { HH_FAULT_SENSOR_STUCK, HH_FAULT_SENSOR_OFFSET, HH_FAULT_SENSOR_NOISE, HH_FAULT_SENSOR_DROPOUT,
        HH_FAULT_ENCODER_COUNT_LOSS, HH_FAULT_SPOOL_STUCK, HH_FAULT_VALVE_BANDWIDTH, HH_FAULT_VALVE_LEAKAGE,
        HH_FAULT_COMMAND_INVERSION, HH_FAULT_SUPPLY_PRESSURE, HH_FAULT_SEAL_WEAR, HH_FAULT_HOSE_BURST,
        HH_FAULT_LOAD_CHANGE, HH_FAULT_PACKET_LOSS, HH_FAULT_NETWORK_DELAY, HH_FAULT_REORDERING,
        HH_FAULT_CONTROLLER_SILENCE, HH_NFAULT_TYPES };
-enum { HH_SENSOR_POSITION, HH_SENSOR_P1, HH_SENSOR_P2, HH_SENSOR_PS, HH_SENSOR_PT, HH_NSENSORS };
 #define HH_MAX_FAULTS 62
 #define HH_NEVER ((int64_t)1 << 62)
 /* One fault of the table. a, b: its parameters in the order its schema declares them (sensor_offset: offset,
@@ -260,7 +244,7 @@ typedef struct {
 } hh_rig;
 typedef struct {
     int64_t encoder;            /* counts, as the rig reports them */
-    double p[4];                /* p1, p2, ps, pt as the transducers report [Pa gauge] */
+    double p[HH_NPRESSURES];    /* p1, p2, ps, pt as the transducers report [Pa gauge] (HH_PRESSURE_*) */
     uint32_t status;            /* HH_ST_* */
     uint64_t faults;            /* bit i: fault i active */
 } hh_rig_reading;

@@ -196,7 +196,7 @@ int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t ever
             else    /* the pressures unused and no noise to draw: the encoder alone (the same reading) */
                 reading.encoder = encoder_reading(sim->y[HH_XP], count);
             u = hh_controller_update(drive->controller, drive->state, v, dv, (double)reading.encoder * count,
-                                     reading.p[0], reading.p[1]);
+                                     reading.p[HH_PRESSURE_P1], reading.p[HH_PRESSURE_P2]);
             if (k == n_steps) {
                 *drive->state = kept;
                 *drive->rng = kept_rng;

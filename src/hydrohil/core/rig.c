@@ -112,19 +112,19 @@ int64_t hh_count_to_int(double c) { return count_to_int(c); }
 void hh_rig_read(const hh_sim *sim, double count, hh_rng *rng, hh_reading *r)
 {
     const double *p = sim->p, *y = sim->y;
-    double noise[4] = {0.0, 0.0, 0.0, 0.0}, truth[4], sigma = p[HH_SENSORS_PRESSURE_NOISE];
+    double noise[HH_NPRESSURES] = {0.0}, truth[HH_NPRESSURES], sigma = p[HH_SENSORS_PRESSURE_NOISE];
     int i, sat;
-    truth[0] = y[HH_P1];
-    truth[1] = y[HH_P2];
-    truth[2] = p[HH_SUPPLY_PS];
-    truth[3] = p[HH_SUPPLY_PT];
+    truth[HH_PRESSURE_P1] = y[HH_P1];
+    truth[HH_PRESSURE_P2] = y[HH_P2];
+    truth[HH_PRESSURE_PS] = p[HH_SUPPLY_PS];
+    truth[HH_PRESSURE_PT] = p[HH_SUPPLY_PT];
     if (sigma > 0.0) {
-        hh_rng_normals(rng, 4, noise);
-        for (i = 0; i < 4; i++)
+        hh_rng_normals(rng, HH_NPRESSURES, noise);
+        for (i = 0; i < HH_NPRESSURES; i++)
             noise[i] *= sigma;
     }
     r->saturated = 0;
-    for (i = 0; i < 4; i++) {
+    for (i = 0; i < HH_NPRESSURES; i++) {
         r->p[i] = hh_pressure_reading(truth[i], p[HH_SENSORS_PRESSURE_RANGE], p[HH_SENSORS_PRESSURE_RESOLUTION],
                                       noise[i], &sat);
         r->saturated |= sat;
@@ -397,8 +397,8 @@ void hh_rig_sense(hh_rig *r, hh_rig_reading *out)
 {
     const hh_sim *sim = r->sim;
     const double *p = sim->p, *y = sim->y;
-    double t = sim->out[HH_OUT_T], counts = encoder_counts(y[HH_XP], r->count), c, truth[4];
-    double noise[4] = {0.0, 0.0, 0.0, 0.0}, sigma = p[HH_SENSORS_PRESSURE_NOISE];
+    double t = sim->out[HH_OUT_T], counts = encoder_counts(y[HH_XP], r->count), c, truth[HH_NPRESSURES];
+    double noise[HH_NPRESSURES] = {0.0}, sigma = p[HH_SENSORS_PRESSURE_NOISE];
     int i, sat, saturated = 0;
     int64_t travel = sim->m[HH_M_TRAVEL];
     /* the encoder: lost counts stay lost, then the position sensor's faults (in metres) */
@@ -413,17 +413,17 @@ void hh_rig_sense(hh_rig *r, hh_rig_reading *out)
         c = floor(sense(r, HH_SENSOR_POSITION, c * r->count, t) / r->count + 0.5);
     out->encoder = count_to_int(c);
     /* the transducers: faults on the truth, then noise, range and ADC */
-    truth[0] = y[HH_P1];
-    truth[1] = y[HH_P2];
-    truth[2] = p[HH_SUPPLY_PS];
-    truth[3] = p[HH_SUPPLY_PT];
+    truth[HH_PRESSURE_P1] = y[HH_P1];
+    truth[HH_PRESSURE_P2] = y[HH_P2];
+    truth[HH_PRESSURE_PS] = p[HH_SUPPLY_PS];
+    truth[HH_PRESSURE_PT] = p[HH_SUPPLY_PT];
     if (sigma > 0.0) {
-        hh_rng_normals(&r->noise, 4, noise);
-        for (i = 0; i < 4; i++)
+        hh_rng_normals(&r->noise, HH_NPRESSURES, noise);
+        for (i = 0; i < HH_NPRESSURES; i++)
             noise[i] *= sigma;
     }
-    for (i = 0; i < 4; i++) {
-        double v = r->mask ? sense(r, HH_SENSOR_P1 + i, truth[i], t) : truth[i];
+    for (i = 0; i < HH_NPRESSURES; i++) {
+        double v = r->mask ? sense(r, HH_SENSOR_P1 + i, truth[i], t) : truth[i];   /* sensors: position, then these */
         out->p[i] = hh_pressure_reading(v, p[HH_SENSORS_PRESSURE_RANGE], p[HH_SENSORS_PRESSURE_RESOLUTION], noise[i],
                                         &sat);
         saturated |= sat;

@@ -24,6 +24,7 @@ import typing
 from pathlib import Path
 
 from hydrohil import __version__
+from hydrohil.core import shape
 from hydrohil.errors import HydrohilError, InputError
 from hydrohil.parameters import Parameters
 
@@ -125,6 +126,7 @@ def plant_config_h(params: Parameters, *, step: float = 5e-4, duration: float = 
              "#ifndef PLANT_CONFIG_H", "#define PLANT_CONFIG_H", "#include <math.h>", "#include \"hh.h\"", "",
              f"#define PLANT_DESCRIPTION {_str(f'hydrohil {__version__}, parameter set {label}')}",
              f"#define PLANT_STEP_DEFAULT {_c(step)}", f"#define PLANT_DURATION_DEFAULT {_c(duration)}", "",
+             shape.c_plant_log_tables(), "",
              "enum { SET_REAL, SET_INT, SET_ENUM };",
              "typedef struct {", "    const char *key;", "    int kind;",
              "    double value, lo, hi;    /* default (enum: index) and admissible range */",
@@ -174,7 +176,7 @@ def scenario_options(s) -> dict:
 def export_c(params: Parameters, out: str | Path, *, step: float = 5e-4, duration: float = 10.0, hil=None,
              initial: dict | None = None, label: str = "custom") -> Path:
     """Write the standalone plant's sources and Makefile into the folder ``out``; returns it."""
-    from hydrohil.core.build import core_sources, write_params_header
+    from hydrohil.core.build import core_sources, write_headers
     if not 1e-6 < step <= 0.01:
         raise InputError(f"must be > 1e-06 and <= 0.01 s, got {step}", key="step")
     if not 0 < duration <= 1e6:
@@ -183,7 +185,7 @@ def export_c(params: Parameters, out: str | Path, *, step: float = 5e-4, duratio
     if out.exists() and not out.is_dir():
         raise InputError("exists and is not a folder", source=str(out))
     out.mkdir(parents=True, exist_ok=True)
-    write_params_header()
+    write_headers()
     for src in core_sources():
         _copy(src, out / src.name)
     for name in RT_SOURCES:

@@ -23,6 +23,7 @@ from pathlib import Path
 from xml.sax.saxutils import escape
 
 from hydrohil import __version__
+from hydrohil.core import shape
 from hydrohil.errors import InputError
 from hydrohil.models.layout import SLOTS, pack
 from hydrohil.parameters import Parameters
@@ -53,13 +54,12 @@ INPUTS = (("u", "", "normalised valve command; saturated to [-1, 1] as the rig's
           ("F_load", "N", "external load force on the piston, positive opposes extension (replaces load.force)",
            201, None, None),
           ("ps", "Pa", "supply pressure, gauge (replaces supply.ps)", 202, None, 1e8))
-REAL_OUTPUTS = (("xp", "m", "piston position", 300), ("vp", "m/s", "piston velocity", 301),
-                ("p1", "Pa", "chamber 1 (cap side) pressure, gauge", 302),
-                ("p2", "Pa", "chamber 2 (rod side) pressure, gauge", 303),
-                ("xs", "", "spool position (normalised)", 304), ("ff", "N", "friction force", 305))
-INT_OUTPUTS = (("travel_mode", "0 free, 1 at the retract stop, 2 at the extend stop", 310),
-               ("friction_mode", "0 stick, 1 slip positive, 2 slip negative", 311),
-               ("spool_mode", "0 linear, 1 acceleration-limited, 2 velocity-limited, 3 at its end", 312),
+# outputs: the plant's quantities and modes as core/shape.py describes them, with the FMU's value references
+REAL_OUTPUTS = tuple((name, "" if shape.QUANTITIES[name].unit == "-" else shape.QUANTITIES[name].unit,
+                      shape.QUANTITIES[name].description, vr)
+                     for name, vr in (("xp", 300), ("vp", 301), ("p1", 302), ("p2", 303), ("xs", 304), ("ff", 305)))
+INT_OUTPUTS = (*((f"{m.name}_mode", ", ".join(f"{i} {v.description}" for i, v in enumerate(m.values)), vr)
+                 for m, vr in zip(shape.MODES, (310, 311, 312))),
                ("encoder", "encoder reading [counts] (sensors.encoder_resolution; 0: ideal, 1 nm counts)", 313))
 
 
@@ -224,7 +224,7 @@ def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-
     if out.suffix != ".fmu":
         raise InputError(f"the output file must end in .fmu, got {out.name}", key="out")
     token = "{" + str(uuid.UUID(hashlib.md5(f"{params.model_dump_json()}|{fmi}|{step}".encode()).hexdigest())) + "}"
-    from hydrohil.core.build import CFLAGS, c_compiler, core_sources, write_params_header
+    from hydrohil.core.build import CFLAGS, c_compiler, core_sources, write_headers
     cc = cc or c_compiler()
     if shutil.which(cc) is None:
         raise InputError(f"no C compiler '{cc}' found: the FMU's binary is built on the spot")
@@ -232,7 +232,7 @@ def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-
         root = Path(tmp) / "fmu"
         src = root / "sources"
         src.mkdir(parents=True)
-        write_params_header(CORE)
+        write_headers(CORE)
         for path in core_sources():
             shutil.copy2(path, src / path.name)
         for name in ("plant_fmu.h", "plant_fmu.c", f"fmi{fmi}Functions.c"):

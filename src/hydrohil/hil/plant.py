@@ -28,17 +28,25 @@ from hydrohil.hil.protocol import parse_address
 from hydrohil.hil.netstamp import enable_kernel_timestamps, recv_stamped
 from hydrohil.hil.session import PanelSession
 from hydrohil.hil.stats import LatencyHistogram
-from hydrohil.models.layout import FRICTION_NAMES, PS, SPOOL_NAMES, TRAVEL_NAMES
+from hydrohil.core import lib, shape
+from hydrohil.models.layout import PS
 from hydrohil.parameters import Parameters, load_parameters
-from hydrohil.simulation.outputs import CsvStream, finite_or_none, write_json
+from hydrohil.simulation.outputs import CsvStream, column_formats, finite_or_none, write_json
 from hydrohil.simulation.rig import Reading, VirtualRig
 from hydrohil.simulation.scenario import HilCfg, load_scenario
 
 SPIN_NS = 150_000            # busy-wait the last 150 us before a deadline ...
 SPIN_FRACTION = 0.3          # ... but at most 30 % of a step: spinning ~all the time trips the kernel's RT throttling
-LOG_COLUMNS = ("k", "t", "wall", "jitter_us", "compute_us", "u", "cmd_seq", "cmd_age", "watchdog", "xs", "p1",
-               "p2", "xp", "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas",
-               "p2_meas", "ps_meas", "faults", "status")
+LOG_COLUMNS = shape.PLANT_LOG_COLUMNS         # plant_log.csv (core/shape.py: the C plant writes the same)
+# (plant_log.csv column, out[] index) of the columns that are the step's outputs (t, state, ff, modes), by name
+_OUT = {name: i for i, name in enumerate(shape.OUTPUT_NAMES)}
+FROM_OUT = tuple((i, _OUT[c.name.removesuffix("_mode")]) for i, c in enumerate(shape.PLANT_LOG)
+                 if c.name != "k" and c.name.removesuffix("_mode") in _OUT)
+# the same for the panel's telemetry row (shape.SIDE_PLANT_COLUMNS), and the places of its other columns
+SIDE_FROM_OUT = tuple((i, _OUT[c.removesuffix("_mode")]) for i, c in enumerate(shape.SIDE_PLANT_COLUMNS)
+                      if c.removesuffix("_mode") in _OUT)
+S_U, S_PS, S_JITTER, S_COMPUTE, S_WATCHDOG, S_FAULTS, S_X_MEAS = (
+    shape.SIDE_PLANT_COLUMNS.index(c) for c in ("u", "ps", "jitter_us", "compute_us", "watchdog", "faults", "x_meas"))
 
 
 def _pin(cpu: int | None):
@@ -118,6 +126,7 @@ class PlantServer:
         self.overruns = 0
         self.log = self.open_log(log) if log is not None else None
         self.row = [0.0] * len(LOG_COLUMNS)
+        self.side_row = [0.0] * len(shape.SIDE_PLANT_COLUMNS)
         self.stop_requested = False
         self.stop_signal: int | None = None    # the signal that stopped the run (set by the CLI's handler)
         self.fault: str | None = None
@@ -362,9 +371,12 @@ class PlantServer:
         out, side = self.rig.out, self.side
         if self.session is not None:
             self.session.command(u)
-        if side.row(k, out[0], out[5], out[6], out[1], u, out[3], out[4], self.rig.plant.p[PS], out[8], out[9],
-                    out[10], out[11], late_ns / 1e3, compute_ns / 1e3, self.rig.link.active, r.faults,
-                    r.encoder * self.rig.res):
+        row = self.side_row
+        for i, j in SIDE_FROM_OUT:
+            row[i] = out[j]
+        row[S_U], row[S_PS], row[S_JITTER], row[S_COMPUTE] = u, self.rig.plant.p[PS], late_ns / 1e3, compute_ns / 1e3
+        row[S_WATCHDOG], row[S_FAULTS], row[S_X_MEAS] = self.rig.link.active, r.faults, r.encoder * self.rig.res
+        if side.row(k, *row):
             side.flush(self._counters(k))
             msgs = side.poll()
             for msg in msgs:
@@ -400,11 +412,15 @@ class PlantServer:
         if self.log is None and rec is None:
             return
         out, row = self.rig.out, self.row
-        row[0], row[1], row[2], row[3], row[4], row[5] = k, out[0], wall, jitter_ns / 1e3, compute_ns / 1e3, u
-        row[6], row[7], row[8] = self.cmd_seq, k - 1 - self.cmd_echo if self.cmd_seq >= 0 else -1, self.rig.watchdog
-        row[9], row[10], row[11], row[12], row[13], row[14] = out[1], out[3], out[4], out[5], out[6], out[8]
-        row[15], row[16], row[17] = out[9], out[10], out[11]
-        row[18], row[19], row[20], row[21], row[22], row[23] = r.encoder, r.p1, r.p2, r.ps, r.faults, r.status
+        for i, j in FROM_OUT:
+            row[i] = out[j]
+        row[lib.HH_PLOG_K], row[lib.HH_PLOG_WALL], row[lib.HH_PLOG_U] = k, wall, u
+        row[lib.HH_PLOG_JITTER_US], row[lib.HH_PLOG_COMPUTE_US] = jitter_ns / 1e3, compute_ns / 1e3
+        row[lib.HH_PLOG_CMD_SEQ] = self.cmd_seq
+        row[lib.HH_PLOG_CMD_AGE] = k - 1 - self.cmd_echo if self.cmd_seq >= 0 else -1
+        row[lib.HH_PLOG_WATCHDOG] = self.rig.watchdog
+        row[lib.HH_PLOG_ENCODER], row[lib.HH_PLOG_FAULTS], row[lib.HH_PLOG_STATUS] = r.encoder, r.faults, r.status
+        row[lib.HH_PLOG_P1_MEAS], row[lib.HH_PLOG_P2_MEAS], row[lib.HH_PLOG_PS_MEAS] = r.p1, r.p2, r.ps
         if self.log is not None:
             self.log.write(row)
         if rec is not None:
@@ -412,8 +428,8 @@ class PlantServer:
 
     def open_log(self, path: Path) -> CsvStream:
         """A plant log (``plant_log.csv``) with this server's columns."""
-        return CsvStream(path, LOG_COLUMNS, names={15: TRAVEL_NAMES, 16: FRICTION_NAMES, 17: SPOOL_NAMES},
-                         ints={0, 6, 7, 8, 18, 22, 23})
+        names, ints = column_formats(shape.PLANT_LOG)
+        return CsvStream(path, LOG_COLUMNS, names=names, ints=ints)
 
     def counter_values(self) -> dict:
         """The run's counters now (a recording subtracts those at its start)."""

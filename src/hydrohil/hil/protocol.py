@@ -17,6 +17,7 @@ import struct
 import zlib
 from typing import NamedTuple
 
+from hydrohil.core import shape
 from hydrohil.errors import InputError
 
 MAGIC = b"HHIL"
@@ -33,18 +34,13 @@ SIZES = {T_SENSOR: HEADER.size + SENSOR.size + CRC.size,      # 100
          T_BYE: HEADER.size + CRC.size}
 MAX_DATAGRAM = 512
 
-# status bits of a sensor packet
-ST_WATCHDOG = 1 << 0      # safe state active: no valid command for longer than the watchdog timeout
-ST_LOCKSTEP = 1 << 1      # plant runs in lock-step (not wall-clock) mode
-ST_AT_RETRACT = 1 << 2    # piston at the retract end stop
-ST_AT_EXTEND = 1 << 3     # piston at the extend end stop
-ST_STICK = 1 << 4         # friction in stick (presliding)
-ST_OVERRUN = 1 << 5       # the step that produced this packet started after its successor's instant
-ST_SATURATED = 1 << 6     # a pressure reading is clipped at the sensor range
-ST_LATE_COMMAND = 1 << 7  # the command used was not the answer to the previous sensor packet
-ST_FAULT = 1 << 8         # the plant stopped on a fault (simulation diverged); last packet
-ST_FINAL = 1 << 9         # last packet of the run
-ST_FAULT_INJECTED = 1 << 10  # a scenario fault ([[faults]]) is active at this step
+# status bits of a sensor packet (core/shape.py STATUS: each bit and its meaning)
+STATUS_BITS = {b.name: 1 << b.bit for b in shape.STATUS}
+ST_WATCHDOG, ST_LOCKSTEP = STATUS_BITS["watchdog"], STATUS_BITS["lockstep"]
+ST_AT_RETRACT, ST_AT_EXTEND, ST_STICK = STATUS_BITS["at_retract"], STATUS_BITS["at_extend"], STATUS_BITS["stick"]
+ST_OVERRUN, ST_SATURATED = STATUS_BITS["overrun"], STATUS_BITS["saturated"]
+ST_LATE_COMMAND, ST_FAULT, ST_FINAL = STATUS_BITS["late_command"], STATUS_BITS["fault"], STATUS_BITS["final"]
+ST_FAULT_INJECTED = STATUS_BITS["fault_injected"]
 # command flags
 CMD_STOP = 1 << 0         # controller asks the plant to end the run
 

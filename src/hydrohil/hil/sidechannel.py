@@ -18,17 +18,17 @@ import socket
 import struct
 from collections import OrderedDict
 
+from hydrohil.core import shape
+
 BATCH = 20
 MAGIC = b"HHTM"
 VERSION = 1
 ROLE_PLANT, ROLE_CONTROLLER = 1, 2
 HEADER = struct.Struct("<4sBBHHHq")       # 20 bytes
 COUNTERS = struct.Struct("<8q")           # 64 bytes
-PLANT_COLUMNS = ("t", "xp", "vp", "xs", "u", "p1", "p2", "ps", "ff", "travel_mode", "friction_mode", "spool_mode",
-                 "jitter_us", "compute_us", "watchdog", "faults", "x_meas")
-CONTROLLER_COLUMNS = ("x_ref", "x_meas_ctl", "u_cmd")
-PLANT_COUNTERS = ("overruns", "late_commands", "watchdog_trips", "watchdog_trips_unexplained", "packets_lost",
-                  "telemetry_dropped", "jitter_max_ns", "steps")
+PLANT_COLUMNS = shape.SIDE_PLANT_COLUMNS              # telemetry columns and counters: core/shape.py
+CONTROLLER_COLUMNS = shape.SIDE_CONTROLLER_COLUMNS
+PLANT_COUNTERS = shape.SIDE_PLANT_COUNTERS
 
 
 def parse_batch(data: bytes):

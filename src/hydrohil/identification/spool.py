@@ -86,11 +86,11 @@ def steady_sine_response(p: np.ndarray, amplitude: float, freq: float, max_half_
     10–300 Hz): the same gain within 5e-9 dB and phase within 7e-8°, after a median 7 and at most 26 half
     periods."""
     work = np.empty(lib.hh_spool_bode_work(freq))
-    out = ffi.new("double[5]")
+    got = ffi.new("double[5]")          # the C function's results (gain, phase, ..., cap)
     used = ffi.new("int64_t[2]")
-    lib.hh_steady_sine_response(dptr(p), amplitude, freq, int(max_half_periods), dptr(work), out, out + 1, used,
-                                out + 2, used + 1, out + 3)
-    return out[0], out[1], int(used[0]), out[2]
+    lib.hh_steady_sine_response(dptr(p), amplitude, freq, int(max_half_periods), dptr(work), got, got + 1, used,
+                                got + 2, used + 1, got + 3)
+    return got[0], got[1], int(used[0]), got[2]
 
 
 @dataclass(frozen=True)

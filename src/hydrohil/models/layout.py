@@ -3,21 +3,21 @@
 The parameter vector's slots are generated from the pydantic schema (:mod:`hydrohil.core.layout`: the
 same function writes the C header ``hh_params.h`` at build time), so Python and C cannot disagree;
 :func:`pack` fills it from a validated :class:`~hydrohil.parameters.Parameters` and lets the core derive its
-model slots. State and mode codes are the core's own constants (``hh.h``).
+model slots. State and mode codes are the core's constants, generated with their names from :mod:`hydrohil.core.shape`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from hydrohil.core import dptr, lib
+from hydrohil.core import dptr, lib, shape
 from hydrohil.core.layout import slots
 from hydrohil.parameters import Parameters
 
 # --- state vector y ---------------------------------------------------------------------------
 XS, VS, P1, P2, XP, VP, Z = (lib.HH_XS, lib.HH_VS, lib.HH_P1, lib.HH_P2, lib.HH_XP, lib.HH_VP, lib.HH_Z)
 NY = lib.HH_NY
-STATE_NAMES = ("xs", "vs", "p1", "p2", "xp", "vp", "z")
+STATE_NAMES = tuple(s.name for s in shape.STATES)
 
 # --- modes ------------------------------------------------------------------------------------
 M_TRAVEL, M_FRICTION, M_SPOOL = lib.HH_M_TRAVEL, lib.HH_M_FRICTION, lib.HH_M_SPOOL
@@ -26,9 +26,8 @@ FREE, AT_RETRACT, AT_EXTEND = lib.HH_FREE, lib.HH_AT_RETRACT, lib.HH_AT_EXTEND
 STICK, SLIP_POS, SLIP_NEG = lib.HH_STICK, lib.HH_SLIP_POS, lib.HH_SLIP_NEG
 SPOOL_LINEAR, SPOOL_ACC_LIMITED, SPOOL_VEL_LIMITED, SPOOL_AT_END = (
     lib.HH_SPOOL_LINEAR, lib.HH_SPOOL_ACC_LIMITED, lib.HH_SPOOL_VEL_LIMITED, lib.HH_SPOOL_AT_END)
-TRAVEL_NAMES = ("free", "at_retract_stop", "at_extend_stop")
-FRICTION_NAMES = ("stick", "slip_pos", "slip_neg")
-SPOOL_NAMES = ("linear", "acc_limited", "vel_limited", "at_end")
+TRAVEL_NAMES, FRICTION_NAMES, SPOOL_NAMES = (shape.MODE_NAMES[m] for m in ("travel", "friction", "spool"))
+MODE_COLUMNS = tuple(f"{m.name}_mode" for m in shape.MODES)     # the modes' log columns, in m[] order
 
 # --- parameter vector p -----------------------------------------------------------------------
 SLOTS = tuple(slots(Parameters))

@@ -16,9 +16,9 @@ from hydrohil.parameters import Parameters
 def chamber_pressures(params: Parameters, xs: float, p: np.ndarray | None = None) -> tuple[float, float]:
     """(p1, p2) [Pa] at which both chambers' net inflows vanish with the spool at ``xs``."""
     p = pack(params) if p is None else p
-    out = ffi.new("double[2]")
-    lib.hh_rest_pressures(dptr(p), float(xs), out, out + 1)
-    return out[0], out[1]
+    got = ffi.new("double[2]")          # the C function's results: p1, p2
+    lib.hh_rest_pressures(dptr(p), float(xs), got, got + 1)
+    return got[0], got[1]
 
 
 def net_force(params: Parameters, p1: float, p2: float, p: np.ndarray | None = None) -> float:
@@ -38,7 +38,7 @@ def rest_state(params: Parameters, p: np.ndarray | None = None) -> tuple[float, 
     """(xs, p1, p2) at rest: the spool offset that holds the piston and the chamber pressures there; an
     :class:`InputError` naming the load when no spool position holds it."""
     p = pack(params) if p is None else p
-    out = ffi.new("double[3]")
-    if lib.hh_rest_state(dptr(p), out, out + 1, out + 2) != 0:
+    got = ffi.new("double[3]")          # the C function's results: xs, p1, p2
+    if lib.hh_rest_state(dptr(p), got, got + 1, got + 2) != 0:
         raise InputError(unheld_load(params), key="load")
-    return out[0], out[1], out[2]
+    return got[0], got[1], got[2]

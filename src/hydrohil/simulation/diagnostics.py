@@ -5,12 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from hydrohil.errors import SimulationDiverged
-from hydrohil.models.layout import FRICTION_NAMES, SPOOL_NAMES, STATE_NAMES, TRAVEL_NAMES
+from hydrohil.core import shape
+from hydrohil.models.layout import STATE_NAMES
 
 
 def mode_names(m) -> dict[str, str]:
-    return {"travel": TRAVEL_NAMES[int(m[0])], "friction": FRICTION_NAMES[int(m[1])],
-            "spool": SPOOL_NAMES[int(m[2])]}
+    """{mode: the name of its value} of a mode vector m (in m[] order: travel, friction, spool)."""
+    return {mode.name: mode.values[int(v)].name for mode, v in zip(shape.MODES, m)}
 
 
 def divergence_error(t: float, y: np.ndarray, m, reason: str = "non-finite or unphysical state") -> SimulationDiverged:

@@ -15,16 +15,14 @@ import warnings
 
 import numpy as np
 
-from hydrohil.core import dptr, ffi, iptr, lib, method_code, view
+from hydrohil.core import dptr, ffi, iptr, lib, method_code, shape, view
 from hydrohil.errors import InputWarning
 from hydrohil.models.layout import FREE, M_TRAVEL, NM, NY, pack
 from hydrohil.models.rest import unheld_load
 from hydrohil.parameters import Parameters
 
-LOG_COLUMNS = ("t", "u", "ud", "xs", "vs", "p1", "p2", "xp", "vp", "z", "ff", "travel_mode", "friction_mode",
-               "spool_mode", "events")
+LOG_COLUMNS = shape.LOG_COLUMNS          # the log's columns (core/shape.py; hh_shape.h's HH_LOG_* from the same)
 NLOG = lib.HH_NLOG
-assert len(LOG_COLUMNS) == NLOG
 STATUS_OK, STATUS_DIVERGED = lib.HH_OK, lib.HH_DIVERGED
 MODELS = {"hybrid": lib.HH_MODEL_HYBRID, "continuous": lib.HH_MODEL_CONTINUOUS, "external": lib.HH_MODEL_EXTERNAL}
 
@@ -194,9 +192,9 @@ class HybridPlant:
     def step(self, u: float) -> np.ndarray:
         if self._step(self._c, u):
             from hydrohil.simulation.diagnostics import divergence_error
-            raise divergence_error(self.out[0], self.y, self.m)
+            raise divergence_error(self.out[lib.HH_OUT_T], self.y, self.m)
         return self.out
 
     @property
     def t(self) -> float:
-        return float(self.out[0])
+        return float(self.out[lib.HH_OUT_T])

@@ -10,12 +10,14 @@ from pathlib import Path
 
 import numpy as np
 
-from hydrohil.models.layout import FRICTION_NAMES, SPOOL_NAMES, TRAVEL_NAMES
-from hydrohil.simulation.loop import LOG_COLUMNS
+from hydrohil.core import shape
 
-MODE_COLUMNS = {"travel_mode": TRAVEL_NAMES, "friction_mode": FRICTION_NAMES, "spool_mode": SPOOL_NAMES}
-UNITS = {"t": "s", "u": "-", "ud": "-", "xs": "-", "vs": "1/s", "p1": "Pa", "p2": "Pa", "xp": "m", "vp": "m/s",
-         "z": "m", "ff": "N", "events": "count"}
+
+def column_formats(columns) -> tuple[dict[int, tuple], set[int]]:
+    """How :class:`CsvStream` writes the columns of a table of :mod:`hydrohil.core.shape` (``shape.LOG``,
+    ``shape.PLANT_LOG``): {index: the names of a mode's values}, {indices of integer columns}."""
+    names = {i: shape.MODE_NAMES[c.kind] for i, c in enumerate(columns) if c.kind in shape.MODE_NAMES}
+    return names, {i for i, c in enumerate(columns) if c.kind == "int"}
 
 
 def write_table(path: Path, columns, arr: np.ndarray, *, names: dict[int, tuple] | None = None,
@@ -36,8 +38,8 @@ def write_log_csv(path: Path, log: np.ndarray, extra: dict[str, np.ndarray] | No
     """One row per output interval; header = column names (units in README/docs); modes as names."""
     extra = extra or {}
     arr = np.column_stack([log, *(np.asarray(v, float)[: log.shape[0]] for v in extra.values())]) if extra else log
-    names = {LOG_COLUMNS.index(c): v for c, v in MODE_COLUMNS.items()}
-    write_table(path, [*LOG_COLUMNS, *extra], arr, names=names, ints={LOG_COLUMNS.index("events")})
+    names, ints = column_formats(shape.LOG)
+    write_table(path, [*shape.LOG_COLUMNS, *extra], arr, names=names, ints=ints)
 
 
 def finite_or_none(d: dict) -> dict:

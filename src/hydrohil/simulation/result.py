@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hydrohil.errors import SimulationDiverged
+from hydrohil.models.layout import MODE_COLUMNS, STATE_NAMES
 from hydrohil.simulation.diagnostics import mode_names
 from hydrohil.simulation.loop import LOG_COLUMNS
 
@@ -37,8 +38,8 @@ class SimulationResult:
             "solver": self.solver, "step": self.step, "steps": self.steps, "simulated_time_s": sim_time,
             "wall_time_s": self.wall_time_s,
             "realtime_factor": sim_time / self.wall_time_s if self.wall_time_s > 0 else None,
-            "final_state": {c: float(last[LOG_COLUMNS.index(c)]) for c in ("xs", "vs", "p1", "p2", "xp", "vp", "z")},
-            "final_modes": mode_names(last[11:14]),
+            "final_state": {c: float(last[LOG_COLUMNS.index(c)]) for c in STATE_NAMES},
+            "final_modes": mode_names([last[LOG_COLUMNS.index(c)] for c in MODE_COLUMNS]),
             "max_abs_p1": float(np.abs(self.column("p1")).max()),
             "max_abs_p2": float(np.abs(self.column("p2")).max()),
             "events": int(self.column("events").sum()),

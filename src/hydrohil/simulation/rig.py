@@ -167,7 +167,8 @@ class VirtualRig:
         status bits of the wire protocol the rig knows (the server adds lock-step, overrun and final)."""
         r, out = self._r, self.plant.out
         lib.hh_rig_sense(self.c, r)
-        return Reading(float(out[lib.HH_OUT_T]), int(r.encoder), r.p[0], r.p[1], r.p[2], r.p[3], int(r.status),
+        return Reading(float(out[lib.HH_OUT_T]), int(r.encoder), r.p[lib.HH_PRESSURE_P1], r.p[lib.HH_PRESSURE_P2],
+                       r.p[lib.HH_PRESSURE_PS], r.p[lib.HH_PRESSURE_PT], int(r.status),
                        int(out[lib.HH_OUT_TRAVEL]), int(out[lib.HH_OUT_FRICTION]), int(out[lib.HH_OUT_SPOOL]),
                        int(r.faults))
 

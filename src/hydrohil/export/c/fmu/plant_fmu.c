@@ -306,8 +306,8 @@ int plant_do_step(plant *pl, double t, double dt)
             const double *y = pl->sim.y;
             plant_logf(pl, PLANT_ERROR, "the simulation diverged at t = %.6g s (travel %d, friction %d, spool %d): "
                        "xs %g, vs %g, p1 %g Pa, p2 %g Pa, xp %g m, vp %g m/s, z %g m", pl->t0 + pl->sim.out[HH_OUT_T],
-                       (int)pl->sim.m[0], (int)pl->sim.m[1], (int)pl->sim.m[2], y[0], y[1], y[2], y[3], y[4], y[5],
-                       y[6]);
+                       (int)pl->sim.m[HH_M_TRAVEL], (int)pl->sim.m[HH_M_FRICTION], (int)pl->sim.m[HH_M_SPOOL], y[HH_XS],
+                       y[HH_VS], y[HH_P1], y[HH_P2], y[HH_XP], y[HH_VP], y[HH_Z]);
             pl->mode = PLANT_FAILED;
             return PLANT_ERROR;
         }

@@ -14,12 +14,7 @@ enum { HHIL_SENSOR = 1, HHIL_COMMAND = 2, HHIL_HELLO = 3, HHIL_BYE = 4 };
 enum { HHIL_HEADER_LEN = 32, HHIL_SENSOR_LEN = 100, HHIL_COMMAND_LEN = 52, HHIL_SIMPLE_LEN = 36,
        HHIL_MAX_DATAGRAM = 512 };
 
-/* status bits of a SENSOR packet */
-enum {
-    HHIL_ST_WATCHDOG = 1 << 0, HHIL_ST_LOCKSTEP = 1 << 1, HHIL_ST_AT_RETRACT = 1 << 2, HHIL_ST_AT_EXTEND = 1 << 3,
-    HHIL_ST_STICK = 1 << 4, HHIL_ST_OVERRUN = 1 << 5, HHIL_ST_SATURATED = 1 << 6, HHIL_ST_LATE_COMMAND = 1 << 7,
-    HHIL_ST_FAULT = 1 << 8, HHIL_ST_FINAL = 1 << 9, HHIL_ST_FAULT_INJECTED = 1 << 10
-};
+/* status bits of a SENSOR packet: HH_ST_* of hh_shape.h (generated from core/shape.py, docs/protocol.md) */
 enum { HHIL_CMD_STOP = 1 << 0 };   /* COMMAND flags */
 
 typedef struct {

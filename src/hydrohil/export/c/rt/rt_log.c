@@ -14,15 +14,6 @@
 #define LOG_FLUSH_ROWS 2000
 #define LOG_FLUSH_NS 500000000LL
 
-static const char *const COLUMNS[NCOL] = {
-    "k", "t", "wall", "jitter_us", "compute_us", "u", "cmd_seq", "cmd_age", "watchdog", "xs", "p1", "p2", "xp",
-    "vp", "ff", "travel_mode", "friction_mode", "spool_mode", "encoder", "p1_meas", "p2_meas", "ps_meas", "faults",
-    "status"};
-const char *const TRAVEL_NAMES[] = {"free", "at_retract_stop", "at_extend_stop"};
-const char *const FRICTION_NAMES[] = {"stick", "slip_pos", "slip_neg"};
-const char *const SPOOL_NAMES[] = {"linear", "acc_limited", "vel_limited", "at_end"};
-
-
 /* ---- numbers as text ---------------------------------------------------------------------------- */
 /* Shortest text that reads back to the same double (as Python's repr); "nan" / "inf" / "-inf". */
 void fmt_double(char *buf, size_t size, double v)
@@ -55,15 +46,15 @@ static size_t format_row(char *t, const double *r)
     char v[40];
     size_t n = 0;
     int j;
-    for (j = 0; j < NCOL; j++) {
+    for (j = 0; j < HH_NPLOG; j++) {
         const char *word = NULL;
         if (j)
             t[n++] = ',';
-        switch (j) {
-        case C_TRAVEL: word = TRAVEL_NAMES[(int)r[j] % 3]; break;
-        case C_FRICTION: word = FRICTION_NAMES[(int)r[j] % 3]; break;
-        case C_SPOOL: word = SPOOL_NAMES[(int)r[j] % 4]; break;
-        case C_K: case C_CMD_SEQ: case C_CMD_AGE: case C_WATCHDOG: case C_ENCODER: case C_FAULTS: case C_STATUS:
+        switch (PLANT_LOG_KINDS[j]) {     /* how core/shape.py says the column is written */
+        case PLOG_MODE_TRAVEL: word = TRAVEL_NAMES[(int)r[j] % HH_N_TRAVEL]; break;
+        case PLOG_MODE_FRICTION: word = FRICTION_NAMES[(int)r[j] % HH_N_FRICTION]; break;
+        case PLOG_MODE_SPOOL: word = SPOOL_NAMES[(int)r[j] % HH_N_SPOOL]; break;
+        case PLOG_INT:
             snprintf(v, sizeof v, "%lld", (long long)r[j]);
             word = v;
             break;
@@ -149,8 +140,8 @@ int log_open(log_writer *w, const char *dir)
         fprintf(stderr, "error: out of memory for the log ring\n");
         return -1;
     }
-    for (j = 0; j < NCOL; j++)
-        fprintf(w->fh, "%s%s", j ? "," : "", COLUMNS[j]);
+    for (j = 0; j < HH_NPLOG; j++)
+        fprintf(w->fh, "%s%s", j ? "," : "", PLANT_LOG_NAMES[j]);
     fputc('\n', w->fh);
     fflush(w->fh);              /* the header by stdio; the rows by write(2) on the same descriptor */
     {
@@ -180,7 +171,7 @@ void log_push(log_writer *w, const double *row)
         w->dropped++;               /* the writer fell 8 s behind: lose a row, never a step */
         return;
     }
-    memcpy(w->rows[head % LOG_RING], row, sizeof(double) * NCOL);
+    memcpy(w->rows[head % LOG_RING], row, sizeof(double) * HH_NPLOG);
     __atomic_store_n(&w->head, head + 1U, __ATOMIC_RELEASE);
 }
 

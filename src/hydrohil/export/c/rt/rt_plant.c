@@ -58,7 +58,7 @@ static void on_signal(int sig) { g_signal = sig; }
 static void read_sensors(plant *pl, reading *r)
 {
     hh_rig_sense(&pl->rig, r);
-    r->status |= pl->o->lockstep ? HHIL_ST_LOCKSTEP : 0;
+    r->status |= pl->o->lockstep ? HH_ST_LOCKSTEP : 0;
 }
 
 static void send_to_peer(plant *pl, const uint8_t *buf, size_t n)
@@ -83,10 +83,10 @@ static void send_sensor(plant *pl, int64_t k, uint32_t status, reading *r)
     s.t_sim = pl->sim.out[HH_OUT_T];
     s.step = (uint64_t)k;
     s.encoder_counts = r->encoder;
-    s.p1 = r->p[0];
-    s.p2 = r->p[1];
-    s.ps = r->p[2];
-    s.pt = r->p[3];
+    s.p1 = r->p[HH_PRESSURE_P1];
+    s.p2 = r->p[HH_PRESSURE_P2];
+    s.ps = r->p[HH_PRESSURE_PS];
+    s.pt = r->p[HH_PRESSURE_PT];
     s.status = r->status;
     s.travel_mode = (uint8_t)pl->sim.m[HH_M_TRAVEL];
     s.friction_mode = (uint8_t)pl->sim.m[HH_M_FRICTION];
@@ -283,30 +283,30 @@ static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t
     const double *out = pl->sim.out;
     if (!pl->log.fh)
         return;
-    row[C_K] = (double)k;
-    row[C_T] = out[HH_OUT_T];
-    row[C_WALL] = wall;
-    row[C_JITTER] = (double)jitter_ns / 1e3;
-    row[C_COMPUTE] = (double)compute_ns / 1e3;
-    row[C_U] = u;
-    row[C_CMD_SEQ] = (double)pl->cmd_seq;
-    row[C_CMD_AGE] = pl->cmd_seq >= 0 ? (double)(k - 1 - pl->cmd_echo) : -1.0;
-    row[C_WATCHDOG] = pl->rig.link.active;
-    row[C_XS] = out[HH_OUT_Y + HH_XS];
-    row[C_P1] = out[HH_OUT_Y + HH_P1];
-    row[C_P2] = out[HH_OUT_Y + HH_P2];
-    row[C_XP] = out[HH_OUT_Y + HH_XP];
-    row[C_VP] = out[HH_OUT_Y + HH_VP];
-    row[C_FF] = out[HH_OUT_FF];
-    row[C_TRAVEL] = out[HH_OUT_TRAVEL];
-    row[C_FRICTION] = out[HH_OUT_FRICTION];
-    row[C_SPOOL] = out[HH_OUT_SPOOL];
-    row[C_ENCODER] = (double)r->encoder;
-    row[C_P1_MEAS] = r->p[0];
-    row[C_P2_MEAS] = r->p[1];
-    row[C_PS_MEAS] = r->p[2];
-    row[C_FAULTS] = (double)r->faults;
-    row[C_STATUS] = (double)r->status;
+    row[HH_PLOG_K] = (double)k;
+    row[HH_PLOG_T] = out[HH_OUT_T];
+    row[HH_PLOG_WALL] = wall;
+    row[HH_PLOG_JITTER_US] = (double)jitter_ns / 1e3;
+    row[HH_PLOG_COMPUTE_US] = (double)compute_ns / 1e3;
+    row[HH_PLOG_U] = u;
+    row[HH_PLOG_CMD_SEQ] = (double)pl->cmd_seq;
+    row[HH_PLOG_CMD_AGE] = pl->cmd_seq >= 0 ? (double)(k - 1 - pl->cmd_echo) : -1.0;
+    row[HH_PLOG_WATCHDOG] = pl->rig.link.active;
+    row[HH_PLOG_XS] = out[HH_OUT_Y + HH_XS];
+    row[HH_PLOG_P1] = out[HH_OUT_Y + HH_P1];
+    row[HH_PLOG_P2] = out[HH_OUT_Y + HH_P2];
+    row[HH_PLOG_XP] = out[HH_OUT_Y + HH_XP];
+    row[HH_PLOG_VP] = out[HH_OUT_Y + HH_VP];
+    row[HH_PLOG_FF] = out[HH_OUT_FF];
+    row[HH_PLOG_TRAVEL_MODE] = out[HH_OUT_TRAVEL];
+    row[HH_PLOG_FRICTION_MODE] = out[HH_OUT_FRICTION];
+    row[HH_PLOG_SPOOL_MODE] = out[HH_OUT_SPOOL];
+    row[HH_PLOG_ENCODER] = (double)r->encoder;
+    row[HH_PLOG_P1_MEAS] = r->p[HH_PRESSURE_P1];
+    row[HH_PLOG_P2_MEAS] = r->p[HH_PRESSURE_P2];
+    row[HH_PLOG_PS_MEAS] = r->p[HH_PRESSURE_PS];
+    row[HH_PLOG_FAULTS] = (double)r->faults;
+    row[HH_PLOG_STATUS] = (double)r->status;
     log_push(&pl->log, row);
 }
 
@@ -459,12 +459,13 @@ static void describe_divergence(plant *pl)
 {
     const double *y = pl->sim.y;
     const int64_t *m = pl->sim.m;
-    char b[7][32];
+    char b[HH_NY][32];
     snprintf(pl->fault, sizeof pl->fault,
              "simulation diverged at t = %.6f s (non-finite or unphysical state); modes: travel=%s, friction=%s, "
              "spool=%s; state: xs=%s, vs=%s, p1=%s, p2=%s, xp=%s, vp=%s, z=%s", pl->sim.out[HH_OUT_T],
-             TRAVEL_NAMES[m[0] % 3], FRICTION_NAMES[m[1] % 3], SPOOL_NAMES[m[2] % 4], g6(b[0], y[0]), g6(b[1], y[1]),
-             g6(b[2], y[2]), g6(b[3], y[3]), g6(b[4], y[4]), g6(b[5], y[5]), g6(b[6], y[6]));
+             TRAVEL_NAMES[m[HH_M_TRAVEL] % HH_N_TRAVEL], FRICTION_NAMES[m[HH_M_FRICTION] % HH_N_FRICTION],
+             SPOOL_NAMES[m[HH_M_SPOOL] % HH_N_SPOOL], g6(b[0], y[HH_XS]), g6(b[1], y[HH_VS]),
+             g6(b[2], y[HH_P1]), g6(b[3], y[HH_P2]), g6(b[4], y[HH_XP]), g6(b[5], y[HH_VP]), g6(b[6], y[HH_Z]));
 }
 
 /* mkdir -p */
@@ -562,17 +563,17 @@ int main(int argc, char **argv)
                 start = last_start = mono_ns();
                 drain(&pl);
                 late = start - deadline;
-                status_extra = late > pl.h_ns ? HHIL_ST_OVERRUN : 0;
+                status_extra = late > pl.h_ns ? HH_ST_OVERRUN : 0;
                 pl.overruns += late > pl.h_ns;
             }
             check_signal(&pl);
             arrived = take_command(&pl, k, &u);
             if (hh_rig_step(&pl.rig, k, arrived, u, &u) != HH_OK) {
                 describe_divergence(&pl);
-                send_sensor(&pl, k + 1, HHIL_ST_FAULT | HHIL_ST_FINAL, &r);
+                send_sensor(&pl, k + 1, HH_ST_FAULT | HH_ST_FINAL, &r);
                 break;
             }
-            send_sensor(&pl, k + 1, status_extra | ((k + 1 == pl.n || pl.stop_requested) ? HHIL_ST_FINAL : 0), &r);
+            send_sensor(&pl, k + 1, status_extra | ((k + 1 == pl.n || pl.stop_requested) ? HH_ST_FINAL : 0), &r);
             end = mono_ns();
             latency_add(&pl.jitter, late);
             latency_add(&pl.compute, end - start);

@@ -43,11 +43,6 @@ static inline int64_t wall_ns(void)
     return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
 }
 
-/* ---- plant_log.csv columns (hydrohil.hil.plant.LOG_COLUMNS) -------------------------------------- */
-enum { C_K, C_T, C_WALL, C_JITTER, C_COMPUTE, C_U, C_CMD_SEQ, C_CMD_AGE, C_WATCHDOG, C_XS, C_P1, C_P2, C_XP, C_VP,
-       C_FF, C_TRAVEL, C_FRICTION, C_SPOOL, C_ENCODER, C_P1_MEAS, C_P2_MEAS, C_PS_MEAS, C_FAULTS, C_STATUS,
-       NCOL };
-
 /* ---- options (rt_options.c) ------------------------------------------------------------------- */
 typedef struct {
     struct sockaddr_in bind, peer;
@@ -71,7 +66,7 @@ void parse_options(int argc, char **argv, options *o);
 /* ---- plant_log.csv (rt_log.c) ----------------------------------------------------------------- */
 typedef struct {
     FILE *fh;
-    double (*rows)[NCOL];
+    double (*rows)[HH_NPLOG];
     volatile uint32_t head;     /* rows written by the step loop (only it writes head; wraps, LOG_RING | 2^32) */
     volatile uint32_t tail;     /* rows formatted by the writer (only it writes tail) */
     volatile int done;
@@ -87,7 +82,6 @@ void fmt_double(char *buf, size_t size, double v);
 int log_open(log_writer *w, const char *dir);      /* 0, or -1 with the message printed */
 void log_push(log_writer *w, const double *row);   /* never blocks: a row without room is counted, dropped */
 void log_close(log_writer *w);                     /* the writer drains the ring, the file is closed */
-extern const char *const TRAVEL_NAMES[], *const FRICTION_NAMES[], *const SPOOL_NAMES[];
 
 /* ---- the plant (rt_plant.c) ------------------------------------------------------------------- */
 typedef struct {
@@ -120,7 +114,7 @@ typedef struct {
     int stop_requested, stop_signal;
     char fault[600], link_error[300];
     log_writer log;
-    double row[NCOL];
+    double row[HH_NPLOG];  /* columns HH_PLOG_* (hh_shape.h) */
     /* os report */
     char os_cpu[80], os_rt[120];
     int os_cpu_granted, timer_slack, memory_locked;
