@@ -43,22 +43,22 @@ def _append(path: Path, text: str) -> None:
     path.write_text(path.read_text() + "\n\n" + text + "\n")
 
 
-def test_an_upward_import_inside_a_function_breaks_the_layers(package_copy):
-    """models may not import hil, even inside a function (the imports that hid the old cycles)."""
-    _append(package_copy / "hydrohil" / "models" / "layout.py",
-            "def _upward():\n    from hydrohil.hil.run import run_hil\n    return run_hil")
-    r = lint_imports(package_copy.parent, package_copy)
-    assert r.returncode == 1, r.stdout + r.stderr
-    assert "hydrohil layers" in r.stdout and "BROKEN" in r.stdout
-    assert "hydrohil.models.layout -> hydrohil.hil.run" in r.stdout
+BREAKS = {   # an import added inside a function of a copy of the package -> the contract it breaks, what it names
+    "upward": ("models/layout.py", "from hydrohil.hil.run import run_hil\n    return run_hil", "hydrohil layers",
+               ("hydrohil.models.layout -> hydrohil.hil.run",)),
+    "cycle": ("sequences/report.py", "from hydrohil.sequences.runner import run_suite\n    return run_suite",
+              "no import cycle", ("hydrohil.sequences", ".runner -> .report")),
+}
 
 
-def test_a_cycle_between_two_modules_of_a_package_is_found(package_copy):
-    """sequences.report -> sequences.runner closes a cycle (runner imports report): the acyclic contract."""
-    _append(package_copy / "hydrohil" / "sequences" / "report.py",
-            "def _cycle():\n    from hydrohil.sequences.runner import run_suite\n    return run_suite")
+@pytest.mark.parametrize("case", BREAKS)
+def test_an_import_that_breaks_a_contract_is_found(package_copy, case):
+    """models may not import hil, even inside a function (the imports that hid the old cycles); a cycle
+    between two modules of a package (sequences.runner imports report; report -> runner closes it) is found."""
+    path, code, contract, names = BREAKS[case]
+    _append(package_copy / "hydrohil" / path, f"def _added():\n    {code}")
     r = lint_imports(package_copy.parent, package_copy)
     assert r.returncode == 1, r.stdout + r.stderr
-    assert "no import cycle" in r.stdout and "BROKEN" in r.stdout
-    assert "hydrohil.sequences" in r.stdout
-    assert ".runner -> .report" in r.stdout or ".report -> .runner" in r.stdout
+    assert contract in r.stdout and "BROKEN" in r.stdout
+    for name in names:
+        assert name in r.stdout, name

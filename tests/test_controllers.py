@@ -112,13 +112,15 @@ BUILTIN = [PIControllerCfg(type="pi", kp=50.0, ki=500.0, antiwindup="back_calcul
 
 
 @pytest.mark.parametrize("cfg", BUILTIN, ids=lambda c: c.type)
-def test_compiled_loop_equals_the_rigs_python_loop_with_noisy_sensors(cfg):
+def test_the_loop_of_the_plant_alone_equals_the_loop_through_the_rig_with_noisy_sensors(cfg):
+    """hh_sim_run without a rig (hh_rig_read, the drive's noise) and through the rig step (hh_rig_sense, the
+    rig's noise, its command path): the same law on the same readings, the same log, every column."""
     sc = load_scenario(EXAMPLES / "fig12_steps_ramps.toml", duration=2.0,
                        sets={"sensors.pressure_noise": 2e4, "sensors.pressure_resolution": 1e3})
     sc = with_controller(sc, cfg)
     compiled, rig = run_scenario(sc), run_rig(sc)
-    for c in ("u", "xp", "p1", "p2", "xs"):
-        assert np.array_equal(compiled.column(c), rig.column(c)), c
+    assert np.array_equal(compiled.log, rig.log)
+    assert rig.column("events").sum() > 0 and np.ptp(rig.column("p1_meas") - rig.column("p1")) > 1e4
 
 
 def test_a_python_callable_sees_what_the_compiled_loop_sees():

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import EXAMPLES
 from hydrohil.errors import InputError
 from hydrohil.hil.protocol import ST_FAULT_INJECTED, ST_WATCHDOG
 from hydrohil.simulation.outputs import read_csv_columns
@@ -291,3 +292,26 @@ def test_bad_fault_entries_are_clear_errors(tmp_path, fault, message):
     with pytest.raises(InputError) as exc:
         load_scenario(path)
     assert str(path) in str(exc.value) and message in str(exc.value)
+
+
+def test_the_offline_loop_through_the_rig_stops_on_a_failed_callback():
+    """The core's loop through the rig calls Python back for steering events and Python controllers: what
+    they raise stops the run at that step and is raised as it was (the log up to there is not returned)."""
+    from hydrohil.simulation.rig import run_rig
+    from hydrohil.simulation.scenario import load_scenario
+    from hydrohil.simulation.steering import parse_event
+    sc = load_scenario(EXAMPLES / "fig11_p_control.toml", duration=0.5)
+    off = parse_event({"op": "fault_off", "slot": 3}, "plant")
+    with pytest.raises(ValueError, match="no active fault in slot 3"):
+        run_rig(sc, events={100: [off]}, steps=400)
+    seen = []
+
+    def fails_at_step_250(m):
+        seen.append(m.t)
+        if len(seen) == 251:
+            raise RuntimeError("lost the sensor")
+        return 50.0 * (m.x_ref - m.x)
+    from hydrohil.control import ControllerError
+    with pytest.raises(ControllerError, match=r"t = 0.125 s .*RuntimeError: lost the sensor"):
+        run_rig(sc, controller=fails_at_step_250)
+    assert seen[-1] == 0.125 and len(seen) == 251

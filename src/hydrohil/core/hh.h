@@ -44,7 +44,7 @@ typedef void (*hh_progress_fn)(void *ctx, int64_t k);
 #define HH_LPM_PER_SQRT_BAR (1.0 / 60000.0 / 316.22776601683796)  /* (l/min)/sqrt(bar) in (m^3/s)/sqrt(Pa) */
 #define HH_IDEAL_COUNT 1e-9             /* m: count size of an ideal encoder where counts must be integers */
 
-enum { HH_OK = 0, HH_DIVERGED = 1, HH_BAD_ARGUMENT = 2 };
+enum { HH_OK = 0, HH_DIVERGED = 1, HH_BAD_ARGUMENT = 2, HH_STOPPED = 3 };   /* HH_STOPPED: a callback failed */
 
 /* ---- parameters (params.c) ------------------------------------------------------------------ */
 /* Fill the model slots (friction set per direction from friction.asymmetric; reference-model and
@@ -142,9 +142,20 @@ typedef struct {
 /* Drive of a run: open loop (values are commands u) or closed loop (values are positions x_ref [m], slopes
  * dx_ref [m/s] optional): each step the sensors are read as the rig reads them (hh_rig_read: encoder counts,
  * pressure transducers with noise drawn from rng) and the controller computes u from them. t_in == NULL:
- * value k holds over step k; else a table (t_in, v_in, dv_in, n_in) sampled by zero-order hold at t_k. */
+ * value k holds over step k; else a table (t_in, v_in, dv_in, n_in) sampled by zero-order hold at t_k.
+ *
+ * With a rig (rig != NULL: the run through the rig step of rig.c, its faults, command path and watchdog) the
+ * rig's sensing gives the readings (rng unused), its step takes the command through the command path, and
+ * rig_log (when set) gets HH_NRLOG columns per row: what the sensors reported, the faults, the watchdog. Row k
+ * holds the state at t_k and the command that drove the valve over step k. A controller in Python comes in
+ * as `command` (kind closed or open: its output is the command); `on_event` is called before the steps listed
+ * in event_steps (ascending; steering replays). Either callback's failure stops the run with HH_STOPPED. */
 enum { HH_DRIVE_OPEN, HH_DRIVE_CLOSED };
 typedef struct { uint64_t s[4]; } hh_rng;         /* xoshiro256** state (rig.c) */
+typedef struct hh_rig hh_rig;                     /* the rig step (rig.c, below) */
+typedef struct hh_rig_reading hh_rig_reading;
+typedef double (*hh_command_fn)(void *ctx, int64_t k, double t, double v, double dv, const hh_rig_reading *r);
+typedef int (*hh_event_fn)(void *ctx, int64_t k);
 typedef struct {
     int kind;
     const hh_controller *controller;     /* closed loop */
@@ -154,6 +165,13 @@ typedef struct {
     const double *v_in;
     const double *dv_in;                 /* NULL: slopes 0 */
     int64_t n_in;
+    hh_rig *rig;                         /* NULL: the plant alone */
+    hh_command_fn command;               /* NULL: the built-in controller (closed) or the values (open) */
+    hh_event_fn on_event;
+    void *ctx;                           /* of command and on_event */
+    const int64_t *event_steps;
+    int64_t n_event_steps;
+    double *rig_log;                     /* rows x HH_NRLOG, or NULL */
 } hh_drive;
 
 /* Set up sim (state from hh_initial_state's arguments) with a delay buffer of hh_delay_steps + 2. */
@@ -162,14 +180,12 @@ void hh_sim_init(hh_sim *sim, const double *p, int model, int method, double h, 
 void hh_sim_reset(hh_sim *sim);   /* k = 0, delay line filled with y[XS], out from the state */
 /* One step of the per-step API with command u: fills sim->out; returns HH_OK or HH_DIVERGED. */
 int hh_sim_step(hh_sim *sim, double u);
-/* n_steps steps from the current state; a log row (HH_NLOG columns) every `every` steps, the first at
- * the start. Returns HH_OK / HH_DIVERGED, or HH_BAD_ARGUMENT (nothing done) for every < 1 or n_steps < 0;
+/* THE sampled loop: n_steps steps from the current state (of the plant alone, or through drive->rig); a log
+ * row (HH_NLOG columns) every `every` steps, the first at the start. Returns HH_OK / HH_DIVERGED, HH_STOPPED
+ * (a callback of the drive failed), or HH_BAD_ARGUMENT (nothing done) for every < 1 or n_steps < 0;
  * *steps_done and *rows written. */
 int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t every, double *log,
                int64_t *steps_done, int64_t *rows);
-/* One log row of the state (y, m) at time t with command u and spool input ud (the rig's Python loop). */
-void hh_log_row(const hh_sim *sim, double t, double u, double ud, const double *y, const int64_t *m,
-                double events, double *row);
 /* Whether y is non-finite or far outside any physical range (divergence, hybrid.h). */
 int hh_diverged(const double *y, const double *p);
 
@@ -194,6 +210,7 @@ typedef struct {
     int saturated;              /* a pressure reading is clipped */
 } hh_reading;
 void hh_watchdog_init(hh_watchdog *w);
+double hh_command_clamp(double u);          /* the command path's saturation of ū to [-1, 1] (rig, FMU) */
 void hh_rig_read(const hh_sim *sim, double count, hh_rng *rng, hh_reading *r);
 int64_t hh_count_to_int(double counts);     /* NaN -> 0, saturated at +-2^62 */
 double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, double h, double timeout, int hold,
@@ -224,7 +241,7 @@ typedef struct {
 } hh_fault;
 /* The rig around one sim: the faults act on the parameters through a copy of the fault-free ones (base), the
  * model reads only sim->p. fifo: network_delay's commands in flight, fifo_cap >= its longest delay in steps + 2. */
-typedef struct {
+struct hh_rig {
     hh_sim *sim;
     double base[HH_NP];
     hh_fault fault[HH_MAX_FAULTS];
@@ -241,13 +258,13 @@ typedef struct {
     double *fifo;
     int64_t fifo_cap, fifo_head, fifo_n;
     double held_back;           /* reordering: the command held back (NaN: none) */
-} hh_rig;
-typedef struct {
+};
+struct hh_rig_reading {
     int64_t encoder;            /* counts, as the rig reports them */
     double p[HH_NPRESSURES];    /* p1, p2, ps, pt as the transducers report [Pa gauge] (HH_PRESSURE_*) */
     uint32_t status;            /* HH_ST_* */
     uint64_t faults;            /* bit i: fault i active */
-} hh_rig_reading;
+};
 const char *hh_fault_type_name(int type);    /* "sensor_stuck", ...; NULL beyond the last */
 /* Set up the rig around sim (its p: the fault-free parameters); the watchdog counts from step 0. */
 void hh_rig_init(hh_rig *r, hh_sim *sim, double count, uint64_t seed, double timeout, int hold, double hold_kp,

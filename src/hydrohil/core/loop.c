@@ -64,8 +64,9 @@ HH_INLINE int sim_diverged(const hh_sim *sim)
                             || fabs(y[HH_XS]) > 2.0);
 }
 
-void hh_log_row(const hh_sim *sim, double t, double u, double ud, const double *y, const int64_t *m,
-                double events, double *row)
+/* One log row of the state (y, m) at time t with command u and spool input ud. */
+static void log_row(const hh_sim *sim, double t, double u, double ud, const double *y, const int64_t *m,
+                    double events, double *row)
 {
     const double *p = sim->p;
     int i;
@@ -159,31 +160,121 @@ int hh_sim_step(hh_sim *sim, double u)
     return ev < 0 || sim_diverged(sim) ? HH_DIVERGED : HH_OK;
 }
 
-int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t every, double *log,
-               int64_t *steps_done, int64_t *rows)
+/* The drive's value and slope at step k (time t): value k, or the table's by zero-order hold (j: its place). */
+HH_INLINE void drive_value(const hh_drive *drive, int64_t k, double t, int64_t *j, double *v, double *dv)
 {
-    double h = sim->h, t, u, ud, u_new, u_old, events = 0.0;
+    if (drive->t_in == 0) {
+        *v = drive->v_in[k];
+        *dv = drive->dv_in != 0 ? drive->dv_in[k] : 0.0;
+    } else {
+        while (*j + 1 < drive->n_in && drive->t_in[*j + 1] <= t + 1e-15)
+            (*j)++;
+        *v = drive->v_in[*j];
+        *dv = drive->dv_in != 0 ? drive->dv_in[*j] : 0.0;
+    }
+}
+
+/* The spool's input if u were pushed into the delay line now; the line is left as it was. */
+static double delay_peek(hh_delay *d, double u)
+{
+    int pos = d->pos, next = (pos + 1) % d->size;
+    double overwritten = d->buf[next], u_new, u_old, ud = delay_push(d, u, &u_new, &u_old);
+    d->buf[next] = overwritten;
+    d->pos = pos;
+    return ud;
+}
+
+/* The loop through the rig step (drive->rig): read the rig's sensors, the controller's command (built in, a
+ * callback, or the open-loop value), the steering events due, the rig's step (command path, faults, watchdog);
+ * then row k: the state before the step, the command that drove the valve, the spool's input and the events
+ * of the steps since the last row; beside it what the sensors reported. The last row (k = n) takes no step:
+ * its command is the controller's and its spool input what the delay line would give it (as run_plain's). */
+static int run_on_rig(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t every, double *log,
+                      int64_t *steps_done, int64_t *rows)
+{
+    hh_rig *rig = drive->rig;
+    double h = sim->h, events = 0.0, y0[HH_NY];
+    int64_t m0[HH_NM], k, j = 0, row = 0, e = 0;
+    int i;
+    hh_rig_reading r;
+    for (k = 0; k <= n_steps; k++) {
+        double t = (double)k * h, v, dv, u, u_valve, ud, ev = 0.0;
+        drive_value(drive, k, t, &j, &v, &dv);
+        hh_rig_sense(rig, &r);
+        if (drive->command != 0)
+            u = drive->command(drive->ctx, k, t, v, dv, &r);
+        else if (drive->kind == HH_DRIVE_CLOSED)
+            u = hh_controller_update(drive->controller, drive->state, v, dv, (double)r.encoder * rig->count,
+                                     r.p[HH_PRESSURE_P1], r.p[HH_PRESSURE_P2]);
+        else
+            u = v;
+        if (isnan(u)) {             /* the callback failed */
+            *steps_done = k;
+            *rows = row;
+            return HH_STOPPED;
+        }
+        for (i = 0; i < HH_NY; i++)
+            y0[i] = sim->y[i];
+        for (i = 0; i < HH_NM; i++)
+            m0[i] = sim->m[i];
+        u_valve = u;
+        if (k < n_steps) {
+            while (e < drive->n_event_steps && drive->event_steps[e] < k)
+                e++;
+            if (e < drive->n_event_steps && drive->event_steps[e] == k && drive->on_event(drive->ctx, k) != 0) {
+                *steps_done = k;
+                *rows = row;
+                return HH_STOPPED;
+            }
+            if (hh_rig_step(rig, k, 1, u, &u_valve) != HH_OK) {   /* row k is not logged: the step failed */
+                *steps_done = k + 1;
+                *rows = row;
+                return HH_DIVERGED;
+            }
+            ev = sim->out[HH_OUT_EVENTS];
+            ud = sim->out[HH_OUT_UD];
+        } else {
+            ud = delay_peek(&sim->delay, u);
+        }
+        if (k % every == 0) {
+            log_row(sim, t, u_valve, ud, y0, m0, events, log + row * HH_NLOG);
+            if (drive->rig_log != 0) {
+                double *x = drive->rig_log + row * HH_NRLOG;
+                x[HH_RLOG_FAULTS] = (double)r.faults;
+                x[HH_RLOG_X_MEAS] = (double)r.encoder * rig->count;
+                x[HH_RLOG_P1_MEAS] = r.p[HH_PRESSURE_P1];
+                x[HH_RLOG_P2_MEAS] = r.p[HH_PRESSURE_P2];
+                x[HH_RLOG_PS_MEAS] = r.p[HH_PRESSURE_PS];
+                x[HH_RLOG_WATCHDOG] = (r.status & HH_ST_WATCHDOG) ? 1.0 : 0.0;
+            }
+            row++;
+            events = 0.0;
+        }
+        events += ev;
+        if (sim->progress != 0 && k % 500 == 0)
+            sim->progress(sim->ctx, k);
+    }
+    *steps_done = n_steps;
+    *rows = row;
+    return HH_OK;
+}
+
+/* The loop of the plant alone: the controller on the readings of hh_rig_read (noise from drive->rng), the
+ * command into the delay line, the model's step; row k logged before step k. A run may continue a previous
+ * one (sim->k > 0): the last row's command and the controller's and noise's state are left as before it. */
+static int run_plain(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t every, double *log,
+                     int64_t *steps_done, int64_t *rows)
+{
+    double h = sim->h, t, u, ud, u_new = 0.0, u_old = 0.0, events = 0.0;   /* (set before any step) */
     double count = count_size(sim->p[HH_SENSORS_ENCODER_RESOLUTION]);
     int64_t k, j = 0, row = 0, k0 = sim->k;
     int ev, pressures = drive->kind == HH_DRIVE_CLOSED
                         && (drive->controller->kpl != 0.0 || sim->p[HH_SENSORS_PRESSURE_NOISE] > 0.0);
     hh_reading reading = {{0.0, 0.0, 0.0, 0.0}, 0, 0};
-    *steps_done = 0;
-    *rows = 0;
-    if (every < 1 || n_steps < 0)
-        return HH_BAD_ARGUMENT;
     for (k = 0; k <= n_steps; k++) {
         double v, dv;
         t = (double)(k0 + k) * h;
-        if (drive->t_in == 0) {
-            v = drive->v_in[k];
-            dv = drive->dv_in != 0 ? drive->dv_in[k] : 0.0;
-        } else {
-            while (j + 1 < drive->n_in && drive->t_in[j + 1] <= t + 1e-15)
-                j++;
-            v = drive->v_in[j];
-            dv = drive->dv_in != 0 ? drive->dv_in[j] : 0.0;
-        }
+        drive_value(drive, k, t, &j, &v, &dv);
         if (drive->kind == HH_DRIVE_CLOSED) {   /* the controller on what the rig's sensors report */
             hh_controller_state kept;
             hh_rng kept_rng;
@@ -204,17 +295,12 @@ int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t ever
         } else {
             u = v;
         }
-        if (k == n_steps) {   /* the last row: its command is logged, not pushed (a continued run pushes it) */
-            int pos = sim->delay.pos, next = (pos + 1) % sim->delay.size;
-            double overwritten = sim->delay.buf[next];
+        if (k == n_steps)     /* the last row: its command is logged, not pushed (a continued run pushes it) */
+            ud = delay_peek(&sim->delay, u);
+        else
             ud = delay_push(&sim->delay, u, &u_new, &u_old);
-            sim->delay.buf[next] = overwritten;
-            sim->delay.pos = pos;
-        } else {
-            ud = delay_push(&sim->delay, u, &u_new, &u_old);
-        }
         if (k % every == 0) {
-            hh_log_row(sim, t, u, ud, sim->y, sim->m, events, log + row * HH_NLOG);
+            log_row(sim, t, u, ud, sim->y, sim->m, events, log + row * HH_NLOG);
             row++;
             events = 0.0;
         }
@@ -234,4 +320,15 @@ int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t ever
     *steps_done = n_steps;
     *rows = row;
     return HH_OK;
+}
+
+int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t every, double *log,
+               int64_t *steps_done, int64_t *rows)
+{
+    *steps_done = 0;
+    *rows = 0;
+    if (every < 1 || n_steps < 0)
+        return HH_BAD_ARGUMENT;
+    return drive->rig != 0 ? run_on_rig(sim, drive, n_steps, every, log, steps_done, rows)
+                           : run_plain(sim, drive, n_steps, every, log, steps_done, rows);
 }

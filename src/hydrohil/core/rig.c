@@ -78,12 +78,14 @@ void hh_watchdog_init(hh_watchdog *w)
  * trips the safe state: ū = 0, or with `hold` a P loop (gain hold_kp [1/m]) on the position xp [m] at the
  * trip; the next arrival leaves it. A trip is *unexplained* when no injected fault held a command back since
  * the last arrival (k_interfered, set by the Python rig's fault injector). */
+double hh_command_clamp(double u) { return hh_clamp(u, -1.0, 1.0); }
+
 double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, double h, double timeout, int hold,
                            double hold_kp, double xp)
 {
     int silent;
     if (arrived) {
-        w->u_held = hh_clamp(u, -1.0, 1.0);
+        w->u_held = hh_command_clamp(u);
         w->k_delivered = k;
         w->delivered++;
     }

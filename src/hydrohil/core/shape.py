@@ -84,7 +84,7 @@ MODE_NAMES = {m.name: tuple(v.name for v in m.values) for m in MODES}
 
 # --- per-step output out[HH_NOUT] of the core's step (the state as one block) ---------------------------
 OUTPUTS = ("t", "y", "ff", "travel", "friction", "spool", "events", "ud")     # "y": the state, HH_NY values
-OUTPUT_NAMES = ("t", *(s.name for s in STATES), "ff", "travel", "friction", "spool", "events", "ud")
+OUTPUT_NAMES = ("t", *(s.name for s in STATES), "ff", *(f"{m.name}_mode" for m in MODES), "events", "ud")
 
 # --- the simulation log (hh_sim_run, `hydrohil simulate`'s log.csv) ------------------------------------
 LOG = (Column("t", "real", "time [s]"), Column("u", "real", "valve command [-]"),
@@ -135,6 +135,16 @@ PLANT_LOG = (
     Column("status", "int", "status bits of the sensor packet (STATUS)"),
 )
 PLANT_LOG_COLUMNS = tuple(c.name for c in PLANT_LOG)
+
+# --- what the rig's sensors reported in an offline run through the rig (beside the simulation log's rows) ---
+RIG_LOG = (
+    Column("faults", "int", "active injected faults (bit i: fault i)"),
+    Column("x_meas", "real", "encoder reading [m]"),
+    Column("p1_meas", "real", "chamber 1 transducer [Pa]"), Column("p2_meas", "real", "chamber 2 transducer [Pa]"),
+    Column("ps_meas", "real", "supply transducer [Pa]"),
+    Column("watchdog", "int", "1: the safe state holds the valve"),
+)
+RIG_LOG_COLUMNS = tuple(c.name for c in RIG_LOG)
 
 # --- the side channel to the live panel (hil/sidechannel.py) ----------------------------------------------
 SIDE_PLANT_COLUMNS = ("t", "xp", "vp", "xs", "u", "p1", "p2", "ps", "ff", "travel_mode", "friction_mode",
@@ -204,6 +214,8 @@ def c_header() -> str:
             _enum([f"HH_PRESSURE_{s.upper()}" for s in PRESSURES] + ["HH_NPRESSURES"]),
             "", "/* status bits of a sensor packet and of the rig's reading */",
             _enum([f"HH_ST_{b.name.upper()} = 1 << {b.bit}" for b in STATUS]), "",
+            "/* columns of the rig's log beside the simulation log in an offline run through the rig */",
+            _enum([f"HH_RLOG_{c.name.upper()}" for c in RIG_LOG] + ["HH_NRLOG"]), "",
             "/* columns of the HIL plant log (plant_log.csv) */",
             _enum([f"HH_PLOG_{c.name.upper()}" for c in PLANT_LOG] + ["HH_NPLOG"]), "", "#endif", ""]
     return "\n".join(out)

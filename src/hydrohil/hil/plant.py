@@ -40,11 +40,9 @@ SPIN_FRACTION = 0.3          # ... but at most 30 % of a step: spinning ~all the
 LOG_COLUMNS = shape.PLANT_LOG_COLUMNS         # plant_log.csv (core/shape.py: the C plant writes the same)
 # (plant_log.csv column, out[] index) of the columns that are the step's outputs (t, state, ff, modes), by name
 _OUT = {name: i for i, name in enumerate(shape.OUTPUT_NAMES)}
-FROM_OUT = tuple((i, _OUT[c.name.removesuffix("_mode")]) for i, c in enumerate(shape.PLANT_LOG)
-                 if c.name != "k" and c.name.removesuffix("_mode") in _OUT)
+FROM_OUT = tuple((i, _OUT[c.name]) for i, c in enumerate(shape.PLANT_LOG) if c.name != "k" and c.name in _OUT)
 # the same for the panel's telemetry row (shape.SIDE_PLANT_COLUMNS), and the places of its other columns
-SIDE_FROM_OUT = tuple((i, _OUT[c.removesuffix("_mode")]) for i, c in enumerate(shape.SIDE_PLANT_COLUMNS)
-                      if c.removesuffix("_mode") in _OUT)
+SIDE_FROM_OUT = tuple((i, _OUT[c]) for i, c in enumerate(shape.SIDE_PLANT_COLUMNS) if c in _OUT)
 S_U, S_PS, S_JITTER, S_COMPUTE, S_WATCHDOG, S_FAULTS, S_X_MEAS = (
     shape.SIDE_PLANT_COLUMNS.index(c) for c in ("u", "ps", "jitter_us", "compute_us", "watchdog", "faults", "x_meas"))
 

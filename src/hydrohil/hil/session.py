@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hydrohil.core import shape
 from hydrohil.hil.stats import LatencyHistogram
 from hydrohil.simulation.steering import EventLog
 
@@ -106,8 +107,9 @@ def replay_session(sc, folder: Path, steps: int | None = None, keep_from: int = 
     return replay_applied(sc, u[:n], read_events(Path(folder) / "events.jsonl", "plant"), keep_from=keep_from)
 
 
-REPLAY_COLUMNS = {"t": 0, "xs": 1, "p1": 3, "p2": 4, "xp": 5, "vp": 6, "ff": 8, "travel_mode": 9, "friction_mode": 10,
-                  "spool_mode": 11}
+# the plant's outputs a replay keeps (name -> index in out[], core/shape.py)
+REPLAY_COLUMNS = {c: shape.OUTPUT_NAMES.index(c) for c in ("t", "xs", "p1", "p2", "xp", "vp", "ff", "travel_mode",
+                                                           "friction_mode", "spool_mode")}
 
 
 def replay_applied(sc, u, events: dict | None = None, keep_from: int = 0) -> dict[str, np.ndarray]:

@@ -92,23 +92,43 @@ class Sim:
         return lib.hh_sim_step(self._sim, u)
 
     def run(self, n_steps: int, every: int, values: np.ndarray, *, controller=None, slopes: np.ndarray | None = None,
-            seed: int = 0, t_in: np.ndarray | None = None, progress=None):
-        """Run n_steps from the current state; returns (status, steps done, log rows).
+            seed: int = 0, t_in: np.ndarray | None = None, progress=None, rig=None, command=None,
+            on_event=None, event_steps=()):
+        """Run n_steps from the current state; returns (status, steps done, log rows) and, with ``rig``, the
+        rig's columns of those rows (``(status, done, log, rig_log)``).
 
         ``values``: commands u (open loop) or, with ``controller`` (a
         :class:`~hydrohil.control.BuiltinController`, sampled every step on the rig's sensor readings, the
         pressure noise seeded by ``seed`` at k = 0; a run continued from where the last one stopped goes on
         with the same controller state and noise draws), positions x_ref with their ``slopes``; value k holds over step k
-        (n_steps + 1 values), or with ``t_in`` a table sampled by zero-order hold."""
+        (n_steps + 1 values), or with ``t_in`` a table sampled by zero-order hold.
+
+        ``rig``: the ``hh_rig`` this sim is the plant of (:class:`~hydrohil.simulation.rig.VirtualRig`): the run
+        goes through its sensing and its step (faults, command path, watchdog). ``command(k, t, v, dv, reading)``:
+        a controller in Python, called each step with the rig's reading (``hh_rig_reading``); ``on_event(k)``:
+        called before each step of ``event_steps``. What either raises stops the run and is raised here."""
         if int(every) < 1 or int(n_steps) < 0:
             raise ValueError(f"need every >= 1 and n_steps >= 0, got every = {every}, n_steps = {n_steps}")
         values = np.ascontiguousarray(values, dtype=float)
         drive = ffi.new("hh_drive *")
-        drive.kind = lib.HH_DRIVE_OPEN if controller is None else lib.HH_DRIVE_CLOSED
+        drive.kind = lib.HH_DRIVE_OPEN if controller is None and command is None else lib.HH_DRIVE_CLOSED
         if controller is not None:
             if self._sim.k == 0:               # a fresh start; a continued run keeps drawing where it stopped
                 lib.hh_rng_seed(self._rng, int(seed))
             drive.controller, drive.state, drive.rng = controller.c, controller.state, self._rng
+        rig_log = calls = steps_arr = None
+        if rig is not None:
+            drive.rig = rig
+            rig_log = np.zeros((n_steps // every + 1, lib.HH_NRLOG))
+            drive.rig_log = dptr(rig_log)
+            calls = _Callbacks(command, on_event)
+            drive.ctx = calls.handle
+            if command is not None:
+                drive.command = lib.hh_py_command
+            if len(event_steps):
+                steps_arr = np.ascontiguousarray(sorted(event_steps), dtype=np.int64)
+                drive.event_steps, drive.n_event_steps = iptr(steps_arr), len(steps_arr)
+                drive.on_event = lib.hh_py_event
         if slopes is not None:
             slopes = np.ascontiguousarray(slopes, dtype=float)
             if len(slopes) != len(values):
@@ -138,17 +158,47 @@ class Sim:
         finally:
             if progress is not None:
                 self._sim.progress = ffi.NULL
-        return status, int(done[0]), log[:rows[0]]
-
-    def log_row(self, t: float, u: float, ud: float, y: np.ndarray, m: np.ndarray, events: float,
-                row: np.ndarray) -> None:
-        """Write one log row (the rig's Python loop; the same columns as :meth:`run`)."""
-        lib.hh_log_row(self._sim, t, u, ud, dptr(y), iptr(m), float(events), dptr(row))
+        if rig is None:
+            return status, int(done[0]), log[:rows[0]]
+        if status == lib.HH_STOPPED:
+            raise calls.error
+        return status, int(done[0]), log[:rows[0]], rig_log[:rows[0]]
 
 
 @ffi.def_extern()
 def hh_py_progress(ctx, k):
     ffi.from_handle(ctx)(int(k))
+
+
+class _Callbacks:
+    """A run's Python callbacks behind one handle; what they raise is kept for :meth:`Sim.run` to raise (the C
+    loop stops on HH_STOPPED)."""
+
+    def __init__(self, command, on_event):
+        self.command, self.on_event = command, on_event
+        self.error: BaseException | None = None
+        self.handle = ffi.new_handle(self)
+
+
+@ffi.def_extern()
+def hh_py_command(ctx, k, t, v, dv, reading):
+    calls = ffi.from_handle(ctx)
+    try:
+        return calls.command(int(k), t, v, dv, reading)
+    except BaseException as exc:      # noqa: BLE001 - raised again by Sim.run once the loop has stopped
+        calls.error = exc
+        return math.nan
+
+
+@ffi.def_extern()
+def hh_py_event(ctx, k):
+    calls = ffi.from_handle(ctx)
+    try:
+        calls.on_event(int(k))
+        return 0
+    except BaseException as exc:      # noqa: BLE001 - raised again by Sim.run once the loop has stopped
+        calls.error = exc
+        return 1
 
 
 def run_loop(params: Parameters, p: np.ndarray, y: np.ndarray, m: np.ndarray, h: float, n: int, every: int,
@@ -172,8 +222,7 @@ class HybridPlant:
     spool, events, ud] (SI; mode codes of :mod:`hydrohil.models.layout`). Copy it to keep it.
     """
 
-    OUT_COLUMNS = ("t", "xs", "vs", "p1", "p2", "xp", "vp", "z", "ff", "travel_mode", "friction_mode",
-                   "spool_mode", "events", "ud")
+    OUT_COLUMNS = shape.OUTPUT_NAMES
 
     def __init__(self, params: Parameters, h: float = 5e-4, solver: str = "rk3", **initial):
         self.sim = Sim(pack(params), h, solver=solver)          # checks h > 0

@@ -22,13 +22,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from hydrohil.control import Measurement, call_controller, make_controller
-from hydrohil.core import dptr, ffi, lib, view
-from hydrohil.errors import HydrohilError
+from hydrohil.core import dptr, ffi, lib, shape, view
 from hydrohil.models.sensors import count_size
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.diagnostics import divergence_error
 from hydrohil.simulation.faults import fault_struct
-from hydrohil.simulation.loop import NLOG, HybridPlant, initial_state
+from hydrohil.simulation.loop import HybridPlant, initial_state
 from hydrohil.simulation.result import SimulationResult
 from hydrohil.simulation.scenario import HilCfg
 
@@ -173,7 +172,7 @@ class VirtualRig:
                        int(r.faults))
 
 
-RIG_COLUMNS = ("faults", "x_meas", "p1_meas", "p2_meas", "ps_meas", "watchdog")
+RIG_COLUMNS = shape.RIG_LOG_COLUMNS      # beside the log's: what the sensors reported, faults, watchdog
 
 
 def run_rig(sc, *, controller=None, progress=None, events=None, controller_events=None, steps: int | None = None):
@@ -182,62 +181,58 @@ def run_rig(sc, *, controller=None, progress=None, events=None, controller_event
     :class:`~hydrohil.control.Measurement`) on what the rig's sensors report, exactly as the HIL controller
     process. ``events`` / ``controller_events`` ({k: [event]}, :func:`hydrohil.simulation.steering.read_events`)
     replay a steered session (the live panel) at the steps they were applied; ``steps`` replaces the
-    scenario's step count. Returns a :class:`~hydrohil.simulation.result.SimulationResult` with the extra
-    columns :data:`RIG_COLUMNS` (what the sensors reported, active faults, watchdog)."""
+    scenario's step count. The loop is the core's (``hh_sim_run`` through the rig step): a built-in controller
+    runs in C, a Python one (or a steered one) is called back each step. Returns a
+    :class:`~hydrohil.simulation.result.SimulationResult` with the extra columns :data:`RIG_COLUMNS` (what the
+    sensors reported, active faults, watchdog)."""
+    from hydrohil.control import BuiltinController
     from hydrohil.simulation.steering import SteerableController, apply_plant_event
     s = sc.scenario
     h, n = s.solver.step, s.n_steps() if steps is None else int(steps)
     rig = VirtualRig(sc.params, h, s.hil, s.faults, s.initial.model_dump())
     closed = s.closed_loop
     events, controller_events = events or {}, controller_events or {}
-    steered = None
+    builtin = command = None
     if closed:
         ctl = sc.make_controller() if controller is None else make_controller(controller, sc.params, h)
     if closed and (events or controller_events or steps is not None):   # the reference at the plant's time
         steered = SteerableController(ctl, s.reference.sampler().at)          # (a reset restarts it)
-        drive = slopes = None
-    else:
-        drive, slopes = s.drive()
-    every = s.solver.output_every
-    log = np.zeros((n // every + 1, NLOG))
-    extra = np.zeros((n // every + 1, len(RIG_COLUMNS)))
-    plant = rig.plant
-    y_prev, m_prev = plant.y.copy(), plant.m.copy()
-    t0 = time.perf_counter()
-    diverged = None
-    rows = 0
-    for k in range(n + 1):
-        r = rig.read()
-        x = r.encoder * rig.res
-        if steered is not None:
+        values = slopes = None
+
+        def command(k, t, v, dv, r):
             for ev in controller_events.get(k, ()):
                 steered.apply(ev)
-            xr, dxr = steered.ref(r.t)
+            t_r = rig.plant.out[lib.HH_OUT_T]
+            xr, dxr = steered.ref(t_r)
+            return call_controller(ctl, _measurement(t_r, xr, dxr, r, rig.res))
+    else:
+        values, slopes = s.drive()
+        if closed and isinstance(ctl, BuiltinController):
+            builtin = ctl                                                     # the law in C, on the rig's reading
         elif closed:
-            xr, dxr = drive[k], slopes[k]
-        if closed:
-            u = call_controller(ctl, Measurement(r.t, xr, dxr, x, r.p1, r.p2, r.ps, r.pt, r.status))
-        else:
-            u = float(drive[k])
-        y_prev[:], m_prev[:] = plant.y, plant.m
-        record = k % every == 0
-        if k < n:
-            for ev in events.get(k, ()):
-                apply_plant_event(rig, ev, k)
-            try:
-                u_valve = rig.step(k, u)
-            except HydrohilError as exc:
-                diverged = exc
-                break
-            ud = float(plant.out[lib.HH_OUT_UD])
-        else:
-            u_valve, ud = u, float(plant.out[lib.HH_OUT_UD])
-        if record:
-            plant.sim.log_row(k * h, u_valve, ud, y_prev, m_prev, plant.out[lib.HH_OUT_EVENTS], log[rows])
-            extra[rows] = (r.faults, x, r.p1, r.p2, r.ps, r.status & lib.HH_ST_WATCHDOG)
-            rows += 1
-        if progress is not None and k % 2000 == 0:
-            progress(k)
+            def command(k, t, v, dv, r):
+                return call_controller(ctl, _measurement(rig.plant.out[lib.HH_OUT_T], v, dv, r, rig.res))
+    if values is None:                                        # a steered run's reference is the controller's
+        values = np.zeros(n + 1)
+
+    def on_event(k):
+        for ev in events.get(k, ()):
+            apply_plant_event(rig, ev, k)
+
+    sim = rig.plant.sim
+    t0 = time.perf_counter()
+    status, _, log, extra = sim.run(n, s.solver.output_every, values, controller=builtin, slopes=slopes,
+                                    seed=s.hil.seed, rig=rig.c, command=command, on_event=on_event,
+                                    event_steps=[k for k in events if 0 <= k < n],
+                                    progress=(lambda k: progress(k) if k % 2000 == 0 else None) if progress else None)
     wall = time.perf_counter() - t0
-    return SimulationResult(log[:rows], s.solver.method, h, wall, diverged,
-                            columns={c: extra[:rows, i] for i, c in enumerate(RIG_COLUMNS)})
+    diverged = rig._diverged() if status == lib.HH_DIVERGED else None
+    return SimulationResult(log, s.solver.method, h, wall, diverged,
+                            columns={c: extra[:, i] for i, c in enumerate(RIG_COLUMNS)})
+
+
+def _measurement(t: float, x_ref: float, dx_ref: float, r, res: float) -> Measurement:
+    """A controller's measurement from the rig's reading (``hh_rig_reading``) at plant time t."""
+    p = r.p
+    return Measurement(float(t), float(x_ref), float(dx_ref), r.encoder * res, p[lib.HH_PRESSURE_P1],
+                       p[lib.HH_PRESSURE_P2], p[lib.HH_PRESSURE_PS], p[lib.HH_PRESSURE_PT], int(r.status))

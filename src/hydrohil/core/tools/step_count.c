@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 #include "hh.h"
 
 static double *read_doubles(const char *path, long n)
@@ -30,11 +31,13 @@ int main(int argc, char **argv)
     long n;
     int64_t done, rows;
     int dn, status;
-    hh_drive drive = {HH_DRIVE_OPEN, 0, 0, 0, 0, 0, 0, 0};
+    hh_drive drive;
     if (argc != 7) {
         fprintf(stderr, "usage: step_count P.bin U.bin N METHOD H XP0\n");
         return 2;
     }
+    memset(&drive, 0, sizeof drive);   /* open loop, the plant alone (no rig, no callbacks) */
+    drive.kind = HH_DRIVE_OPEN;
     n = atol(argv[3]);
     p = read_doubles(argv[1], HH_NP);
     u = read_doubles(argv[2], n + 1);

@@ -282,7 +282,7 @@ int plant_terminate(plant *pl)
  * steps the next doStep takes (the first of them begins at that grid point), each held over its step. */
 int plant_do_step(plant *pl, double t, double dt)
 {
-    double h = pl->sim.h, u = pl->u > 1.0 ? 1.0 : pl->u < -1.0 ? -1.0 : pl->u;
+    double h = pl->sim.h, u = hh_command_clamp(pl->u);   /* as the rig's command path saturates it */
     long long n, i;
     if (pl->mode != PLANT_STEPPING)
         return wrong_mode(pl, "doStep", "step (initialise first; a failed instance must be reset)");
