@@ -224,6 +224,7 @@ def test_c_plant_refuses_bad_faults(c_plant):
     exe = c_plant
     for arg, message in (("hose_brust:start=1", "unknown fault type 'hose_brust'"),
                          ("hose_burst:start=1,line=3", "line is one of 1|2, got 3"),
+                         ("hose_burst:start=1,line=1.0000001", "line is one of 1|2, got 1.0000001"),
                          ("hose_burst:start=1", "hose_burst needs line"),
                          ("sensor_noise:start=1,sensor=p3,std=1", "sensor is one of position|p1|p2|ps|pt"),
                          ("packet_loss:start=1,probability=1.5", "probability must be > 0 and <= 1"),
@@ -232,7 +233,7 @@ def test_c_plant_refuses_bad_faults(c_plant):
                          ("spool_stuck:start=1,colour=red", "spool_stuck has no field 'colour'")):
         r = subprocess.run([exe, "--fault", arg, "--list"], capture_output=True, text=True, timeout=60)
         assert r.returncode == 2 and message in r.stderr, (arg, r.stderr)
-    r = subprocess.run([exe, "--fault", "hose_burst:start=1,line=2", "--list"], capture_output=True, text=True)
+    r = subprocess.run([exe, "--fault", "hose_burst:start=1,line=2.0", "--list"], capture_output=True, text=True)
     assert r.returncode == 0 and "1 given" in r.stdout
 
 

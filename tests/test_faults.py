@@ -315,3 +315,32 @@ def test_the_offline_loop_through_the_rig_stops_on_a_failed_callback():
     with pytest.raises(ControllerError, match=r"t = 0.125 s .*RuntimeError: lost the sensor"):
         run_rig(sc, controller=fails_at_step_250)
     assert seen[-1] == 0.125 and len(seen) == 251
+
+
+def test_a_command_that_is_not_a_number_is_no_command():
+    """The rig step takes a non-finite command as none arrived (the wire refuses one; an offline caller may
+    send one): the valve holds the last command, the watchdog trips after its timeout, with a fault table
+    or without; never a full-scale command (the saturation of NaN)."""
+    from hydrohil.parameters import load_parameters
+    from hydrohil.simulation.steering import fault_model
+    prm = load_parameters("ferreira2004")
+    for faults in ([], [fault_model({"type": "sensor_offset", "sensor": "p1", "offset": 1e4, "start": 0.0})]):
+        rig = VirtualRig(prm, 5e-4, faults=faults)
+        for k in range(40):
+            rig.step(k, 0.3)
+        sent = [rig.step(k, float("nan")) for k in range(40, 200)]
+        assert sent[0] == 0.3 and rig.watchdog and rig.watchdog_trips == 1 == rig.watchdog_trips_unexplained
+        assert sent[-1] == 0.0 and all(u in (0.3, 0.0) for u in sent)      # held, then the safe state centres
+
+
+def test_at_most_53_faults_a_scenario(tmp_path):
+    """The active-fault mask is logged as a float64 in both plants' logs: exact for 53 bits, so 53 faults."""
+    from hydrohil.simulation.scenario import load_scenario
+    base = (EXAMPLES / "fig11_p_control.toml").read_text()
+    entry = '\n[[faults]]\ntype = "spool_stuck"\nstart = 1.0\n'
+    ok, bad = tmp_path / "ok.toml", tmp_path / "bad.toml"
+    ok.write_text(base + entry * 53)
+    bad.write_text(base + entry * 54)
+    assert len(load_scenario(ok).scenario.faults) == 53
+    with pytest.raises(InputError, match="at most 53"):
+        load_scenario(bad)

@@ -191,3 +191,27 @@ def test_sim_run_refuses_a_zero_log_interval(paper):
     assert lib.hh_sim_run(sim._sim, drive, 10, 1, dptr(log), done, rows) == lib.HH_OK and rows[0] == 11
     with pytest.raises(ValueError, match="every >= 1"):
         sim.run(10, 0, values)
+
+
+def test_a_progress_callback_changes_nothing_and_can_stop_the_run():
+    """A progress callback (the terminal's progress bar) sees the steps and changes nothing: the reference run
+    with one equals the run without (the callback used to take the place of the reference's step: a run in a
+    terminal froze its state), and so does a run through the rig; what it raises (Ctrl-C) stops the run and
+    is raised."""
+    from conftest import EXAMPLES
+    from hydrohil.simulation.run import run_scenario
+    from hydrohil.simulation.scenario import load_scenario
+    cases = (load_scenario(EXAMPLES / "fig11_p_control.toml", solver="reference", duration=0.6),
+             load_scenario(EXAMPLES / "faults" / "hose_burst.toml", duration=2.5))
+    for sc in cases:
+        seen = []
+        with_bar, without = run_scenario(sc, progress=seen.append), run_scenario(sc)
+        assert np.array_equal(with_bar.log, without.log) and np.ptp(with_bar.column("xp")) > 1e-3
+        assert seen and seen == sorted(seen) and max(seen) < sc.scenario.n_steps()
+
+    def ctrl_c(k):
+        if k > 0:
+            raise KeyboardInterrupt
+    for sc in cases:
+        with pytest.raises(KeyboardInterrupt):
+            run_scenario(sc, progress=ctrl_c)

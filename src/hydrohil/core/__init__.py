@@ -29,17 +29,19 @@ def method_code(name: str) -> int:
 
 
 def dptr(a: np.ndarray):
-    """``double *`` into a C-contiguous float64 array (no copy; the array must outlive the call)."""
+    """``double *`` into a C-contiguous float64 array (no copy). The pointer holds a reference to the array,
+    so a temporary passed straight to a call (``lib.f(dptr(pack(params)))``) lives until the call returns; a
+    pointer stored in a C struct needs the array kept alive by its owner."""
     if a.dtype != np.float64 or not a.flags.c_contiguous:
         raise TypeError("expected a C-contiguous float64 array")
-    return ffi.cast("double *", a.ctypes.data)
+    return ffi.from_buffer("double[]", a)
 
 
 def iptr(a: np.ndarray):
-    """``int64_t *`` into a C-contiguous int64 array."""
+    """``int64_t *`` into a C-contiguous int64 array (no copy; holds a reference to it, as :func:`dptr`)."""
     if a.dtype != np.int64 or not a.flags.c_contiguous:
         raise TypeError("expected a C-contiguous int64 array")
-    return ffi.cast("int64_t *", a.ctypes.data)
+    return ffi.from_buffer("int64_t[]", a)
 
 
 def view(cdata, dtype, n: int) -> np.ndarray:

@@ -75,7 +75,7 @@ def cdef_text() -> str:
     consts += "\n" + "\n".join(f"static const double {k};" for k in reals)
     return consts + "\n" + body + """
 extern "Python" int hh_py_advance(void *, double, double, double, double, double, double *);
-extern "Python" void hh_py_progress(void *, int64_t);
+extern "Python" int hh_py_progress(void *, int64_t);
 extern "Python" double hh_py_command(void *, int64_t, double, double, double, const hh_rig_reading *);
 extern "Python" int hh_py_event(void *, int64_t);
 """

@@ -36,7 +36,7 @@ enum { HH_MODEL_HYBRID, HH_MODEL_CONTINUOUS, HH_MODEL_EXTERNAL };
 /* HH_MODEL_EXTERNAL: the loop's step is a callback that advances y over [t, t + h] with the spool input
  * u_old over the first alpha*h and u_new after it (the SciPy LSODA/Radau reference); nonzero: failed. */
 typedef int (*hh_advance_fn)(void *ctx, double t, double h, double alpha, double u_old, double u_new, double *y);
-typedef void (*hh_progress_fn)(void *ctx, int64_t k);
+typedef int (*hh_progress_fn)(void *ctx, int64_t k);   /* nonzero: stop the run (HH_STOPPED) */
 
 /* ---- constants ------------------------------------------------------------------------------ */
 #define HH_P_MIN (-0.99e5)              /* Pa gauge: pressures are floored here (cavitation) */
@@ -135,8 +135,9 @@ typedef struct {
     hh_delay delay;
     int bounded;                /* also stop when a pressure > 1.5 Ps or |xs| > 2 (maxstep's bounds) */
     hh_advance_fn advance;      /* HH_MODEL_EXTERNAL */
-    void *ctx;                  /* passed to advance and progress */
+    void *ctx;                  /* passed to advance */
     hh_progress_fn progress;    /* called every 500 steps of hh_sim_run when set */
+    void *progress_ctx;         /* passed to progress */
 } hh_sim;
 
 /* Drive of a run: open loop (values are commands u) or closed loop (values are positions x_ref [m], slopes
@@ -225,7 +226,7 @@ enum { HH_FAULT_SENSOR_STUCK, HH_FAULT_SENSOR_OFFSET, HH_FAULT_SENSOR_NOISE, HH_
        HH_FAULT_COMMAND_INVERSION, HH_FAULT_SUPPLY_PRESSURE, HH_FAULT_SEAL_WEAR, HH_FAULT_HOSE_BURST,
        HH_FAULT_LOAD_CHANGE, HH_FAULT_PACKET_LOSS, HH_FAULT_NETWORK_DELAY, HH_FAULT_REORDERING,
        HH_FAULT_CONTROLLER_SILENCE, HH_NFAULT_TYPES };
-#define HH_MAX_FAULTS 62
+#define HH_MAX_FAULTS 53         /* the active-fault mask is logged as a double: exact to 2^53 */
 #define HH_NEVER ((int64_t)1 << 62)
 /* One fault of the table. a, b: its parameters in the order its schema declares them (sensor_offset: offset,
  * drift; sensor_noise: std; encoder_count_loss: fraction; valve_bandwidth: factor; valve_leakage: section;

@@ -104,6 +104,7 @@ void hh_sim_init(hh_sim *sim, const double *p, int model, int method, double h, 
     sim->advance = 0;
     sim->ctx = 0;
     sim->progress = 0;
+    sim->progress_ctx = 0;
     sim->delay.buf = delay_buf;
     sim->delay.n = delay_n;
     sim->delay.alpha = delay_alpha;
@@ -197,6 +198,8 @@ static int run_on_rig(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64
     int64_t m0[HH_NM], k, j = 0, row = 0, e = 0;
     int i;
     hh_rig_reading r;
+    if (rig->sim != sim || sim->k != 0)      /* the rig's plant, from its start (its steps count from 0) */
+        return HH_BAD_ARGUMENT;
     for (k = 0; k <= n_steps; k++) {
         double t = (double)k * h, v, dv, u, u_valve, ud, ev = 0.0;
         drive_value(drive, k, t, &j, &v, &dv);
@@ -208,7 +211,7 @@ static int run_on_rig(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64
                                      r.p[HH_PRESSURE_P1], r.p[HH_PRESSURE_P2]);
         else
             u = v;
-        if (isnan(u)) {             /* the callback failed */
+        if (drive->command != 0 && isnan(u)) {     /* the callback failed */
             *steps_done = k;
             *rows = row;
             return HH_STOPPED;
@@ -251,8 +254,11 @@ static int run_on_rig(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64
             events = 0.0;
         }
         events += ev;
-        if (sim->progress != 0 && k % 500 == 0)
-            sim->progress(sim->ctx, k);
+        if (sim->progress != 0 && k % 500 == 0 && sim->progress(sim->progress_ctx, k) != 0) {
+            *steps_done = k < n_steps ? k + 1 : n_steps;
+            *rows = row;
+            return HH_STOPPED;
+        }
     }
     *steps_done = n_steps;
     *rows = row;
@@ -314,8 +320,11 @@ static int run_plain(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_
             *rows = row;
             return HH_DIVERGED;
         }
-        if (sim->progress != 0 && k % 500 == 0)
-            sim->progress(sim->ctx, k);
+        if (sim->progress != 0 && k % 500 == 0 && sim->progress(sim->progress_ctx, k) != 0) {
+            *steps_done = k + 1;
+            *rows = row;
+            return HH_STOPPED;
+        }
     }
     *steps_done = n_steps;
     *rows = row;

@@ -77,7 +77,7 @@ void hh_watchdog_init(hh_watchdog *w)
  * to [-1, 1] and held. Silence longer than `timeout` [s] (counted in steps of h since the last arrival)
  * trips the safe state: ū = 0, or with `hold` a P loop (gain hold_kp [1/m]) on the position xp [m] at the
  * trip; the next arrival leaves it. A trip is *unexplained* when no injected fault held a command back since
- * the last arrival (k_interfered, set by the Python rig's fault injector). */
+ * the last arrival (k_interfered, set by hh_rig_step when a network or silence fault held one back). */
 double hh_command_clamp(double u) { return hh_clamp(u, -1.0, 1.0); }
 
 double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, double h, double timeout, int hold,
@@ -109,8 +109,8 @@ int64_t hh_count_to_int(double c) { return count_to_int(c); }
 /* ---- what the rig's sensors report --------------------------------------------------------------- */
 /* The readings of sim's current state: the encoder in counts of size `count` [m] (nearest count), and the
  * transducers of p1, p2, ps, pt (sensors.pressure_range / _resolution / _noise of sim->p; four normal draws
- * from rng when the noise is on). The Python rig applies its sensor faults between the truth and these
- * models and calls the pieces; without faults it calls this, as the C plant does. */
+ * from rng when the noise is on): the readings of the plant alone in hh_sim_run (no rig). The rig's own
+ * sensing, with its sensor faults between the truth and these models, is hh_rig_sense. */
 void hh_rig_read(const hh_sim *sim, double count, hh_rng *rng, hh_reading *r)
 {
     const double *p = sim->p, *y = sim->y;
@@ -340,6 +340,8 @@ int hh_rig_step(hh_rig *r, int64_t k, int arrived, double u, double *u_valve)
 {
     hh_sim *sim = r->sim;
     double v;
+    if (!isfinite(u))                   /* no command at all (the wire refuses one; an offline caller may not) */
+        arrived = 0;
     if (r->nfault == 0) {               /* no fault table: the command path alone (the common case, no loops) */
         v = hh_watchdog_command(&r->link, k, arrived, u, sim->h, r->timeout, r->hold, r->hold_kp,
                                 sim->out[HH_OUT_Y + HH_XP]);

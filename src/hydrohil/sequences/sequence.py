@@ -101,7 +101,7 @@ class Sequence(StrictModel):
     set: dict[str, Any] = Field(default_factory=dict, description="dotted parameter name -> SI value")
     controller: dict[str, Any] | None = Field(None, description="replaces the scenario's [controller] table")
     hil: dict[str, Any] = Field(default_factory=dict, description="keys set on top of the scenario's [hil]")
-    actions: list[dict[str, Any]] = Field(default_factory=list, max_length=62)
+    actions: list[dict[str, Any]] = Field(default_factory=list, max_length=53)   # (faults: core HH_MAX_FAULTS)
     expect: list[Expectation] = Field(default_factory=list, max_length=1000)
 
 

@@ -16,7 +16,7 @@ import warnings
 import numpy as np
 
 from hydrohil.core import dptr, ffi, iptr, lib, method_code, shape, view
-from hydrohil.errors import InputWarning
+from hydrohil.errors import HydrohilError, InputWarning
 from hydrohil.models.layout import FREE, M_TRAVEL, NM, NY, pack
 from hydrohil.models.rest import unheld_load
 from hydrohil.parameters import Parameters
@@ -116,12 +116,12 @@ class Sim:
             if self._sim.k == 0:               # a fresh start; a continued run keeps drawing where it stopped
                 lib.hh_rng_seed(self._rng, int(seed))
             drive.controller, drive.state, drive.rng = controller.c, controller.state, self._rng
-        rig_log = calls = steps_arr = None
+        rig_log = steps_arr = None
+        calls = _Callbacks(command, on_event, progress)
         if rig is not None:
             drive.rig = rig
             rig_log = np.zeros((n_steps // every + 1, lib.HH_NRLOG))
             drive.rig_log = dptr(rig_log)
-            calls = _Callbacks(command, on_event)
             drive.ctx = calls.handle
             if command is not None:
                 drive.command = lib.hh_py_command
@@ -148,34 +148,30 @@ class Sim:
         log = np.zeros((n_steps // every + 1, NLOG))
         done = ffi.new("int64_t *")
         rows = ffi.new("int64_t *")
-        handle = None
         if progress is not None:
-            handle = ffi.new_handle(progress)
-            self._sim.ctx = handle
+            self._sim.progress_ctx = calls.handle
             self._sim.progress = lib.hh_py_progress
         try:
             status = lib.hh_sim_run(self._sim, drive, int(n_steps), int(every), dptr(log), done, rows)
         finally:
             if progress is not None:
-                self._sim.progress = ffi.NULL
+                self._sim.progress, self._sim.progress_ctx = ffi.NULL, ffi.NULL
+        if status == lib.HH_BAD_ARGUMENT:
+            raise ValueError("a run through a rig starts at the rig's step 0 with the rig's own plant")
+        if status == lib.HH_STOPPED:      # a callback raised (the controller, an event, progress: Ctrl-C)
+            raise calls.error if calls.error is not None else HydrohilError(
+                f"the controller gave no command at step {int(done[0])} (t = {int(done[0]) * self.h:.6g} s)")
         if rig is None:
             return status, int(done[0]), log[:rows[0]]
-        if status == lib.HH_STOPPED:
-            raise calls.error
         return status, int(done[0]), log[:rows[0]], rig_log[:rows[0]]
-
-
-@ffi.def_extern()
-def hh_py_progress(ctx, k):
-    ffi.from_handle(ctx)(int(k))
 
 
 class _Callbacks:
     """A run's Python callbacks behind one handle; what they raise is kept for :meth:`Sim.run` to raise (the C
     loop stops on HH_STOPPED)."""
 
-    def __init__(self, command, on_event):
-        self.command, self.on_event = command, on_event
+    def __init__(self, command, on_event, progress):
+        self.command, self.on_event, self.progress = command, on_event, progress
         self.error: BaseException | None = None
         self.handle = ffi.new_handle(self)
 
@@ -188,6 +184,17 @@ def hh_py_command(ctx, k, t, v, dv, reading):
     except BaseException as exc:      # noqa: BLE001 - raised again by Sim.run once the loop has stopped
         calls.error = exc
         return math.nan
+
+
+@ffi.def_extern()
+def hh_py_progress(ctx, k):
+    calls = ffi.from_handle(ctx)
+    try:
+        calls.progress(int(k))
+        return 0
+    except BaseException as exc:      # noqa: BLE001 - e.g. Ctrl-C: the loop stops, Sim.run raises it
+        calls.error = exc
+        return 1
 
 
 @ffi.def_extern()

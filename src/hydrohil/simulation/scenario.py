@@ -21,7 +21,7 @@ from hydrohil.parameters import Parameters, format_validation_error, load_parame
 from hydrohil.parameters.schema import StrictModel
 from hydrohil.control import ControllerCfg
 from hydrohil.simulation.faults import Fault
-from hydrohil.core import METHODS
+from hydrohil.core import METHODS, lib
 
 SOLVERS = (*METHODS, "reference")
 EXPERIMENTS_DIR = Path(__file__).resolve().parent.parent / "experiments"    # the paper's experiments, built in
@@ -203,7 +203,8 @@ class Scenario(StrictModel):
     controller: ControllerCfg | None = Field(None, discriminator="type")
     reference: TableReference | None = None
     hil: HilCfg = HilCfg()
-    faults: list[Fault] = Field(default_factory=list, max_length=62, description="[[faults]] entries (faults.py)")
+    faults: list[Fault] = Field(default_factory=list, max_length=lib.HH_MAX_FAULTS,
+                                description="[[faults]] entries (faults.py)")
 
     @model_validator(mode="after")
     def _one_drive(self):

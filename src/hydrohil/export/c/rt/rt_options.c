@@ -247,10 +247,10 @@ static void set_fault(options *o, const char *text)
         } else {
             if (!parse_number(eq, &v) || !isfinite(v))
                 die_usage("--fault %s: %s: not a number: '%s'", text, fd->key, eq);
-            if (fd->options) {             /* numbers of a list (hose_burst's line) */
+            if (fd->options) {             /* whole numbers of a list (hose_burst's line) */
                 char word[32];
-                snprintf(word, sizeof word, "%g", v);
-                if (option_index(fd->options, word) < 0)
+                snprintf(word, sizeof word, "%.0f", v);
+                if (v != floor(v) || fabs(v) > 1e6 || option_index(fd->options, word) < 0)
                     die_usage("--fault %s: %s is one of %s, got %s", text, fd->key, fd->options, eq);
             } else if ((fd->lo_strict ? !(v > fd->lo) : !(v >= fd->lo)) || (fd->hi_strict ? !(v < fd->hi) : !(v <= fd->hi))) {
                 die_usage("--fault %s: %s must be %s %g and %s %g %s, got %s", text, fd->key, fd->lo_strict ? ">" : ">=",
