@@ -23,9 +23,10 @@ from hydrohil.simulation.scenario import load_scenario
 FIG11 = EXAMPLES / "fig11_p_control.toml"
 
 
-@pytest.fixture
-def lockstep_panel(tmp_path):
-    p = PanelProcess(tmp_path / "panel", "--lockstep")
+@pytest.fixture(params=["python", "c"])
+def lockstep_panel(tmp_path, request):
+    """A lock-step panel session on either plant (``hydrohil panel --plant python|c``)."""
+    p = PanelProcess(tmp_path / "panel", "--lockstep", "--plant", request.param)
     yield p
     p.close()
 
@@ -48,7 +49,8 @@ def _record(p, steer, steps_between=400):
 @pytest.mark.slow
 def test_steered_lockstep_session_replays_offline_bit_for_bit(lockstep_panel, tmp_path):
     """A panel session with every kind of change (tunables, a fault on and off, gains, a held reference, a
-    reset) replays offline — plant and controller, from the event logs — to the same result bit for bit."""
+    reset) replays offline — plant and controller, from the event logs — to the same result bit for bit: on the
+    Python plant and on the standalone C plant (its side channel, steering, session folder and recordings)."""
     p = lockstep_panel
     p.wait_steps(200)
     steer = [{"op": "set", "name": "mass", "value": 150.0},
@@ -70,6 +72,10 @@ def test_steered_lockstep_session_replays_offline_bit_for_bit(lockstep_panel, tm
                                                                                      "controller")
     assert sum(map(len, plant_ev.values())) == 7 and sum(map(len, ctl_ev.values())) == 2
     log = read_csv_columns(session / "recordings" / rec["name"] / "plant_log.csv")
+    from hydrohil.core import shape
+    rec_timing = json.loads((session / "recordings" / rec["name"] / "timing.json").read_text())
+    assert list(rec_timing) == list(shape.timing_keys("lockstep", recording=True))     # either plant's, in order
+    assert rec_timing["recorded_steps"] == [rec["k0"], rec["k1"]] and rec_timing["steps"] == len(log["k"])
     sc = load_scenario(session / "scenario.toml")
     k1 = int(log["k"][-1])
     off = run_rig(sc, events=plant_ev, controller_events=ctl_ev, steps=k1)
@@ -87,11 +93,12 @@ def test_steered_lockstep_session_replays_offline_bit_for_bit(lockstep_panel, tm
     assert cmp["replay_xp_max_abs"] == 0.0 and cmp["replay_p1_max_abs"] == 0.0
 
 
-def test_realtime_session_recording_is_a_run_folder_and_replays(tmp_path):
-    """Real time (whatever the timing): the recording is a complete run folder; the session's applied
-    commands and events replay its states bit for bit; a supply change shows in the supply transducer's
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_realtime_session_recording_is_a_run_folder_and_replays(tmp_path, plant):
+    """Real time (whatever the timing), on either plant: the recording is a complete run folder; the session's
+    applied commands and events replay its states bit for bit; a supply change shows in the supply transducer's
     column from the step it was applied at."""
-    p = PanelProcess(tmp_path / "panel")
+    p = PanelProcess(tmp_path / "panel", "--plant", plant)
     try:
         p.wait_steps(400)
         rec, (ans,) = _record(p, [{"op": "set", "name": "supply_pressure", "value": 3e6}])
@@ -227,9 +234,10 @@ def _wait_file_growth(path, n_steps, timeout=120):
 
 
 @pytest.mark.slow
-def test_hil_panel_run_replays_its_changes_offline(tmp_path):
-    """hydrohil hil --panel --lockstep: changes made while it runs are in the run's event logs and the
-    offline comparison replays them: the HIL and offline positions are equal bit for bit."""
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_hil_panel_run_replays_its_changes_offline(tmp_path, plant):
+    """hydrohil hil --panel --lockstep, on either plant: changes made while it runs are in the run's event logs
+    and the offline comparison replays them: the HIL and offline positions are equal bit for bit."""
     from hydrohil.hil.processes import Child
     import shutil
     scen = tmp_path / "long.toml"
@@ -238,7 +246,8 @@ def test_hil_panel_run_replays_its_changes_offline(tmp_path):
     assert "duration = 6.0" in text
     scen.write_text(text.replace("duration = 6.0", "duration = 60.0"))
     out = tmp_path / "run"
-    ch = Child(hh_command("hil", scen, "--out", out, "--lockstep", "--panel", "--panel-port", "0"), "hil")
+    ch = Child(hh_command("hil", scen, "--out", out, "--lockstep", "--panel", "--panel-port", "0", "--plant", plant),
+               "hil")
     url = ch.wait_line("PANEL ", 120)
     import time
     import urllib.request as ur
@@ -385,3 +394,84 @@ def test_ctrl_c_says_how_it_ended_and_a_browser_going_away_is_one_line(tmp_path)
     assert "Traceback" not in err
     lines = [ln for ln in err.splitlines() if "went away" in ln]
     assert len(lines) == 2 and any("POST /api/steer" in ln for ln in lines) and any("GET /ws" in ln for ln in lines), err
+
+
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_either_plant_speaks_the_side_channel_to_a_raw_panel(tmp_path, plant):
+    """A panel written from docs/protocol.md alone (a UDP socket): the plant says hello, streams telemetry rows
+    equal to its own plant log's, refuses bad steering with the field named, applies a change sent three times
+    once (every copy gets the same answer), logs it in events.jsonl and stops when told."""
+    from hydrohil.hil.processes import Child, process_command
+    from hydrohil.hil.run import plant_command
+    from hydrohil.hil.sidechannel import COUNTERS, HEADER, PLANT_COLUMNS, parse_batch
+    panel = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    panel.bind(("127.0.0.1", 0))
+    panel.settimeout(60)
+    out = tmp_path / "run"
+    sc = load_scenario(FIG11)
+    plant_p = Child(plant_command(sc, FIG11, out, None, lockstep=True, plant=plant,
+                                  extra=("--panel", f"127.0.0.1:{panel.getsockname()[1]}", "--duration", "0")), "plant")
+    ctl = None
+    try:
+        address = plant_p.wait_line("READY ", 120)
+        ctl = Child(process_command("controller", "--scenario", FIG11, "--connect", address), "controller")
+        rows, answers, plant_addr = {}, {}, None
+
+        def receive_until(done):
+            nonlocal plant_addr
+            while not done():
+                data, plant_addr = panel.recvfrom(65536)
+                if data[:4] == b"HHTM":
+                    role, k0, counters, ncols, nrows, payload = parse_batch(data)
+                    assert ncols == len(PLANT_COLUMNS) and len(data) == HEADER.size + COUNTERS.size + 8 * ncols * nrows
+                    block = np.frombuffer(payload, dtype="<f8").reshape(nrows, ncols)
+                    for i in range(nrows):
+                        rows[k0 + i] = block[i]
+                else:
+                    msg = json.loads(data)
+                    if "hello" in msg:
+                        assert msg == {"hello": "plant", "columns": list(PLANT_COLUMNS)}
+                    else:
+                        answers.setdefault(msg["ack"], []).append(msg)
+
+        receive_until(lambda: len(rows) >= 200)
+        bad = {1: {"op": "set", "name": "mass", "value": 1e9},
+               2: {"op": "fault_on", "fault": {"type": "sensor_offset", "sensor": "p9", "offset": 1.0}},
+               3: {"op": "warp"}, 4: {"op": "fault_off", "slot": 40}}
+        panel.sendto(b"{not json", plant_addr)
+        for i, body in bad.items():
+            panel.sendto(json.dumps({"id": i, **body}).encode(), plant_addr)
+        fault = {"id": 5, "op": "fault_on", "fault": {"type": "sensor_offset", "start": 0.0, "sensor": "p1",
+                                                        "offset": 1e5, "drift": 0.0}}
+        for _ in range(3):
+            panel.sendto(json.dumps(fault).encode(), plant_addr)
+        receive_until(lambda: all(i in answers for i in range(1, 6)))
+        k_fault = answers[5][0]["k"]
+        panel.sendto(json.dumps(fault).encode(), plant_addr)      # a late copy: the same answer again
+        receive_until(lambda: len(answers[5]) >= 2 and max(rows) > k_fault + 100)
+        panel.sendto(json.dumps({"id": 6, "op": "stop"}).encode(), plant_addr)
+        receive_until(lambda: 6 in answers)
+        assert plant_p.wait(60) == 0 and ctl.wait(60) == 0, plant_p.stderr() + ctl.stderr()
+    finally:
+        for ch in (ctl, plant_p):
+            if ch is not None and ch.poll() is None:
+                ch.stop()
+        panel.close()
+    assert "mass" in answers[1][0]["error"] and "[0.1, 100000] kg" in answers[1][0]["error"]
+    assert "sensor" in answers[2][0]["error"] and "warp" in answers[3][0]["error"]
+    assert "slot" in answers[4][0]["error"]
+    assert all(a == answers[5][0] for a in answers[5]) and answers[5][0]["slot"] == 0
+    events = read_events(out / "events.jsonl", "plant")
+    assert [(k, e.op) for k, evs in events.items() for e in evs] == [(k_fault, "fault_on")]     # applied once
+    log = read_csv_columns(out / "plant_log.csv")
+    ks = np.array(sorted(k for k in rows if k < len(log["k"])))
+    assert len(ks) > 300
+    tel = np.array([rows[k] for k in ks])
+    for c in ("t", "xp", "vp", "xs", "p1", "p2", "ff", "u", "faults"):
+        assert np.array_equal(tel[:, PLANT_COLUMNS.index(c)], log[c][ks]), c
+    assert np.array_equal(tel[:, PLANT_COLUMNS.index("x_meas")], log["encoder"][ks] * 1e-6)
+    assert np.all((log["faults"][ks] == 1) == (ks > k_fault))          # the fault from the step it was applied at
+    from hydrohil.core import shape
+    timing = json.loads((out / "timing.json").read_text())
+    assert list(timing) == list(shape.timing_keys("lockstep", panel=True)) and timing["plant"] == plant
+    assert timing["telemetry_batches_sent"] >= len(rows) // 20 and timing["stopped_early"] is True

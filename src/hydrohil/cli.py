@@ -533,11 +533,13 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
 
 def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), controller: str = "builtin",
           port: int = 8050, open_browser: bool = False, lockstep: bool = False, allow_remote: bool = False,
-          host: str = "0.0.0.0", params: Optional[str] = None, sets: Optional[dict] = None, ready=print) -> int:
+          host: str = "0.0.0.0", params: Optional[str] = None, sets: Optional[dict] = None, ready=print,
+          plant: str = "python") -> int:
     """Serve the live panel and run a session of the scenario (default: the paper's Fig 11 experiment) until
     SIGINT/SIGTERM; prints ``PANEL <url>`` once the page is served and ``SESSION <folder> plant <address>``
     once the plant is up (handshakes for scripts), and at the end how it ended and where the sessions and
-    recordings are. Returns the exit code: 130 stopped by SIGINT (Ctrl-C), 143 by SIGTERM."""
+    recordings are. ``plant``: "python" or "c" (the standalone C plant). Returns the exit code: 130 stopped by
+    SIGINT (Ctrl-C), 143 by SIGTERM."""
     import asyncio
     import signal
     from hydrohil.panel.server import Panel
@@ -545,7 +547,7 @@ def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), c
     if scenario is None:
         scenario = EXPERIMENTS_DIR / "fig11_p_control.toml"
     pn = Panel(scenario, out, controller=controller, lockstep=lockstep, params=params, sets=sets, host=host,
-               port=port, allow_remote=allow_remote)
+               port=port, allow_remote=allow_remote, plant=plant)
 
     stopped_by = []
 
@@ -592,7 +594,9 @@ def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop 
                                                 "then needs the token printed at the start"),
               host: str = typer.Option("0.0.0.0", help="address to serve on with --allow-remote"),
               params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path)"),
-              sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable)")):
+              sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable)"),
+              plant: str = typer.Option("python", "--plant", help="python: `hydrohil plant`; c: the standalone C "
+                                        "plant of `hydrohil export c`, built on first use (cached)")):
     """Live instrument panel: the real-time plant (and controller) with a web page on loopback.
 
     Watch position, pressures, spool, friction, modes and timing live; change the load, supply pressure,
@@ -603,7 +607,7 @@ def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop 
         if allow_remote:
             parse_address(f"{host}:{port}", allow_remote=True)
         code = panel(scenario, out, controller, port, open_browser, lockstep, allow_remote, host, params,
-                     _parse_sets(sets))
+                     _parse_sets(sets), plant=plant)
     except HydrohilError as exc:
         fail(exc)
     raise typer.Exit(code)

@@ -278,6 +278,10 @@ int hh_rig_add_live(hh_rig *r, const hh_fault *f, int64_t k);
 /* Switch the fault in `slot` off from step k on; -1 when no fault is active there. */
 int hh_rig_end(hh_rig *r, int slot, int64_t k);
 void hh_rig_set_base(hh_rig *r, const double *base);   /* new fault-free parameters (tunables) */
+/* The parameters of a running rig with the live panel's tunables (HH_TUNE_*, core/shape.py TUNABLES; NaN: not
+ * set) applied to the scenario's base0: mass, external force, supply pressure (at least the tank's), a scale on
+ * every friction force. */
+void hh_tuned_base(const double *base0, const double *tunables, double *p);
 void hh_rig_begin(hh_rig *r, int64_t k);   /* the faults of step k: the active set, the parameters */
 /* Step k -> k+1 with the command that arrived for it (arrived = 0: none): network faults, the watchdog and
  * its safe state, command faults, the model step, the faults of k + 1. *u_valve: what drove the valve.

@@ -238,6 +238,23 @@ void hh_rig_set_base(hh_rig *r, const double *base)
     rebuild(r, 0);
 }
 
+void hh_tuned_base(const double *base0, const double *tunables, double *p)
+{
+    static const int friction[6] = {HH_FC_POS, HH_FC_NEG, HH_FS_POS, HH_FS_NEG, HH_KV_POS, HH_KV_NEG};
+    int i;
+    for (i = 0; i < HH_NP; i++)
+        p[i] = base0[i];
+    if (!isnan(tunables[HH_TUNE_MASS]))
+        p[HH_LOAD_MASS] = tunables[HH_TUNE_MASS];
+    if (!isnan(tunables[HH_TUNE_FORCE]))
+        p[HH_LOAD_FORCE] = tunables[HH_TUNE_FORCE];
+    if (!isnan(tunables[HH_TUNE_SUPPLY_PRESSURE]))
+        p[HH_SUPPLY_PS] = fmax(tunables[HH_TUNE_SUPPLY_PRESSURE], base0[HH_SUPPLY_PT]);
+    if (!isnan(tunables[HH_TUNE_FRICTION_SCALE]))
+        for (i = 0; i < 6; i++)
+            p[friction[i]] = base0[friction[i]] * tunables[HH_TUNE_FRICTION_SCALE];
+}
+
 int hh_rig_add(hh_rig *r, const hh_fault *f)
 {
     hh_fault *g;

@@ -153,6 +153,23 @@ SIDE_CONTROLLER_COLUMNS = ("x_ref", "x_meas_ctl", "u_cmd")
 SIDE_PLANT_COUNTERS = ("overruns", "late_commands", "watchdog_trips", "watchdog_trips_unexplained",
                        "packets_lost", "telemetry_dropped", "jitter_max_ns", "steps")
 
+
+class Tunable(NamedTuple):
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    description: str
+
+
+# --- what the live panel may change in a running plant (steering "set"; rig.c hh_tuned_base applies them) ----
+TUNABLES = (
+    Tunable("mass", "kg", 0.1, 1e5, "moved mass"),
+    Tunable("force", "N", -1e7, 1e7, "external force, + opposes extension"),
+    Tunable("supply_pressure", "Pa", 0.0, 1e8, "supply pressure (at least the tank pressure)"),
+    Tunable("friction_scale", "-", 0.0, 10.0, "multiplies every friction force (Coulomb, static, viscous)"),
+)
+
 # --- timing.json of a HIL run (both plants write these keys, in this order) ----------------------------------
 TIMING_KEYS = (
     "mode", "step_s", "steps", "steps_planned", "overruns", "jitter_us_p50", "jitter_us_p99", "jitter_us_p999",
@@ -169,10 +186,18 @@ VERDICT_CRITERIA = (("max_late_commands", "max_late_commands"), ("max_overruns",
                     ("max_stall_s", "max_stall"), ("max_watchdog_trips", "max_watchdog_trips"))
 
 
-def timing_keys(mode: str) -> tuple[str, ...]:
-    """The keys of a plain run's timing.json (``mode``: "realtime" or "lockstep"), in order."""
+TIMING_PANEL = ("telemetry_batches_sent", "telemetry_batches_dropped")   # after log_rows_dropped, with a panel
+TIMING_RECORDING = ("recorded_steps", "rtt_scope")                         # then these, in a recording's
+
+
+def timing_keys(mode: str, *, panel: bool = False, recording: bool = False) -> tuple[str, ...]:
+    """The keys of a run's timing.json (``mode``: "realtime" or "lockstep"), in order: a plain run's, one with
+    the live panel's side channel (``panel``), a recording's of the panel (``recording``)."""
     skip = TIMING_ONLY_LOCKSTEP if mode == "realtime" else TIMING_ONLY_REALTIME
-    return tuple(k for k in TIMING_KEYS if k not in skip)
+    keys = [k for k in TIMING_KEYS if k not in skip]
+    at = keys.index("log_rows_dropped") + 1
+    keys[at:at] = (TIMING_PANEL if panel or recording else ()) + (TIMING_RECORDING if recording else ())
+    return tuple(keys)
 
 
 def _mode(name: str) -> Mode:
@@ -217,7 +242,12 @@ def c_header() -> str:
             "/* columns of the rig's log beside the simulation log in an offline run through the rig */",
             _enum([f"HH_RLOG_{c.name.upper()}" for c in RIG_LOG] + ["HH_NRLOG"]), "",
             "/* columns of the HIL plant log (plant_log.csv) */",
-            _enum([f"HH_PLOG_{c.name.upper()}" for c in PLANT_LOG] + ["HH_NPLOG"]), "", "#endif", ""]
+            _enum([f"HH_PLOG_{c.name.upper()}" for c in PLANT_LOG] + ["HH_NPLOG"]), "",
+            "/* the side channel to the live panel: the plant's telemetry row, its counters */",
+            _enum([f"HH_SIDE_{c.upper()}" for c in SIDE_PLANT_COLUMNS] + ["HH_NSIDE"]),
+            _enum([f"HH_SIDEC_{c.upper()}" for c in SIDE_PLANT_COUNTERS] + ["HH_NSIDEC"]), "",
+            "/* what the live panel may change in a running plant (hh_tuned_base) */",
+            _enum([f"HH_TUNE_{t.name.upper()}" for t in TUNABLES] + ["HH_NTUNABLES"]), "", "#endif", ""]
     return "\n".join(out)
 
 
@@ -236,3 +266,18 @@ def c_plant_log_tables() -> str:
     lines += [f"extern const char *const {m.name.upper()}_NAMES[HH_N_{m.name.upper()}];" for m in MODES]
     lines += ["#endif"]
     return "\n".join(lines)
+
+
+def c_plant_side_tables() -> str:
+    """The C plant's side-channel tables (for ``plant_config.h``): its telemetry columns' names, the tunables
+    with unit and range."""
+    return "\n".join([
+        "/* the side channel (core/shape.py): telemetry columns; tunables with unit and admissible range */",
+        "typedef struct {", "    const char *name, *unit;", "    double lo, hi;", "    const char *description;",
+        "} tunable;",
+        "#ifdef PLANT_CONFIG_TABLES",
+        "const char *const SIDE_NAMES[HH_NSIDE] = {" + ", ".join(f'"{c}"' for c in SIDE_PLANT_COLUMNS) + "};",
+        "const tunable TUNABLES[HH_NTUNABLES] = {",
+        *(f'    {{"{t.name}", "{t.unit}", {t.lo!r}, {t.hi!r}, "{t.description}"}},' for t in TUNABLES),
+        "};", "#else", "extern const char *const SIDE_NAMES[HH_NSIDE];", "extern const tunable TUNABLES[HH_NTUNABLES];",
+        "#endif"])

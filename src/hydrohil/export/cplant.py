@@ -30,7 +30,7 @@ from hydrohil.parameters import Parameters
 
 HERE = Path(__file__).resolve().parent
 RT = HERE / "c" / "rt"
-RT_SOURCES = ("rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report.c", "protocol.c", "protocol.h",
+RT_SOURCES = ("rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report.c", "rt_side.c", "protocol.c", "protocol.h",
               "latency.c", "latency.h", "Makefile")
 EXECUTABLE = "hydrohil_plant"
 # [hil] settings the plant reads (the others are the controller's, or the plant's own options: step, cpu)
@@ -126,7 +126,7 @@ def plant_config_h(params: Parameters, *, step: float = 5e-4, duration: float = 
              "#ifndef PLANT_CONFIG_H", "#define PLANT_CONFIG_H", "#include <math.h>", "#include \"hh.h\"", "",
              f"#define PLANT_DESCRIPTION {_str(f'hydrohil {__version__}, parameter set {label}')}",
              f"#define PLANT_STEP_DEFAULT {_c(step)}", f"#define PLANT_DURATION_DEFAULT {_c(duration)}", "",
-             shape.c_plant_log_tables(), "",
+             shape.c_plant_log_tables(), "", shape.c_plant_side_tables(), "",
              "enum { SET_REAL, SET_INT, SET_ENUM };",
              "typedef struct {", "    const char *key;", "    int kind;",
              "    double value, lo, hi;    /* default (enum: index) and admissible range */",

@@ -61,12 +61,13 @@ def c_plant_executable(sc, scenario: Path) -> Path:
 
 
 def plant_command(sc, scenario: Path, out: Path, peer: str | None, *, lockstep: bool = False,
-                  plant: str = "python") -> list:
+                  plant: str = "python", bind: str = "127.0.0.1:0", extra: tuple = ()) -> list:
     """The command line of the plant process: ``hydrohil plant`` (``plant="python"``) or the standalone C
     plant of :mod:`hydrohil.export.cplant` built for this scenario (cached), with the same options. ``peer``:
-    the only controller address it accepts (None: the first that speaks)."""
-    tail = ["--bind", "127.0.0.1:0", "--log", out, *(["--peer", peer] if peer else []),
-            *(["--lockstep"] if lockstep else [])]
+    the only controller address it accepts (None: the first that speaks); ``extra``: options both plants take
+    (``--panel``, ``--no-rows``, ``--duration``, ``--connect-timeout``)."""
+    tail = ["--bind", bind, "--log", out, *(["--peer", peer] if peer else []),
+            *(["--lockstep"] if lockstep else []), *extra]
     if plant == "python":
         return process_command("plant", "--scenario", scenario, *tail)
     if plant != "c":
@@ -111,8 +112,6 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     out.mkdir(parents=True, exist_ok=True)
     view = side = None
     if live is not None:
-        if plant != "python":
-            raise InputError("the live panel steers the Python plant: run with --plant python", key="plant")
         for name in ("events.jsonl", "controller_events.jsonl"):    # a run folder used again: this run's only
             (out / name).unlink(missing_ok=True)
         view = live(scenario, out)

@@ -73,7 +73,7 @@ class PanelSession:
         self.flush()
         from hydrohil.simulation.outputs import finite_or_none, write_json
         s = self.server
-        timing = finite_or_none(s._timing(k - rec.k0, s.t0, time.perf_counter_ns(), s.rt, 0, window=rec))
+        timing = finite_or_none(s._timing(k - rec.k0, rec.t0_ns, time.perf_counter_ns(), s.rt, 0, window=rec))
         write_json(rec.folder / "timing.json", timing)
         return {"dir": str(rec.folder), "steps": k - rec.k0, "verdict": timing["verdict"]["verdict"]}
 

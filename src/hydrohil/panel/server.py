@@ -28,12 +28,13 @@ from hydrohil.panel.web import PanelWeb
 
 class Panel:
     """The panel of one scenario. ``own``: start/stop the plant (and built-in controller) processes here
-    (``hydrohil panel``); else attach to processes someone else started (``hydrohil hil --panel``)."""
+    (``hydrohil panel``); else attach to processes someone else started (``hydrohil hil --panel``). ``plant``:
+    "python" (``hydrohil plant``) or "c" (the standalone C plant built for the scenario): the same side channel."""
 
     def __init__(self, scenario: Path, out: Path, *, own: bool = True, controller: str = "builtin",
                  lockstep: bool = False, params: str | None = None, sets: dict | None = None,
                  host: str = "127.0.0.1", port: int = 0, allow_remote: bool = False,
-                 plant_port: int = 47000):
+                 plant_port: int = 47000, plant: str = "python"):
         from hydrohil.simulation.scenario import load_scenario
         self.scenario_path, self.out = Path(scenario), Path(out)
         self.sc = load_scenario(self.scenario_path, params=params, sets=sets)
@@ -44,7 +45,10 @@ class Panel:
         if controller == "builtin" and not s.closed_loop:
             raise InputError("the panel's built-in controller needs a closed-loop scenario ([controller] + "
                              "[reference]); or use --controller external", source=str(scenario))
-        self.own, self.controller_kind, self.lockstep = own, controller, lockstep
+        from hydrohil.hil.run import PLANTS
+        if plant not in PLANTS:
+            raise InputError(f"--plant must be one of {', '.join(PLANTS)}, got {plant!r}", key="plant")
+        self.own, self.controller_kind, self.lockstep, self.plant = own, controller, lockstep, plant
         self.h = s.plant_step
         self.plant_port = plant_port
         self.hub = SideHub(self.h)

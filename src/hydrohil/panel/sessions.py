@@ -43,7 +43,8 @@ class SessionSupervisor:
 
     async def start(self) -> None:
         from hydrohil.hil.processes import Child, free_udp_port, process_command
-        from hydrohil.simulation.scenario import write_scenario
+        from hydrohil.hil.run import plant_command
+        from hydrohil.simulation.scenario import load_scenario, write_scenario
         pn = self.panel
         if self.running:
             raise InputError("a session is running: stop it first", source="panel")
@@ -62,11 +63,10 @@ class SessionSupervisor:
         builtin = pn.controller_kind == "builtin"
         ctl_addr = f"127.0.0.1:{free_udp_port()}" if builtin else None
         bind = "127.0.0.1:0" if builtin else f"127.0.0.1:{pn.plant_port}"
-        plant = Child(process_command("plant", "--scenario", scenario, "--bind", bind, "--log", folder, "--panel",
-                                      side, "--no-rows", "--duration", "0",
-                                      *(["--peer", ctl_addr] if builtin else []),
-                                      *(["--lockstep"] if pn.lockstep else []),
-                                      *([] if builtin else ["--connect-timeout", "3600"])), "plant")
+        sc = load_scenario(scenario)
+        plant = Child(plant_command(sc, scenario, folder, ctl_addr, lockstep=pn.lockstep, plant=pn.plant, bind=bind,
+                                    extra=("--panel", side, "--no-rows", "--duration", "0",
+                                           *([] if builtin else ["--connect-timeout", "3600"]))), "plant")
         self.children = [plant]
         loop = asyncio.get_running_loop()
         address = await loop.run_in_executor(None, plant.wait_line, "READY ", 120.0)

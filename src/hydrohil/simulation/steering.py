@@ -25,28 +25,24 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+
+import numpy as np
 from typing import Annotated, Literal, Union
 
 from pydantic import Field, TypeAdapter, ValidationError
 
 from hydrohil.errors import InputError
-from hydrohil.models.layout import FLOAD, INDEX, MASS, PS, PT
+from hydrohil.core import dptr, lib, shape
 from hydrohil.parameters.schema import StrictModel
 
-# name -> (parameter-vector slot(s), unit, lower, upper, what it is)
-TUNABLES = {
-    "mass": ("kg", 0.1, 1e5, "moved mass"),
-    "force": ("N", -1e7, 1e7, "external force, + opposes extension"),
-    "supply_pressure": ("Pa", 0.0, 1e8, "supply pressure (at least the tank pressure)"),
-    "friction_scale": ("-", 0.0, 10.0, "multiplies every friction force (Coulomb, static, viscous)"),
-}
-FRICTION_FORCES = tuple(INDEX[f"model.{k}_{d}"] for k in ("fc", "fs", "kv") for d in ("pos", "neg"))
+# name -> (unit, lower, upper, what it is) of what "set" changes (core/shape.py TUNABLES, applied by C's hh_tuned_base)
+TUNABLES = {t.name: (t.unit, t.lo, t.hi, t.description) for t in shape.TUNABLES}
 GAINS = ("kp", "ki", "kd", "kff", "kpl")
 
 
 class SetTunable(StrictModel):
     op: Literal["set"]
-    name: Literal["mass", "force", "supply_pressure", "friction_scale"]
+    name: Literal[tuple(t.name for t in shape.TUNABLES)]
     value: float
 
 
@@ -57,7 +53,7 @@ class FaultOn(StrictModel):
 
 class FaultOff(StrictModel):
     op: Literal["fault_off"]
-    slot: int = Field(ge=0, le=61)
+    slot: int = Field(ge=0, lt=lib.HH_MAX_FAULTS)
 
 
 class Reset(StrictModel):
@@ -123,17 +119,12 @@ def fault_model(fault: dict, source: str = "event"):
 
 
 def tuned_base(base0, tunables: dict):
-    """The parameter vector of the scenario (``base0``) with the tunables applied."""
-    p = base0.copy()
-    if "mass" in tunables:
-        p[MASS] = tunables["mass"]
-    if "force" in tunables:
-        p[FLOAD] = tunables["force"]
-    if "supply_pressure" in tunables:
-        p[PS] = max(tunables["supply_pressure"], base0[PT])
-    if "friction_scale" in tunables:
-        for i in FRICTION_FORCES:
-            p[i] = base0[i] * tunables["friction_scale"]
+    """The parameter vector of the scenario (``base0``) with the tunables applied (C's ``hh_tuned_base``, which
+    the standalone plant calls too)."""
+    t = np.array([tunables.get(x.name, np.nan) for x in shape.TUNABLES], dtype=np.float64)
+    b = np.ascontiguousarray(base0, dtype=np.float64)
+    p = np.empty_like(b)
+    lib.hh_tuned_base(dptr(b), dptr(t), dptr(p))
     return p
 
 

@@ -160,3 +160,21 @@ int hhil_decode(const uint8_t *b, size_t n, hhil_message *msg)
     }
     return 1;
 }
+
+size_t hhil_encode_telemetry(uint8_t *buf, uint8_t role, int64_t k0, const int64_t *counters, const double *rows,
+                             int ncols, int nrows)
+{
+    size_t n = HHIL_TM_HEADER_LEN, i;
+    memcpy(buf, "HHTM", 4);
+    buf[4] = HHIL_TM_VERSION;
+    buf[5] = role;
+    put_u16(buf + 6, (uint16_t)ncols);
+    put_u16(buf + 8, (uint16_t)nrows);
+    put_u16(buf + 10, 0);
+    put_u64(buf + 12, (uint64_t)k0);
+    for (i = 0; i < HHIL_TM_COUNTERS; i++, n += 8)
+        put_u64(buf + n, (uint64_t)counters[i]);
+    for (i = 0; i < (size_t)ncols * (size_t)nrows; i++, n += 8)
+        put_f64(buf + n, rows[i]);
+    return n;
+}

@@ -54,4 +54,11 @@ size_t hhil_encode_simple(uint8_t *buf, const hhil_header *h);   /* HELLO or BYE
  * another version or type, or a command whose u is NaN/Inf (the receiver counts it as bad). */
 int hhil_decode(const uint8_t *buf, size_t n, hhil_message *msg);
 
+/* The panel's side channel (docs/protocol.md, "Panel side channel"; hydrohil.hil.sidechannel): a telemetry
+ * datagram = "HHTM", version, role, columns, rows, 0 (u8 u8 u16 u16 u16), first step k0 (i64), 8 counters
+ * (i64), rows x columns float64, little-endian. Returns its length. */
+enum { HHIL_TM_VERSION = 1, HHIL_TM_ROLE_PLANT = 1, HHIL_TM_HEADER_LEN = 20, HHIL_TM_COUNTERS = 8 };
+size_t hhil_encode_telemetry(uint8_t *buf, uint8_t role, int64_t k0, const int64_t *counters, const double *rows,
+                             int ncols, int nrows);
+
 #endif

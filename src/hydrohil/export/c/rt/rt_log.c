@@ -121,7 +121,7 @@ static void *log_thread(void *arg)
     return NULL;
 }
 
-int log_open(log_writer *w, const char *dir)
+int log_open(log_writer *w, const char *dir, char *err, size_t size)
 {
     char path[4096];
     int j;
@@ -131,13 +131,17 @@ int log_open(log_writer *w, const char *dir)
     snprintf(path, sizeof path, "%s/plant_log.csv", dir);
     w->fh = fopen(path, "w");
     if (!w->fh) {
-        fprintf(stderr, "error: cannot write %s: %s\n", path, strerror(errno));
+        snprintf(err, size, "cannot write %s: %s", path, strerror(errno));
         return -1;
     }
     w->rows = calloc(LOG_RING, sizeof *w->rows);
     w->text = malloc(LOG_TEXT);
     if (!w->rows || !w->text) {
-        fprintf(stderr, "error: out of memory for the log ring\n");
+        snprintf(err, size, "out of memory for the log ring");
+        fclose(w->fh);
+        free(w->rows);
+        free(w->text);
+        w->fh = NULL;
         return -1;
     }
     for (j = 0; j < HH_NPLOG; j++)
@@ -154,7 +158,11 @@ int log_open(log_writer *w, const char *dir)
         rc = pthread_create(&w->thread, NULL, log_thread, w);
         pthread_sigmask(SIG_SETMASK, &old, NULL);
         if (rc != 0) {
-            fprintf(stderr, "error: cannot start the log writer thread\n");
+            snprintf(err, size, "cannot start the log writer thread");
+            fclose(w->fh);
+            free(w->rows);
+            free(w->text);
+            w->fh = NULL;
             return -1;
         }
     }

@@ -186,15 +186,18 @@ static void set_initial(options *o, const char *assignment)
         die_usage("--initial %s: not a number", assignment);
 }
 
-/* One --fault TYPE:key=value,... (the [[faults]] entry of a scenario; FAULT_KINDS: the schema's fields). */
-static void set_fault(options *o, const char *text)
+/* A fault TYPE:key=value,... (a [[faults]] entry; FAULT_KINDS: the schema's fields) into *f, its end [s] (NaN: none)
+ * into *end. Returns 0, or -1 with the reason in err (the --fault option and the panel's fault_on share it). */
+int fault_from_spec(const char *text, hh_fault *f, double *end, char *err, size_t size)
 {
     char buf[512], *type, *rest, *item, *save = NULL;
     const fault_kind *kind = NULL;
-    hh_fault *f;
     int i, given[6] = {0, 0, 0, 0, 0, 0};
-    if (o->nfault >= HH_MAX_FAULTS)
-        die_usage("--fault %s: at most %d faults", text, HH_MAX_FAULTS);
+    size_t used;
+    if (strlen(text) >= sizeof buf) {
+        snprintf(err, size, "too long (at most %d characters)", (int)sizeof buf - 1);
+        return -1;
+    }
     snprintf(buf, sizeof buf, "%s", text);
     type = buf;
     rest = strchr(buf, ':');
@@ -204,17 +207,15 @@ static void set_fault(options *o, const char *text)
         if (strcmp(FAULT_KINDS[i].type, type) == 0)
             kind = &FAULT_KINDS[i];
     if (!kind) {
-        fprintf(stderr, "error: --fault %s: unknown fault type '%s'; one of:", text, type);
-        for (i = 0; i < HH_NFAULT_TYPES; i++)
-            fprintf(stderr, " %s", FAULT_KINDS[i].type);
-        fprintf(stderr, "\n");
-        exit(2);
+        used = (size_t)snprintf(err, size, "unknown fault type '%s'; one of:", type);
+        for (i = 0; i < HH_NFAULT_TYPES && used < size; i++)
+            used += (size_t)snprintf(err + used, size - used, " %s", FAULT_KINDS[i].type);
+        return -1;
     }
-    f = &o->faults[o->nfault];
     memset(f, 0, sizeof *f);
     f->type = (int)(kind - FAULT_KINDS);
     f->a = f->b = NAN;
-    o->fault_end[o->nfault] = NAN;
+    *end = NAN;
     for (i = 0; i < kind->nfields; i++) {      /* defaults */
         const fault_field *fd = &kind->fields[i];
         if (fd->slot == FIELD_A)
@@ -233,47 +234,70 @@ static void set_fault(options *o, const char *text)
             if (strcmp(kind->fields[j].key, item) == 0)
                 fd = &kind->fields[j];
         if (!eq || !fd) {
-            fprintf(stderr, "error: --fault %s: %s has no field '%s'; its fields:", text, kind->type, item);
-            for (j = 0; j < kind->nfields; j++)
-                fprintf(stderr, " %s", kind->fields[j].key);
-            fprintf(stderr, "\n");
-            exit(2);
+            used = (size_t)snprintf(err, size, "%s has no field '%s'; its fields:", kind->type, item);
+            for (j = 0; j < kind->nfields && used < size; j++)
+                used += (size_t)snprintf(err + used, size - used, " %s", kind->fields[j].key);
+            return -1;
         }
         j = (int)(fd - kind->fields);
         if (fd->slot == FIELD_SENSOR) {
             v = option_index(fd->options, eq);
-            if (v < 0)
-                die_usage("--fault %s: %s is one of %s, got '%s'", text, fd->key, fd->options, eq);
+            if (v < 0) {
+                snprintf(err, size, "%s is one of %s, got '%s'", fd->key, fd->options, eq);
+                return -1;
+            }
         } else {
-            if (!parse_number(eq, &v) || !isfinite(v))
-                die_usage("--fault %s: %s: not a number: '%s'", text, fd->key, eq);
+            if (!parse_number(eq, &v) || !isfinite(v)) {
+                snprintf(err, size, "%s: not a number: '%s'", fd->key, eq);
+                return -1;
+            }
             if (fd->options) {             /* whole numbers of a list (hose_burst's line) */
                 char word[32];
                 snprintf(word, sizeof word, "%.0f", v);
-                if (v != floor(v) || fabs(v) > 1e6 || option_index(fd->options, word) < 0)
-                    die_usage("--fault %s: %s is one of %s, got %s", text, fd->key, fd->options, eq);
+                if (v != floor(v) || fabs(v) > 1e6 || option_index(fd->options, word) < 0) {
+                    snprintf(err, size, "%s is one of %s, got %s", fd->key, fd->options, eq);
+                    return -1;
+                }
             } else if ((fd->lo_strict ? !(v > fd->lo) : !(v >= fd->lo)) || (fd->hi_strict ? !(v < fd->hi) : !(v <= fd->hi))) {
-                die_usage("--fault %s: %s must be %s %g and %s %g %s, got %s", text, fd->key, fd->lo_strict ? ">" : ">=",
-                          fd->lo, fd->hi_strict ? "<" : "<=", fd->hi, fd->unit, eq);
+                snprintf(err, size, "%s must be %s %g and %s %g %s, got %s", fd->key, fd->lo_strict ? ">" : ">=",
+                         fd->lo, fd->hi_strict ? "<" : "<=", fd->hi, fd->unit, eq);
+                return -1;
             }
         }
         given[j] = 1;
         switch (fd->slot) {
         case FIELD_START: f->start = v; break;
-        case FIELD_END: o->fault_end[o->nfault] = v; break;
+        case FIELD_END: *end = v; break;
         case FIELD_SENSOR: f->sensor = (int)v; break;
         case FIELD_A: f->a = v; break;
         default: f->b = v;
         }
     }
     for (i = 0; i < kind->nfields; i++)
-        if (kind->fields[i].required && !given[i])
-            die_usage("--fault %s: %s needs %s", text, kind->type, kind->fields[i].key);
+        if (kind->fields[i].required && !given[i]) {
+            snprintf(err, size, "%s needs %s", kind->type, kind->fields[i].key);
+            return -1;
+        }
     /* the schema's rules across fields (simulation/faults.py) */
-    if (!isnan(o->fault_end[o->nfault]) && !(o->fault_end[o->nfault] > f->start))
-        die_usage("--fault %s: end (%g s) must be after start (%g s)", text, o->fault_end[o->nfault], f->start);
-    if (f->type == HH_FAULT_LOAD_CHANGE && isnan(f->a) && isnan(f->b))
-        die_usage("--fault %s: load_change needs mass and/or force", text);
+    if (!isnan(*end) && !(*end > f->start)) {
+        snprintf(err, size, "end (%g s) must be after start (%g s)", *end, f->start);
+        return -1;
+    }
+    if (f->type == HH_FAULT_LOAD_CHANGE && isnan(f->a) && isnan(f->b)) {
+        snprintf(err, size, "load_change needs mass and/or force");
+        return -1;
+    }
+    return 0;
+}
+
+/* One --fault TYPE:key=value,... (exit 2 with the reason when it is not a valid fault) */
+static void set_fault(options *o, const char *text)
+{
+    char err[600];
+    if (o->nfault >= HH_MAX_FAULTS)
+        die_usage("--fault %s: at most %d faults", text, HH_MAX_FAULTS);
+    if (fault_from_spec(text, &o->faults[o->nfault], &o->fault_end[o->nfault], err, sizeof err) != 0)
+        die_usage("--fault %s: %s", text, err);
     o->nfault++;
 }
 
@@ -337,8 +361,11 @@ static void usage(void)
            "  --peer HOST:PORT      accept commands only from this address (default: the first valid sender)\n"
            "  --allow-remote        allow a non-loopback --bind / --peer\n"
            "  --step S              plant step [s] (default %g)\n"
-           "  --duration S          simulated time to serve [s] (default %g)\n"
+           "  --duration S          simulated time to serve [s] (default %g; 0: until stopped)\n"
            "  --log DIR             write DIR/plant_log.csv (streamed) and DIR/timing.json\n"
+           "  --panel HOST:PORT     the live panel's side channel: telemetry out, steering in (hydrohil panel); with\n"
+           "                        --log, DIR is the session folder (events.jsonl, commands.f64, recordings)\n"
+           "  --no-rows             no DIR/plant_log.csv of the whole run (a panel session: recordings only)\n"
            "  --lockstep            advance one step per command, as fast as possible (no clock)\n"
            "  --cpu N               pin the plant to CPU N\n"
            "  --set KEY=VALUE       a parameter of the set (--list shows keys, units, ranges, values)\n"
@@ -356,7 +383,7 @@ static void usage(void)
 void parse_options(int argc, char **argv, options *o)
 {
     enum { O_BIND = 1, O_PEER, O_REMOTE, O_STEP, O_DURATION, O_LOG, O_LOCKSTEP, O_CPU, O_SET, O_HIL, O_INITIAL,
-           O_CONNECT, O_FAULT, O_LIST, O_HELP };
+           O_CONNECT, O_FAULT, O_PANEL, O_NO_ROWS, O_LIST, O_HELP };
     static const struct option longs[] = {
         {"bind", required_argument, 0, O_BIND}, {"peer", required_argument, 0, O_PEER},
         {"allow-remote", no_argument, 0, O_REMOTE}, {"step", required_argument, 0, O_STEP},
@@ -364,9 +391,10 @@ void parse_options(int argc, char **argv, options *o)
         {"lockstep", no_argument, 0, O_LOCKSTEP}, {"cpu", required_argument, 0, O_CPU},
         {"set", required_argument, 0, O_SET}, {"hil", required_argument, 0, O_HIL},
         {"initial", required_argument, 0, O_INITIAL}, {"connect-timeout", required_argument, 0, O_CONNECT},
-        {"fault", required_argument, 0, O_FAULT},
+        {"fault", required_argument, 0, O_FAULT}, {"panel", required_argument, 0, O_PANEL},
+        {"no-rows", no_argument, 0, O_NO_ROWS},
         {"list", no_argument, 0, O_LIST}, {"help", no_argument, 0, O_HELP}, {0, 0, 0, 0}};
-    const char *bind_text = "127.0.0.1:47000", *peer_text = NULL;
+    const char *bind_text = "127.0.0.1:47000", *peer_text = NULL, *panel_text = NULL;
     char msg[400], buf[80];
     int c, i, list = 0;
     double v;
@@ -391,8 +419,8 @@ void parse_options(int argc, char **argv, options *o)
                 die_usage("--step %s: the plant step must be > 1e-06 and <= 0.01 [s]", optarg);
             break;
         case O_DURATION:
-            if (!parse_number(optarg, &o->duration) || !(o->duration > 0 && o->duration <= 1e6))
-                die_usage("--duration %s: must be > 0 and <= 1e6 [s]", optarg);
+            if (!parse_number(optarg, &o->duration) || !(o->duration >= 0 && o->duration <= 1e6))
+                die_usage("--duration %s: must be >= 0 and <= 1e6 [s] (0: until stopped)", optarg);
             break;
         case O_LOG: o->log_dir = optarg; break;
         case O_LOCKSTEP: o->lockstep = 1; break;
@@ -405,6 +433,8 @@ void parse_options(int argc, char **argv, options *o)
         case O_HIL: set_hil(o, optarg); break;
         case O_INITIAL: set_initial(o, optarg); break;
         case O_FAULT: set_fault(o, optarg); break;
+        case O_PANEL: panel_text = optarg; break;
+        case O_NO_ROWS: o->no_rows = 1; break;
         case O_CONNECT:
             snprintf(buf, sizeof buf, "connect_timeout=%s", optarg);
             set_hil(o, buf);
@@ -432,6 +462,10 @@ void parse_options(int argc, char **argv, options *o)
     if (peer_text) {
         parse_address("--peer", peer_text, o->allow_remote, &o->peer, o->peer_text);
         o->has_peer = 1;
+    }
+    if (panel_text) {            /* the panel's side channel is loopback only (as hydrohil plant's) */
+        parse_address("--panel", panel_text, 0, &o->panel, o->panel_text);
+        o->has_panel = 1;
     }
 }
 

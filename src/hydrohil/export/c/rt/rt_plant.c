@@ -248,17 +248,22 @@ static void wait_lockstep(plant *pl, int64_t k)
     }
 }
 
-/* Block until a valid packet from the (configured or first) controller, at most [hil] connect_timeout. */
+/* Block until a valid packet from the (configured or first) controller, at most [hil] connect_timeout; the
+ * panel is served meanwhile ("stop" at once, the rest at step 0). */
 static int wait_for_controller(plant *pl)
 {
     int64_t end = mono_ns() + (int64_t)(pl->o->hil[HIL_CONNECT_TIMEOUT] * 1e9);
     while (pl->packets_rx == 0 && !pl->stop_requested) {
         int64_t left = end - mono_ns();
-        struct pollfd fd = {pl->sock, POLLIN, 0};
+        struct pollfd fd[2] = {{pl->sock, POLLIN, 0}, {side_fd(pl), POLLIN, 0}};
         if (left <= 0)
             return 0;
-        if (poll(&fd, 1, (int)(left < 200000000LL ? left / 1000000 + 1 : 200)) > 0)
-            drain_at_most(pl, 1);       /* one at a time: a command queued behind the HELLO is step 0's */
+        if (poll(fd, fd[1].fd >= 0 ? 2 : 1, (int)(left < 200000000LL ? left / 1000000 + 1 : 200)) > 0) {
+            if (fd[0].revents)
+                drain_at_most(pl, 1);   /* one at a time: a command queued behind the HELLO is step 0's */
+            if (fd[1].fd >= 0 && fd[1].revents)
+                side_poll_waiting(pl);
+        }
         check_signal(pl);
     }
     return pl->packets_rx > 0;
@@ -281,7 +286,8 @@ static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t
 {
     double *row = pl->row;
     const double *out = pl->sim.out;
-    if (!pl->log.fh)
+    recording *rec = &pl->side.rec;
+    if (!pl->log.fh && !rec->active)
         return;
     row[HH_PLOG_K] = (double)k;
     row[HH_PLOG_T] = out[HH_OUT_T];
@@ -308,6 +314,11 @@ static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t
     row[HH_PLOG_FAULTS] = (double)r->faults;
     row[HH_PLOG_STATUS] = (double)r->status;
     log_push(&pl->log, row);
+    if (rec->active) {             /* a recording of the live panel: its rows, its own histograms */
+        log_push(&rec->log, row);
+        latency_add(&rec->jitter, jitter_ns);
+        latency_add(&rec->compute, compute_ns);
+    }
 }
 
 /* The name Python gives an OS error (the Python plant reports "not permitted (PermissionError)"). */
@@ -400,8 +411,8 @@ static int plant_init(plant *pl, options *o)
     {   /* the rig: its watchdog counts from step 0, the faults of step 0 apply (as the Python plant's) */
         int64_t cap = 0;
         int i;
-        for (i = 0; i < o->nfault; i++)
-            if (o->faults[i].type == HH_FAULT_NETWORK_DELAY && !pl->fifo) {   /* up to 1 s (the schema's bound) */
+        for (i = 0; i < o->nfault + o->has_panel; i++)    /* (the panel may switch a network_delay on) */
+            if ((i == o->nfault || o->faults[i].type == HH_FAULT_NETWORK_DELAY) && !pl->fifo) {   /* up to 1 s */
                 cap = (int64_t)ceil(1.0 / o->step) + 2;
                 pl->fifo = malloc(sizeof(double) * (size_t)cap);
                 if (!pl->fifo) {
@@ -419,7 +430,8 @@ static int plant_init(plant *pl, options *o)
         }
         hh_rig_begin(&pl->rig, 0);
     }
-    pl->n = (int64_t)nearbyint(o->duration / o->step);     /* half to even, as Python's round() */
+    pl->n = o->duration > 0 ? (int64_t)nearbyint(o->duration / o->step)   /* half to even, as Python's round() */
+                            : INT32_MAX - 1;                          /* 0: until stopped (u32 sequence numbers) */
     pl->h_ns = (int64_t)nearbyint(o->step * 1e9);
     pl->spin = o->hil[HIL_WAIT] == HIL_WAIT_SPIN;
     pl->spin_ns = pl->spin ? 2 * pl->h_ns : (int64_t)fmin((double)SPIN_NS, SPIN_FRACTION * (double)pl->h_ns);
@@ -434,7 +446,7 @@ static int plant_init(plant *pl, options *o)
 
 /* The model at its initial state (plant time 0), of the fault-free parameters (the rig's base: a fault active
  * at step 0 hits a rig at rest); the rig's watchdog, faults and noise go on (as the Python plant's). */
-static void plant_reset(plant *pl)
+void plant_reset(plant *pl)
 {
     const double *x = pl->o->initial;
     if (hh_initial_state(pl->rig.base, x[0], x[1], 0.0, x[2], x[3], 0.0, pl->sim.y, pl->sim.m) != 0
@@ -518,7 +530,13 @@ int main(int argc, char **argv)
         unlink(path);                   /* written at the end, then renamed: never a partial timing.json */
         timing_fh = NULL;
     }
-    if (plant_init(&pl, &o) < 0 || log_open(&pl.log, o.log_dir) < 0)
+    if (plant_init(&pl, &o) < 0)
+        return 2;
+    if (log_open(&pl.log, o.no_rows ? NULL : o.log_dir, path, sizeof path) < 0) {
+        fprintf(stderr, "error: %s\n", path);
+        return 2;
+    }
+    if (side_open(&pl) < 0)
         return 2;
     if (o.has_peer) {
         pl.peer = o.peer;
@@ -547,8 +565,10 @@ int main(int argc, char **argv)
         pl.cmd_new = 0;                 /* HELLO / early packets are not commands for step 0 */
         t0 = mono_ns() + 2 * pl.h_ns;
         last_start = t0;
+        pl.t0 = t0;
         send_sensor(&pl, 0, 0, &r);
         log_row(&pl, 0, &r, 0.0, 0, 0, 0.0);
+        side_apply_queued(&pl);         /* steering that came while waiting for the controller: at boundary 0 */
         for (k = 0; k < pl.n; k++) {
             int64_t start, late, end;
             double u = 0.0;
@@ -579,6 +599,7 @@ int main(int argc, char **argv)
             latency_add(&pl.compute, end - start);
             k_done = k + 1;
             log_row(&pl, k + 1, &r, o.lockstep ? 0.0 : (double)(start - t0) / 1e9, late, end - start, u);
+            side_row(&pl, k + 1, &r, late, end - start, u);
             if (pl.stop_requested)
                 break;
         }
@@ -595,6 +616,7 @@ int main(int argc, char **argv)
         drift_ns = last_start - (t0 + (k_done > 1 ? k_done - 1 : 0) * pl.h_ns);
     }
     log_close(&pl.log);
+    side_close(&pl, k_done);            /* a recording still open ends here; the session's files closed */
     nreasons = write_timing(&pl, k_done, t0, t_end, drift_ns, stderr, reasons);   /* as the Python plant */
     if (o.log_dir) {
         char final_path[4096];

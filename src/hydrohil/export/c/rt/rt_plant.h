@@ -45,9 +45,9 @@ static inline int64_t wall_ns(void)
 
 /* ---- options (rt_options.c) ------------------------------------------------------------------- */
 typedef struct {
-    struct sockaddr_in bind, peer;
-    char bind_text[128], peer_text[128];
-    int has_peer, allow_remote, lockstep, cpu;
+    struct sockaddr_in bind, peer, panel;
+    char bind_text[128], peer_text[128], panel_text[128];
+    int has_peer, allow_remote, lockstep, cpu, has_panel, no_rows;
     double step, duration;
     const char *log_dir;
     double hil[HIL_N];
@@ -62,6 +62,8 @@ typedef struct {
 NORETURN void die_usage(const char *fmt, ...);
 /* the command line into o (exits 0 after --help / --list, 2 on a bad argument) */
 void parse_options(int argc, char **argv, options *o);
+/* A fault TYPE:key=value,... into *f and its end [s] (NaN: none): 0, or -1 with the reason in err. */
+int fault_from_spec(const char *text, hh_fault *f, double *end, char *err, size_t size);
 
 /* ---- plant_log.csv (rt_log.c) ----------------------------------------------------------------- */
 typedef struct {
@@ -79,9 +81,57 @@ typedef struct {
 
 /* Shortest text that reads back to the same double (as Python's repr); "nan" / "inf" / "-inf". */
 void fmt_double(char *buf, size_t size, double v);
-int log_open(log_writer *w, const char *dir);      /* 0, or -1 with the message printed */
+/* DIR/plant_log.csv with its header, its writer thread started: 0, or -1 with the reason in err */
+int log_open(log_writer *w, const char *dir, char *err, size_t size);
 void log_push(log_writer *w, const double *row);   /* never blocks: a row without room is counted, dropped */
 void log_close(log_writer *w);                     /* the writer drains the ring, the file is closed */
+
+/* ---- the live panel: side channel, session folder, recordings (rt_side.c) ----------------------- */
+#define SIDE_BATCH 20             /* telemetry rows per datagram (10 ms at 0.5 ms), as hil/sidechannel.py */
+#define SIDE_SEEN 256             /* steering ids remembered: a retry is answered again, never applied twice */
+#define SIDE_QUEUE 16             /* steering that came before the controller spoke: applied at step 0 */
+#define SIDE_MSG 8192             /* the longest steering message, and answer, taken */
+#define SIDE_COMMANDS 2000        /* applied commands buffered between two writes of commands.f64 */
+
+/* the counters of a run (or of a recording: since its start) */
+typedef struct {
+    int64_t packets_rx, packets_bad, packets_foreign, packets_lost, packets_reordered, late_commands,
+        packets_dropped_kernel, overruns, watchdog_trips, watchdog_trips_unexplained, commands_delivered;
+} run_counts;
+
+typedef struct {
+    int64_t id;                   /* -1: free */
+    char *answer;                 /* NULL until answered (then resent to a retry) */
+} side_seen;
+
+/* a recording of the live panel: rows k0+1 .. into dir/plant_log.csv with its own histograms */
+typedef struct {
+    int active;
+    char dir[4096];
+    int64_t k0, t0_ns;
+    log_writer log;
+    latency_hist jitter, compute;
+    run_counts c0;                /* the counters at its start */
+} recording;
+
+typedef struct {
+    int sock;                     /* -1: no panel */
+    double rows[SIDE_BATCH * HH_NSIDE];
+    int n;
+    int64_t k0, sent, dropped;
+    side_seen seen[SIDE_SEEN];
+    int seen_next;
+    char queue[SIDE_QUEUE][SIDE_MSG];
+    size_t queue_len[SIDE_QUEUE];
+    int nqueue;
+    FILE *events;                 /* the session folder (--log with --panel): events.jsonl */
+    FILE *commands;               /* commands.f64: the command applied at each step */
+    double cmds[SIDE_COMMANDS];
+    int ncmds;
+    double base0[HH_NP];          /* the scenario's parameters; the tunables set (NaN: not set) act on them */
+    double tunables[HH_NTUNABLES];
+    recording rec;
+} side_channel;
 
 /* ---- the plant (rt_plant.c) ------------------------------------------------------------------- */
 typedef struct {
@@ -115,12 +165,29 @@ typedef struct {
     char fault[600], link_error[300];
     log_writer log;
     double row[HH_NPLOG];  /* columns HH_PLOG_* (hh_shape.h) */
+    side_channel side;     /* the live panel (--panel) */
+    int64_t t0;            /* the run's start instant (mono_ns) */
     /* os report */
     char os_cpu[80], os_rt[120];
     int os_cpu_granted, timer_slack, memory_locked;
 } plant;
 
 typedef hh_rig_reading reading;
+
+/* The model at its initial state (plant time 0) of the rig's fault-free parameters (rt_plant.c). */
+void plant_reset(plant *pl);
+/* The run's counters now (rt_report.c). */
+run_counts counts_now(const plant *pl);
+
+/* The side channel (rt_side.c); every function does nothing without --panel. */
+int side_open(plant *pl);                       /* 0, or -1 with the message printed */
+int side_fd(const plant *pl);                   /* its socket (-1: none), to wait on beside the plant's */
+void side_poll_waiting(plant *pl);              /* before step 0: "stop" now, the rest queued for step 0 */
+void side_apply_queued(plant *pl);              /* at step 0 */
+/* Row k of the telemetry (after step k-1, its command u); every SIDE_BATCH rows: send the batch, then apply the
+ * steering that came, at the boundary before step k. */
+void side_row(plant *pl, int64_t k, const reading *r, int64_t late_ns, int64_t compute_ns, double u);
+void side_close(plant *pl, int64_t k_done);     /* recording ended, session files closed, last batch sent */
 
 /* ---- timing.json (rt_report.c) ---------------------------------------------------------------- */
 /* room for the longest reason: "the model failed: " and a fault message (fault[600]) */
@@ -130,5 +197,8 @@ typedef hh_rig_reading reading;
  * reasons the run is INVALID (0: VALID), the reasons in reasons[]. */
 int write_timing(plant *pl, int64_t steps, int64_t t0, int64_t t_end, int64_t drift_ns, FILE *fh,
                  char reasons[][REASON_SIZE]);
+/* The same of a recording (its steps, its histograms, its counters since its start; t0: its start). */
+int write_timing_window(plant *pl, const recording *win, int64_t steps, int64_t t_end, FILE *fh,
+                        char reasons[][REASON_SIZE]);
 
 #endif

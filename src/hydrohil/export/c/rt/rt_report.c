@@ -67,8 +67,26 @@ static void json_raw(json_out *j, const char *key, const char *v)
     fputs(v, j->fh);
 }
 
+run_counts counts_now(const plant *pl)
+{
+    run_counts c;
+    c.packets_rx = pl->packets_rx;
+    c.packets_bad = pl->packets_bad;
+    c.packets_foreign = pl->packets_foreign;
+    c.packets_lost = pl->packets_lost;
+    c.packets_reordered = pl->packets_reordered;
+    c.late_commands = pl->late_commands;
+    c.packets_dropped_kernel = pl->packets_dropped_kernel;
+    c.overruns = pl->overruns;
+    c.watchdog_trips = pl->rig.link.trips;
+    c.watchdog_trips_unexplained = pl->rig.link.trips_unexplained;
+    c.commands_delivered = pl->rig.link.delivered;
+    return c;
+}
+
 /* The verdict (hydrohil.hil.verdict.judge, same rules and words): reasons, count returned. */
-static int judge(const plant *pl, int64_t steps, char reasons[][REASON_SIZE])
+static int judge(const plant *pl, const run_counts *c, const latency_hist *jitter, int64_t steps,
+                 char reasons[][REASON_SIZE])
 {
     const double *hil = pl->o->hil;
     int n = 0;
@@ -77,73 +95,85 @@ static int judge(const plant *pl, int64_t steps, char reasons[][REASON_SIZE])
     if (pl->fault[0])
         snprintf(reasons[n++], REASON_SIZE, "the model failed: %s", pl->fault);
     if (!pl->o->lockstep && steps) {
-        double late = (double)pl->late_commands, over = (double)pl->overruns, s = (double)steps;
-        double stall_us = latency_max_us(&pl->jitter);
+        double late = (double)c->late_commands, over = (double)c->overruns, s = (double)steps;
+        double stall_us = latency_max_us(jitter);
         if (late > hil[HIL_MAX_LATE_COMMANDS] * s)
-            snprintf(reasons[n++], REASON_SIZE, "%lld of %lld commands late (%.1f%% > %.1f%%)", (long long)pl->late_commands,
+            snprintf(reasons[n++], REASON_SIZE, "%lld of %lld commands late (%.1f%% > %.1f%%)", (long long)c->late_commands,
                      (long long)steps, late / s * 100.0, hil[HIL_MAX_LATE_COMMANDS] * 100.0);
         if (over > hil[HIL_MAX_OVERRUNS] * s)
-            snprintf(reasons[n++], REASON_SIZE, "%lld of %lld steps overran (%.1f%% > %.1f%%)", (long long)pl->overruns,
+            snprintf(reasons[n++], REASON_SIZE, "%lld of %lld steps overran (%.1f%% > %.1f%%)", (long long)c->overruns,
                      (long long)steps, over / s * 100.0, hil[HIL_MAX_OVERRUNS] * 100.0);
         if (isfinite(stall_us) && stall_us > hil[HIL_MAX_STALL] * 1e6)
             snprintf(reasons[n++], REASON_SIZE, "the plant stalled %.1f ms (> %g ms)", stall_us / 1e3, hil[HIL_MAX_STALL] * 1e3);
     }
-    if ((double)pl->rig.link.trips_unexplained > hil[HIL_MAX_WATCHDOG_TRIPS])
+    if ((double)c->watchdog_trips_unexplained > hil[HIL_MAX_WATCHDOG_TRIPS])
         snprintf(reasons[n++], REASON_SIZE, "%lld watchdog trip(s) without an injected fault (no command reached the plant "
-                 "for %g ms; allowed %lld)", (long long)pl->rig.link.trips_unexplained, hil[HIL_WATCHDOG_TIMEOUT] * 1e3,
+                 "for %g ms; allowed %lld)", (long long)c->watchdog_trips_unexplained, hil[HIL_WATCHDOG_TIMEOUT] * 1e3,
                  (long long)hil[HIL_MAX_WATCHDOG_TRIPS]);
     return n;
 }
 
-int write_timing(plant *pl, int64_t steps, int64_t t0, int64_t t_end, int64_t drift_ns, FILE *fh,
-                        char reasons[][REASON_SIZE])
+/* timing.json of the run (win NULL) or of a recording: the keys of the Python plant's, in its order */
+static int timing(plant *pl, const recording *win, int64_t steps, int64_t t0, int64_t t_end, int64_t drift_ns,
+                  FILE *fh, char reasons[][REASON_SIZE])
 {
     const options *o = pl->o;
     json_out j = {fh, 1};
-    int lock = o->lockstep, nreasons = judge(pl, steps, reasons), i;
+    run_counts c = counts_now(pl);
+    const latency_hist *jitter = win ? &win->jitter : &pl->jitter, *compute = win ? &win->compute : &pl->compute;
+    int lock = o->lockstep, nreasons, i;
     double na = NAN;
+    if (win) {
+#define SINCE(f) c.f -= win->c0.f
+        SINCE(packets_rx); SINCE(packets_bad); SINCE(packets_foreign); SINCE(packets_lost); SINCE(packets_reordered);
+        SINCE(late_commands); SINCE(packets_dropped_kernel); SINCE(overruns); SINCE(watchdog_trips);
+        SINCE(watchdog_trips_unexplained); SINCE(commands_delivered);
+#undef SINCE
+        t0 = win->t0_ns;
+    }
+    nreasons = judge(pl, &c, jitter, steps, reasons);
     fputc('{', fh);
     json_str(&j, "mode", lock ? "lockstep" : "realtime");
     json_num(&j, "step_s", o->step);
     json_int(&j, "steps", steps);
-    json_int(&j, "steps_planned", pl->n);
+    json_int(&j, "steps_planned", win ? steps : pl->n);
     if (lock)
         json_raw(&j, "overruns", "null");
     else
-        json_int(&j, "overruns", pl->overruns);
-    json_num(&j, "jitter_us_p50", lock ? na : latency_percentile(&pl->jitter, 50));
-    json_num(&j, "jitter_us_p99", lock ? na : latency_percentile(&pl->jitter, 99));
-    json_num(&j, "jitter_us_p999", lock ? na : latency_percentile(&pl->jitter, 99.9));
-    json_num(&j, "jitter_us_max", lock ? na : latency_max_us(&pl->jitter));
-    json_num(&j, "compute_us_p50", latency_percentile(&pl->compute, 50));
-    json_num(&j, "compute_us_p99", latency_percentile(&pl->compute, 99));
-    json_num(&j, "compute_us_max", latency_max_us(&pl->compute));
+        json_int(&j, "overruns", c.overruns);
+    json_num(&j, "jitter_us_p50", lock ? na : latency_percentile(jitter, 50));
+    json_num(&j, "jitter_us_p99", lock ? na : latency_percentile(jitter, 99));
+    json_num(&j, "jitter_us_p999", lock ? na : latency_percentile(jitter, 99.9));
+    json_num(&j, "jitter_us_max", lock ? na : latency_max_us(jitter));
+    json_num(&j, "compute_us_p50", latency_percentile(compute, 50));
+    json_num(&j, "compute_us_p99", latency_percentile(compute, 99));
+    json_num(&j, "compute_us_max", latency_max_us(compute));
     json_num(&j, "rtt_us_p50", lock ? na : latency_percentile(&pl->rtt, 50));
     json_num(&j, "rtt_us_p99", lock ? na : latency_percentile(&pl->rtt, 99));
     json_num(&j, "rtt_seen_us_p50", lock ? na : latency_percentile(&pl->rtt_seen, 50));
     json_num(&j, "rtt_seen_us_p99", lock ? na : latency_percentile(&pl->rtt_seen, 99));
     json_str(&j, "rtt_source", pl->kernel_stamps ? "kernel receive timestamp (SO_TIMESTAMPNS)" : "plant process");
-    json_int(&j, "packets_rx", pl->packets_rx);
-    json_int(&j, "packets_bad", pl->packets_bad);
-    json_int(&j, "packets_foreign", pl->packets_foreign);
-    json_int(&j, "packets_lost", pl->packets_lost);
-    json_int(&j, "packets_reordered", pl->packets_reordered);
-    json_int(&j, "late_commands", pl->late_commands);
-    json_int(&j, "packets_dropped_kernel", pl->packets_dropped_kernel);
-    json_int(&j, "watchdog_trips", pl->rig.link.trips);
-    json_int(&j, "watchdog_trips_unexplained", pl->rig.link.trips_unexplained);
-    json_int(&j, "commands_delivered", pl->rig.link.delivered);
-    json_key(&j, "faults_injected");
+    json_int(&j, "packets_rx", c.packets_rx);
+    json_int(&j, "packets_bad", c.packets_bad);
+    json_int(&j, "packets_foreign", c.packets_foreign);
+    json_int(&j, "packets_lost", c.packets_lost);
+    json_int(&j, "packets_reordered", c.packets_reordered);
+    json_int(&j, "late_commands", c.late_commands);
+    json_int(&j, "packets_dropped_kernel", c.packets_dropped_kernel);
+    json_int(&j, "watchdog_trips", c.watchdog_trips);
+    json_int(&j, "watchdog_trips_unexplained", c.watchdog_trips_unexplained);
+    json_int(&j, "commands_delivered", c.commands_delivered);
+    json_key(&j, "faults_injected");      /* the fault of each slot: scheduled, or switched on from the panel */
     fputc('[', fh);
-    for (i = 0; i < o->nfault; i++) {
+    for (i = 0; i < pl->rig.nfault; i++) {
         if (i)
             fputs(", ", fh);
-        json_string_value(fh, hh_fault_type_name(o->faults[i].type));
+        json_string_value(fh, hh_fault_type_name(pl->rig.fault[i].type));
     }
     fputc(']', fh);
     json_num(&j, "simulated_s", (double)steps * o->step);
     json_num(&j, "wall_s", (double)(t_end - t0) / 1e9);
-    json_num(&j, "drift_ms", lock ? na : (double)drift_ns / 1e6);
+    json_num(&j, "drift_ms", lock || win ? na : (double)drift_ns / 1e6);
     json_str(&j, "fault", pl->fault);
     json_str(&j, "link_error", pl->link_error);
     json_raw(&j, "stopped_early", pl->stop_requested ? "true" : "false");
@@ -158,7 +188,16 @@ int write_timing(plant *pl, int64_t steps, int64_t t0, int64_t t_end, int64_t dr
     if (!lock)
         json_raw(&j, "os_memory_locked", pl->memory_locked ? "true" : "false");
     json_str(&j, "plant", "c");
-    json_int(&j, "log_rows_dropped", pl->log.dropped);
+    json_int(&j, "log_rows_dropped", win ? win->log.dropped : pl->log.dropped);
+    if (o->has_panel) {
+        json_int(&j, "telemetry_batches_sent", pl->side.sent);
+        json_int(&j, "telemetry_batches_dropped", pl->side.dropped);
+    }
+    if (win) {
+        json_key(&j, "recorded_steps");
+        fprintf(fh, "[%lld, %lld]", (long long)win->k0, (long long)(win->k0 + steps));
+        json_str(&j, "rtt_scope", "session so far");
+    }
     if (lock)
         json_num(&j, "steps_per_s", (double)steps / fmax((double)(t_end - t0) / 1e9, 1e-9));
     json_key(&j, "verdict");
@@ -178,3 +217,14 @@ int write_timing(plant *pl, int64_t steps, int64_t t0, int64_t t_end, int64_t dr
     return nreasons;
 }
 
+int write_timing(plant *pl, int64_t steps, int64_t t0, int64_t t_end, int64_t drift_ns, FILE *fh,
+                 char reasons[][REASON_SIZE])
+{
+    return timing(pl, NULL, steps, t0, t_end, drift_ns, fh, reasons);
+}
+
+int write_timing_window(plant *pl, const recording *win, int64_t steps, int64_t t_end, FILE *fh,
+                        char reasons[][REASON_SIZE])
+{
+    return timing(pl, win, steps, win->t0_ns, t_end, 0, fh, reasons);
+}
