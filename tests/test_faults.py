@@ -344,3 +344,55 @@ def test_at_most_53_faults_a_scenario(tmp_path):
     assert len(load_scenario(ok).scenario.faults) == 53
     with pytest.raises(InputError, match="at most 53"):
         load_scenario(bad)
+
+
+def test_a_replay_through_the_c_loop_equals_a_step_by_step_replay_with_events():
+    """replay_applied (the core's sampled loop with the applied commands) against a loop written here over the
+    rig's per-step call (an independent path): a run with scheduled faults (network faults that held commands
+    back, which a replay of the applied commands must not apply again) and steering events (a tunable, a fault
+    switched on and off, a reset) gives the same states, modes and fault masks bit for bit; keep_from keeps
+    the end of the same replay."""
+    from hydrohil.hil.session import REPLAY_COLUMNS, replay_applied
+    from hydrohil.simulation.steering import apply_plant_event, parse_event
+    sc = load_scenario(FAULTS / "packet_loss.toml")
+    s = sc.scenario
+    u = run_scenario(sc).column("u")[:6000]
+    events = {1000: [parse_event({"op": "set", "name": "mass", "value": 150.0}, "plant")],
+              2000: [parse_event({"op": "fault_on", "fault": {"type": "hose_burst", "line": 2, "section": 0.5}},
+                                 "plant")],
+              2600: [parse_event({"op": "fault_off", "slot": 1}, "plant"),
+                     parse_event({"op": "set", "name": "friction_scale", "value": 3.0}, "plant")],
+              4000: [parse_event({"op": "reset"}, "plant")]}
+    rep = replay_applied(sc, u, events)
+    rig = VirtualRig(sc.params, s.plant_step, s.hil, s.faults, s.initial.model_dump())
+    names = [c for c in REPLAY_COLUMNS]
+    from hydrohil.core import shape
+    at = [shape.OUTPUT_NAMES.index(c) for c in names]
+    ref = {c: [] for c in (*names, "faults")}
+
+    def put():
+        for c, i in zip(names, at):
+            ref[c].append(rig.out[i])
+        ref["faults"].append(rig.mask)
+    put()
+    for k, uk in enumerate(u):
+        for ev in events.get(k, ()):
+            apply_plant_event(rig, ev, k)
+        rig.step_applied(k, float(uk))
+        put()
+    for c in ref:
+        assert np.array_equal(rep[c], np.array(ref[c], dtype=float)), c
+    mask = rep["faults"].astype(int)
+    assert np.any(mask & 1) and np.all(mask[2001:2601] & 2) and not np.any(mask[2602:] & 2)   # both kinds acted
+    tail = replay_applied(sc, u, events, keep_from=2500)
+    for c in ref:
+        assert np.array_equal(tail[c], rep[c][2500:]), c
+
+
+def test_applied_commands_need_a_rig_and_an_open_loop():
+    sc = load_scenario(FAULTS / "packet_loss.toml")
+    rig = VirtualRig(sc.params, H, sc.scenario.hil)
+    with pytest.raises(ValueError, match="through a rig"):
+        rig.plant.sim.run(10, 1, np.zeros(11), applied=True)
+    with pytest.raises(ValueError, match="log_from"):
+        rig.plant.sim.run(10, 1, np.zeros(11), rig=rig.c, applied=True, log_from=11)

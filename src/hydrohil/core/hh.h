@@ -150,8 +150,11 @@ typedef struct {
  * rig_log (when set) gets HH_NRLOG columns per row: what the sensors reported, the faults, the watchdog. Row k
  * holds the state at t_k and the command that drove the valve over step k. A controller in Python comes in
  * as `command` (kind closed or open: its output is the command); `on_event` is called before the steps listed
- * in event_steps (ascending; steering replays). Either callback's failure stops the run with HH_STOPPED. */
-enum { HH_DRIVE_OPEN, HH_DRIVE_CLOSED };
+ * in event_steps (ascending; steering replays). Either callback's failure stops the run with HH_STOPPED.
+ * Kind applied (through a rig only): the values are the commands that drove the valve (a run's log replayed:
+ * hh_rig_step_applied, the command path skipped). log_from: rows of the steps before it are not written (a
+ * replay that keeps the end of a long run); 0 in every other run. */
+enum { HH_DRIVE_OPEN, HH_DRIVE_CLOSED, HH_DRIVE_APPLIED };
 typedef struct { uint64_t s[4]; } hh_rng;         /* xoshiro256** state (rig.c) */
 typedef struct hh_rig hh_rig;                     /* the rig step (rig.c, below) */
 typedef struct hh_rig_reading hh_rig_reading;
@@ -173,6 +176,7 @@ typedef struct {
     const int64_t *event_steps;
     int64_t n_event_steps;
     double *rig_log;                     /* rows x HH_NRLOG, or NULL */
+    int64_t log_from;                    /* the first step logged (through a rig) */
 } hh_drive;
 
 /* Set up sim (state from hh_initial_state's arguments) with a delay buffer of hh_delay_steps + 2. */

@@ -198,7 +198,7 @@ static int run_on_rig(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64
     int64_t m0[HH_NM], k, j = 0, row = 0, e = 0;
     int i;
     hh_rig_reading r;
-    if (rig->sim != sim || sim->k != 0)      /* the rig's plant, from its start (its steps count from 0) */
+    if (rig->sim != sim || sim->k != 0 || drive->log_from < 0)   /* the rig's plant, from its start */
         return HH_BAD_ARGUMENT;
     for (k = 0; k <= n_steps; k++) {
         double t = (double)k * h, v, dv, u, u_valve, ud, ev = 0.0;
@@ -229,7 +229,8 @@ static int run_on_rig(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64
                 *rows = row;
                 return HH_STOPPED;
             }
-            if (hh_rig_step(rig, k, 1, u, &u_valve) != HH_OK) {   /* row k is not logged: the step failed */
+            if ((drive->kind == HH_DRIVE_APPLIED ? hh_rig_step_applied(rig, k, u)
+                                                 : hh_rig_step(rig, k, 1, u, &u_valve)) != HH_OK) {   /* not logged */
                 *steps_done = k + 1;
                 *rows = row;
                 return HH_DIVERGED;
@@ -239,7 +240,9 @@ static int run_on_rig(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64
         } else {
             ud = delay_peek(&sim->delay, u);
         }
-        if (k % every == 0) {
+        if (k % every == 0 && k < drive->log_from) {
+            events = 0.0;
+        } else if (k % every == 0) {
             log_row(sim, t, u_valve, ud, y0, m0, events, log + row * HH_NLOG);
             if (drive->rig_log != 0) {
                 double *x = drive->rig_log + row * HH_NRLOG;

@@ -107,41 +107,37 @@ def replay_session(sc, folder: Path, steps: int | None = None, keep_from: int = 
     return replay_applied(sc, u[:n], read_events(Path(folder) / "events.jsonl", "plant"), keep_from=keep_from)
 
 
-# the plant's outputs a replay keeps (name -> index in out[], core/shape.py)
-REPLAY_COLUMNS = {c: shape.OUTPUT_NAMES.index(c) for c in ("t", "xs", "p1", "p2", "xp", "vp", "ff", "travel_mode",
-                                                           "friction_mode", "spool_mode")}
+# the model's columns a replay keeps (name -> column of the simulation log, core/shape.py)
+REPLAY_COLUMNS = {c: shape.LOG_COLUMNS.index(c) for c in ("xs", "vs", "p1", "p2", "xp", "vp", "z", "travel_mode",
+                                                          "friction_mode", "spool_mode")}
 
 
 def replay_applied(sc, u, events: dict | None = None, keep_from: int = 0) -> dict[str, np.ndarray]:
     """The valve commands that drove a run (``u[k]`` applied at step k: a plant log's column ``u`` from its
     second row, or a session's ``commands.f64``) and its plant events replayed through a fresh rig of
-    scenario ``sc`` (its faults act as they did): per step k = 0..len(u) the model's columns
-    :data:`REPLAY_COLUMNS` and ``faults``. Equal to the run's bit for bit when it stepped the model right,
-    however late its commands came. ``keep_from``: only steps from there on are kept (index k − keep_from),
-    so a long session's recording needs memory for its own steps only."""
+    scenario ``sc`` (its faults act as they did) by the core's sampled loop (``hh_sim_run``, the rig's step
+    with the applied commands): per step k = 0..len(u) the model's state and modes at step k
+    (:data:`REPLAY_COLUMNS`) and ``faults``. The states equal the run's bit for bit
+    when it stepped the model right, however late its commands came. ``keep_from``: only steps from there on
+    are kept (index k − keep_from), so a long session's recording needs memory for its own steps only."""
+    from hydrohil.core import lib
     from hydrohil.simulation.steering import apply_plant_event
     from hydrohil.simulation.rig import VirtualRig
     s = sc.scenario
     events = events or {}
+    u = np.asarray(u, dtype=np.float64)
     n = len(u)
     rig = VirtualRig(sc.params, s.plant_step, s.hil, s.faults, s.initial.model_dump())
     k0 = min(max(int(keep_from), 0), n)
-    cols = {c: np.empty(n + 1 - k0) for c in (*REPLAY_COLUMNS, "faults")}
-    pairs = [(cols[c], i) for c, i in REPLAY_COLUMNS.items()]
-    faults = cols["faults"]
 
-    def put(k):
-        if k < k0:
-            return
-        out = rig.out
-        for col, i in pairs:
-            col[k - k0] = out[i]
-        faults[k - k0] = rig.mask
-
-    put(0)
-    for k in range(n):
-        for ev in events.get(k, ()):
+    def on_event(k):
+        for ev in events[k]:
             apply_plant_event(rig, ev, k)
-        rig.step_applied(k, float(u[k]))
-        put(k + 1)
+
+    status, _, log, rig_log = rig.plant.sim.run(n, 1, np.append(u, 0.0), rig=rig.c, applied=True, on_event=on_event,
+                                                event_steps=[k for k in events if 0 <= k < n], log_from=k0)
+    if status != lib.HH_OK:
+        raise rig._diverged()
+    cols = {c: log[:, i].copy() for c, i in REPLAY_COLUMNS.items()}
+    cols["faults"] = rig_log[:, lib.HH_RLOG_FAULTS].copy()
     return cols

@@ -93,7 +93,7 @@ class Sim:
 
     def run(self, n_steps: int, every: int, values: np.ndarray, *, controller=None, slopes: np.ndarray | None = None,
             seed: int = 0, t_in: np.ndarray | None = None, progress=None, rig=None, command=None,
-            on_event=None, event_steps=()):
+            on_event=None, event_steps=(), applied: bool = False, log_from: int = 0):
         """Run n_steps from the current state; returns (status, steps done, log rows) and, with ``rig``, the
         rig's columns of those rows (``(status, done, log, rig_log)``).
 
@@ -106,12 +106,22 @@ class Sim:
         ``rig``: the ``hh_rig`` this sim is the plant of (:class:`~hydrohil.simulation.rig.VirtualRig`): the run
         goes through its sensing and its step (faults, command path, watchdog). ``command(k, t, v, dv, reading)``:
         a controller in Python, called each step with the rig's reading (``hh_rig_reading``); ``on_event(k)``:
-        called before each step of ``event_steps``. What either raises stops the run and is raised here."""
+        called before each step of ``event_steps``. What either raises stops the run and is raised here.
+        ``applied`` (with ``rig``): the values are the commands that drove the valve (a run replayed: the rig's
+        command path skipped); ``log_from``: rows of the steps before it are not kept (with ``rig``)."""
         if int(every) < 1 or int(n_steps) < 0:
             raise ValueError(f"need every >= 1 and n_steps >= 0, got every = {every}, n_steps = {n_steps}")
         values = np.ascontiguousarray(values, dtype=float)
         drive = ffi.new("hh_drive *")
         drive.kind = lib.HH_DRIVE_OPEN if controller is None and command is None else lib.HH_DRIVE_CLOSED
+        if applied or log_from:
+            if rig is None or controller is not None or command is not None or not 0 <= int(log_from) <= n_steps:
+                raise ValueError("applied commands and log_from are for a run through a rig, open loop, "
+                                 "0 <= log_from <= n_steps")
+            drive.kind = lib.HH_DRIVE_APPLIED if applied else drive.kind
+            drive.log_from = int(log_from)
+        first = -(-int(log_from) // int(every)) * int(every)      # the first step logged
+        n_rows = (int(n_steps) - first) // int(every) + 1
         if controller is not None:
             if self._sim.k == 0:               # a fresh start; a continued run keeps drawing where it stopped
                 lib.hh_rng_seed(self._rng, int(seed))
@@ -120,7 +130,7 @@ class Sim:
         calls = _Callbacks(command, on_event, progress)
         if rig is not None:
             drive.rig = rig
-            rig_log = np.zeros((n_steps // every + 1, lib.HH_NRLOG))
+            rig_log = np.zeros((n_rows, lib.HH_NRLOG))
             drive.rig_log = dptr(rig_log)
             drive.ctx = calls.handle
             if command is not None:
@@ -145,7 +155,7 @@ class Sim:
                 raise ValueError("t_in and values differ in length (or are empty)")
             drive.t_in = dptr(t_in)
         drive.n_in = len(values)
-        log = np.zeros((n_steps // every + 1, NLOG))
+        log = np.zeros((n_rows, NLOG))
         done = ffi.new("int64_t *")
         rows = ffi.new("int64_t *")
         if progress is not None:
