@@ -437,7 +437,8 @@ def test_either_plant_speaks_the_side_channel_to_a_raw_panel(tmp_path, plant):
         receive_until(lambda: len(rows) >= 200)
         bad = {1: {"op": "set", "name": "mass", "value": 1e9},
                2: {"op": "fault_on", "fault": {"type": "sensor_offset", "sensor": "p9", "offset": 1.0}},
-               3: {"op": "warp"}, 4: {"op": "fault_off", "slot": 40}}
+               3: {"op": "warp"}, 4: {"op": "fault_off", "slot": 40}, 7: {"op": "reset", "note": "x"},
+               8: {"op": "fault_on", "fault": {"type": "packet_loss", "probability": "0.5,start=3"}}}
         panel.sendto(b"{not json", plant_addr)
         for i, body in bad.items():
             panel.sendto(json.dumps({"id": i, **body}).encode(), plant_addr)
@@ -445,7 +446,7 @@ def test_either_plant_speaks_the_side_channel_to_a_raw_panel(tmp_path, plant):
                                                         "offset": 1e5, "drift": 0.0}}
         for _ in range(3):
             panel.sendto(json.dumps(fault).encode(), plant_addr)
-        receive_until(lambda: all(i in answers for i in range(1, 6)))
+        receive_until(lambda: all(i in answers for i in (*bad, 5)))
         k_fault = answers[5][0]["k"]
         panel.sendto(json.dumps(fault).encode(), plant_addr)      # a late copy: the same answer again
         receive_until(lambda: len(answers[5]) >= 2 and max(rows) > k_fault + 100)
@@ -459,7 +460,8 @@ def test_either_plant_speaks_the_side_channel_to_a_raw_panel(tmp_path, plant):
         panel.close()
     assert "mass" in answers[1][0]["error"] and "[0.1, 100000] kg" in answers[1][0]["error"]
     assert "sensor" in answers[2][0]["error"] and "warp" in answers[3][0]["error"]
-    assert "slot" in answers[4][0]["error"]
+    assert "slot" in answers[4][0]["error"] and "note" in answers[7][0]["error"]
+    assert "probability" in answers[8][0]["error"]
     assert all(a == answers[5][0] for a in answers[5]) and answers[5][0]["slot"] == 0
     events = read_events(out / "events.jsonl", "plant")
     assert [(k, e.op) for k, evs in events.items() for e in evs] == [(k_fault, "fault_on")]     # applied once

@@ -40,8 +40,7 @@ void fmt_double(char *buf, size_t size, double v)
 
 #define LOG_TEXT (1 << 20)          /* formatted rows handed to the OS as whole lines */
 
-/* One row as CSV text (modes as names, counters as integers, floats exact) at t; returns its length. */
-static size_t format_row(char *t, const double *r)
+size_t log_format_row(char *t, const double *r)
 {
     char v[40];
     size_t n = 0;
@@ -100,7 +99,7 @@ static void *log_thread(void *arg)
         while (tail != head) {
             if (w->text_len + 2048 > LOG_TEXT)
                 flush_text(w);
-            w->text_len += format_row(w->text + w->text_len, w->rows[tail % LOG_RING]);
+            w->text_len += log_format_row(w->text + w->text_len, w->rows[tail % LOG_RING]);
             tail++;
             since_flush++;
             __atomic_store_n(&w->tail, tail, __ATOMIC_RELEASE);
@@ -121,10 +120,30 @@ static void *log_thread(void *arg)
     return NULL;
 }
 
+int start_writer_thread(pthread_t *thread, void *(*run)(void *), void *arg)
+{
+    sigset_t block, old;
+    int rc;
+    sigemptyset(&block);
+    sigaddset(&block, SIGINT);
+    sigaddset(&block, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &block, &old);      /* the writer inherits the mask: signals go to the loop */
+    rc = pthread_create(thread, NULL, run, arg);
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    return rc;
+}
+
+void log_header(FILE *fh)
+{
+    int j;
+    for (j = 0; j < HH_NPLOG; j++)
+        fprintf(fh, "%s%s", j ? "," : "", PLANT_LOG_NAMES[j]);
+    fputc('\n', fh);
+}
+
 int log_open(log_writer *w, const char *dir, char *err, size_t size)
 {
     char path[4096];
-    int j;
     memset(w, 0, sizeof *w);
     if (!dir)
         return 0;
@@ -144,20 +163,10 @@ int log_open(log_writer *w, const char *dir, char *err, size_t size)
         w->fh = NULL;
         return -1;
     }
-    for (j = 0; j < HH_NPLOG; j++)
-        fprintf(w->fh, "%s%s", j ? "," : "", PLANT_LOG_NAMES[j]);
-    fputc('\n', w->fh);
+    log_header(w->fh);
     fflush(w->fh);              /* the header by stdio; the rows by write(2) on the same descriptor */
     {
-        sigset_t block, old;
-        int rc;
-        sigemptyset(&block);
-        sigaddset(&block, SIGINT);
-        sigaddset(&block, SIGTERM);
-        pthread_sigmask(SIG_BLOCK, &block, &old);      /* the writer inherits the mask: signals go to the loop */
-        rc = pthread_create(&w->thread, NULL, log_thread, w);
-        pthread_sigmask(SIG_SETMASK, &old, NULL);
-        if (rc != 0) {
+        if (start_writer_thread(&w->thread, log_thread, w) != 0) {
             snprintf(err, size, "cannot start the log writer thread");
             fclose(w->fh);
             free(w->rows);

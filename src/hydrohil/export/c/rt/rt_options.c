@@ -290,6 +290,44 @@ int fault_from_spec(const char *text, hh_fault *f, double *end, char *err, size_
     return 0;
 }
 
+/* A fault switched on from the panel as events.jsonl writes it: every field of its kind, start 0, no end (what
+ * hydrohil.simulation.steering.fault_model makes of it); the length, or 0 when it does not fit. */
+size_t fault_json(const hh_fault *f, char *buf, size_t size)
+{
+    const fault_kind *kind = &FAULT_KINDS[f->type];
+    size_t n;
+    int i;
+    n = (size_t)snprintf(buf, size, "{\"type\": \"%s\"", kind->type);
+    for (i = 0; i < kind->nfields && n < size; i++) {
+        const fault_field *fd = &kind->fields[i];
+        char word[64];
+        double v = fd->slot == FIELD_A ? f->a : f->b;
+        if (fd->slot == FIELD_START) {
+            snprintf(word, sizeof word, "0.0");
+        } else if (fd->slot == FIELD_END) {
+            snprintf(word, sizeof word, "null");
+        } else if (fd->slot == FIELD_SENSOR) {
+            char name[32];
+            option_word(fd->options, f->sensor, name, sizeof name);
+            snprintf(word, sizeof word, "\"%s\"", name);
+        } else if (isnan(v)) {
+            snprintf(word, sizeof word, "null");
+        } else if (fd->options) {                  /* whole numbers of a list (hose_burst's line) */
+            snprintf(word, sizeof word, "%.0f", v);
+        } else {
+            fmt_double(word, sizeof word, v);
+            if (!strpbrk(word, ".e"))
+                strcat(word, ".0");
+        }
+        n += (size_t)snprintf(buf + n, size - n, ", \"%s\": %s", fd->key, word);
+    }
+    if (n + 2 > size)
+        return 0;
+    buf[n++] = '}';
+    buf[n] = '\0';
+    return n;
+}
+
 /* One --fault TYPE:key=value,... (exit 2 with the reason when it is not a valid fault) */
 static void set_fault(options *o, const char *text)
 {

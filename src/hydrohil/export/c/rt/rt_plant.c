@@ -286,8 +286,7 @@ static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t
 {
     double *row = pl->row;
     const double *out = pl->sim.out;
-    recording *rec = &pl->side.rec;
-    if (!pl->log.fh && !rec->active)
+    if (!pl->log.fh && !pl->side.rec.active)
         return;
     row[HH_PLOG_K] = (double)k;
     row[HH_PLOG_T] = out[HH_OUT_T];
@@ -314,11 +313,8 @@ static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t
     row[HH_PLOG_FAULTS] = (double)r->faults;
     row[HH_PLOG_STATUS] = (double)r->status;
     log_push(&pl->log, row);
-    if (rec->active) {             /* a recording of the live panel: its rows, its own histograms */
-        log_push(&rec->log, row);
-        latency_add(&rec->jitter, jitter_ns);
-        latency_add(&rec->compute, compute_ns);
-    }
+    if (pl->side.rec.active)       /* a recording of the live panel: its rows, its own histograms */
+        side_record_row(pl, row, jitter_ns, compute_ns);
 }
 
 /* The name Python gives an OS error (the Python plant reports "not permitted (PermissionError)"). */
@@ -339,8 +335,10 @@ static void realtime_setup(plant *pl)
             snprintf(pl->os_cpu, sizeof pl->os_cpu, "%d", o->cpu);
         else
             snprintf(pl->os_cpu, sizeof pl->os_cpu, "\"not permitted (%s)\"", error_name(errno));
-        if (pl->log.started)        /* the whole process on the plant's CPU: the writer takes its idle time */
+        if (pl->log.started)        /* the whole process on the plant's CPU: the writers take its idle time */
             pthread_setaffinity_np(pl->log.thread, sizeof set, &set);
+        if (pl->side.w.started)
+            pthread_setaffinity_np(pl->side.w.thread, sizeof set, &set);
     }
     if (o->lockstep) {
         snprintf(pl->os_rt, sizeof pl->os_rt, "lock-step");
@@ -480,8 +478,7 @@ static void describe_divergence(plant *pl)
              g6(b[2], y[HH_P1]), g6(b[3], y[HH_P2]), g6(b[4], y[HH_XP]), g6(b[5], y[HH_VP]), g6(b[6], y[HH_Z]));
 }
 
-/* mkdir -p */
-static int make_dirs(const char *dir)
+int make_dirs(const char *dir)
 {
     char path[4096];
     size_t i, n = strlen(dir);

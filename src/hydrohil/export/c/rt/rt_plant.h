@@ -64,6 +64,8 @@ NORETURN void die_usage(const char *fmt, ...);
 void parse_options(int argc, char **argv, options *o);
 /* A fault TYPE:key=value,... into *f and its end [s] (NaN: none): 0, or -1 with the reason in err. */
 int fault_from_spec(const char *text, hh_fault *f, double *end, char *err, size_t size);
+/* The fault as a JSON object with every field of its kind (start 0, end null): its length, 0 if too long. */
+size_t fault_json(const hh_fault *f, char *buf, size_t size);
 
 /* ---- plant_log.csv (rt_log.c) ----------------------------------------------------------------- */
 typedef struct {
@@ -81,6 +83,11 @@ typedef struct {
 
 /* Shortest text that reads back to the same double (as Python's repr); "nan" / "inf" / "-inf". */
 void fmt_double(char *buf, size_t size, double v);
+/* One plant-log row as CSV text (modes as names, counters as integers, floats exact) at t; its length. */
+size_t log_format_row(char *t, const double *row);
+void log_header(FILE *fh);                         /* the CSV header line of plant_log.csv */
+/* A writer thread that leaves SIGINT/SIGTERM to the step loop; pthread_create's result. */
+int start_writer_thread(pthread_t *thread, void *(*run)(void *), void *arg);
 /* DIR/plant_log.csv with its header, its writer thread started: 0, or -1 with the reason in err */
 int log_open(log_writer *w, const char *dir, char *err, size_t size);
 void log_push(log_writer *w, const double *row);   /* never blocks: a row without room is counted, dropped */
@@ -91,7 +98,10 @@ void log_close(log_writer *w);                     /* the writer drains the ring
 #define SIDE_SEEN 256             /* steering ids remembered: a retry is answered again, never applied twice */
 #define SIDE_QUEUE 16             /* steering that came before the controller spoke: applied at step 0 */
 #define SIDE_MSG 8192             /* the longest steering message, and answer, taken */
-#define SIDE_COMMANDS 2000        /* applied commands buffered between two writes of commands.f64 */
+#define SIDE_POLL_MAX 64          /* steering messages read per batch at most */
+#define SIDE_EVENT_LINE 2048      /* one applied event's line of events.jsonl */
+#define SIDE_EVENTS 64            /* event lines between the step loop and the session writer */
+#define SIDE_RING (1 << 14)       /* commands, and recorded rows, between the step loop and the writer (8 s) */
 
 /* the counters of a run (or of a recording: since its start) */
 typedef struct {
@@ -100,19 +110,46 @@ typedef struct {
 } run_counts;
 
 typedef struct {
-    int64_t id;                   /* -1: free */
+    int used;
+    int64_t id;
     char *answer;                 /* NULL until answered (then resent to a retry) */
 } side_seen;
 
-/* a recording of the live panel: rows k0+1 .. into dir/plant_log.csv with its own histograms */
+/* A recording of the live panel: rows k0+1 .. k1 into dir/plant_log.csv with their own histograms, then its
+ * timing.json. The step loop moves it idle -> open (record_start) -> closing (record_stop: rows and timing.json
+ * handed over); the session writer moves it back to idle once both are written; the answer waits for that. */
+enum { REC_IDLE, REC_OPEN, REC_CLOSING };
 typedef struct {
-    int active;
+    int state;                    /* REC_*, atomic */
+    int active;                   /* the step loop pushes its rows (the loop's own flag) */
     char dir[4096];
-    int64_t k0, t0_ns;
-    log_writer log;
+    int64_t k0, t0_ns, dropped;
     latency_hist jitter, compute;
     run_counts c0;                /* the counters at its start */
+    uint32_t close_head;          /* rows of the ring up to here are the closing recording's */
+    char timing[16384];           /* its timing.json, written by the writer */
+    size_t timing_len;
+    char error[4400];             /* what the writer could not write */
+    int64_t answer_id;            /* the record_stop to answer once written (-1: none) */
+    char answer[SIDE_MSG];
 } recording;
+
+/* The session writer: a thread that writes the session folder's files, so the step loop never writes a file:
+ * commands.f64 (a ring of doubles), events.jsonl (a ring of lines), the recording's rows and timing.json. */
+typedef struct {
+    pthread_t thread;
+    int started, quit;            /* quit: atomic */
+    FILE *events, *commands, *rec_fh;
+    double *cmds;
+    uint32_t cmd_head, cmd_tail;  /* atomic: head written by the loop, tail by the writer */
+    char (*ev)[SIDE_EVENT_LINE];
+    uint32_t ev_head, ev_tail;
+    double (*rows)[HH_NPLOG];
+    uint32_t row_head, row_tail;
+    char *text;                   /* the writer's formatted rows */
+    size_t text_len;
+    int64_t cmds_dropped;
+} side_writer;
 
 typedef struct {
     int sock;                     /* -1: no panel */
@@ -124,10 +161,8 @@ typedef struct {
     char queue[SIDE_QUEUE][SIDE_MSG];
     size_t queue_len[SIDE_QUEUE];
     int nqueue;
-    FILE *events;                 /* the session folder (--log with --panel): events.jsonl */
-    FILE *commands;               /* commands.f64: the command applied at each step */
-    double cmds[SIDE_COMMANDS];
-    int ncmds;
+    int session;                  /* a session folder (--log with --panel): the writer runs */
+    side_writer w;
     double base0[HH_NP];          /* the scenario's parameters; the tunables set (NaN: not set) act on them */
     double tunables[HH_NTUNABLES];
     recording rec;
@@ -174,13 +209,15 @@ typedef struct {
 
 typedef hh_rig_reading reading;
 
+int make_dirs(const char *dir);                 /* mkdir -p: 0, or -1 (errno set) (rt_plant.c) */
 /* The model at its initial state (plant time 0) of the rig's fault-free parameters (rt_plant.c). */
 void plant_reset(plant *pl);
 /* The run's counters now (rt_report.c). */
 run_counts counts_now(const plant *pl);
 
 /* The side channel (rt_side.c); every function does nothing without --panel. */
-int side_open(plant *pl);                       /* 0, or -1 with the message printed */
+int side_open(plant *pl);                       /* 0, or -1 with the message printed (before realtime_setup) */
+void side_record_row(plant *pl, const double *row, int64_t jitter_ns, int64_t compute_ns);   /* a recording's */
 int side_fd(const plant *pl);                   /* its socket (-1: none), to wait on beside the plant's */
 void side_poll_waiting(plant *pl);              /* before step 0: "stop" now, the rest queued for step 0 */
 void side_apply_queued(plant *pl);              /* at step 0 */

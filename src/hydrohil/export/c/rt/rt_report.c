@@ -188,7 +188,7 @@ static int timing(plant *pl, const recording *win, int64_t steps, int64_t t0, in
     if (!lock)
         json_raw(&j, "os_memory_locked", pl->memory_locked ? "true" : "false");
     json_str(&j, "plant", "c");
-    json_int(&j, "log_rows_dropped", win ? win->log.dropped : pl->log.dropped);
+    json_int(&j, "log_rows_dropped", win ? win->dropped : pl->log.dropped);
     if (o->has_panel) {
         json_int(&j, "telemetry_batches_sent", pl->side.sent);
         json_int(&j, "telemetry_batches_dropped", pl->side.dropped);

@@ -23,7 +23,7 @@
 #include "rt_plant.h"
 
 /* ---- a JSON object of the panel: flat fields and one nested object (a fault) ---------------------- */
-enum { J_STR, J_NUM, J_NULL, J_BOOL };
+enum { J_STR, J_NUM, J_NULL, J_BOOL, J_OBJ };
 #define J_FIELDS 32
 
 typedef struct {
@@ -70,10 +70,37 @@ static int hex4(const char *p, const char *e, unsigned *v)
     return 1;
 }
 
+/* The length of the UTF-8 sequence at p (1..4), or 0 when it is not one (overlong, surrogate, beyond U+10FFFF). */
+static int utf8_length(const unsigned char *p, const unsigned char *e)
+{
+    int n, i;
+    unsigned lo = 0x80, hi = 0xBF;
+    if (p[0] < 0x80)
+        return 1;
+    if (p[0] >= 0xC2 && p[0] <= 0xDF)
+        n = 2;
+    else if (p[0] >= 0xE0 && p[0] <= 0xEF) {
+        n = 3;
+        lo = p[0] == 0xE0 ? 0xA0 : 0x80;
+        hi = p[0] == 0xED ? 0x9F : 0xBF;
+    } else if (p[0] >= 0xF0 && p[0] <= 0xF4) {
+        n = 4;
+        lo = p[0] == 0xF0 ? 0x90 : 0x80;
+        hi = p[0] == 0xF4 ? 0x8F : 0xBF;
+    } else
+        return 0;
+    if (e - p < n || p[1] < lo || p[1] > hi)
+        return 0;
+    for (i = 2; i < n; i++)
+        if (p[i] < 0x80 || p[i] > 0xBF)
+            return 0;
+    return n;
+}
+
 /* A JSON string at p (at its opening quote) decoded into the store; the position after it, or NULL. */
 static const char *parse_string(const char *p, const char *e, jobject *o, const char **out)
 {
-    char *d = o->store + o->used, *end = o->store + sizeof o->store - 4;
+    char *d = o->store + o->used, *end = o->store + sizeof o->store - 5;
     *out = d;
     if (p >= e || *p != '"')
         return NULL;
@@ -81,6 +108,15 @@ static const char *parse_string(const char *p, const char *e, jobject *o, const 
         unsigned c = (unsigned char)*p;
         if (d >= end || c < 0x20)
             return NULL;
+        if (c >= 0x80) {                                /* valid UTF-8 only: the answers echo it */
+            int n = utf8_length((const unsigned char *)p, (const unsigned char *)e);
+            if (!n)
+                return NULL;
+            memcpy(d, p, (size_t)n);
+            d += n;
+            p += n - 1;
+            continue;
+        }
         if (c != '\\') {
             *d++ = (char)c;
             continue;
@@ -138,7 +174,9 @@ static const char *parse_string(const char *p, const char *e, jobject *o, const 
     return p + 1;
 }
 
-/* A JSON number (its grammar: no leading '+', no hex, inf or nan as strtod would take) */
+static int digit(const char *q, const char *e) { return q < e && *q >= '0' && *q <= '9'; }
+
+/* A JSON number, its grammar exactly: -?(0|[1-9][0-9]*)(.[0-9]+)?([eE][+-]?[0-9]+)? (finite) */
 static const char *parse_number_json(const char *p, const char *e, double *v)
 {
     char buf[64];
@@ -147,10 +185,28 @@ static const char *parse_number_json(const char *p, const char *e, double *v)
     size_t n;
     if (q < e && *q == '-')
         q++;
-    if (q >= e || *q < '0' || *q > '9')
+    if (!digit(q, e))
         return NULL;
-    while (q < e && ((*q >= '0' && *q <= '9') || *q == '.' || *q == 'e' || *q == 'E' || *q == '+' || *q == '-'))
+    if (*q == '0')
         q++;
+    else
+        while (digit(q, e))
+            q++;
+    if (q < e && *q == '.') {
+        if (!digit(++q, e))
+            return NULL;
+        while (digit(q, e))
+            q++;
+    }
+    if (q < e && (*q == 'e' || *q == 'E')) {
+        q++;
+        if (q < e && (*q == '+' || *q == '-'))
+            q++;
+        if (!digit(q, e))
+            return NULL;
+        while (digit(q, e))
+            q++;
+    }
     n = (size_t)(q - p);
     if (n >= sizeof buf)
         return NULL;
@@ -177,8 +233,14 @@ static const char *parse_members(const char *p, const char *e, jobject *o, const
         if (!p || o->n >= J_FIELDS)
             return NULL;
         f = &o->f[o->n++];
-        if ((size_t)snprintf(f->key, sizeof f->key, "%s%s", prefix, key) >= sizeof f->key)
+        if (strchr(key, '.') || (size_t)snprintf(f->key, sizeof f->key, "%s%s", prefix, key) >= sizeof f->key)
             return NULL;
+        {
+            int i;
+            for (i = 0; i < o->n - 1; i++)          /* a key given twice: which one counts is not clear */
+                if (strcmp(o->f[i].key, f->key) == 0)
+                    return NULL;
+        }
         p = skip_ws(p, e);
         if (p >= e || *p != ':')
             return NULL;
@@ -190,7 +252,7 @@ static const char *parse_members(const char *p, const char *e, jobject *o, const
             p = parse_string(p, e, o, &f->str);
         } else if (p < e && *p == '{' && depth == 0) {
             char nested[72];
-            f->kind = J_NULL;                       /* the object itself: its fields follow as key.field */
+            f->kind = J_OBJ;                        /* the object itself: its fields follow as key.field */
             snprintf(nested, sizeof nested, "%s.", f->key);
             p = parse_members(p + 1, e, o, nested, 1);
         } else if (e - p >= 4 && strncmp(p, "null", 4) == 0) {
@@ -246,12 +308,15 @@ static const jfield *field(const jobject *o, const char *key)
 typedef struct {
     char *buf;
     size_t size, n;
+    int overflow;                 /* something did not fit: the text is not to be used */
 } text;
 
 static void put(text *t, const char *s, size_t n)
 {
-    if (t->n + n + 1 > t->size)
-        n = t->n + 1 < t->size ? t->size - t->n - 1 : 0;
+    if (t->n + n + 1 > t->size) {
+        t->overflow = 1;
+        return;
+    }
     memcpy(t->buf + t->n, s, n);
     t->n += n;
     t->buf[t->n] = '\0';
@@ -259,6 +324,7 @@ static void put(text *t, const char *s, size_t n)
 
 static void puts_(text *t, const char *s) { put(t, s, strlen(s)); }
 
+/* s as a JSON string (s is valid UTF-8: the parser took only that, the plant's own texts are ASCII) */
 static void put_string(text *t, const char *s)
 {
     put(t, "\"", 1);
@@ -286,6 +352,16 @@ static void put_int(text *t, int64_t v)
     puts_(t, b);
 }
 
+/* a float as Python's json writes it (repr: shortest round trip, ".0" on whole numbers) */
+static void put_double(text *t, double v)
+{
+    char b[40];
+    fmt_double(b, sizeof b, v);
+    if (!strpbrk(b, ".e"))
+        strcat(b, ".0");
+    puts_(t, b);
+}
+
 /* ---- the channel -------------------------------------------------------------------------------- */
 static void say(plant *pl, const char *msg, size_t n)
 {
@@ -296,31 +372,34 @@ static side_seen *seen_find(side_channel *s, int64_t id)
 {
     int i;
     for (i = 0; i < SIDE_SEEN; i++)
-        if (s->seen[i].id == id)
+        if (s->seen[i].used && s->seen[i].id == id)
             return &s->seen[i];
     return NULL;
 }
 
-static side_seen *seen_add(side_channel *s, int64_t id)
+static void seen_add(side_channel *s, int64_t id)
 {
     side_seen *e = &s->seen[s->seen_next];
     s->seen_next = (s->seen_next + 1) % SIDE_SEEN;
     free(e->answer);
     e->answer = NULL;
+    e->used = 1;
     e->id = id;
-    return e;
 }
 
-/* Answer message id with the fields in extra (",\"k\": 12, ..." or ",\"error\": ..."); kept for a retry. */
+/* Answer message id with the fields in extra (", \"k\": 12, ..." or ", \"error\": ..."); kept for a retry. */
 static void answer(plant *pl, int64_t id, const char *extra)
 {
     char buf[SIDE_MSG];
-    text t = {buf, sizeof buf, 0};
+    text t = {buf, sizeof buf, 0, 0};
     side_seen *e = seen_find(&pl->side, id);
     puts_(&t, "{\"ack\": ");
     put_int(&t, id);
     puts_(&t, extra);
     puts_(&t, "}");
+    if (t.overflow) {
+        t.n = (size_t)snprintf(buf, sizeof buf, "{\"ack\": %lld, \"error\": \"the answer is too long\"}", (long long)id);
+    }
     if (e) {
         free(e->answer);
         e->answer = strdup(buf);
@@ -331,117 +410,245 @@ static void answer(plant *pl, int64_t id, const char *extra)
 static void answer_error(plant *pl, int64_t id, const char *message)
 {
     char buf[SIDE_MSG];
-    text t = {buf, sizeof buf, 0};
+    text t = {buf, sizeof buf, 0, 0};
     puts_(&t, ", \"error\": ");
     put_string(&t, message);
+    answer(pl, id, t.overflow ? ", \"error\": \"refused (the reason is too long to say)\"" : buf);
+}
+
+static void answer_applied(plant *pl, int64_t id, int64_t k, const char *extra)
+{
+    char buf[SIDE_MSG];
+    text t = {buf, sizeof buf, 0, 0};
+    puts_(&t, ", \"k\": ");
+    put_int(&t, k);
+    puts_(&t, extra);
     answer(pl, id, buf);
 }
 
-static int make_dirs(const char *dir)
+/* ---- the session writer: the session folder's files, written off the step loop ------------------ */
+static uint32_t load32(const uint32_t *v) { return __atomic_load_n(v, __ATOMIC_ACQUIRE); }
+static void store32(uint32_t *v, uint32_t x) { __atomic_store_n(v, x, __ATOMIC_RELEASE); }
+static int load_state(const int *v) { return __atomic_load_n(v, __ATOMIC_ACQUIRE); }
+static void store_state(int *v, int x) { __atomic_store_n(v, x, __ATOMIC_RELEASE); }
+
+static int write_all(FILE *fh, const char *text, size_t n)
 {
-    char path[4096];
-    size_t i, n = strlen(dir);
-    if (n == 0 || n >= sizeof path)
-        return -1;
-    memcpy(path, dir, n + 1);
-    for (i = 1; i <= n; i++) {
-        if (path[i] == '/' || path[i] == '\0') {
-            char c = path[i];
-            path[i] = '\0';
-            if (mkdir(path, 0777) != 0 && errno != EEXIST)
-                return -1;
-            path[i] = c;
-        }
-    }
-    return 0;
+    return fh && fwrite(text, 1, n, fh) == n && fflush(fh) == 0;
 }
 
-static void flush_commands(side_channel *s)
+/* One pass over what the step loop handed over; returns whether there was anything. */
+static int writer_pass(side_channel *s)
 {
-    if (s->commands && s->ncmds) {
-        uint8_t bytes[SIDE_COMMANDS * 8];
-        int i, j;
-        for (i = 0; i < s->ncmds; i++) {          /* float64, little-endian (numpy's "<f8") */
-            uint64_t bits;
-            memcpy(&bits, &s->cmds[i], 8);
-            for (j = 0; j < 8; j++)
-                bytes[8 * i + j] = (uint8_t)(bits >> (8 * j));
+    side_writer *w = &s->w;
+    recording *r = &s->rec;
+    uint32_t head, tail;
+    int busy = 0, state = load_state(&r->state);
+    head = load32(&w->cmd_head);
+    if ((tail = w->cmd_tail) != head) {           /* commands.f64: float64, little-endian (numpy's "<f8") */
+        uint8_t bytes[8 * 256];
+        while (tail != head) {
+            int n = 0, j;
+            for (; n < 256 && tail != head; n++, tail++) {
+                uint64_t bits;
+                memcpy(&bits, &w->cmds[tail % SIDE_RING], 8);
+                for (j = 0; j < 8; j++)
+                    bytes[8 * n + j] = (uint8_t)(bits >> (8 * j));
+            }
+            fwrite(bytes, 8, (size_t)n, w->commands);
         }
-        fwrite(bytes, 8, (size_t)s->ncmds, s->commands);
-        fflush(s->commands);
+        fflush(w->commands);
+        store32(&w->cmd_tail, tail);
+        busy = 1;
     }
-    s->ncmds = 0;
+    head = load32(&w->ev_head);
+    if ((tail = w->ev_tail) != head) {            /* events.jsonl: a crash keeps what was applied */
+        for (; tail != head; tail++)
+            fputs(w->ev[tail % SIDE_EVENTS], w->events);
+        fflush(w->events);
+        store32(&w->ev_tail, tail);
+        busy = 1;
+    }
+    if (state != REC_IDLE && !w->rec_fh && !r->error[0]) {
+        char path[4200];
+        snprintf(path, sizeof path, "%s/plant_log.csv", r->dir);
+        w->rec_fh = fopen(path, "w");
+        if (!w->rec_fh)
+            snprintf(r->error, sizeof r->error, "cannot write %.4200s: %s", path, strerror(errno));
+        else
+            log_header(w->rec_fh);
+    }
+    head = load32(&w->row_head);
+    if ((tail = w->row_tail) != head) {
+        for (; tail != head; tail++) {
+            if (w->text_len + 2048 > SIDE_RING)       /* (text: SIDE_RING bytes) */
+                w->text_len = (write_all(w->rec_fh, w->text, w->text_len), 0);
+            w->text_len += log_format_row(w->text + w->text_len, w->rows[tail % SIDE_RING]);
+        }
+        store32(&w->row_tail, tail);
+        busy = 1;
+    }
+    if (state == REC_CLOSING && load32(&w->row_tail) == r->close_head) {
+        write_all(w->rec_fh, w->text, w->text_len);
+        w->text_len = 0;
+        if (w->rec_fh)
+            fclose(w->rec_fh);
+        w->rec_fh = NULL;
+        if (!r->error[0]) {
+            char path[4200];
+            FILE *fh;
+            snprintf(path, sizeof path, "%s/timing.json", r->dir);
+            fh = fopen(path, "w");
+            if (!write_all(fh, r->timing, r->timing_len))
+                snprintf(r->error, sizeof r->error, "cannot write %.4200s: %s", path, strerror(errno));
+            if (fh)
+                fclose(fh);
+        }
+        store_state(&r->state, REC_IDLE);
+        busy = 1;
+    }
+    return busy;
 }
 
-/* record_stop: the recording's log closed, its timing.json written; the answer's fields into t */
-static void record_stop(plant *pl, int64_t k, text *t)
+static void *writer_thread(void *arg)
+{
+    side_channel *s = arg;
+    for (;;) {
+        int quit = load_state(&s->w.quit);
+        if (writer_pass(s))
+            continue;
+        if (quit && load_state(&s->rec.state) == REC_IDLE)
+            break;
+        {
+            struct timespec nap = {0, 1000000};   /* 1 ms: the step loop never signals (no syscall for it) */
+            nanosleep(&nap, NULL);
+        }
+    }
+    fclose(s->w.commands);
+    fclose(s->w.events);
+    return NULL;
+}
+
+/* Room for one more event line (a change is refused, not applied unlogged, when the writer is behind). */
+static int event_room(const side_channel *s)
+{
+    return !s->session || s->w.ev_head - load32(&s->w.ev_tail) < SIDE_EVENTS;
+}
+
+static void push_event(side_channel *s, const char *line)
+{
+    if (!s->session)
+        return;
+    snprintf(s->w.ev[s->w.ev_head % SIDE_EVENTS], SIDE_EVENT_LINE, "%s", line);
+    store32(&s->w.ev_head, s->w.ev_head + 1U);
+}
+
+void side_record_row(plant *pl, const double *row, int64_t jitter_ns, int64_t compute_ns)
+{
+    side_writer *w = &pl->side.w;
+    recording *r = &pl->side.rec;
+    latency_add(&r->jitter, jitter_ns);
+    latency_add(&r->compute, compute_ns);
+    if (w->row_head - load32(&w->row_tail) >= SIDE_RING) {
+        r->dropped++;               /* the writer fell 8 s behind: lose a row, never a step */
+        return;
+    }
+    memcpy(w->rows[w->row_head % SIDE_RING], row, sizeof(double) * HH_NPLOG);
+    store32(&w->row_head, w->row_head + 1U);
+}
+
+/* record_stop at boundary k: the rows end, timing.json made here and handed to the writer with them; the answer
+ * (id >= 0) goes once both are written (the panel reads them then). */
+static void record_stop(plant *pl, int64_t k, int64_t id)
 {
     recording *r = &pl->side.rec;
-    char path[4200], reasons[8][REASON_SIZE];
-    FILE *fh;
+    char reasons[8][REASON_SIZE];
+    text t = {r->answer, sizeof r->answer, 0, 0};
+    FILE *fh = fmemopen(r->timing, sizeof r->timing, "w");
     int nreasons = 0;
-    log_close(&r->log);
     r->active = 0;
-    flush_commands(&pl->side);
-    snprintf(path, sizeof path, "%s/timing.json", r->dir);
-    fh = fopen(path, "w");
+    r->timing_len = 0;
     if (fh) {
         nreasons = write_timing_window(pl, r, k - r->k0, mono_ns(), fh, reasons);
+        r->timing_len = (size_t)ftell(fh);
         fclose(fh);
     }
-    puts_(t, ", \"dir\": ");
-    put_string(t, r->dir);
-    puts_(t, ", \"steps\": ");
-    put_int(t, k - r->k0);
-    puts_(t, nreasons ? ", \"verdict\": \"INVALID\"" : ", \"verdict\": \"VALID\"");
-}
-
-/* One applied event into events.jsonl: {"k": k, <the message's fields but id>, "result": {...}} */
-static void log_event(plant *pl, int64_t k, const jobject *o, const char *result)
-{
-    char buf[SIDE_MSG + 256];
-    text t = {buf, sizeof buf, 0};
-    int i;
-    if (!pl->side.events)
-        return;
-    puts_(&t, "{\"k\": ");
+    puts_(&t, ", \"k\": ");
     put_int(&t, k);
-    for (i = 0; i < o->n; i++) {
-        const jfield *f = &o->f[i];
-        if (strchr(f->key, '.') || strcmp(f->key, "id") == 0 || strcmp(f->key, "k") == 0 || strcmp(f->key, "result") == 0)
-            continue;                               /* nested fields are in their object's raw text */
-        puts_(&t, ", ");
-        put_string(&t, f->key);
-        puts_(&t, ": ");
-        put(&t, f->raw, f->raw_len);
-    }
-    if (result)
-        puts_(&t, result);
-    puts_(&t, "}\n");
-    fputs(buf, pl->side.events);
-    fflush(pl->side.events);                        /* a crash keeps what was applied */
+    puts_(&t, ", \"dir\": ");
+    put_string(&t, r->dir);
+    puts_(&t, ", \"steps\": ");
+    put_int(&t, k - r->k0);
+    puts_(&t, nreasons ? ", \"verdict\": \"INVALID\"" : ", \"verdict\": \"VALID\"");
+    r->answer_id = id;
+    r->close_head = pl->side.w.row_head;
+    store_state(&r->state, REC_CLOSING);
 }
 
-/* The fault of a fault_on as --fault's TYPE:key=value,... text (start and end: it acts from now until off) */
+/* A record_stop written by now: its answer (or what could not be written) */
+static void answer_recording(plant *pl)
+{
+    recording *r = &pl->side.rec;
+    if (r->answer_id < 0 || load_state(&r->state) != REC_IDLE)
+        return;
+    if (r->error[0]) {
+        answer_error(pl, r->answer_id, r->error);
+    } else {
+        char buf[SIDE_MSG];
+        snprintf(buf, sizeof buf, "%s", r->answer);
+        answer(pl, r->answer_id, buf + 0);
+    }
+    r->answer_id = -1;
+}
+
+/* ---- steering (simulation/steering.py's events, the plant's) ------------------------------------ */
+static int integral(const jfield *f, double lo, double hi)
+{
+    return f && f->kind == J_NUM && f->num == floor(f->num) && f->num >= lo && f->num <= hi;
+}
+
+/* The message's fields are id, op, k, result (ignored) and those of its op: NULL, or the first other one. */
+static const char *unexpected_field(const jobject *o, const char *const *allowed)
+{
+    int i, j;
+    for (i = 0; i < o->n; i++) {
+        const char *key = o->f[i].key;
+        int ok = strchr(key, '.') != NULL || strcmp(key, "id") == 0 || strcmp(key, "op") == 0 ||
+                 strcmp(key, "k") == 0 || strcmp(key, "result") == 0;
+        for (j = 0; !ok && allowed[j]; j++)
+            ok = strcmp(key, allowed[j]) == 0;
+        if (!ok)
+            return key;
+    }
+    return NULL;
+}
+
+/* The fault of a fault_on as --fault's TYPE:key=value,... text, on from now (start 0; end ignored: it lasts until
+ * fault_off, as hydrohil.simulation.steering.fault_model). -1 with the reason when it is not one. */
 static int fault_spec(const jobject *o, char *spec, size_t size, char *err, size_t errsize)
 {
-    const jfield *type = field(o, "fault.type");
-    text t = {spec, size, 0};
+    const jfield *type = field(o, "fault.type"), *fault = field(o, "fault");
+    text t = {spec, size, 0, 0};
     int i;
-    if (!type || type->kind != J_STR) {
-        snprintf(err, errsize, "fault.type: a fault type is needed (--list shows them)");
+    if (!fault || fault->kind != J_OBJ) {
+        snprintf(err, errsize, "fault: an object with the fault's type and fields is needed");
+        return -1;
+    }
+    if (!type || type->kind != J_STR || strpbrk(type->str, ",=:")) {
+        snprintf(err, errsize, "fault.type: a fault type is needed");
         return -1;
     }
     puts_(&t, type->str);
-    puts_(&t, ":start=0");                          /* on from now (steering.fault_model), until fault_off */
+    puts_(&t, ":start=0");
     for (i = 0; i < o->n; i++) {
         const jfield *f = &o->f[i];
         const char *key = f->key + 6;
         if (strncmp(f->key, "fault.", 6) != 0 || strcmp(key, "type") == 0 || strcmp(key, "start") == 0 ||
             strcmp(key, "end") == 0 || f->kind == J_NULL)
             continue;
-        if (f->kind == J_BOOL) {
-            snprintf(err, errsize, "fault.%s: not a number", key);
+        if (f->kind == J_BOOL || f->kind == J_OBJ || strpbrk(key, ",=:") ||
+            (f->kind == J_STR && strpbrk(f->str, ",=:"))) {
+            snprintf(err, errsize, "fault.%.100s: not a value of a fault's field", key);
             return -1;
         }
         puts_(&t, ",");
@@ -450,88 +657,123 @@ static int fault_spec(const jobject *o, char *spec, size_t size, char *err, size
         if (f->kind == J_STR)
             puts_(&t, f->str);
         else
-            put(&t, f->raw, f->raw_len);
+            put(&t, f->raw, f->raw_len);            /* strict JSON number text: strtod reads it exactly */
     }
-    if (t.n + 1 >= size) {
-        snprintf(err, errsize, "fault: too many fields");
+    if (t.overflow) {
+        snprintf(err, errsize, "fault: too long");
         return -1;
     }
     return 0;
 }
 
-static int integral(const jfield *f, double lo, double hi)
+static void record_start(plant *pl, const jobject *o, int64_t id, int64_t k)
 {
-    return f && f->kind == J_NUM && f->num == floor(f->num) && f->num >= lo && f->num <= hi;
+    recording *r = &pl->side.rec;
+    const jfield *dir = field(o, "dir");
+    char err[SIDE_MSG];
+    const char *c;
+    int bad = !dir || dir->kind != J_STR || !dir->str[0] || strlen(dir->str) >= sizeof r->dir;
+    for (c = dir && dir->kind == J_STR ? dir->str : ""; !bad && *c; c++)
+        bad = (unsigned char)*c < 0x20;
+    if (bad) {
+        answer_error(pl, id, "dir: the recording's folder is needed (a path without control characters)");
+        return;
+    }
+    if (r->active) {
+        snprintf(err, sizeof err, "already recording into %.4000s", r->dir);
+        answer_error(pl, id, err);
+        return;
+    }
+    if (load_state(&r->state) != REC_IDLE) {
+        answer_error(pl, id, "the last recording is still being written: try again");
+        return;
+    }
+    if (make_dirs(dir->str) != 0 || access(dir->str, W_OK) != 0) {
+        snprintf(err, sizeof err, "cannot write into %.4000s: %s", dir->str, strerror(errno));
+        answer_error(pl, id, err);
+        return;
+    }
+    snprintf(r->dir, sizeof r->dir, "%s", dir->str);
+    memset(&r->jitter, 0, sizeof r->jitter);
+    memset(&r->compute, 0, sizeof r->compute);
+    r->error[0] = '\0';
+    r->dropped = 0;
+    r->k0 = k;
+    r->c0 = counts_now(pl);
+    r->t0_ns = mono_ns();
+    r->active = 1;
+    store_state(&r->state, REC_OPEN);
+    {
+        char buf[SIDE_MSG];
+        text t = {buf, sizeof buf, 0, 0};
+        puts_(&t, ", \"dir\": ");
+        put_string(&t, r->dir);
+        answer_applied(pl, id, k, buf);
+    }
 }
 
-/* Apply one steering message at the boundary before step k (simulation/steering.py's rules), answer it. */
+/* Apply one steering message at the boundary before step k (simulation/steering.py's rules), log it in
+ * events.jsonl as the Python plant does (its checked values, not the message's text), answer it. */
 static void steer(plant *pl, const jobject *o, int64_t id, int64_t k)
 {
+    static const char *const none[] = {NULL}, *const set_fields[] = {"name", "value", NULL},
+                      *const fault_on_fields[] = {"fault", NULL}, *const fault_off_fields[] = {"slot", NULL},
+                      *const record_fields[] = {"dir", NULL};
     side_channel *s = &pl->side;
     const jfield *op = field(o, "op");
-    char extra[SIDE_MSG], err[SIDE_MSG], result[64];
-    text t = {extra, sizeof extra, 0};
-    extra[0] = '\0';
-    result[0] = '\0';
+    const char *const *allowed = none, *odd;
+    char err[SIDE_MSG], line[SIDE_EVENT_LINE], extra[64] = "";
+    text ev = {line, sizeof line, 0, 0};
     if (!op || op->kind != J_STR) {
         answer_error(pl, id, "op: a steering operation is needed (set, fault_on, fault_off, reset, stop, "
                              "record_start, record_stop)");
         return;
     }
+    if (strcmp(op->str, "set") == 0)
+        allowed = set_fields;
+    else if (strcmp(op->str, "fault_on") == 0)
+        allowed = fault_on_fields;
+    else if (strcmp(op->str, "fault_off") == 0)
+        allowed = fault_off_fields;
+    else if (strcmp(op->str, "record_start") == 0)
+        allowed = record_fields;
+    else if (strcmp(op->str, "reset") != 0 && strcmp(op->str, "stop") != 0 && strcmp(op->str, "record_stop") != 0) {
+        snprintf(err, sizeof err, "op: '%.100s' is not a plant operation (set, fault_on, fault_off, reset, stop, "
+                                  "record_start, record_stop)", op->str);
+        answer_error(pl, id, err);
+        return;
+    }
+    if ((odd = unexpected_field(o, allowed)) != NULL) {
+        snprintf(err, sizeof err, "%.100s: not a field of %s", odd, op->str);
+        answer_error(pl, id, err);
+        return;
+    }
     if (strcmp(op->str, "stop") == 0) {
         pl->stop_requested = 1;
-    } else if (strcmp(op->str, "record_start") == 0 || strcmp(op->str, "record_stop") == 0) {
-        const jfield *dir = field(o, "dir");
-        if (!s->events) {
+        answer_applied(pl, id, k, "");
+        return;
+    }
+    if (strcmp(op->str, "record_start") == 0 || strcmp(op->str, "record_stop") == 0) {
+        if (!s->session) {
             answer_error(pl, id, "recording needs a session folder (hydrohil panel)");
-            return;
-        }
-        if (op->str[7] == 's' && op->str[8] == 't' && op->str[9] == 'a') {      /* record_start */
-            recording *r = &s->rec;
-            if (r->active) {
-                snprintf(err, sizeof err, "already recording into %.4000s", r->dir);
-                answer_error(pl, id, err);
-                return;
-            }
-            if (!dir || dir->kind != J_STR || strlen(dir->str) >= sizeof r->dir) {
-                answer_error(pl, id, "dir: the recording's folder is needed");
-                return;
-            }
-            if (make_dirs(dir->str) != 0) {
-                snprintf(err, sizeof err, "cannot make %.4000s: %s", dir->str, strerror(errno));
-                answer_error(pl, id, err);
-                return;
-            }
-            memset(&r->jitter, 0, sizeof r->jitter);
-            memset(&r->compute, 0, sizeof r->compute);
-            if (log_open(&r->log, dir->str, err, sizeof err) != 0) {
-                answer_error(pl, id, err);
-                return;
-            }
-            snprintf(r->dir, sizeof r->dir, "%s", dir->str);
-            r->k0 = k;
-            r->c0 = counts_now(pl);
-            r->t0_ns = mono_ns();
-            r->active = 1;
-            puts_(&t, ", \"dir\": ");
-            put_string(&t, r->dir);
+        } else if (strcmp(op->str, "record_start") == 0) {
+            record_start(pl, o, id, k);
+        } else if (!s->rec.active) {
+            answer_error(pl, id, "not recording");
         } else {
-            if (!s->rec.active) {
-                answer_error(pl, id, "not recording");
-                return;
-            }
-            record_stop(pl, k, &t);
-        }
-        {
-            char buf[SIDE_MSG];
-            text a = {buf, sizeof buf, 0};
-            puts_(&a, ", \"k\": ");
-            put_int(&a, k);
-            puts_(&a, extra);
-            answer(pl, id, buf);
+            record_stop(pl, k, id);               /* answered once written (answer_recording) */
         }
         return;
-    } else if (strcmp(op->str, "set") == 0) {
+    }
+    if (!event_room(s)) {
+        answer_error(pl, id, "the session's event log is behind: try again");
+        return;
+    }
+    puts_(&ev, "{\"k\": ");
+    put_int(&ev, k);
+    puts_(&ev, ", \"op\": ");
+    put_string(&ev, op->str);
+    if (strcmp(op->str, "set") == 0) {
         const jfield *name = field(o, "name"), *value = field(o, "value");
         const tunable *tu = NULL;
         int i;
@@ -559,20 +801,28 @@ static void steer(plant *pl, const jobject *o, int64_t id, int64_t k)
         s->tunables[tu - TUNABLES] = value->num;
         hh_tuned_base(s->base0, s->tunables, p);
         hh_rig_set_base(&pl->rig, p);
+        puts_(&ev, ", \"name\": ");
+        put_string(&ev, tu->name);
+        puts_(&ev, ", \"value\": ");
+        put_double(&ev, value->num);
     } else if (strcmp(op->str, "fault_on") == 0) {
-        char spec[1024];
+        char spec[1024], fault[1024];
         hh_fault f;
         double end;
         int slot;
         if (fault_spec(o, spec, sizeof spec, err, sizeof err) != 0 ||
             fault_from_spec(spec, &f, &end, err, sizeof err) != 0) {
             char msg[SIDE_MSG];
-            snprintf(msg, sizeof msg, "fault: %.8000s", err);
+            snprintf(msg, sizeof msg, "fault: %.7000s", err);
             answer_error(pl, id, msg);
             return;
         }
         if (f.type == HH_FAULT_NETWORK_DELAY && !pl->fifo) {
             answer_error(pl, id, "fault: network_delay needs its delay line (start the plant with --panel)");
+            return;
+        }
+        if (fault_json(&f, fault, sizeof fault) == 0) {
+            answer_error(pl, id, "fault: too long");
             return;
         }
         slot = hh_rig_add_live(&pl->rig, &f, k);
@@ -581,9 +831,12 @@ static void steer(plant *pl, const jobject *o, int64_t id, int64_t k)
             answer_error(pl, id, err);
             return;
         }
-        snprintf(result, sizeof result, ", \"result\": {\"slot\": %d}", slot);
-        puts_(&t, ", \"slot\": ");
-        put_int(&t, slot);
+        puts_(&ev, ", \"fault\": ");
+        puts_(&ev, fault);
+        puts_(&ev, ", \"result\": {\"slot\": ");
+        put_int(&ev, slot);
+        puts_(&ev, "}");
+        snprintf(extra, sizeof extra, ", \"slot\": %d", slot);
     } else if (strcmp(op->str, "fault_off") == 0) {
         const jfield *slot = field(o, "slot");
         if (!integral(slot, 0, HH_MAX_FAULTS - 1)) {
@@ -596,31 +849,22 @@ static void steer(plant *pl, const jobject *o, int64_t id, int64_t k)
             answer_error(pl, id, err);
             return;
         }
-    } else if (strcmp(op->str, "reset") == 0) {
+        puts_(&ev, ", \"slot\": ");
+        put_int(&ev, (int64_t)slot->num);
+    } else {                                          /* reset */
         plant_reset(pl);
-    } else {
-        snprintf(err, sizeof err, "op: '%s' is not a plant operation (set, fault_on, fault_off, reset, stop, "
-                                  "record_start, record_stop)", op->str);
-        answer_error(pl, id, err);
-        return;
     }
-    if (strcmp(op->str, "stop") != 0)
-        log_event(pl, k, o, result[0] ? result : NULL);
-    {
-        char buf[SIDE_MSG];
-        text a = {buf, sizeof buf, 0};
-        puts_(&a, ", \"k\": ");
-        put_int(&a, k);
-        puts_(&a, extra);
-        answer(pl, id, buf);
-    }
+    puts_(&ev, "}\n");
+    push_event(s, line);                              /* (fits: the longest event is a fault_on, < 1.2 kB) */
+    answer_applied(pl, id, k, extra);
 }
 
 /* A datagram from the panel: a valid JSON object with a whole-number id not seen before -> *o, *id, 1. A retry
- * of an answered id is answered again; anything else is ignored (0). */
-static int take_message(plant *pl, const char *data, size_t n, jobject *o, int64_t *id)
+ * of an answered id is answered again; anything else is ignored (0). take = 0: read, not taken (a full
+ * queue: the panel resends it) unless it is a stop. */
+static int take_message(plant *pl, const char *data, size_t n, jobject *o, int64_t *id, int take)
 {
-    const jfield *f;
+    const jfield *f, *op;
     side_seen *e;
     if (!parse_object(data, n, o))
         return 0;
@@ -634,6 +878,9 @@ static int take_message(plant *pl, const char *data, size_t n, jobject *o, int64
             say(pl, e->answer, strlen(e->answer));
         return 0;
     }
+    op = field(o, "op");
+    if (!take && !(op && op->kind == J_STR && strcmp(op->str, "stop") == 0))
+        return 0;
     seen_add(&pl->side, *id);
     return 1;
 }
@@ -642,14 +889,15 @@ static void poll_and_steer(plant *pl, int64_t k)
 {
     static char data[SIDE_MSG];
     static jobject o;
-    for (;;) {
+    int i;
+    for (i = 0; i < SIDE_POLL_MAX; i++) {             /* at most this many a batch: a flood cannot hold the loop */
         int64_t id;
         ssize_t n = recv(pl->side.sock, data, sizeof data, MSG_DONTWAIT);
         if (n < 0 && errno == EINTR)
             continue;
         if (n < 0)
             return;                 /* nothing more (or the panel is gone: ICMP refused) */
-        if (take_message(pl, data, (size_t)n, &o, &id))
+        if (take_message(pl, data, (size_t)n, &o, &id, 1))
             steer(pl, &o, id, k);
     }
 }
@@ -661,8 +909,7 @@ int side_open(plant *pl)
     const options *o = pl->o;
     int i;
     s->sock = -1;
-    for (i = 0; i < SIDE_SEEN; i++)
-        s->seen[i].id = -1;
+    s->rec.answer_id = -1;
     for (i = 0; i < HH_NTUNABLES; i++)
         s->tunables[i] = NAN;
     for (i = 0; i < HH_NP; i++)
@@ -674,20 +921,35 @@ int side_open(plant *pl)
         fprintf(stderr, "error: the panel's side channel %s: %s\n", o->panel_text, strerror(errno));
         return -1;
     }
-    if (o->log_dir) {
+    if (o->log_dir) {               /* the session folder, written by the session writer (started here: before
+                                     * realtime_setup, so it keeps the normal policy) */
+        side_writer *w = &s->w;
         char path[4200];
         snprintf(path, sizeof path, "%s/events.jsonl", o->log_dir);
-        s->events = fopen(path, "a");
+        w->events = fopen(path, "a");
         snprintf(path, sizeof path, "%s/commands.f64", o->log_dir);
-        s->commands = s->events ? fopen(path, "wb") : NULL;
-        if (!s->events || !s->commands) {
+        w->commands = w->events ? fopen(path, "wb") : NULL;
+        if (!w->events || !w->commands) {
             fprintf(stderr, "error: cannot write %s: %s\n", path, strerror(errno));
             return -1;
         }
+        w->cmds = malloc(sizeof(double) * SIDE_RING);
+        w->ev = malloc(sizeof *w->ev * SIDE_EVENTS);
+        w->rows = malloc(sizeof *w->rows * SIDE_RING);
+        w->text = malloc(SIDE_RING);
+        if (!w->cmds || !w->ev || !w->rows || !w->text) {
+            fprintf(stderr, "error: out of memory for the session writer\n");
+            return -1;
+        }
+        if (start_writer_thread(&w->thread, writer_thread, s) != 0) {
+            fprintf(stderr, "error: cannot start the session writer thread\n");
+            return -1;
+        }
+        w->started = s->session = 1;
     }
     {
         char buf[2048];
-        text t = {buf, sizeof buf, 0};
+        text t = {buf, sizeof buf, 0, 0};
         puts_(&t, "{\"hello\": \"plant\", \"columns\": [");
         for (i = 0; i < HH_NSIDE; i++) {
             if (i)
@@ -707,9 +969,10 @@ void side_poll_waiting(plant *pl)
     static char data[SIDE_MSG];
     static jobject o;
     side_channel *s = &pl->side;
+    int i;
     if (s->sock < 0)
         return;
-    for (;;) {
+    for (i = 0; i < SIDE_POLL_MAX; i++) {
         int64_t id;
         const jfield *op;
         ssize_t n = recv(s->sock, data, sizeof data, MSG_DONTWAIT);
@@ -717,11 +980,11 @@ void side_poll_waiting(plant *pl)
             continue;
         if (n < 0)
             return;
-        if (!take_message(pl, data, (size_t)n, &o, &id))
+        if (!take_message(pl, data, (size_t)n, &o, &id, s->nqueue < SIDE_QUEUE))
             continue;
         op = field(&o, "op");
-        if ((op && op->kind == J_STR && strcmp(op->str, "stop") == 0) || s->nqueue == SIDE_QUEUE) {
-            steer(pl, &o, id, 0);           /* stop at once (a full queue: the rest now too, at step 0) */
+        if (op && op->kind == J_STR && strcmp(op->str, "stop") == 0) {
+            steer(pl, &o, id, 0);           /* stop at once; the rest at step 0, in order */
         } else {
             memcpy(s->queue[s->nqueue], data, (size_t)n);
             s->queue_len[s->nqueue++] = (size_t)n;
@@ -736,9 +999,8 @@ void side_apply_queued(plant *pl)
     int i;
     for (i = 0; i < s->nqueue; i++) {
         const jfield *f;
-        if (!parse_object(s->queue[i], s->queue_len[i], &o) || !(f = field(&o, "id")))
-            continue;
-        steer(pl, &o, (int64_t)f->num, 0);
+        if (parse_object(s->queue[i], s->queue_len[i], &o) && (f = field(&o, "id")) != NULL)
+            steer(pl, &o, (int64_t)f->num, 0);
     }
     s->nqueue = 0;
 }
@@ -774,10 +1036,14 @@ void side_row(plant *pl, int64_t k, const reading *r, int64_t late_ns, int64_t c
     double *row;
     if (s->sock < 0)
         return;
-    if (s->commands) {
-        s->cmds[s->ncmds++] = u;
-        if (s->ncmds == SIDE_COMMANDS)
-            flush_commands(s);
+    if (s->session) {                 /* commands.f64: the command applied at each step */
+        side_writer *w = &s->w;
+        if (w->cmd_head - load32(&w->cmd_tail) < SIDE_RING) {
+            w->cmds[w->cmd_head % SIDE_RING] = u;
+            store32(&w->cmd_head, w->cmd_head + 1U);
+        } else {
+            w->cmds_dropped++;        /* (the writer fell 8 s behind) */
+        }
     }
     if (s->n == 0)
         s->k0 = k;
@@ -801,6 +1067,7 @@ void side_row(plant *pl, int64_t k, const reading *r, int64_t late_ns, int64_t c
     row[HH_SIDE_X_MEAS] = (double)r->encoder * pl->rig.count;
     if (++s->n == SIDE_BATCH) {
         send_batch(pl, k);
+        answer_recording(pl);
         poll_and_steer(pl, k);
     }
 }
@@ -811,22 +1078,23 @@ void side_close(plant *pl, int64_t k_done)
     int i;
     if (s->sock < 0)
         return;
-    if (s->rec.active) {
-        char buf[SIDE_MSG];
-        text t = {buf, sizeof buf, 0};
-        record_stop(pl, k_done, &t);
+    if (s->rec.active)                /* a recording open at the end ends here (as the Python plant's) */
+        record_stop(pl, k_done, -1);
+    if (s->w.started) {               /* the end of the run: waiting for the writer is allowed now */
+        store_state(&s->w.quit, 1);
+        pthread_join(s->w.thread, NULL);
+        s->w.started = 0;
     }
-    flush_commands(s);
-    if (s->commands)
-        fclose(s->commands);
-    if (s->events)
-        fclose(s->events);
-    s->commands = s->events = NULL;
+    answer_recording(pl);
     send_batch(pl, k_done);
     for (i = 0; i < SIDE_SEEN; i++) {
         free(s->seen[i].answer);
         s->seen[i].answer = NULL;
     }
+    free(s->w.cmds);
+    free(s->w.ev);
+    free(s->w.rows);
+    free(s->w.text);
     close(s->sock);
     s->sock = -1;
 }
