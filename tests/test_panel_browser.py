@@ -70,16 +70,20 @@ def png_pixels(png: bytes) -> np.ndarray:
     return mpimg.imread(io.BytesIO(png), format="png")
 
 
-def test_panel_in_chromium(browser, tmp_path):
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_panel_in_chromium(browser, tmp_path, plant):
+    """The same user session on either plant (``hydrohil panel --plant python|c``)."""
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import Select
-    p = PanelProcess(tmp_path / "panel")
+    p = PanelProcess(tmp_path / "panel", "--plant", plant)
     shots = tmp_path / "screenshots"
     shots.mkdir()
     try:
         browser.get(p.url)
         el = lambda i: browser.find_element(By.ID, i)   # noqa: E731
         assert browser.title == "hydrohil panel"
+        assert wait_until(lambda: el("scenario").text, "the header").endswith(
+            {"c": "C plant", "python": "Python plant"}[plant])                 # the page says which plant runs
         # live traces: the frame counter runs, the pictures differ from one moment to the next
         f0 = wait_until(lambda: int(el("frames").text), "a first frame")
         p.wait_steps(p.api("api/state")["counters"]["steps"] + 200)

@@ -113,7 +113,7 @@ class Panel:
         timing = {"mode": "lockstep" if self.lockstep else "realtime", "steps": steps,
                   "late_commands": c["late_commands"], "overruns": c["overruns"],
                   "jitter_us_max": c["jitter_max_ns"] / 1e3, "watchdog_trips_unexplained": c["watchdog_trips_unexplained"]}
-        return {"scenario": self.scenario_path.name, "step_s": self.h, "running": runs.running,
+        return {"scenario": self.scenario_path.name, "plant": self.plant, "step_s": self.h, "running": runs.running,
                 "controller": self.controller_kind, "controller_type": s.controller.type if s.controller else None,
                 "session": str(runs.folder) if runs.folder else None, "lockstep": self.lockstep,
                 "tunables": self.tunables, "tunable_schema": tunable_schema(), "fault_schema": fault_schema(),

@@ -244,7 +244,10 @@ function setHTML(id, html) { if ($(id).dataset.html !== html) { $(id).innerHTML 
 async function refresh() {
   const first = state === null;
   state = await api("/api/state");
-  if (first) { buildForms(); $("scenario").textContent = state.scenario; }
+  if (first) {
+    buildForms();
+    $("scenario").textContent = state.scenario + (state.plant === "c" ? " · C plant" : " · Python plant");
+  }
   // the values applied (from this page or another) shown, except in the field being edited
   for (const t of state.tunable_schema) {
     const inp = $("tun-" + t.name), v = +(state.tunables[t.name] / (UNIT[t.name] || [1])[0]).toPrecision(6);
