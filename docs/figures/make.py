@@ -63,10 +63,22 @@ def panel_figures():
     print("wrote", HERE / "panel.png", HERE / "panel_recording.png")
 
 
+def circuit_figures():
+    """The supply circuit of examples/circuits/pump_relief_accumulator (hydrohil circuit run)."""
+    from hydrohil.circuits.circuit import load_circuit
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.circuits.show import default_duration, plot_run
+    c = load_circuit("pump_relief_accumulator")
+    plot_run(simulate_circuit(c, default_duration(c)), HERE / "circuit_supply.png",
+             "pump, relief valve and accumulator: the load opens at 2 s, closes at 4 s (RK3 at 0.5 ms)")
+    print("wrote", HERE / "circuit_supply.png")
+
+
 if __name__ == "__main__":
-    if sys.argv[1:] == ["panel"]:
-        panel_figures()
+    if sys.argv[1:] in (["panel"], ["circuit"]):
+        (panel_figures if sys.argv[1] == "panel" else circuit_figures)()
         raise SystemExit
+    circuit_figures()
     panel_figures()
     freqresp_figures()
     for name, (runs, labels, title) in FIGURES.items():

@@ -304,6 +304,48 @@ def linear_cmd(params: Optional[str] = typer.Option(None, "--params", help="para
         typer.echo(f"wrote {out}")
 
 
+circuit_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
+                          help="Hydraulic circuits from the component library (README: Circuits).")
+app.add_typer(circuit_app, name="circuit")
+
+
+@circuit_app.command("show")
+def circuit_show(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or circuit TOML"),
+                 as_json: bool = typer.Option(False, "--json", help="print JSON"),
+                 step: float = typer.Option(5e-4, "--step", help="fixed step [s] the stiffness is judged at"),
+                 method: str = typer.Option("rk3", "--method", help="euler, heun, rk3 or rk4")):
+    """Components with their parameters (SI, as written, derived), nodes (fixed, or a pressure state with its
+    volume, initial pressure, stiffness at the step and the method's treatment), states, modes, inputs and
+    signals with units. --json: the same as data (signals as {name, unit})."""
+    from hydrohil.circuits.circuit import load_circuit
+    from hydrohil.circuits.show import describe, text
+    try:
+        d = describe(load_circuit(circuit), h=step, method=method)
+    except HydrohilError as exc:
+        fail(exc)
+    typer.echo(json.dumps(d, indent=2) if as_json else text(d), nl=as_json)
+
+
+@circuit_app.command("run")
+def circuit_run(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or circuit TOML"),
+                out: Path = typer.Option(..., "--out", help="folder for log.csv and plot.png"),
+                duration: Optional[float] = typer.Option(None, "--duration", help="[s] (default: the inputs' "
+                                                         "last change + 2 s)"),
+                step: float = typer.Option(5e-4, "--step", help="fixed step [s]"),
+                method: str = typer.Option("rk3", "--method", help="euler, heun, rk3 or rk4")):
+    """Simulate a circuit offline with its default inputs: log.csv (every signal, SI) and plot.png."""
+    from hydrohil.circuits.circuit import load_circuit
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.circuits.show import default_duration, write_run
+    try:
+        c = load_circuit(circuit)
+        res = simulate_circuit(c, default_duration(c) if duration is None else duration, h=step, method=method)
+        files = write_run(res, out, f"{c.name}: {method} at {step * 1e3:g} ms")
+    except HydrohilError as exc:
+        fail(exc)
+    typer.echo(f"wrote {', '.join(str(f) for f in files)}")
+
+
 export_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
                          help="Generate real-time code of the plant from the C core.")
 app.add_typer(export_app, name="export")

@@ -58,6 +58,9 @@ const char *hh_param_unit(int index);
 
 /* ---- model pieces (for tests, identification and the SciPy reference) ----------------------- */
 double hh_orifice_flow(double area, double dp, double dp_t);
+/* The stability interval of method's tableau on the negative real axis: explicit steps are stable for
+ * |lambda*h| below it (2 for Euler and Heun, 2.51 RK3, 2.79 RK4). */
+double hh_real_axis_limit(int method);
 double hh_orifice_slope(double area, double dp, double dp_t);
 int hh_spool_derivatives(double xs, double vs, double ud, const double *p, double *dxs, double *dvs);
 void hh_reference_rhs(const double *y, double ud, const double *p, double *dy);

@@ -17,6 +17,7 @@
 #include "linear.c"
 
 double hh_orifice_flow(double area, double dp, double dp_t) { return orifice_flow(area, dp, dp_t); }
+double hh_real_axis_limit(int method) { return HH_TABLEAUS[method].real_axis_limit; }
 double hh_orifice_slope(double area, double dp, double dp_t) { return orifice_slope(area, dp, dp_t); }
 
 int hh_spool_derivatives(double xs, double vs, double ud, const double *p, double *dxs, double *dvs)

@@ -53,13 +53,7 @@ HH_INLINE hh_sections pseudo_section_slopes(double x, const double *p)
  * r = dp/dp_t, which meets it with the same value and slope (C1), slope 1.25*K/sqrt(dp_t) at 0. */
 HH_INLINE double orifice_flow(double area, double dp, double dp_t)
 {
-    double k = area * HH_LPM_PER_SQRT_BAR, r;
-    if (dp >= dp_t)
-        return k * sqrt(dp);
-    if (dp <= -dp_t)
-        return -k * sqrt(-dp);
-    r = dp / dp_t;
-    return k * sqrt(dp_t) * r * (1.25 - 0.25 * r * r);
+    return hc_sqrt_law(area * HH_LPM_PER_SQRT_BAR, dp, dp_t);     /* the library's law (components.h) */
 }
 
 /* d(orifice_flow)/d(dp) [m^3/s/Pa] (>= 0). */

@@ -1,0 +1,71 @@
+"""A circuit's generated C compiled with the core's flags into a Python extension, cached by the hash of
+everything it is made of (~/.cache/hydrohil/circuits/): built once per circuit and core version (a few
+seconds), then loaded at once."""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.machinery
+import importlib.util
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from hydrohil.circuits.circuit import Circuit
+from hydrohil.circuits.generate import Layout, generate
+from hydrohil.errors import HydrohilError
+
+CORE = Path(__file__).resolve().parent.parent / "core"
+CDEF = """
+void hc_init(const double *P, double *y, int64_t *m);
+void hc_rhs(const double *P, const double *y, const int64_t *m, const double *u, double *dy);
+int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
+           const double *u, double *log, int64_t *rows);
+"""
+
+
+def cache_dir() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "hydrohil" / "circuits"
+
+
+class CompiledCircuit:
+    """The loaded module of a circuit (``ffi``, ``lib``) with its layout and source."""
+
+    def __init__(self, module, layout: Layout, source: str, path: Path):
+        self.ffi, self.lib, self.layout, self.source, self.path = module.ffi, module.lib, layout, source, path
+
+
+def compile_circuit(c: Circuit) -> CompiledCircuit:
+    """The circuit's extension, built into the cache unless it is there."""
+    from cffi import FFI
+    from hydrohil.core.build import CFLAGS
+    source, lay = generate(c)
+    digest = hashlib.sha256(source.encode())
+    for f in sorted(CORE.glob("*.[ch]")):
+        digest.update(f.name.encode() + b"\0" + f.read_bytes())
+    digest.update(" ".join(CFLAGS).encode())
+    name = f"_hc_{digest.hexdigest()[:16]}"
+    folder = cache_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    found = sorted(folder.glob(f"{name}.*.so")) + sorted(folder.glob(f"{name}.so"))
+    if not found:
+        ffi = FFI()
+        ffi.cdef(CDEF)
+        ffi.set_source(name, source, include_dirs=[str(CORE)], extra_compile_args=list(CFLAGS), libraries=["m"])
+        with tempfile.TemporaryDirectory() as tmp:
+            try:
+                built = Path(ffi.compile(tmpdir=tmp, verbose=False))
+            except Exception as exc:        # noqa: BLE001 - the compiler's message, with the file it failed on
+                raise HydrohilError(f"compiling circuit {c.name!r} ({c.source}) failed: {exc}") from None
+            target = folder / built.name
+            shutil.copyfile(built, target.with_suffix(f".part{os.getpid()}"))
+            os.replace(target.with_suffix(f".part{os.getpid()}"), target)
+            found = [target]
+    path = found[0]
+    loader = importlib.machinery.ExtensionFileLoader(name, str(path))
+    spec = importlib.util.spec_from_file_location(name, path, loader=loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return CompiledCircuit(module, lay, source, path)

@@ -1,0 +1,236 @@
+"""A circuit file (TOML): components of the library, the nodes their ports connect to, the fluid, the signals
+that drive it, initial node pressures. Values in SI or as "<number> <unit>" (:mod:`hydrohil.circuits.units`),
+converted at the boundary; a mistake names the file, the component, the key and the expected unit or range.
+
+::
+
+    name = "pump_relief_accumulator"
+    [fluid]                                   # optional: density, bulk_modulus, viscosity
+    bulk_modulus = "14000 bar"
+    [nodes.supply]                            # optional: a node's own volume (pipes, block)
+    volume = "0.2 l"
+    [components.pump]
+    type = "pump"
+    inlet = "tank"                            # port = node
+    outlet = "supply"
+    displacement = "16 cm3/rev"
+    speed = "1500 rpm"
+    [inputs]                                  # parameters driven as signals, with their default drive:
+    "load.opening" = { t = [0, 1], value = [0.2, 1.0] }     # held from each t (zero-order hold), or a number
+    [initial]
+    supply = "100 bar"                        # node pressures (default: the lowest fixed pressure)
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from hydrohil.circuits.library import FLUID, TYPES, ComponentType, Param
+from hydrohil.circuits.units import to_si
+from hydrohil.errors import InputError
+
+CIRCUITS_DIR = Path(__file__).resolve().parents[3] / "examples" / "circuits"
+
+
+@dataclass
+class Component:
+    name: str
+    type: ComponentType
+    ports: dict[str, str]                # port -> node
+    values: dict[str, float]             # parameters (SI) and derived values
+    given: dict[str, str]                # parameter -> as the file wrote it (shown by `circuit show`)
+
+
+@dataclass
+class Circuit:
+    name: str
+    source: str
+    fluid: dict[str, float]
+    components: dict[str, Component]
+    node_volumes: dict[str, float]       # a node's own volume [m3] (0: none given)
+    inputs: dict[str, object]            # "component.parameter" -> float or (t, values) arrays
+    initial: dict[str, float]            # node -> pressure [Pa]
+    nodes: list[str] = field(default_factory=list)          # every node, in order of first mention
+    fixed: dict[str, tuple[str, str]] = field(default_factory=dict)   # node -> (component, its pressure key)
+
+    @property
+    def state_nodes(self) -> list[str]:
+        return [n for n in self.nodes if n not in self.fixed]
+
+    def node_volume(self, node: str) -> float:
+        """A node's volume [m3]: its own and what the components attached bring (hoses' halves, volumes)."""
+        v = self.node_volumes.get(node, 0.0)
+        for c in self.components.values():
+            for port, n in c.ports.items():
+                if n != node:
+                    continue
+                if c.type.name == "hose":
+                    v += 0.5 * c.values["volume"]
+                elif c.type.name == "volume":
+                    v += c.values["volume"]
+        return v
+
+
+def _err(source: str, where: str, message: str) -> InputError:
+    return InputError(message, source=source, key=where)
+
+
+def load_circuit(path: str | Path) -> Circuit:
+    """A circuit from a file, or a built-in one by name (``examples/circuits/<name>/circuit.toml``)."""
+    p = Path(path)
+    if not p.suffix and not p.exists():
+        p = CIRCUITS_DIR / str(path) / "circuit.toml"
+    if p.is_dir():
+        p = p / "circuit.toml"
+    source = str(p)
+    try:
+        data = tomllib.loads(p.read_text())
+    except FileNotFoundError:
+        names = sorted(d.name for d in CIRCUITS_DIR.iterdir() if (d / "circuit.toml").is_file()) \
+            if CIRCUITS_DIR.is_dir() else []
+        raise InputError(f"no such circuit file (built-in circuits: {', '.join(names) or 'none'})",
+                         source=source) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not valid TOML: {exc}", source=source) from None
+    return circuit_from_dict(data, source)
+
+
+def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
+    unknown = set(data) - {"name", "description", "fluid", "nodes", "components", "inputs", "initial"}
+    if unknown:
+        raise _err(source, sorted(unknown)[0], "unknown key (keys: name, description, fluid, nodes, components, "
+                                               "inputs, initial)")
+    fluid = {}
+    for key, prm in FLUID.items():
+        fluid[key] = _value(data.get("fluid", {}), key, prm, source, "fluid")
+    for key in set(data.get("fluid", {})) - set(FLUID):
+        raise _err(source, f"fluid.{key}", f"unknown key (keys: {', '.join(FLUID)})")
+    comps_data = data.get("components")
+    if not isinstance(comps_data, dict) or not comps_data:
+        raise _err(source, "components", "a circuit needs [components.NAME] tables")
+    inputs_data = data.get("inputs", {})
+    driven = set(inputs_data)
+    components: dict[str, Component] = {}
+    nodes: list[str] = []
+    fixed: dict[str, tuple[str, str]] = {}
+    for name, body in comps_data.items():
+        where = f"components.{name}"
+        if not isinstance(body, dict) or "type" not in body:
+            raise _err(source, where, f"needs type = one of {', '.join(TYPES)}")
+        ctype = TYPES.get(body["type"])
+        if ctype is None:
+            raise _err(source, f"{where}.type", f"unknown component type {body['type']!r} (types: {', '.join(TYPES)})")
+        ports = {}
+        for port in ctype.ports:
+            node = body.get(port)
+            if not isinstance(node, str) or not node:
+                raise _err(source, f"{where}.{port}", f"port {port} of a {ctype.name} needs a node name "
+                                                      f"(ports: {', '.join(ctype.ports)})")
+            ports[port] = node
+            if node not in nodes:
+                nodes.append(node)
+        values, given = {}, {}
+        for key, prm in ctype.params.items():
+            if f"{name}.{key}" in driven:
+                if key not in ctype.inputs:
+                    raise _err(source, f"inputs.{name}.{key}", f"not a signal of a {ctype.name} (signals: "
+                                                                f"{', '.join(ctype.inputs) or 'none'})")
+                values[key] = math.nan
+                continue
+            values[key] = _value(body, key, prm, source, where)
+            if key in body:
+                given[key] = str(body[key])
+        for key in set(body) - set(ctype.params) - set(ctype.ports) - {"type"}:
+            raise _err(source, f"{where}.{key}", f"not a parameter of a {ctype.name} (parameters: "
+                                                 f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)})")
+        problem = _cross_check(ctype, values)
+        if problem:
+            raise _err(source, where, problem)
+        values.update(ctype.derive({**values, **fluid}))
+        if ctype.fixes:
+            node = ports[ctype.ports[0]]
+            if node in fixed:
+                raise _err(source, where, f"node {node!r} is already fixed by {fixed[node][0]} (one tank or pressure "
+                                          "source per node)")
+            fixed[node] = (name, ctype.fixes)
+        components[name] = Component(name, ctype, ports, values, given)
+    node_volumes = {}
+    for node, body in data.get("nodes", {}).items():
+        if node not in nodes:
+            raise _err(source, f"nodes.{node}", f"no component's port is at this node (nodes: {', '.join(nodes)})")
+        node_volumes[node] = _value(body, "volume", _NODE_VOLUME, source, f"nodes.{node}")
+    inputs = {}
+    for sig, drive in inputs_data.items():
+        comp, _, key = sig.partition(".")
+        if comp not in components:
+            raise _err(source, f"inputs.{sig}", f"no component {comp!r} (components: {', '.join(components)})")
+        prm = components[comp].type.params[key]
+        inputs[sig] = _drive(drive, prm, source, f"inputs.{sig}")
+    initial = {}
+    for node, v in data.get("initial", {}).items():
+        if node not in nodes or node in fixed:
+            raise _err(source, f"initial.{node}", f"not a pressure node of the circuit (nodes: "
+                                                  f"{', '.join(n for n in nodes if n not in fixed)})")
+        initial[node] = _value({node: v}, node, _PRESSURE, source, "initial")
+    c = Circuit(str(data.get("name", Path(source).parent.name)), source, fluid, components, node_volumes, inputs,
+                initial, nodes, fixed)
+    if not fixed:
+        raise _err(source, "components", "no tank or pressure source: every circuit needs one (its return line)")
+    for node in c.state_nodes:
+        if c.node_volume(node) <= 0.0:
+            raise _err(source, f"nodes.{node}", "this node has no volume: give [nodes.NAME] volume = ... or attach a "
+                                                "hose or a volume")
+    return c
+
+
+_NODE_VOLUME = Param("m3", 0.0, 10.0, "the node's own volume", 0.0)
+_PRESSURE = Param("Pa", -1e5, 1e9, "pressure (gauge)")
+
+
+def _value(body: dict, key: str, prm, source: str, where: str) -> float:
+    if key not in body:
+        if prm.default is None:
+            raise _err(source, f"{where}.{key}", f"required: {prm.description} [{prm.unit}]")
+        return prm.default
+    try:
+        v = to_si(body[key], prm.unit)
+    except ValueError as exc:
+        raise _err(source, f"{where}.{key}", str(exc)) from None
+    problem = prm.check(v)
+    if problem:
+        raise _err(source, f"{where}.{key}", f"{problem}, got {body[key]!r}")
+    return v
+
+
+def _drive(drive, prm, source: str, where: str):
+    """A signal's default drive: a value, or a table {t, value} held from each t."""
+    if not isinstance(drive, dict):
+        return _value({"value": drive}, "value", prm, source, where)
+    t, v = drive.get("t"), drive.get("value")
+    if not isinstance(t, list) or not isinstance(v, list) or len(t) != len(v) or not t:
+        raise _err(source, where, "a table needs t = [...] and value = [...] of one length")
+    ts = np.array([to_si(x, "s") for x in t])
+    if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
+        raise _err(source, f"{where}.t", "times start at 0 and increase")
+    vs = np.array([_value({"value": x}, "value", prm, source, where) for x in v])
+    return ts, vs
+
+
+def _cross_check(ctype: ComponentType, v: dict) -> str | None:
+    if ctype.name in ("relief_valve", "check_valve") and not v["rated_pressure"] > v["cracking_pressure"]:
+        return (f"rated_pressure ({v['rated_pressure'] / 1e5:g} bar) must be above cracking_pressure "
+                f"({v['cracking_pressure'] / 1e5:g} bar)")
+    if ctype.name == "pump":
+        cat = [v["volumetric_efficiency"], v["rated_speed"], v["rated_pressure"]]
+        if any(not math.isnan(x) for x in cat) and any(math.isnan(x) for x in cat):
+            return "the catalogue form needs volumetric_efficiency, rated_speed and rated_pressure together"
+        if not math.isnan(v["volumetric_efficiency"]) and v["leakage"] != 0.0:
+            return "give leakage or the catalogue's volumetric_efficiency, not both"
+        if all(math.isnan(x) for x in cat):
+            v["volumetric_efficiency"] = v["rated_speed"] = v["rated_pressure"] = None
+    return None

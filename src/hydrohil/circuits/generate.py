@@ -1,0 +1,214 @@
+"""C of a circuit (SPEC §12.6): node and state indices as constants, the components' laws (core/components.h)
+called in a fixed order, node sums in a fixed order, the modes' updates after each step, the outputs; one
+file the compiler sees whole (no table walk, no function pointer per component). The fixed-step loop runs
+the core's Butcher tableaus (core/rk.c, one source of them) over the circuit's states.
+
+Interface of the generated file (``hc_*``; :mod:`hydrohil.circuits.build` compiles and loads it):
+``hc_init(P, y, m)`` the initial state, ``hc_run(P, y, m, method, h, n, every, u, log, *rows)`` n steps with
+the inputs u[k*NU..] held over step k and a log row (NLOG columns) every ``every`` steps, ``hc_rhs(P, y, m, u,
+dy)`` the right-hand side (for the nodes' stiffness).
+"""
+
+from __future__ import annotations
+
+import math
+
+from hydrohil.circuits.circuit import Circuit
+
+PRESSURE_FLOOR = -0.99e5      # Pa gauge: node pressures are floored here, as the chambers' (HH_P_MIN)
+
+
+class Layout:
+    """Where each value of a circuit lives in the generated C: parameters P[], inputs u[], states y[], modes
+    m[], log columns."""
+
+    def __init__(self, c: Circuit):
+        self.circuit = c
+        self.params: list[tuple[str, float]] = [(f"fluid.{k}", v) for k, v in c.fluid.items()]
+        for comp in c.components.values():
+            for k, v in comp.values.items():
+                self.params.append((f"{comp.name}.{k}", math.nan if v is None else float(v)))
+        for node in c.nodes:
+            self.params.append((f"node.{node}.volume", c.node_volume(node)))
+        self.slot = {k: i for i, (k, _) in enumerate(self.params)}
+        self.inputs = list(c.inputs)
+        self.states = [f"{n}.p" for n in c.state_nodes]
+        self.modes = [f"{comp.name}.mode" for comp in c.components.values() if comp.type.modes]
+        self.mode_names = {f"{comp.name}.mode": comp.type.modes for comp in c.components.values() if comp.type.modes}
+        self.outputs: list[tuple[str, str]] = []      # (log column, SI unit)
+
+    def values(self):
+        import numpy as np
+        return np.array([v for _, v in self.params], dtype=np.float64)
+
+
+class _View:
+    """One instance as its type's emit() sees it."""
+
+    def __init__(self, lay: Layout, comp):
+        self.lay, self.comp = lay, comp
+        self.mode = f"m[{lay.modes.index(comp.name + '.mode')}]" if comp.type.modes else "0"
+
+    def par(self, key: str) -> str:
+        sig = f"{self.comp.name}.{key}"
+        if sig in self.lay.inputs:
+            return f"u[{self.lay.inputs.index(sig)}]"
+        return f"P[{self.lay.slot[sig]}]"
+
+    def p(self, port: str) -> str:
+        return _pressure(self.lay, self.comp.ports[port])
+
+    def fluid(self, key: str) -> str:
+        return f"P[{self.lay.slot['fluid.' + key]}]"
+
+
+def _pressure(lay: Layout, node: str) -> str:
+    c = lay.circuit
+    if node in c.fixed:
+        comp, key = c.fixed[node]
+        return f"P[{lay.slot[f'{comp}.{key}']}]"
+    return f"y[{c.state_nodes.index(node)}]"
+
+
+def generate(c: Circuit) -> tuple[str, Layout]:
+    """The C source of circuit ``c`` and its layout."""
+    lay = Layout(c)
+    emits = [(comp, comp.type.emit(_View(lay, comp))) for comp in c.components.values()]
+    ny, nm, nu = len(lay.states), len(lay.modes), len(lay.inputs)
+    # right-hand side: flows, then each state node's sum and capacitance, in netlist order
+    rhs, qin, cap = [], {n: [] for n in c.state_nodes}, {n: [] for n in c.state_nodes}
+    for comp, e in emits:
+        for j, (a, b, expr) in enumerate(e.flows):
+            var = f"q_{_ident(comp.name)}_{j}"
+            rhs.append(f"    const double {var} = {expr};   /* {comp.name}: {a} -> {b} */")
+            if comp.ports[a] in qin:
+                qin[comp.ports[a]].append(f"- {var}")
+            if comp.ports[b] in qin:
+                qin[comp.ports[b]].append(f"+ {var}")
+        for port, expr in e.capacitance:
+            if comp.ports[port] in cap:
+                cap[comp.ports[port]].append(expr)
+    for i, node in enumerate(c.state_nodes):
+        q = " ".join(qin[node]) or "0.0"
+        extra = " + ".join(cap[node]) or "0.0"
+        rhs.append(f"    dy[{i}] = hc_node_rate({q}, P[{lay.slot[f'node.{node}.volume']}], "
+                   f"P[{lay.slot['fluid.bulk_modulus']}], {extra});   /* {node} */")
+    updates = [f"    {e.mode_update}   /* {comp.name} */" for comp, e in emits if e.mode_update]
+    outs = []
+    for comp, e in emits:
+        for name, (expr, unit) in e.outputs.items():
+            lay.outputs.append((f"{comp.name}.{name}", unit))
+            outs.append(f"    o[{len(outs)}] = {expr};")
+    nout = len(outs)
+    cols = ["t"] + [f"{n}.p" for n in c.nodes] + [n for n, _ in lay.outputs] + lay.modes
+    lay.log_columns = cols
+    init = [f"    y[{i}] = {_initial(c, lay, node)};   /* {node} */" for i, node in enumerate(c.state_nodes)]
+    node_cols = [f"    row[LOG_NODES + {i}] = {_pressure(lay, n)};   /* {n} */" for i, n in enumerate(c.nodes)]
+    text = f"""/* GENERATED by hydrohil.circuits.generate from {c.source}: do not edit. Circuit {c.name!r}. */
+#include "core.h"
+#include "components.h"
+#include "rk.c"
+
+enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nout, 1)}, NLOG = {len(cols)} }};
+/* log columns: t, the nodes' pressures, the components' outputs, the modes */
+enum {{ LOG_T, LOG_NODES, LOG_OUTPUTS = LOG_NODES + {len(c.nodes)}, LOG_MODES = LOG_OUTPUTS + {nout} }};
+
+static void rhs(const double *y, const int64_t *m, const double *u, const double *P, double *dy)
+{{
+    (void)m; (void)u; (void)P; (void)y;
+{chr(10).join(rhs)}
+}}
+
+static void update_modes(const double *y, int64_t *m, const double *u, const double *P)
+{{
+    (void)m; (void)u; (void)P; (void)y;
+{chr(10).join(updates)}
+}}
+
+static void outputs(const double *y, const int64_t *m, const double *u, const double *P, double *o)
+{{
+    (void)m; (void)u; (void)P; (void)y; (void)o;
+{chr(10).join(outs)}
+}}
+
+/* dy/dt of the node pressures at (y, m) under inputs u (the stiffness estimate of hydrohil.circuits.run) */
+void hc_rhs(const double *P, const double *y, const int64_t *m, const double *u, double *dy)
+{{
+    rhs(y, m, u, P, dy);
+}}
+
+void hc_init(const double *P, double *y, int64_t *m)
+{{
+    int i;
+    for (i = 0; i < NM; i++)
+        m[i] = 0;
+{chr(10).join(init)}
+    update_modes(y, m, 0, P);
+}}
+
+static void log_row(double t, const double *y, const int64_t *m, const double *u, const double *P, double *row)
+{{
+    double o[NOUT];
+    int i;
+    row[LOG_T] = t;
+{chr(10).join(node_cols)}
+    outputs(y, m, u, P, o);
+    for (i = 0; i < {nout}; i++)
+        row[LOG_OUTPUTS + i] = o[i];
+    for (i = 0; i < {nm}; i++)
+        row[LOG_MODES + i] = (double)m[i];
+}}
+
+/* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it); a row every `every`
+ * steps from step 0 (the state before the step). Returns 0, or 1 when the state went non-finite (rows so far
+ * written, *rows set). */
+int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
+           const double *u, double *log, int64_t *rows)
+{{
+    const hh_tableau *tab = &HH_TABLEAUS[method];
+    double k[HH_MAX_STAGES][NY], ytmp[NY];
+    int64_t step, row = 0;
+    int s, j, i;
+    for (step = 0; step <= n; step++) {{
+        const double *uk = u + (step < n ? step : n - 1 > 0 ? n - 1 : 0) * NU;
+        if (step % every == 0)
+            log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);
+        if (step == n)
+            break;
+        for (s = 0; s < tab->stages; s++) {{
+            for (i = 0; i < NY; i++) {{
+                double acc = y[i];
+                for (j = 0; j < s; j++)
+                    acc += h * tab->a[s][j] * k[j][i];
+                ytmp[i] = acc;
+            }}
+            rhs(ytmp, m, uk, P, k[s]);
+        }}
+        for (i = 0; i < NY; i++) {{
+            double acc = y[i];
+            for (s = 0; s < tab->stages; s++)
+                acc += h * tab->b[s] * k[s][i];
+            y[i] = acc > {PRESSURE_FLOOR!r} ? acc : {PRESSURE_FLOOR!r};   /* (NaN stays NaN: caught below) */
+            if (!isfinite(acc)) {{
+                *rows = row;
+                return 1;
+            }}
+        }}
+        update_modes(y, m, uk, P);
+    }}
+    *rows = row;
+    return 0;
+}}
+"""
+    return text, lay
+
+
+def _initial(c: Circuit, lay: Layout, node: str) -> str:
+    if node in c.initial:
+        return repr(float(c.initial[node]))
+    lowest = min(c.fixed, key=lambda n: c.components[c.fixed[n][0]].values[c.fixed[n][1]])
+    return _pressure(lay, lowest)
+
+
+def _ident(name: str) -> str:
+    return "".join(ch if ch.isalnum() else "_" for ch in name)

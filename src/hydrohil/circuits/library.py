@@ -1,0 +1,180 @@
+"""The component library (SPEC §12.3): each type declares its ports, parameters (SI unit, range, description,
+default), modes and the signals a circuit may drive; its law is C (``core/components.h``), which
+:meth:`ComponentType.emit` calls with the instance's parameter slots and port pressures. A circuit
+(:mod:`hydrohil.circuits.circuit`) is a netlist of instances; :mod:`hydrohil.circuits.generate` writes its C.
+
+This first part of the library is the supply side: tank, pressure source, fixed-displacement pump, relief and
+check valves, orifice, gas-charged accumulator, hose and a plain volume. (Valves, actuators, motors and loads
+follow; the paper's rig is the circuit they make.)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Param:
+    unit: str                    # SI unit (hydrohil.circuits.units)
+    lo: float
+    hi: float
+    description: str
+    default: float | None = None  # None: required
+    lo_strict: bool = False
+
+    def check(self, v: float) -> str | None:
+        """None, or what is wrong with ``v``."""
+        if (v <= self.lo if self.lo_strict else v < self.lo) or v > self.hi:
+            return f"must be {'>' if self.lo_strict else '>='} {self.lo:g} and <= {self.hi:g} {self.unit}"
+        return None
+
+
+@dataclass
+class Emit:
+    """What one instance adds to the generated right-hand side: flows (from port, to port, C expression),
+    capacitance [m³/Pa] and volume [m³] at a port's node, the update of its mode after a step (C statement),
+    its outputs (name -> (C expression, SI unit))."""
+    flows: list = field(default_factory=list)
+    capacitance: list = field(default_factory=list)
+    volume: list = field(default_factory=list)
+    mode_update: str | None = None
+    outputs: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ComponentType:
+    name: str
+    description: str
+    ports: tuple[str, ...]
+    params: dict[str, Param]
+    modes: tuple[str, ...] = ()
+    inputs: tuple[str, ...] = ()       # parameters a circuit may drive as signals instead
+    fixes: str | None = None           # the parameter that fixes its port's pressure (tank, source)
+    derived: tuple[tuple[str, str], ...] = ()   # (key, SI unit) of values derived from the parameters
+
+    def derive(self, v: dict[str, float]) -> dict[str, float]:
+        return _DERIVE.get(self.name, lambda v: {})(v)
+
+    def emit(self, c) -> Emit:
+        """``c``: the generator's view of the instance: ``c.par(key)`` (a parameter or derived value's C, or the
+        driving signal's), ``c.p(port)`` (the port's pressure), ``c.mode`` (its mode's C lvalue), ``c.fluid(key)``."""
+        return _EMIT[self.name](c)
+
+
+def _pump_derive(v):
+    if v.get("volumetric_efficiency") is not None:
+        leak = (1.0 - v["volumetric_efficiency"]) * v["displacement"] * v["rated_speed"] / v["rated_pressure"]
+    else:
+        leak = v.get("leakage") or 0.0
+    return {"leakage_conductance": leak}
+
+
+def _valve_k(v):
+    return {"flow_gain": v["rated_flow"] / (v["rated_pressure"] - v["cracking_pressure"])}
+
+
+def _orifice_derive(v):
+    return {"flow_coefficient": v["discharge_coefficient"] * v["area"] * math.sqrt(2.0 / v["density"])}
+
+
+_DERIVE = {"pump": _pump_derive, "relief_valve": _valve_k, "check_valve": _valve_k, "orifice": _orifice_derive,
+           "accumulator": lambda v: {"min_gas_volume": v["gas_volume"] * v["min_gas_fraction"]},
+           "hose": lambda v: {"volume": math.pi * v["diameter"] ** 2 * v["length"] / 4.0}}
+
+
+def _emit_tank(c):
+    return Emit(outputs={"p": (c.par("pressure"), "Pa")})
+
+
+def _emit_pump(c):
+    q = f"hc_pump_flow({c.par('displacement')}, {c.par('speed')}, {c.par('leakage_conductance')}, " \
+        f"{c.p('inlet')}, {c.p('outlet')})"
+    return Emit(flows=[("inlet", "outlet", q)], outputs={"q": (q, "m3/s")})
+
+
+def _emit_valve(c, a, b):
+    dp = f"({c.p(a)} - {c.p(b)})"
+    q = f"hc_relief_flow((int){c.mode}, {c.par('flow_gain')}, {c.par('cracking_pressure')}, {dp})"
+    return Emit(flows=[(a, b, q)], outputs={"q": (q, "m3/s")},
+                mode_update=f"{c.mode} = hc_relief_mode((int){c.mode}, {c.par('cracking_pressure')}, {dp});")
+
+
+def _emit_orifice(c):
+    q = f"hc_sqrt_law({c.par('flow_coefficient')} * {c.par('opening')}, {c.p('a')} - {c.p('b')}, " \
+        f"{c.par('transition_pressure')})"
+    return Emit(flows=[("a", "b", q)], outputs={"q": (q, "m3/s")})
+
+
+def _emit_accumulator(c):
+    args = f"{c.par('gas_volume')}, {c.par('precharge')}, {c.par('exponent')}"
+    return Emit(capacitance=[("p", f"hc_acc_capacitance((int){c.mode}, {args}, {c.p('p')})")],
+                mode_update=f"{c.mode} = hc_acc_mode({args}, {c.par('min_gas_volume')}, {c.p('p')});",
+                outputs={"v_oil": (f"hc_acc_oil_volume({args}, {c.p('p')})", "m3")})
+
+
+def _emit_hose(c):
+    q = f"hc_hose_flow({c.par('diameter')}, {c.par('length')}, {c.fluid('density')}, {c.fluid('viscosity')}, " \
+        f"{c.p('a')} - {c.p('b')})"
+    half = f"0.5 * {c.par('volume')}"
+    return Emit(flows=[("a", "b", q)], volume=[("a", half), ("b", half)], outputs={"q": (q, "m3/s")})
+
+
+def _emit_volume(c):
+    return Emit(volume=[("p", c.par("volume"))])
+
+
+_EMIT = {"tank": _emit_tank, "pressure_source": _emit_tank, "pump": _emit_pump,
+         "relief_valve": lambda c: _emit_valve(c, "p", "t"), "check_valve": lambda c: _emit_valve(c, "a", "b"),
+         "orifice": _emit_orifice, "accumulator": _emit_accumulator, "hose": _emit_hose, "volume": _emit_volume}
+
+_P = 1e9      # Pa: the ranges' upper bound for pressures (10 000 bar)
+TYPES: dict[str, ComponentType] = {t.name: t for t in (
+    ComponentType("tank", "reservoir at a fixed pressure", ("p",),
+                  {"pressure": Param("Pa", -1e5, _P, "tank pressure (gauge)", 0.0)}, fixes="pressure"),
+    ComponentType("pressure_source", "ideal pressure source (an ideal supply)", ("p",),
+                  {"pressure": Param("Pa", -1e5, _P, "supply pressure (gauge)")}, fixes="pressure"),
+    ComponentType("pump", "fixed-displacement pump: q = D*n - Cl*(p_out - p_in)", ("inlet", "outlet"),
+                  {"displacement": Param("m3/rev", 0.0, 1e-2, "displacement per revolution", lo_strict=True),
+                   "speed": Param("rev/s", 0.0, 1e3, "shaft speed (or the signal pump.speed)"),
+                   "leakage": Param("m3/(s.Pa)", 0.0, 1e-6, "leakage conductance Cl", 0.0),
+                   "volumetric_efficiency": Param("-", 0.0, 1.0, "catalogue: eta_v at rated speed and pressure "
+                                                  "(gives Cl)", math.nan, lo_strict=True),
+                   "rated_speed": Param("rev/s", 0.0, 1e3, "catalogue: rated speed", math.nan, lo_strict=True),
+                   "rated_pressure": Param("Pa", 0.0, _P, "catalogue: rated pressure", math.nan, lo_strict=True)},
+                  inputs=("speed",), derived=(("leakage_conductance", "m3/(s.Pa)"),)),
+    ComponentType("relief_valve", "direct-operated relief valve: closed below p_cr, q = K*(dp - p_cr) above",
+                  ("p", "t"),
+                  {"cracking_pressure": Param("Pa", 0.0, _P, "cracking pressure p_cr", lo_strict=True),
+                   "rated_flow": Param("m3/s", 0.0, 1.0, "rated flow Q_r", lo_strict=True),
+                   "rated_pressure": Param("Pa", 0.0, _P, "pressure at the rated flow (> p_cr)", lo_strict=True)},
+                  modes=("closed", "open"), derived=(("flow_gain", "m3/(s.Pa)"),)),
+    ComponentType("check_valve", "check valve: flow a -> b once dp > the cracking pressure", ("a", "b"),
+                  {"cracking_pressure": Param("Pa", 0.0, _P, "cracking pressure difference", lo_strict=True),
+                   "rated_flow": Param("m3/s", 0.0, 1.0, "rated flow", lo_strict=True),
+                   "rated_pressure": Param("Pa", 0.0, _P, "pressure difference at the rated flow",
+                                           lo_strict=True)},
+                  modes=("closed", "open"), derived=(("flow_gain", "m3/(s.Pa)"),)),
+    ComponentType("orifice", "sharp-edged orifice: q = Cd*A*sqrt(2|dp|/rho), laminar near dp = 0", ("a", "b"),
+                  {"area": Param("m2", 0.0, 1.0, "area", lo_strict=True),
+                   "discharge_coefficient": Param("-", 0.0, 1.0, "Cd", 0.61, lo_strict=True),
+                   "transition_pressure": Param("Pa", 0.0, 1e7, "pressure difference of the laminar transition",
+                                                1e5, lo_strict=True),
+                   "opening": Param("-", 0.0, 1.0, "fraction of the area open (or the signal NAME.opening)", 1.0)},
+                  inputs=("opening",), derived=(("flow_coefficient", "m3/s/sqrt(Pa)"),)),
+    ComponentType("accumulator", "gas-charged accumulator, polytropic gas", ("p",),
+                  {"gas_volume": Param("m3", 0.0, 10.0, "nominal gas volume V0", lo_strict=True),
+                   "precharge": Param("Pa", 0.0, _P, "precharge pressure p0 (gauge)", lo_strict=True),
+                   "exponent": Param("-", 1.0, 1.4, "polytropic exponent n", 1.4),
+                   "min_gas_fraction": Param("-", 0.0, 1.0, "gas left when full, of V0", 0.05, lo_strict=True)},
+                  modes=("empty", "working", "full"), derived=(("min_gas_volume", "m3"),)),
+    ComponentType("hose", "hose / line: laminar or turbulent resistance, its volume at its ends", ("a", "b"),
+                  {"diameter": Param("m", 0.0, 1.0, "inner diameter", lo_strict=True),
+                   "length": Param("m", 0.0, 1e3, "length", lo_strict=True)}, derived=(("volume", "m3"),)),
+    ComponentType("volume", "a volume of oil at a node (a block's bores, a manifold)", ("p",),
+                  {"volume": Param("m3", 0.0, 10.0, "volume", lo_strict=True)}),
+)}
+
+FLUID = {"density": Param("kg/m3", 500.0, 2000.0, "density", 860.0),
+         "bulk_modulus": Param("Pa", 1e7, 1e11, "effective bulk modulus (constant)", 1.4e9),
+         "viscosity": Param("m2/s", 1e-7, 1e-2, "kinematic viscosity", 46e-6)}

@@ -1,0 +1,133 @@
+"""Running a circuit offline: the compiled model (:mod:`hydrohil.circuits.build`) at a fixed step with one of
+the core's explicit methods, its inputs from the circuit's default drive or given here."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hydrohil.circuits.build import compile_circuit
+from hydrohil.circuits.circuit import Circuit
+from hydrohil.errors import InputError, SimulationDiverged
+
+METHODS = ("euler", "heun", "rk3", "rk4")       # the core's tableaus, in its order (HH_EULER ..)
+
+
+@dataclass
+class CircuitResult:
+    columns: dict[str, np.ndarray]      # "t", "<node>.p", "<component>.<output>", "<component>.mode" (index)
+    units: dict[str, str]
+    mode_names: dict[str, tuple[str, ...]]
+    h: float
+    method: str
+
+    def column(self, name: str) -> np.ndarray:
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise InputError(f"no column {name!r} (columns: {', '.join(self.columns)})") from None
+
+
+def input_table(c: Circuit, n: int, h: float, inputs: dict | None = None) -> np.ndarray:
+    """The inputs of steps 0..n-1 (n x NU): each signal's drive (a value, or (t, values) held from each t),
+    ``inputs`` replacing the circuit's defaults."""
+    drives = {**c.inputs, **(inputs or {})}
+    unknown = set(drives) - set(c.inputs)
+    if unknown:
+        raise InputError(f"not an input of circuit {c.name!r}: {sorted(unknown)[0]} (inputs: "
+                         f"{', '.join(c.inputs) or 'none'})", key="inputs")
+    u = np.zeros((max(n, 1), max(len(c.inputs), 1)))
+    t = np.arange(max(n, 1)) * h
+    for j, name in enumerate(c.inputs):
+        d = drives[name]
+        if isinstance(d, tuple):
+            ts, vs = d
+            u[:, j] = vs[np.searchsorted(ts, t + 1e-12 * h, side="right") - 1]
+        else:
+            u[:, j] = float(d)
+    return u
+
+
+def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
+                     inputs: dict | None = None) -> CircuitResult:
+    """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. Raises
+    SimulationDiverged with the time, the modes and the node pressures when the state leaves the finite."""
+    if method not in METHODS:
+        raise InputError(f"one of {', '.join(METHODS)}, got {method!r}", key="method")
+    if not (h > 0 and duration >= 0 and every >= 1):
+        raise InputError(f"need h > 0, duration >= 0, every >= 1 (got {h}, {duration}, {every})")
+    cc = compile_circuit(c)
+    lay = cc.layout
+    n = int(round(duration / h))
+    u = np.ascontiguousarray(input_table(c, n, h, inputs))
+    P = np.ascontiguousarray(lay.values())
+    y = np.zeros(max(len(lay.states), 1))
+    m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
+    ffi, lib = cc.ffi, cc.lib
+    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y), ffi.from_buffer("int64_t[]", m))
+    log = np.zeros((n // every + 1, len(lay.log_columns)))
+    rows = ffi.new("int64_t *")
+    status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
+                        ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
+                        ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows)
+    log = log[:rows[0]]
+    if status != 0:
+        k = int(rows[0]) * every
+        modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
+        raise SimulationDiverged(k * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
+                                 "a node pressure is not finite")
+    units = {"t": "s", **{f"{nd}.p": "Pa" for nd in c.nodes}, **dict(lay.outputs), **{md: "-" for md in lay.modes}}
+    return CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, units, lay.mode_names, h,
+                         method)
+
+
+@dataclass
+class NodeStiffness:
+    node: str
+    volume: float           # [m3]
+    lam: float              # largest -d(dp/dt)/dp over the states sampled [1/s]
+    lam_h: float
+    limit: float            # the method's stability interval |lambda*h|
+
+    @property
+    def stable(self) -> bool:
+        return self.lam_h < self.limit
+
+    def treatment(self, method: str, h: float) -> str:
+        if self.stable:
+            return f"explicit {method}: lambda*h = {self.lam_h:.3g} < {self.limit:g}"
+        return (f"too stiff for {method} at {h * 1e3:g} ms: lambda*h = {self.lam_h:.3g} > {self.limit:g} (give the "
+                f"node more volume, or make it one node with its neighbour; quasi-static nodes are not in this "
+                f"version)")
+
+
+def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list[NodeStiffness]:
+    """Each pressure node's stiffness (SPEC §12.4): lambda = -d(dp/dt)/dp by central differences of the
+    compiled right-hand side, the largest over ``samples`` states of the run ``res``, against the stability
+    interval of its method at its step."""
+    from hydrohil.core import lib as core
+    cc = compile_circuit(c)
+    lay, ffi = cc.layout, cc.ffi
+    P = np.ascontiguousarray(lay.values())
+    n = len(res.columns["t"])
+    dt_row = res.columns["t"][1] - res.columns["t"][0] if n > 1 else res.h
+    u_all = input_table(c, max(n, 1), dt_row)          # the inputs at the rows' times
+    limit = core.hh_real_axis_limit(METHODS.index(res.method))
+    lam = np.zeros(len(lay.states))
+    dy_hi, dy_lo = np.zeros(max(len(lay.states), 1)), np.zeros(max(len(lay.states), 1))
+    for row in np.unique(np.linspace(0, n - 1, min(samples, n)).astype(int)):
+        y = np.array([res.columns[s][row] for s in lay.states])
+        m = np.array([res.columns[md][row] for md in lay.modes] or [0], dtype=np.int64)
+        u = np.ascontiguousarray(u_all[min(row, len(u_all) - 1)])
+        for i in range(len(lay.states)):
+            d = max(1e3, 1e-6 * abs(y[i]))
+            for sign, out in ((1, dy_hi), (-1, dy_lo)):
+                yy = y.copy()
+                yy[i] += sign * d
+                cc.lib.hc_rhs(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", yy),
+                              ffi.from_buffer("int64_t[]", m), ffi.from_buffer("double[]", u),
+                              ffi.from_buffer("double[]", out))
+            lam[i] = max(lam[i], -(dy_hi[i] - dy_lo[i]) / (2 * d))
+    return [NodeStiffness(node, c.node_volume(node), float(lam[i]), float(lam[i] * res.h), float(limit))
+            for i, node in enumerate(c.state_nodes)]

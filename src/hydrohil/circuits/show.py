@@ -1,0 +1,153 @@
+"""What ``hydrohil circuit show`` prints: a circuit's components with their parameters (SI, as the file wrote
+them, derived values), its nodes (fixed or a pressure state, volume, initial pressure, stiffness at the step
+and the method's treatment), states, modes, inputs and signals with units; and ``circuit run``'s files."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from hydrohil.circuits.circuit import Circuit
+from hydrohil.circuits.generate import Layout
+from hydrohil.circuits.run import CircuitResult, node_stiffness, simulate_circuit
+
+
+def default_duration(c: Circuit) -> float:
+    """Long enough to see the default drive: its last change + 2 s (at least 2 s)."""
+    last = max((float(d[0][-1]) for d in c.inputs.values() if isinstance(d, tuple)), default=0.0)
+    return max(2.0, last + 2.0)
+
+
+def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3") -> dict:
+    """The circuit as data (``circuit show --json``); the nodes' stiffness from a run of its default drive."""
+    res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20)
+    stiff = {s.node: s for s in node_stiffness(c, res)}
+    lay = Layout(c)
+    comps = []
+    for comp in c.components.values():
+        prm = [{"key": k, "value": _num(comp.values[k]), "unit": p.unit, "description": p.description,
+                "given": comp.given.get(k), "signal": f"{comp.name}.{k}" in c.inputs}
+               for k, p in comp.type.params.items() if comp.values.get(k) is not None]
+        comps.append({"name": comp.name, "type": comp.type.name, "description": comp.type.description,
+                      "ports": comp.ports, "parameters": prm,
+                      "derived": [{"key": k, "value": comp.values[k], "unit": u} for k, u in comp.type.derived],
+                      "modes": list(comp.type.modes)})
+    nodes = []
+    for node in c.nodes:
+        d = {"name": node, "volume_m3": c.node_volume(node)}
+        if node in c.fixed:
+            comp, key = c.fixed[node]
+            d.update(fixed_by=comp, pressure_pa=c.components[comp].values[key])
+        else:
+            s = stiff[node]
+            d.update(initial_pa=float(res.column(f"{node}.p")[0]), stiffness_per_s=s.lam, lambda_h=s.lam_h,
+                     stability_limit=s.limit, treatment=s.treatment(method, h))
+        nodes.append(d)
+    signals = [{"name": n, "unit": res.units[n]} for n in res.columns]
+    return {"name": c.name, "source": c.source, "step_s": h, "method": method,
+            "fluid": [{"key": k, "value": v} for k, v in c.fluid.items()], "components": comps, "nodes": nodes,
+            "states": [{"name": s, "unit": "Pa"} for s in lay.states],
+            "modes": [{"name": m, "values": list(lay.mode_names[m])} for m in lay.modes],
+            "inputs": [{"name": n, "unit": _input_unit(c, n), "drive": _drive_text(d)} for n, d in c.inputs.items()],
+            "signals": signals}
+
+
+def _num(v):
+    return None if v is None or (isinstance(v, float) and math.isnan(v)) else v
+
+
+def _input_unit(c: Circuit, sig: str) -> str:
+    comp, _, key = sig.partition(".")
+    return c.components[comp].type.params[key].unit
+
+
+def _drive_text(d) -> str:
+    if isinstance(d, tuple):
+        return ", ".join(f"{v:g} from {t:g} s" for t, v in zip(*d))
+    return f"{d:g}"
+
+
+def text(d: dict) -> str:
+    """The data of :func:`describe` for a person."""
+    out = [f"circuit {d['name']}  ({d['source']})", "fluid: " + ", ".join(f"{f['key']} {f['value']:g}" for f in d["fluid"])
+           + "  [kg/m3, Pa, m2/s]", "", "components:"]
+    for comp in d["components"]:
+        ports = ", ".join(f"{p} = {n}" for p, n in comp["ports"].items())
+        out.append(f"  {comp['name']}  ({comp['type']}: {comp['description']})  ports: {ports}")
+        for p in comp["parameters"]:
+            given = f"  (file: {p['given']})" if p["given"] and p["given"] != repr(p["value"]) else ""
+            sig = "  signal" if p["signal"] else ""
+            value = "driven" if p["signal"] else f"{p['value']:g}"
+            out.append(f"    {p['key']:<24} {value:>12} {p['unit']:<10} {p['description']}{given}{sig}")
+        for x in comp["derived"]:
+            out.append(f"    {x['key']:<24} {x['value']:>12.6g} {x['unit']:<10} derived")
+    out += ["", f"nodes (stiffness over a run of the default drive, {d['method']} at {d['step_s'] * 1e3:g} ms):"]
+    for n in d["nodes"]:
+        if "fixed_by" in n:
+            out.append(f"  {n['name']:<14} fixed at {n['pressure_pa'] / 1e5:g} bar by {n['fixed_by']}")
+        else:
+            out.append(f"  {n['name']:<14} pressure state, volume {n['volume_m3'] * 1e3:.4g} l, initially "
+                       f"{n['initial_pa'] / 1e5:g} bar; stiffness {n['stiffness_per_s']:.4g} 1/s: {n['treatment']}")
+    out += ["", "states: " + ", ".join(f"{s['name']} [{s['unit']}]" for s in d["states"]),
+            "modes: " + (", ".join(f"{m['name']} ({'|'.join(m['values'])})" for m in d["modes"]) or "none"),
+            "inputs: " + (", ".join(f"{i['name']} [{i['unit']}] = {i['drive']}" for i in d["inputs"]) or "none"),
+            "signals: " + ", ".join(f"{s['name']} [{s['unit']}]" for s in d["signals"])]
+    return "\n".join(out) + "\n"
+
+
+def write_run(res: CircuitResult, out: Path, title: str) -> list[Path]:
+    """``log.csv`` (a column per signal, SI; modes by name) and ``plot.png`` (pressures in bar, flows in l/min,
+    modes) into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    names = list(res.columns)
+    with open(out / "log.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow([f"{n} [{res.units[n]}]" for n in names])
+        cols = [res.columns[n] for n in names]
+        for i in range(len(cols[0])):
+            w.writerow([res.mode_names[n][int(c[i])] if n in res.mode_names else repr(float(c[i]))
+                        for n, c in zip(names, cols)])
+    return [out / "log.csv", plot_run(res, out / "plot.png", title)]
+
+
+def plot_run(res: CircuitResult, path: Path, title: str) -> Path:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    t = res.columns["t"]
+    pres = [n for n, u in res.units.items() if u == "Pa" and np.ptp(res.columns[n]) > 0]
+    flows = [n for n, u in res.units.items() if u == "m3/s"]
+    modes = list(res.mode_names)
+    fig, axes = plt.subplots(3 if modes else 2, 1, figsize=(10, 8 if modes else 6.5), sharex=True,
+                             gridspec_kw={"height_ratios": [3, 3, 0.5 + 0.5 * len(modes)] if modes else [3, 3]})
+    for n in pres:
+        axes[0].plot(t, res.columns[n] / 1e5, label=n)
+    axes[0].set_ylabel("pressure [bar]")
+    for n in flows:
+        axes[1].plot(t, res.columns[n] * 60e3, label=n)
+    axes[1].set_ylabel("flow [l/min]")
+    for ax in axes[:2]:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=8, ncol=2)
+    if modes:                       # a strip per component with modes, a colour per mode value
+        ax, colour = axes[2], 0
+        for i, n in enumerate(modes):
+            m = res.columns[n].astype(int)
+            for j, name in enumerate(res.mode_names[n]):
+                if np.any(m == j):
+                    ax.fill_between(t, i - 0.4, i + 0.4, where=m == j, step="post", color=f"C{colour % 10}",
+                                    alpha=0.6, label=f"{n.rsplit('.', 1)[0]}: {name}")
+                colour += 1
+        ax.set_yticks(range(len(modes)), [n.rsplit(".", 1)[0] for n in modes])
+        ax.set_ylim(-0.6, len(modes) - 0.4)
+        ax.legend(loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=8)
+        ax.set_title("modes", fontsize=9, loc="left")
+    axes[-1].set_xlabel("t [s]")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,50 @@
+"""Catalogue units at the boundary of a circuit file (SPEC §12.3): a value is a number in SI units, or a string
+``"<number> <unit>"`` in one of :data:`UNITS` (bar, l/min, cm³/rev, rpm, mm, ...), converted here once; every
+value inside hydrohil is SI."""
+
+from __future__ import annotations
+
+import math
+import re
+
+# unit -> (factor to SI, SI unit)
+UNITS: dict[str, tuple[float, str]] = {
+    "Pa": (1.0, "Pa"), "kPa": (1e3, "Pa"), "bar": (1e5, "Pa"), "MPa": (1e6, "Pa"), "psi": (6894.757293168, "Pa"),
+    "m3/s": (1.0, "m3/s"), "l/min": (1e-3 / 60.0, "m3/s"), "l/s": (1e-3, "m3/s"), "cm3/s": (1e-6, "m3/s"),
+    "m3": (1.0, "m3"), "l": (1e-3, "m3"), "cm3": (1e-6, "m3"), "mm3": (1e-9, "m3"),
+    "m3/rev": (1.0, "m3/rev"), "cm3/rev": (1e-6, "m3/rev"),
+    "rev/s": (1.0, "rev/s"), "rpm": (1.0 / 60.0, "rev/s"),
+    "m": (1.0, "m"), "mm": (1e-3, "m"), "cm": (1e-2, "m"),
+    "m2": (1.0, "m2"), "mm2": (1e-6, "m2"), "cm2": (1e-4, "m2"),
+    "kg/m3": (1.0, "kg/m3"), "m2/s": (1.0, "m2/s"), "cSt": (1e-6, "m2/s"), "mm2/s": (1e-6, "m2/s"),
+    "m3/(s.Pa)": (1.0, "m3/(s.Pa)"), "(l/min)/bar": (1e-3 / 60.0 / 1e5, "m3/(s.Pa)"),
+    "s": (1.0, "s"), "ms": (1e-3, "s"), "-": (1.0, "-"), "%": (0.01, "-"),
+}
+_VALUE = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S.*?)?\s*$")
+
+
+def to_si(value, si_unit: str) -> float:
+    """``value`` (a number in ``si_unit``, or "number unit") in ``si_unit``; ValueError naming what is accepted."""
+    if isinstance(value, bool):
+        raise ValueError(f"expected a number in {si_unit}, got {value!r}")
+    if isinstance(value, (int, float)):
+        v = float(value)
+    elif isinstance(value, str):
+        m = _VALUE.match(value)
+        if not m:
+            raise ValueError(f"expected a number or \"<number> <unit>\", got {value!r}")
+        unit = m.group(2) or si_unit
+        unit = unit.replace("³", "3").replace("²", "2").replace("·", ".")
+        if unit not in UNITS:
+            raise ValueError(f"unknown unit {unit!r} in {value!r} ({si_unit} wanted; units: "
+                             f"{', '.join(u for u, (_, s) in UNITS.items() if s == si_unit)})")
+        factor, si = UNITS[unit]
+        if si != si_unit:
+            raise ValueError(f"{value!r} is in {si}, {si_unit} is wanted (units: "
+                             f"{', '.join(u for u, (_, s) in UNITS.items() if s == si_unit)})")
+        v = float(m.group(1)) * factor
+    else:
+        raise ValueError(f"expected a number in {si_unit} or \"<number> <unit>\", got {value!r}")
+    if not math.isfinite(v):
+        raise ValueError(f"not a finite number: {value!r}")
+    return v

@@ -1,0 +1,253 @@
+"""Circuits (issue #27, first part): the supply-side components against their closed forms, computed here
+independently of the C (textbook formulas, root finding, quadrature), each through a generated and compiled
+circuit; catalogue units; errors that name the file, the component and the key; the example circuit."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from scipy.optimize import brentq
+
+from hydrohil.circuits.circuit import circuit_from_dict, load_circuit
+from hydrohil.circuits.run import node_stiffness, simulate_circuit
+from hydrohil.circuits.units import to_si
+from hydrohil.errors import InputError
+
+RHO, BETA, NU = 860.0, 1.4e9, 46e-6
+FLUID = {"density": RHO, "bulk_modulus": BETA, "viscosity": NU}
+
+
+def circuit(components, **extra):
+    return circuit_from_dict({"name": "test", "fluid": FLUID, "components": components, **extra}, "test.toml")
+
+
+def at_start(c, column):
+    """An output at t = 0 (the initial state given): the component's law at known pressures."""
+    return simulate_circuit(c, 0.0).column(column)[0]
+
+
+def test_catalogue_units_convert_at_the_boundary():
+    assert to_si("150 bar", "Pa") == 150e5
+    assert to_si("40 l/min", "m3/s") == pytest.approx(40e-3 / 60, rel=1e-15)
+    assert to_si("16 cm³/rev", "m3/rev") == pytest.approx(16e-6, rel=1e-15)
+    assert to_si("1500 rpm", "rev/s") == 25.0
+    assert to_si(0.25, "m") == 0.25
+    with pytest.raises(ValueError, match="in Pa, m3/s is wanted"):
+        to_si("3 bar", "m3/s")
+    with pytest.raises(ValueError, match="unknown unit 'furlong'"):
+        to_si("3 furlong", "m")
+
+
+def test_orifice_flow_is_the_textbook_value_and_laminar_near_zero():
+    """q = Cd*A*sqrt(2*dp/rho): 0.61 * 1 mm2 at 100 bar in oil of 860 kg/m3 = 5.58 l/min."""
+    def make(p_node):
+        return circuit({"src": {"type": "pressure_source", "p": "s", "pressure": "100 bar"},
+                        "tank": {"type": "tank", "p": "t"},
+                        "o": {"type": "orifice", "a": "s", "b": "n", "area": "1 mm2"},
+                        "v": {"type": "volume", "p": "n", "volume": "1 l"},
+                        "o2": {"type": "orifice", "a": "n", "b": "t", "area": "1 mm2"}},
+                       initial={"n": p_node})
+    q = at_start(make(0.0), "o.q")
+    assert q * 60e3 == pytest.approx(0.61e-6 * math.sqrt(2 * 100e5 / RHO) * 60e3, rel=1e-12)
+    assert 5.57 < q * 60e3 < 5.59
+    # within the transition (dp < 1 bar) the flow is below the square-root law and goes to 0 linearly
+    q_small = at_start(make(100e5 - 0.01e5), "o.q")
+    assert 0 < q_small < 0.61e-6 * math.sqrt(2 * 0.01e5 / RHO)
+
+
+def test_relief_valve_holds_its_pressure_at_a_given_flow():
+    """A pump of constant flow Q (no leakage) into a relief valve: p = p_cr + Q/K, K = Q_r/(p_r - p_cr)."""
+    c = circuit({"tank": {"type": "tank", "p": "t"},
+                 "pump": {"type": "pump", "inlet": "t", "outlet": "n", "displacement": "10 cm3/rev",
+                          "speed": "1200 rpm"},
+                 "relief": {"type": "relief_valve", "p": "n", "t": "t", "cracking_pressure": "120 bar",
+                            "rated_flow": "30 l/min", "rated_pressure": "140 bar"},
+                 "v": {"type": "volume", "p": "n", "volume": "2 l"}})
+    r = simulate_circuit(c, 3.0)
+    q = 10e-6 * 20.0
+    k = (30e-3 / 60) / 20e5
+    assert r.column("n.p")[-1] == pytest.approx(120e5 + q / k, rel=1e-13)     # (measured: 2e-15)
+    assert r.column("relief.q")[-1] == pytest.approx(q, rel=1e-13)
+    modes = r.column("relief.mode")
+    assert modes[0] == 0 and modes[-1] == 1 and np.all(np.diff(modes) >= 0)     # closed, then open for good
+    # the cracking instant: the node fills at Q through its compressibility until p_cr (closed form)
+    t_crack = 2e-3 / BETA * 120e5 / q
+    t_open = r.column("t")[np.argmax(modes == 1)]
+    assert 0 <= t_open - t_crack <= r.h           # the first step after the guard is crossed
+
+
+def test_accumulator_charges_along_its_polytropic_curve():
+    """A pump of constant flow into an accumulator (precharge 50 bar, n = 1.4) and a small volume: the oil
+    pumped in equals the accumulator's oil volume plus the volume's compression at every instant;
+    dV_oil/dp integrates to V_oil."""
+    v0, p0, n = 0.5e-3, 50e5, 1.4
+    c = circuit({"tank": {"type": "tank", "p": "t"},
+                 "pump": {"type": "pump", "inlet": "t", "outlet": "n", "displacement": "20 cm3/rev",
+                          "speed": "1500 rpm"},
+                 "acc": {"type": "accumulator", "p": "n", "gas_volume": v0, "precharge": p0, "exponent": n},
+                 "v": {"type": "volume", "p": "n", "volume": "0.05 l"}},
+                initial={"n": p0 + 1.0})
+
+    def v_oil(p):                       # the textbook polytropic law, absolute pressures
+        return v0 - v0 * ((p0 + 1e5) / (p + 1e5)) ** (1 / n) if p > p0 else 0.0
+    r = simulate_circuit(c, 0.5)
+    q = 20e-6 * 25.0
+    t, p = r.column("t"), r.column("n.p")
+    pumped = q * t
+    stored = np.array([v_oil(x) for x in p]) - v_oil(p0 + 1.0) + 0.05e-3 / BETA * (p - p0 - 1.0)
+    assert np.max(np.abs(stored - pumped)) < 2e-13          # RK3 at 0.5 ms: 5.3e-14 m3 of 0.25 l (measured)
+    assert r.column("acc.v_oil")[-1] == pytest.approx(v_oil(p[-1]), rel=1e-12)
+    assert p[-1] > 100e5 and r.column("acc.mode")[-1] == 1                   # working, charged well past p0
+    cap = quad(lambda x: v0 * (p0 + 1e5) ** (1 / n) / (n * (x + 1e5) ** (1 + 1 / n)), p0, 150e5)[0]
+    assert cap == pytest.approx(v_oil(150e5), rel=1e-9)
+
+
+def test_check_valve_cracks_and_feeds_an_orifice():
+    """Source 50 bar -> check valve (cracks at 5 bar, 10 l/min at 15 bar) -> node -> orifice to tank: in steady
+    state K*(50 bar - p - 5 bar) = Cd*A*sqrt(2p/rho) (the root found here by brentq)."""
+    c = circuit({"src": {"type": "pressure_source", "p": "s", "pressure": "50 bar"},
+                 "tank": {"type": "tank", "p": "t"},
+                 "check": {"type": "check_valve", "a": "s", "b": "n", "cracking_pressure": "5 bar",
+                           "rated_flow": "10 l/min", "rated_pressure": "15 bar"},
+                 "v": {"type": "volume", "p": "n", "volume": "1 l"},
+                 "o": {"type": "orifice", "a": "n", "b": "t", "area": "2 mm2"}})
+    k = (10e-3 / 60) / 10e5
+    p = brentq(lambda x: k * (50e5 - x - 5e5) - 0.61 * 2e-6 * math.sqrt(2 * x / RHO), 1e5, 45e5, xtol=1e-6)
+    r = simulate_circuit(c, 4.0)
+    assert r.column("n.p")[-1] == pytest.approx(p, rel=1e-13)             # (measured: 3e-14)
+    assert r.column("check.mode")[-1] == 1
+    # reversed (the node above the source): closed, no flow
+    rev = circuit({"src": {"type": "pressure_source", "p": "s", "pressure": "50 bar"},
+                   "check": {"type": "check_valve", "a": "s", "b": "n", "cracking_pressure": "5 bar",
+                             "rated_flow": "10 l/min", "rated_pressure": "15 bar"},
+                   "v": {"type": "volume", "p": "n", "volume": "1 l"}}, initial={"n": "80 bar"})
+    r = simulate_circuit(rev, 0.5)
+    assert np.all(r.column("check.q") == 0.0) and np.all(r.column("n.p") == 80e5)
+
+
+def test_hose_laminar_and_turbulent_resistance():
+    """10 mm x 2 m hose, 46 cSt: laminar dp = 128*mu*L*q/(pi*d^4) (0.54 bar at 10 l/min); at 5 bar (Re ~ 4000)
+    the turbulent law (Blasius, the velocity solved here from the friction-factor form) gives the flow."""
+    def flow(dp):
+        c = circuit({"src": {"type": "pressure_source", "p": "s", "pressure": dp},
+                     "tank": {"type": "tank", "p": "t"},
+                     "h": {"type": "hose", "a": "s", "b": "n", "diameter": "10 mm", "length": "2 m"},
+                     "o": {"type": "orifice", "a": "n", "b": "t", "area": "1 mm2"}},
+                    initial={"n": 0.0})
+        return at_start(c, "h.q")
+    mu = RHO * NU
+    r_lam = 128 * mu * 2.0 / (math.pi * 0.01 ** 4)
+    q = 10e-3 / 60
+    assert flow(r_lam * q) == pytest.approx(q, rel=1e-12)
+    assert 0.53e5 < r_lam * q < 0.55e5
+    dp = 5e5                              # well turbulent: Re ~ 4000
+    area = math.pi * 0.01 ** 2 / 4
+    v = brentq(lambda v: 0.3164 * (v * 0.01 / NU) ** -0.25 * (2.0 / 0.01) * RHO * v * v / 2 - dp, 0.01, 100)
+    assert v * 0.01 / NU > 2300
+    assert flow(dp) == pytest.approx(v * area, rel=1e-9)
+
+
+def test_pump_catalogue_form():
+    """eta_v = 0.92 at 1500 rpm and 250 bar: at that pressure the pump gives 92 % of D*n."""
+    c = circuit({"tank": {"type": "tank", "p": "t"},
+                 "pump": {"type": "pump", "inlet": "t", "outlet": "n", "displacement": "28 cm3/rev",
+                          "speed": "1500 rpm", "volumetric_efficiency": 0.92, "rated_speed": "1500 rpm",
+                          "rated_pressure": "250 bar"},
+                 "v": {"type": "volume", "p": "n", "volume": "1 l"}}, initial={"n": "250 bar"})
+    assert at_start(c, "pump.q") == pytest.approx(0.92 * 28e-6 * 25.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("change, where, message", [
+    ({"relief": {"cracking_pressure": "160 psu"}}, "components.relief.cracking_pressure", "unknown unit 'psu'"),
+    ({"relief": {"cracking_pressure": "16 l/min"}}, "components.relief.cracking_pressure", "is in m3/s, Pa is wanted"),
+    ({"relief": {"rated_pressure": "150 bar"}}, "components.relief", "must be above cracking_pressure"),
+    ({"accumulator": {"exponent": 1.6}}, "components.accumulator.exponent", "must be >= 1 and <= 1.4"),
+    ({"accumulator": {"colour": "red"}}, "components.accumulator.colour", "not a parameter of a accumulator"),
+    ({"load": {"type": "nozzle"}}, "components.load.type", "unknown component type 'nozzle'"),
+    ({"line": {"b": None}}, "components.line.b", "port b of a hose needs a node name"),
+])
+def test_a_circuit_error_names_the_file_the_component_and_the_key(change, where, message):
+    import copy
+    import tomllib
+    from hydrohil.circuits.circuit import CIRCUITS_DIR
+    data = tomllib.loads((CIRCUITS_DIR / "pump_relief_accumulator" / "circuit.toml").read_text())
+    data = copy.deepcopy(data)
+    for comp, kv in change.items():
+        for k, v in kv.items():
+            if v is None:
+                data["components"][comp].pop(k)
+            else:
+                data["components"][comp][k] = v
+    with pytest.raises(InputError) as e:
+        circuit_from_dict(data, "my_rig.toml")
+    assert str(e.value).startswith(f"my_rig.toml: {where}: ") and message in str(e.value)
+
+
+def test_a_node_without_volume_and_a_circuit_without_return_are_refused():
+    with pytest.raises(InputError, match="nodes.n: this node has no volume"):
+        circuit({"tank": {"type": "tank", "p": "t"},
+                 "o": {"type": "orifice", "a": "t", "b": "n", "area": "1 mm2"}})
+    with pytest.raises(InputError, match="no tank or pressure source"):
+        circuit({"v": {"type": "volume", "p": "n", "volume": "1 l"}})
+
+
+def test_the_supply_sags_while_the_load_draws_and_recovers():
+    """examples/circuits/pump_relief_accumulator: the load orifice opens at 2 s and draws more than the pump
+    gives: the supply falls below the relief setting, the accumulator gives oil; closed again at 4 s, the
+    supply comes back to the relief valve's pressure at the pump's flow (p_cr + Q/K)."""
+    c = load_circuit("pump_relief_accumulator")
+    r = simulate_circuit(c, 8.0)
+    t, ps, v_oil, relief = r.column("t"), r.column("supply.p"), r.column("accumulator.v_oil"), r.column("relief.mode")
+    pump_q = r.column("pump.q")[np.searchsorted(t, 1.99)]
+    k = (40e-3 / 60) / 15e5
+    held = 160e5 + (pump_q - r.column("load.q")[np.searchsorted(t, 1.99)]) / k
+    assert ps[np.searchsorted(t, 1.99)] == pytest.approx(held, rel=5e-10)     # (measured: 1.5e-10, settling)
+    during = (t > 2.2) & (t < 4.0)
+    assert np.all(ps[during] < 160e5) and np.all(relief[during] == 0)
+    assert v_oil[np.searchsorted(t, 3.99)] < v_oil[np.searchsorted(t, 1.99)] - 40e-6   # the accumulator gave oil
+    assert ps[-1] == pytest.approx(held, rel=3e-12) and relief[-1] == 1                # recovered (8e-13)
+    for s in node_stiffness(c, r):
+        assert s.stable, s.treatment("rk3", r.h)
+
+
+def test_rk3_at_half_a_millisecond_against_a_fine_reference():
+    """The example at the real-time step against RK4 at 1/16 of it: node pressures agree within 1500 Pa
+    (measured: 420 Pa on the load port, 19 Pa on the supply)."""
+    c = load_circuit("pump_relief_accumulator")
+    coarse = simulate_circuit(c, 6.0)
+    fine = simulate_circuit(c, 6.0, h=5e-4 / 16, method="rk4", every=16)
+    for node in ("supply.p", "load_port.p"):
+        err = np.max(np.abs(coarse.column(node) - fine.column(node)))
+        assert err < 1500, (node, err)
+
+
+def test_circuit_show_and_run_as_a_user_types_them(tmp_path):
+    """hydrohil circuit show (text and --json: signals with SI units, every node's treatment) and circuit run
+    (log.csv with units in the header, modes by name; plot.png); a bad file: exit 2, the key named, nothing
+    written."""
+    import csv
+    import json
+    from conftest import hh
+    r = hh("circuit", "show", "pump_relief_accumulator")
+    assert r.returncode == 0, r.stderr
+    assert "supply         pressure state" in r.stdout and "explicit rk3: lambda*h" in r.stdout
+    assert "cracking_pressure             1.6e+07 Pa" in r.stdout and "(file: 160 bar)" in r.stdout
+    d = json.loads(hh("circuit", "show", "pump_relief_accumulator", "--json").stdout)
+    units = {s["name"]: s["unit"] for s in d["signals"]}
+    assert units["supply.p"] == "Pa" and units["relief.q"] == "m3/s" and units["accumulator.v_oil"] == "m3"
+    assert [n["name"] for n in d["nodes"]] == ["tank", "supply", "load_port"]
+    assert all(n["lambda_h"] < n["stability_limit"] for n in d["nodes"] if "lambda_h" in n)
+    out = tmp_path / "run"
+    r = hh("circuit", "run", "pump_relief_accumulator", "--out", out)         # default: the drive's end + 2 s
+    assert r.returncode == 0, r.stderr
+    rows = list(csv.reader(open(out / "log.csv")))
+    assert rows[0][:3] == ["t [s]", "tank.p [Pa]", "supply.p [Pa]"] and len(rows) == 1 + 12001
+    relief = [row[rows[0].index("relief.mode [-]")] for row in rows[1:]]
+    assert relief[6000] == "closed" and relief[-1] == "open"                 # the load open at 3 s, closed at 6 s
+    assert (out / "plot.png").stat().st_size > 20_000
+    bad = tmp_path / "bad.toml"
+    bad.write_text(open(load_circuit("pump_relief_accumulator").source).read().replace('"40 l/min"', '"40 bar"'))
+    r = hh("circuit", "run", bad, "--out", tmp_path / "nothing")
+    assert r.returncode == 2 and "components.relief.rated_flow" in r.stderr and "m3/s is wanted" in r.stderr
+    assert not (tmp_path / "nothing").exists()
