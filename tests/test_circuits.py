@@ -251,3 +251,111 @@ def test_circuit_show_and_run_as_a_user_types_them(tmp_path):
     r = hh("circuit", "run", bad, "--out", tmp_path / "nothing")
     assert r.returncode == 2 and "components.relief.rated_flow" in r.stderr and "m3/s is wanted" in r.stderr
     assert not (tmp_path / "nothing").exists()
+
+
+def test_motor_speed_is_flow_over_displacement_and_torque_balances_friction():
+    """A 10 cm3/rev motor between 100 bar and tank, viscous friction 0.05 N.m.s/rad, efficiency 0.9: steady
+    speed w = eta*D*dp/(2 pi c) and flow D*w/(2 pi) + Cl*dp (closed forms)."""
+    d, dp, c_visc, eta, cl = 10e-6, 100e5, 0.05, 0.9, 1e-12
+    c = circuit({"src": {"type": "pressure_source", "p": "s", "pressure": dp},
+                 "tank": {"type": "tank", "p": "t"},
+                 "motor": {"type": "motor", "a": "s", "b": "t", "displacement": d, "leakage": cl, "efficiency": eta,
+                           "inertia": 0.01, "damping": c_visc}})          # (no pressure node: the motor's state only)
+    r = simulate_circuit(c, 5.0)                      # (time constant J/c = 0.2 s: 25 of them, e^-25)
+    w = eta * d * dp / (2 * math.pi * c_visc)
+    assert r.column("motor.w")[-1] == pytest.approx(w, rel=1e-9)
+    assert r.column("motor.q")[-1] == pytest.approx(d * w / (2 * math.pi) + cl * dp, rel=1e-9)
+    assert 2735 < r.column("motor.w")[-1] * 60 / (2 * math.pi) < 2736                     # rpm, by hand
+
+
+def test_cylinder_extends_at_pump_flow_over_area_then_stops_at_the_end():
+    """A pump of constant flow into the cap side of a 50/28 mm cylinder, the rod side to tank through a large
+    orifice: it extends at v = Q/A1 (closed form), stops at the end of its 0.2 m stroke (mode at_extend, v = 0)
+    and the pressure rises to the relief valve's p_cr + Q/K."""
+    q, bore, rod, stroke = 10e-3 / 60, 0.05, 0.028, 0.2
+    c = circuit({"tank": {"type": "tank", "p": "t"},
+                 "pump": {"type": "pump", "inlet": "t", "outlet": "a", "displacement": q / 25.0, "speed": 25.0},
+                 "relief": {"type": "relief_valve", "p": "a", "t": "t", "cracking_pressure": "100 bar",
+                            "rated_flow": "20 l/min", "rated_pressure": "110 bar"},
+                 "cyl": {"type": "cylinder", "a": "a", "b": "b", "bore": bore, "rod": rod, "stroke": stroke,
+                         "mass": 50.0, "damping": 2000.0, "dead_volume_a": "0.2 l", "dead_volume_b": "0.2 l"},
+                 "out": {"type": "orifice", "a": "b", "b": "t", "area": "4 mm2"}})
+    r = simulate_circuit(c, 3.0)
+    assert all(s.stable for s in node_stiffness(c, r))         # (a smaller rod-side volume or a larger outlet
+                                                               # is too stiff for 0.5 ms: circuit show says so)
+    a1 = math.pi * bore ** 2 / 4
+    t, x, v = r.column("t"), r.column("cyl.x"), r.column("cyl.v")
+    assert v[np.searchsorted(t, 1.0)] == pytest.approx(q / a1, rel=1e-6)
+    t_end = t[np.argmax(r.column("cyl.mode") == 2)]
+    assert t_end == pytest.approx(stroke / (q / a1), abs=0.03)      # (the start-up: compressing the chamber)
+    assert x[-1] == stroke and v[-1] == 0.0
+    k = (20e-3 / 60) / 10e5
+    assert r.column("a.p")[-1] == pytest.approx(100e5 + q / k, rel=1e-9)
+    assert r.column("relief.mode")[-1] == 1
+
+
+def test_valve_controlled_cylinder_moves_at_the_orifice_equation_speed():
+    """100 bar into a 4/3 valve (critical centre, command 0.5) to a 50/28 cylinder without load or friction:
+    both metering edges turbulent, the steady speed is v = k*x*sqrt(A1*ps / (A1^3 + A2^3)) (derived from
+    q_PA = A1 v, q_BT = A2 v and p1 A1 = p2 A2), k = Cq*w*sqrt(2/rho); the valve's flow at t = 0 with the spool
+    at 0.5 x_max against 100 bar into an empty chamber is k*x*sqrt(ps)."""
+    ps, bore, rod = 100e5, 0.05, 0.028
+    cq, w, xmax = 0.67, 2e-3, 1e-3
+    body = {"src": {"type": "pressure_source", "p": "s", "pressure": ps},
+            "tank": {"type": "tank", "p": "t"},
+            "valve": {"type": "valve_43", "P": "s", "T": "t", "A": "a", "B": "b", "command": 0.5, "x_max": xmax,
+                      "area_gradient": w, "discharge_coefficient": cq, "leakage_opening": 0.0, "wn": 600.0},
+            "cyl": {"type": "cylinder", "a": "a", "b": "b", "bore": bore, "rod": rod, "stroke": 1.0, "mass": 20.0,
+                    "x0": 0.1}}
+    k = cq * w * math.sqrt(2 / RHO)
+    x = 0.5 * xmax
+    assert at_start(circuit(body, initial={"a": 0.0, "b": 0.0}), "valve.q_pa") == pytest.approx(k * x * math.sqrt(ps),
+                                                                                               rel=1e-12)
+    r = simulate_circuit(circuit(body), 1.0)
+    a1, a2 = math.pi * bore ** 2 / 4, math.pi * (bore ** 2 - rod ** 2) / 4
+    v = k * x * math.sqrt(a1 * ps / (a1 ** 3 + a2 ** 3))
+    assert r.column("cyl.v")[-1] == pytest.approx(v, rel=1e-6)
+    assert r.column("a.p")[-1] * a1 == pytest.approx(r.column("b.p")[-1] * a2, rel=1e-6)
+    assert r.column("valve.x")[-1] == pytest.approx(x, rel=1e-12)
+
+
+def test_a_node_too_stiff_for_the_step_is_reported():
+    """The cylinder's rod side with 0.05 l of dead volume draining through 20 mm²: near the orifice's laminar
+    transition lambda ~ 1e4 1/s, so RK3 at 0.5 ms alternates from step to step (a period-2 oscillation) and the
+    stiffness check says so; at 1/16 of the step it is stable and says that too."""
+    c = circuit({"tank": {"type": "tank", "p": "t"},
+                 "pump": {"type": "pump", "inlet": "t", "outlet": "a", "displacement": "6.67 cm3/rev", "speed": 25.0},
+                 "cyl": {"type": "cylinder", "a": "a", "b": "b", "bore": 0.05, "rod": 0.028, "stroke": 0.2,
+                         "mass": 50.0, "damping": 2000.0},
+                 "out": {"type": "orifice", "a": "b", "b": "t", "area": "20 mm2"}})
+    coarse = {s.node: s for s in node_stiffness(c, simulate_circuit(c, 0.5))}
+    assert not coarse["b"].stable and coarse["b"].lam_h > 2.51 and coarse["a"].stable
+    assert "too stiff for rk3 at 0.5 ms" in coarse["b"].treatment("rk3", 5e-4)
+    fine = {s.node: s for s in node_stiffness(c, simulate_circuit(c, 0.5, h=5e-4 / 16))}
+    assert fine["b"].stable
+
+
+def test_two_cylinders_on_one_pump():
+    """examples/circuits/two_cylinders: each cylinder extends when its valve opens; with both moving they want
+    more than the pump gives: the supply leaves the relief's pressure and the accumulator gives oil; RK3 at
+    0.5 ms against RK4 at 1/16 of the step: positions within 1.5 µm (measured 0.6 µm), chamber pressures
+    within 0.15 bar (measured 0.047 bar: the ringing after each valve step), every node explicit-stable."""
+    c = load_circuit("two_cylinders")
+    r = simulate_circuit(c, 7.5)
+    t = r.column("t")
+    at = lambda s: np.searchsorted(t, s)      # noqa: E731
+    x1, x2 = r.column("cyl1.x"), r.column("cyl2.x")
+    assert x1[at(0.5)] == pytest.approx(0.05, abs=1e-5) and x1[at(3.0)] > 0.25           # the first extends
+    assert x2[at(1.5)] == pytest.approx(0.05, abs=1e-5) and x2[at(3.5)] > 0.25           # then the second
+    assert x1[-1] < x1[at(3.0)] - 0.1 and x2[-1] < x2[at(3.5)] - 0.1                    # both retract
+    ps = r.column("supply.p")
+    both = (t > 1.7) & (t < 3.0)
+    assert np.all(ps[both] < 180e5) and np.all(r.column("relief.mode")[both] == 0)
+    v_oil = r.column("accumulator.v_oil")
+    assert v_oil[at(3.0)] < v_oil[at(1.5)] - 150e-6                                    # 0.23 l given
+    fine = simulate_circuit(c, 7.5, h=5e-4 / 16, method="rk4", every=16)
+    for n in ("cyl1.x", "cyl2.x"):
+        assert np.max(np.abs(r.column(n) - fine.column(n))) < 1.5e-6, n
+    for n in ("supply.p", "a1.p", "b1.p", "a2.p", "b2.p"):
+        assert np.max(np.abs(r.column(n) - fine.column(n))) < 0.15e5, n
+    assert all(s.stable for s in node_stiffness(c, r))

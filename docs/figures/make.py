@@ -64,14 +64,18 @@ def panel_figures():
 
 
 def circuit_figures():
-    """The supply circuit of examples/circuits/pump_relief_accumulator (hydrohil circuit run)."""
+    """The example circuits of examples/circuits/ (hydrohil circuit run)."""
     from hydrohil.circuits.circuit import load_circuit
     from hydrohil.circuits.run import simulate_circuit
     from hydrohil.circuits.show import default_duration, plot_run
-    c = load_circuit("pump_relief_accumulator")
-    plot_run(simulate_circuit(c, default_duration(c)), HERE / "circuit_supply.png",
-             "pump, relief valve and accumulator: the load opens at 2 s, closes at 4 s (RK3 at 0.5 ms)")
-    print("wrote", HERE / "circuit_supply.png")
+    for name, file, title in (
+            ("pump_relief_accumulator", "circuit_supply.png",
+             "pump, relief valve and accumulator: the load opens at 2 s, closes at 4 s (RK3 at 0.5 ms)"),
+            ("two_cylinders", "circuit_two_cylinders.png",
+             "two valve-controlled cylinders on one pump (RK3 at 0.5 ms)")):
+        c = load_circuit(name)
+        plot_run(simulate_circuit(c, default_duration(c)), HERE / file, title)
+        print("wrote", HERE / file)
 
 
 if __name__ == "__main__":

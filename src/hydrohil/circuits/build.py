@@ -18,7 +18,7 @@ from hydrohil.errors import HydrohilError
 
 CORE = Path(__file__).resolve().parent.parent / "core"
 CDEF = """
-void hc_init(const double *P, double *y, int64_t *m);
+void hc_init(const double *P, const double *u, double *y, int64_t *m);
 void hc_rhs(const double *P, const double *y, const int64_t *m, const double *u, double *dy);
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            const double *u, double *log, int64_t *rows);

@@ -63,16 +63,13 @@ class Circuit:
         return [n for n in self.nodes if n not in self.fixed]
 
     def node_volume(self, node: str) -> float:
-        """A node's volume [m3]: its own and what the components attached bring (hoses' halves, volumes)."""
+        """A node's volume [m3] at the initial state: its own and what the components attached bring (hoses'
+        halves, volumes, a cylinder's chamber)."""
         v = self.node_volumes.get(node, 0.0)
         for c in self.components.values():
             for port, n in c.ports.items():
-                if n != node:
-                    continue
-                if c.type.name == "hose":
-                    v += 0.5 * c.values["volume"]
-                elif c.type.name == "volume":
-                    v += c.values["volume"]
+                if n == node:
+                    v += c.type.port_volume(c.values, port)
         return v
 
 
@@ -225,6 +222,11 @@ def _cross_check(ctype: ComponentType, v: dict) -> str | None:
     if ctype.name in ("relief_valve", "check_valve") and not v["rated_pressure"] > v["cracking_pressure"]:
         return (f"rated_pressure ({v['rated_pressure'] / 1e5:g} bar) must be above cracking_pressure "
                 f"({v['cracking_pressure'] / 1e5:g} bar)")
+    if ctype.name == "cylinder":
+        if not v["rod"] < v["bore"]:
+            return f"rod ({v['rod'] * 1e3:g} mm) must be thinner than bore ({v['bore'] * 1e3:g} mm)"
+        if not v["x0"] <= v["stroke"]:
+            return f"x0 ({v['x0']:g} m) must be within the stroke ({v['stroke']:g} m)"
     if ctype.name == "pump":
         cat = [v["volumetric_efficiency"], v["rated_speed"], v["rated_pressure"]]
         if any(not math.isnan(x) for x in cat) and any(math.isnan(x) for x in cat):

@@ -4,7 +4,7 @@ file the compiler sees whole (no table walk, no function pointer per component).
 the core's Butcher tableaus (core/rk.c, one source of them) over the circuit's states.
 
 Interface of the generated file (``hc_*``; :mod:`hydrohil.circuits.build` compiles and loads it):
-``hc_init(P, y, m)`` the initial state, ``hc_run(P, y, m, method, h, n, every, u, log, *rows)`` n steps with
+``hc_init(P, u, y, m)`` the initial state (under the inputs u of step 0), ``hc_run(P, y, m, method, h, n, every, u, log, *rows)`` n steps with
 the inputs u[k*NU..] held over step k and a log row (NLOG columns) every ``every`` steps, ``hc_rhs(P, y, m, u,
 dy)`` the right-hand side (for the nodes' stiffness).
 """
@@ -29,10 +29,13 @@ class Layout:
             for k, v in comp.values.items():
                 self.params.append((f"{comp.name}.{k}", math.nan if v is None else float(v)))
         for node in c.nodes:
-            self.params.append((f"node.{node}.volume", c.node_volume(node)))
+            self.params.append((f"node.{node}.volume", c.node_volumes.get(node, 0.0)))   # its own; + components
         self.slot = {k: i for i, (k, _) in enumerate(self.params)}
         self.inputs = list(c.inputs)
-        self.states = [f"{n}.p" for n in c.state_nodes]
+        self.states = [f"{n}.p" for n in c.state_nodes] + [f"{comp.name}.{s}" for comp in c.components.values()
+                                                             for s, _ in comp.type.states]
+        self.state_units = ["Pa"] * len(c.state_nodes) + [u for comp in c.components.values()
+                                                          for _, u in comp.type.states]
         self.modes = [f"{comp.name}.mode" for comp in c.components.values() if comp.type.modes]
         self.mode_names = {f"{comp.name}.mode": comp.type.modes for comp in c.components.values() if comp.type.modes}
         self.outputs: list[tuple[str, str]] = []      # (log column, SI unit)
@@ -58,6 +61,12 @@ class _View:
     def p(self, port: str) -> str:
         return _pressure(self.lay, self.comp.ports[port])
 
+    def x(self, state: str) -> str:
+        return f"y[{self.lay.states.index(self.comp.name + '.' + state)}]"
+
+    def v(self, name: str) -> str:
+        return f"v_{_ident(self.comp.name)}_{name}"
+
     def fluid(self, key: str) -> str:
         return f"P[{self.lay.slot['fluid.' + key]}]"
 
@@ -75,27 +84,46 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     lay = Layout(c)
     emits = [(comp, comp.type.emit(_View(lay, comp))) for comp in c.components.values()]
     ny, nm, nu = len(lay.states), len(lay.modes), len(lay.inputs)
-    # right-hand side: flows, then each state node's sum and capacitance, in netlist order
-    rhs, qin, cap = [], {n: [] for n in c.state_nodes}, {n: [] for n in c.state_nodes}
+    # right-hand side: locals and flows, then each state node's sum, volume and capacitance, then the
+    # components' states, all in netlist order
+    rhs, qin = [], {n: [] for n in c.state_nodes}
+    cap, vol = {n: [] for n in c.state_nodes}, {n: [] for n in c.state_nodes}
     for comp, e in emits:
+        for name, expr in e.pre:
+            rhs.append(f"    const double v_{_ident(comp.name)}_{name} = {expr};")
         for j, (a, b, expr) in enumerate(e.flows):
             var = f"q_{_ident(comp.name)}_{j}"
-            rhs.append(f"    const double {var} = {expr};   /* {comp.name}: {a} -> {b} */")
-            if comp.ports[a] in qin:
+            rhs.append(f"    const double {var} = {expr};   /* {comp.name}: {a or 'out'} -> {b or 'out'} */")
+            used = False
+            if a is not None and comp.ports[a] in qin:
                 qin[comp.ports[a]].append(f"- {var}")
-            if comp.ports[b] in qin:
+                used = True
+            if b is not None and comp.ports[b] in qin:
                 qin[comp.ports[b]].append(f"+ {var}")
+                used = True
+            if not used:                          # between fixed pressures: logged, in no node's sum
+                rhs.append(f"    (void){var};")
         for port, expr in e.capacitance:
             if comp.ports[port] in cap:
                 cap[comp.ports[port]].append(expr)
+        for port, expr in e.volume:
+            if comp.ports[port] in vol:
+                vol[comp.ports[port]].append(expr)
     for i, node in enumerate(c.state_nodes):
         q = " ".join(qin[node]) or "0.0"
         extra = " + ".join(cap[node]) or "0.0"
-        rhs.append(f"    dy[{i}] = hc_node_rate({q}, P[{lay.slot[f'node.{node}.volume']}], "
-                   f"P[{lay.slot['fluid.bulk_modulus']}], {extra});   /* {node} */")
+        volume = " + ".join([f"P[{lay.slot[f'node.{node}.volume']}]", *vol[node]])
+        rhs.append(f"    dy[{i}] = hc_node_rate({q}, {volume}, P[{lay.slot['fluid.bulk_modulus']}], {extra});"
+                   f"   /* {node} */")
+    for comp, e in emits:
+        for state, expr in e.derivatives.items():
+            j = lay.states.index(f"{comp.name}.{state}")
+            rhs.append(f"    dy[{j}] = {expr};   /* {comp.name}.{state} */")
     updates = [f"    {e.mode_update}   /* {comp.name} */" for comp, e in emits if e.mode_update]
     outs = []
     for comp, e in emits:
+        for st, unit in comp.type.states:          # every state of a component is logged
+            e.outputs.setdefault(st, (f"y[{lay.states.index(f'{comp.name}.{st}')}]", unit))
         for name, (expr, unit) in e.outputs.items():
             lay.outputs.append((f"{comp.name}.{name}", unit))
             outs.append(f"    o[{len(outs)}] = {expr};")
@@ -103,13 +131,16 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     cols = ["t"] + [f"{n}.p" for n in c.nodes] + [n for n, _ in lay.outputs] + lay.modes
     lay.log_columns = cols
     init = [f"    y[{i}] = {_initial(c, lay, node)};   /* {node} */" for i, node in enumerate(c.state_nodes)]
+    init += [f"    y[{lay.states.index(f'{comp.name}.{st}')}] = {expr};   /* {comp.name}.{st} */"
+             for comp, e in emits for st, expr in e.initial.items()]
     node_cols = [f"    row[LOG_NODES + {i}] = {_pressure(lay, n)};   /* {n} */" for i, n in enumerate(c.nodes)]
     text = f"""/* GENERATED by hydrohil.circuits.generate from {c.source}: do not edit. Circuit {c.name!r}. */
 #include "core.h"
 #include "components.h"
 #include "rk.c"
 
-enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nout, 1)}, NLOG = {len(cols)} }};
+enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nout, 1)}, NLOG = {len(cols)},
+       NNODES = {len(c.state_nodes)} }};   /* y: the NNODES node pressures, then the components' states */
 /* log columns: t, the nodes' pressures, the components' outputs, the modes */
 enum {{ LOG_T, LOG_NODES, LOG_OUTPUTS = LOG_NODES + {len(c.nodes)}, LOG_MODES = LOG_OUTPUTS + {nout} }};
 
@@ -119,7 +150,7 @@ static void rhs(const double *y, const int64_t *m, const double *u, const double
 {chr(10).join(rhs)}
 }}
 
-static void update_modes(const double *y, int64_t *m, const double *u, const double *P)
+static void update_modes(double *y, int64_t *m, const double *u, const double *P)
 {{
     (void)m; (void)u; (void)P; (void)y;
 {chr(10).join(updates)}
@@ -137,13 +168,14 @@ void hc_rhs(const double *P, const double *y, const int64_t *m, const double *u,
     rhs(y, m, u, P, dy);
 }}
 
-void hc_init(const double *P, double *y, int64_t *m)
+void hc_init(const double *P, const double *u, double *y, int64_t *m)
 {{
     int i;
+    (void)u;
     for (i = 0; i < NM; i++)
         m[i] = 0;
 {chr(10).join(init)}
-    update_modes(y, m, 0, P);
+    update_modes(y, m, u, P);
 }}
 
 static void log_row(double t, const double *y, const int64_t *m, const double *u, const double *P, double *row)
@@ -188,7 +220,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             double acc = y[i];
             for (s = 0; s < tab->stages; s++)
                 acc += h * tab->b[s] * k[s][i];
-            y[i] = acc > {PRESSURE_FLOOR!r} ? acc : {PRESSURE_FLOOR!r};   /* (NaN stays NaN: caught below) */
+            y[i] = i < NNODES && acc < {PRESSURE_FLOOR!r} ? {PRESSURE_FLOOR!r} : acc;   /* pressures floored */
             if (!isfinite(acc)) {{
                 *rows = row;
                 return 1;

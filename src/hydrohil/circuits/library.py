@@ -32,12 +32,18 @@ class Param:
 
 @dataclass
 class Emit:
-    """What one instance adds to the generated right-hand side: flows (from port, to port, C expression),
-    capacitance [m³/Pa] and volume [m³] at a port's node, the update of its mode after a step (C statement),
-    its outputs (name -> (C expression, SI unit))."""
+    """What one instance adds to the generated right-hand side: its local values first (``pre``: (name, C
+    expression), named ``c.v(name)``), flows (from port, to port, C expression; a port None: the flow leaves or
+    enters the circuit's nodes there, e.g. a piston's displacement), capacitance [m³/Pa] and volume [m³] (C
+    expressions) at a port's node, its states' derivatives (state -> C) and initial values (state -> C, may use
+    the inputs u), the update of its mode after a step (C statements, may clamp its states), its outputs
+    (name -> (C expression, SI unit))."""
+    pre: list = field(default_factory=list)
     flows: list = field(default_factory=list)
     capacitance: list = field(default_factory=list)
     volume: list = field(default_factory=list)
+    derivatives: dict = field(default_factory=dict)
+    initial: dict = field(default_factory=dict)
     mode_update: str | None = None
     outputs: dict = field(default_factory=dict)
 
@@ -51,6 +57,7 @@ class ComponentType:
     modes: tuple[str, ...] = ()
     inputs: tuple[str, ...] = ()       # parameters a circuit may drive as signals instead
     fixes: str | None = None           # the parameter that fixes its port's pressure (tank, source)
+    states: tuple[tuple[str, str], ...] = ()    # (name, SI unit) of its own states
     derived: tuple[tuple[str, str], ...] = ()   # (key, SI unit) of values derived from the parameters
 
     def derive(self, v: dict[str, float]) -> dict[str, float]:
@@ -58,8 +65,13 @@ class ComponentType:
 
     def emit(self, c) -> Emit:
         """``c``: the generator's view of the instance: ``c.par(key)`` (a parameter or derived value's C, or the
-        driving signal's), ``c.p(port)`` (the port's pressure), ``c.mode`` (its mode's C lvalue), ``c.fluid(key)``."""
+        driving signal's), ``c.p(port)`` (the port's pressure), ``c.x(state)`` (its state's C lvalue),
+        ``c.v(name)`` (its local value), ``c.mode`` (its mode's C lvalue), ``c.fluid(key)``."""
         return _EMIT[self.name](c)
+
+    def port_volume(self, values: dict, port: str) -> float:
+        """The volume [m³] it adds at a port's node at its initial state (validation, ``circuit show``)."""
+        return _PORT_VOLUME.get(self.name, lambda v, port: 0.0)(values, port)
 
 
 def _pump_derive(v):
@@ -80,7 +92,11 @@ def _orifice_derive(v):
 
 _DERIVE = {"pump": _pump_derive, "relief_valve": _valve_k, "check_valve": _valve_k, "orifice": _orifice_derive,
            "accumulator": lambda v: {"min_gas_volume": v["gas_volume"] * v["min_gas_fraction"]},
-           "hose": lambda v: {"volume": math.pi * v["diameter"] ** 2 * v["length"] / 4.0}}
+           "hose": lambda v: {"volume": math.pi * v["diameter"] ** 2 * v["length"] / 4.0},
+           "cylinder": lambda v: {"area_a": math.pi * v["bore"] ** 2 / 4.0,
+                                  "area_b": math.pi * (v["bore"] ** 2 - v["rod"] ** 2) / 4.0},
+           "valve_43": lambda v: {"flow_gain": v["discharge_coefficient"] * v["area_gradient"]
+                                  * math.sqrt(2.0 / v["density"])}}
 
 
 def _emit_tank(c):
@@ -124,9 +140,57 @@ def _emit_volume(c):
     return Emit(volume=[("p", c.par("volume"))])
 
 
+def _emit_motor(c):
+    dp = f"({c.p('a')} - {c.p('b')})"
+    q = f"hc_motor_flow({c.par('displacement')}, {c.x('w')}, {c.par('leakage')}, {dp})"
+    torque = f"hc_motor_torque({c.par('displacement')}, {c.par('efficiency')}, {dp})"
+    return Emit(pre=[("torque", torque)], flows=[("a", "b", q)],
+                derivatives={"w": f"({c.v('torque')} - {c.par('damping')} * {c.x('w')} - {c.par('load_torque')}) / "
+                                  f"{c.par('inertia')}"},
+                initial={"w": c.par("speed0")},
+                outputs={"w": (c.x("w"), "rad/s"), "q": (q, "m3/s"), "torque": (torque, "N.m")})
+
+
+def _emit_cylinder(c):
+    x, v = c.x("x"), c.x("v")
+    force = (f"{c.p('a')} * {c.par('area_a')} - {c.p('b')} * {c.par('area_b')} - {c.par('damping')} * {v} - "
+             f"{c.par('force')}")
+    return Emit(pre=[("f", force)],
+                flows=[("a", None, f"{c.par('area_a')} * {v}"), (None, "b", f"{c.par('area_b')} * {v}")],
+                volume=[("a", f"({c.par('dead_volume_a')} + {c.par('area_a')} * {x})"),
+                        ("b", f"({c.par('dead_volume_b')} + {c.par('area_b')} * ({c.par('stroke')} - {x}))")],
+                derivatives={"x": f"hc_stop_speed((int){c.mode}, {v})",
+                             "v": f"hc_stop_accel((int){c.mode}, {c.v('f')}, {c.par('mass')})"},
+                initial={"x": c.par("x0"), "v": "0.0"},
+                mode_update=f"{c.mode} = hc_stop_mode((int){c.mode}, &{x}, &{v}, {c.par('stroke')}, {force});",
+                outputs={"x": (x, "m"), "v": (v, "m/s"), "force": (force, "N")})
+
+
+def _emit_valve43(c):
+    x, v = c.x("x"), c.x("v")
+    k = f"{c.par('flow_gain')}"
+    leak, dpt = c.par("leakage_opening"), c.par("transition_pressure")
+    P, T, A, B = (c.p(n) for n in ("P", "T", "A", "B"))
+
+    def edge(sign, lap, a, b):
+        return f"hc_sqrt_law({k} * hc_edge_opening({sign}{x}, {c.par(lap)}, {leak}), {a} - {b}, {dpt})"
+    qs = {"PA": edge("", "lap_pa", P, A), "AT": edge("-", "lap_at", A, T), "PB": edge("-", "lap_pb", P, B),
+          "BT": edge("", "lap_bt", B, T)}
+    return Emit(flows=[("P", "A", qs["PA"]), ("A", "T", qs["AT"]), ("P", "B", qs["PB"]), ("B", "T", qs["BT"])],
+                derivatives={"x": v, "v": f"hc_spool_accel({x}, {v}, {c.par('command')} * {c.par('x_max')}, "
+                                          f"{c.par('wn')}, {c.par('xi')})"},
+                initial={"x": f"{c.par('command')} * {c.par('x_max')}", "v": "0.0"},
+                mode_update=f"hc_spool_clamp(&{x}, &{v}, {c.par('x_max')});",
+                outputs={"x": (x, "m"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}})
+
+
 _EMIT = {"tank": _emit_tank, "pressure_source": _emit_tank, "pump": _emit_pump,
          "relief_valve": lambda c: _emit_valve(c, "p", "t"), "check_valve": lambda c: _emit_valve(c, "a", "b"),
-         "orifice": _emit_orifice, "accumulator": _emit_accumulator, "hose": _emit_hose, "volume": _emit_volume}
+         "orifice": _emit_orifice, "accumulator": _emit_accumulator, "hose": _emit_hose, "volume": _emit_volume,
+         "motor": _emit_motor, "cylinder": _emit_cylinder, "valve_43": _emit_valve43}
+_PORT_VOLUME = {"hose": lambda v, port: 0.5 * v["volume"], "volume": lambda v, port: v["volume"],
+                "cylinder": lambda v, port: (v["dead_volume_a"] + v["area_a"] * v["x0"] if port == "a" else
+                                             v["dead_volume_b"] + v["area_b"] * (v["stroke"] - v["x0"]))}
 
 _P = 1e9      # Pa: the ranges' upper bound for pressures (10 000 bar)
 TYPES: dict[str, ComponentType] = {t.name: t for t in (
@@ -173,6 +237,46 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "length": Param("m", 0.0, 1e3, "length", lo_strict=True)}, derived=(("volume", "m3"),)),
     ComponentType("volume", "a volume of oil at a node (a block's bores, a manifold)", ("p",),
                   {"volume": Param("m3", 0.0, 10.0, "volume", lo_strict=True)}),
+    ComponentType("motor", "hydraulic motor with its inertia: q = D*w/(2 pi) + Cl*dp, torque eta*D*dp/(2 pi)",
+                  ("a", "b"),
+                  {"displacement": Param("m3/rev", 0.0, 1e-2, "displacement per revolution", lo_strict=True),
+                   "leakage": Param("m3/(s.Pa)", 0.0, 1e-6, "leakage conductance Cl", 0.0),
+                   "efficiency": Param("-", 0.0, 1.0, "hydro-mechanical efficiency", 1.0, lo_strict=True),
+                   "inertia": Param("kg.m2", 0.0, 1e4, "inertia of the motor and its load", lo_strict=True),
+                   "damping": Param("N.m.s/rad", 0.0, 1e5, "viscous friction", 0.0),
+                   "load_torque": Param("N.m", -1e6, 1e6, "load torque (or the signal NAME.load_torque)", 0.0),
+                   "speed0": Param("rad/s", -1e4, 1e4, "initial speed", 0.0)},
+                  inputs=("load_torque",), states=(("w", "rad/s"),)),
+    ComponentType("cylinder", "differential cylinder with its load (mass, viscous friction, force) and end stops",
+                  ("a", "b"),
+                  {"bore": Param("m", 0.0, 2.0, "piston diameter", lo_strict=True),
+                   "rod": Param("m", 0.0, 2.0, "rod diameter", lo_strict=True),
+                   "stroke": Param("m", 0.0, 20.0, "stroke", lo_strict=True),
+                   "dead_volume_a": Param("m3", 0.0, 1.0, "cap-side volume at x = 0 (ports, hose)", 5e-5,
+                                          lo_strict=True),
+                   "dead_volume_b": Param("m3", 0.0, 1.0, "rod-side volume at full stroke", 5e-5, lo_strict=True),
+                   "mass": Param("kg", 0.0, 1e6, "moved mass", lo_strict=True),
+                   "damping": Param("N.s/m", 0.0, 1e8, "viscous friction", 0.0),
+                   "force": Param("N", -1e8, 1e8, "external force, + opposes extension (or the signal)", 0.0),
+                   "x0": Param("m", 0.0, 20.0, "initial position", 0.0)},
+                  modes=("free", "at_retract", "at_extend"), inputs=("force",), states=(("x", "m"), ("v", "m/s")),
+                  derived=(("area_a", "m2"), ("area_b", "m2"))),
+    ComponentType("valve_43", "4/3 proportional valve by geometry: spool lag (wn, xi), an opening per edge",
+                  ("P", "T", "A", "B"),
+                  {"command": Param("-", -1.0, 1.0, "spool command u (or the signal NAME.command)", 0.0),
+                   "x_max": Param("m", 0.0, 0.05, "spool stroke", lo_strict=True),
+                   "area_gradient": Param("m", 0.0, 1.0, "opening per spool travel, w = pi*d*fraction",
+                                          lo_strict=True),
+                   "discharge_coefficient": Param("-", 0.0, 1.0, "Cq", 0.67, lo_strict=True),
+                   "lap_pa": Param("m", -0.01, 0.01, "overlap of P->A (< 0: underlap)", 0.0),
+                   "lap_at": Param("m", -0.01, 0.01, "overlap of A->T", 0.0),
+                   "lap_pb": Param("m", -0.01, 0.01, "overlap of P->B", 0.0),
+                   "lap_bt": Param("m", -0.01, 0.01, "overlap of B->T", 0.0),
+                   "leakage_opening": Param("m", 0.0, 0.001, "opening of a closed edge (its leakage)", 1e-7),
+                   "transition_pressure": Param("Pa", 0.0, 1e7, "laminar transition", 1e5, lo_strict=True),
+                   "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", lo_strict=True),
+                   "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.7, lo_strict=True)},
+                  inputs=("command",), states=(("x", "m"), ("v", "m/s")), derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),
 )}
 
 FLUID = {"density": Param("kg/m3", 500.0, 2000.0, "density", 860.0),

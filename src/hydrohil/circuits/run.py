@@ -62,10 +62,11 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     n = int(round(duration / h))
     u = np.ascontiguousarray(input_table(c, n, h, inputs))
     P = np.ascontiguousarray(lay.values())
-    y = np.zeros(max(len(lay.states), 1))
+    y = np.zeros(len(lay.states))
     m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
     ffi, lib = cc.ffi, cc.lib
-    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y), ffi.from_buffer("int64_t[]", m))
+    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
+                ffi.from_buffer("int64_t[]", m))
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
@@ -76,7 +77,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         k = int(rows[0]) * every
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         raise SimulationDiverged(k * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
-                                 "a node pressure is not finite")
+                                 "a state is not finite")
     units = {"t": "s", **{f"{nd}.p": "Pa" for nd in c.nodes}, **dict(lay.outputs), **{md: "-" for md in lay.modes}}
     return CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, units, lay.mode_names, h,
                          method)
@@ -114,13 +115,13 @@ def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list
     dt_row = res.columns["t"][1] - res.columns["t"][0] if n > 1 else res.h
     u_all = input_table(c, max(n, 1), dt_row)          # the inputs at the rows' times
     limit = core.hh_real_axis_limit(METHODS.index(res.method))
-    lam = np.zeros(len(lay.states))
-    dy_hi, dy_lo = np.zeros(max(len(lay.states), 1)), np.zeros(max(len(lay.states), 1))
+    lam = np.zeros(len(c.state_nodes))
+    dy_hi, dy_lo = np.zeros(len(lay.states)), np.zeros(len(lay.states))
     for row in np.unique(np.linspace(0, n - 1, min(samples, n)).astype(int)):
         y = np.array([res.columns[s][row] for s in lay.states])
         m = np.array([res.columns[md][row] for md in lay.modes] or [0], dtype=np.int64)
         u = np.ascontiguousarray(u_all[min(row, len(u_all) - 1)])
-        for i in range(len(lay.states)):
+        for i in range(len(c.state_nodes)):       # the node pressures (the fast parts, SPEC §12.4)
             d = max(1e3, 1e-6 * abs(y[i]))
             for sign, out in ((1, dy_hi), (-1, dy_lo)):
                 yy = y.copy()

@@ -49,7 +49,7 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3") -> dict:
     signals = [{"name": n, "unit": res.units[n]} for n in res.columns]
     return {"name": c.name, "source": c.source, "step_s": h, "method": method,
             "fluid": [{"key": k, "value": v} for k, v in c.fluid.items()], "components": comps, "nodes": nodes,
-            "states": [{"name": s, "unit": "Pa"} for s in lay.states],
+            "states": [{"name": s, "unit": u} for s, u in zip(lay.states, lay.state_units)],
             "modes": [{"name": m, "values": list(lay.mode_names[m])} for m in lay.modes],
             "inputs": [{"name": n, "unit": _input_unit(c, n), "drive": _drive_text(d)} for n, d in c.inputs.items()],
             "signals": signals}
@@ -119,21 +119,25 @@ def plot_run(res: CircuitResult, path: Path, title: str) -> Path:
     import matplotlib.pyplot as plt
     t = res.columns["t"]
     pres = [n for n, u in res.units.items() if u == "Pa" and np.ptp(res.columns[n]) > 0]
-    flows = [n for n, u in res.units.items() if u == "m3/s"]
+    # positions of actuators (strokes of more than 5 mm; a valve's spool is not one), their speeds
+    pos = [n for n, u in res.units.items() if u == "m" and np.max(np.abs(res.columns[n])) > 5e-3]
+    speed = [n for n, u in res.units.items() if u == "rad/s"]
+    flows = [n for n, u in res.units.items() if u == "m3/s" and ".q_" not in n]     # (a valve's edges: in log.csv)
     modes = list(res.mode_names)
-    fig, axes = plt.subplots(3 if modes else 2, 1, figsize=(10, 8 if modes else 6.5), sharex=True,
-                             gridspec_kw={"height_ratios": [3, 3, 0.5 + 0.5 * len(modes)] if modes else [3, 3]})
-    for n in pres:
-        axes[0].plot(t, res.columns[n] / 1e5, label=n)
-    axes[0].set_ylabel("pressure [bar]")
-    for n in flows:
-        axes[1].plot(t, res.columns[n] * 60e3, label=n)
-    axes[1].set_ylabel("flow [l/min]")
-    for ax in axes[:2]:
+    panels = [("pressure [bar]", pres, 1e-5)] + ([("position [mm]", pos, 1e3)] if pos else []) + \
+        ([("speed [rpm]", speed, 60 / (2 * np.pi))] if speed else []) + [("flow [l/min]", flows, 60e3)]
+    ratios = [3] * len(panels) + ([0.5 + 0.5 * len(modes)] if modes else [])
+    fig, axes = plt.subplots(len(ratios), 1, figsize=(10, 2.2 * sum(ratios) / 3 + 2.5), sharex=True,
+                             gridspec_kw={"height_ratios": ratios})
+    for ax, (label, names, scale) in zip(axes, panels):
+        for n in names:
+            ax.plot(t, res.columns[n] * scale, label=n)
+        ax.set_ylabel(label)
         ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8, ncol=2)
+        if names:
+            ax.legend(loc="best", fontsize=8, ncol=2)
     if modes:                       # a strip per component with modes, a colour per mode value
-        ax, colour = axes[2], 0
+        ax, colour = axes[-1], 0
         for i, n in enumerate(modes):
             m = res.columns[n].astype(int)
             for j, name in enumerate(res.mode_names[n]):

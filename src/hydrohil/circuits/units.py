@@ -19,7 +19,13 @@ UNITS: dict[str, tuple[float, str]] = {
     "kg/m3": (1.0, "kg/m3"), "m2/s": (1.0, "m2/s"), "cSt": (1e-6, "m2/s"), "mm2/s": (1e-6, "m2/s"),
     "m3/(s.Pa)": (1.0, "m3/(s.Pa)"), "(l/min)/bar": (1e-3 / 60.0 / 1e5, "m3/(s.Pa)"),
     "s": (1.0, "s"), "ms": (1e-3, "s"), "-": (1.0, "-"), "%": (0.01, "-"),
+    "kg": (1.0, "kg"), "t": (1e3, "kg"), "N": (1.0, "N"), "kN": (1e3, "N"), "N.s/m": (1.0, "N.s/m"),
+    "kg.m2": (1.0, "kg.m2"), "N.m": (1.0, "N.m"), "N.m.s/rad": (1.0, "N.m.s/rad"), "rad/s": (1.0, "rad/s"),
+    "Hz": (1.0, "Hz"),
 }
+# the same word for another SI unit: rpm is rev/s for a pump's speed, rad/s for a motor's; Hz as rad/s
+ALIASES: dict[tuple[str, str], float] = {("rpm", "rad/s"): 2.0 * math.pi / 60.0, ("rev/s", "rad/s"): 2.0 * math.pi,
+                                         ("Hz", "rad/s"): 2.0 * math.pi}
 _VALUE = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S.*?)?\s*$")
 
 
@@ -35,6 +41,8 @@ def to_si(value, si_unit: str) -> float:
             raise ValueError(f"expected a number or \"<number> <unit>\", got {value!r}")
         unit = m.group(2) or si_unit
         unit = unit.replace("³", "3").replace("²", "2").replace("·", ".")
+        if (unit, si_unit) in ALIASES:
+            return _finite(float(m.group(1)) * ALIASES[unit, si_unit], value)
         if unit not in UNITS:
             raise ValueError(f"unknown unit {unit!r} in {value!r} ({si_unit} wanted; units: "
                              f"{', '.join(u for u, (_, s) in UNITS.items() if s == si_unit)})")
@@ -45,6 +53,10 @@ def to_si(value, si_unit: str) -> float:
         v = float(m.group(1)) * factor
     else:
         raise ValueError(f"expected a number in {si_unit} or \"<number> <unit>\", got {value!r}")
+    return _finite(v, value)
+
+
+def _finite(v: float, value) -> float:
     if not math.isfinite(v):
         raise ValueError(f"not a finite number: {value!r}")
     return v

@@ -16,6 +16,8 @@
 #define HH_INLINE static inline
 #endif
 
+#define HC_PI 3.14159265358979323846      /* (M_PI is not C99) */
+
 HH_INLINE double hh_min(double a, double b) { return a < b ? a : b; }
 HH_INLINE double hh_max(double a, double b) { return a > b ? a : b; }
 HH_INLINE double hh_clamp(double x, double lo, double hi) { return hh_min(hh_max(x, lo), hi); }

@@ -4,7 +4,7 @@
 #ifndef HH_VALVE_H
 #define HH_VALVE_H
 #include "core.h"
-#include "components.h"
+#include "hc_sqrt_law.h"
 
 typedef struct { double as1, as2, a1t, a2t; } hh_sections;
 

@@ -1,0 +1,19 @@
+/* hc_sqrt_law.h: one component's law of the library (components.h, SPEC §12.3). */
+#ifndef HC_SQRT_LAW_H
+#define HC_SQRT_LAW_H
+#include "core.h"
+
+/* ---- square-root law with the laminar transition of §3.2: q = k*sign(dp)*sqrt|dp| for |dp| >= dp_t; below,
+ * the odd cubic k*sqrt(dp_t)*r*(5 - r^2)/4, r = dp/dp_t (same value and slope at dp_t). k [m^3/s/sqrt(Pa)]. */
+HH_INLINE double hc_sqrt_law(double k, double dp, double dp_t)
+{
+    double r;
+    if (dp >= dp_t)
+        return k * sqrt(dp);
+    if (dp <= -dp_t)
+        return -k * sqrt(-dp);
+    r = dp / dp_t;
+    return k * sqrt(dp_t) * r * (1.25 - 0.25 * r * r);
+}
+
+#endif

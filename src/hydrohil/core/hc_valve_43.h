@@ -1,0 +1,29 @@
+/* hc_valve_43.h: one component's law of the library (components.h, SPEC §12.3). */
+#ifndef HC_VALVE_43_H
+#define HC_VALVE_43_H
+#include "core.h"
+#include "hc_sqrt_law.h"
+
+/* ---- 4/3 valve by geometry (SPEC §12.3): spool x [m] of a 2nd-order lag to u*x_max (wn, xi), clamped at
+ * +-x_max; each edge open by s = max(0, +-x - lap) (lap < 0: underlap) plus a leakage opening; the flow of an
+ * edge k*(s + s_leak)*sqrt-law with k = Cq*w*sqrt(2/rho), w the area gradient [m]. */
+HH_INLINE double hc_edge_opening(double x, double lap, double leak) { return (x > lap ? x - lap : 0.0) + leak; }
+
+HH_INLINE double hc_spool_accel(double x, double v, double x_ref, double wn, double xi)
+{
+    return wn * wn * (x_ref - x) - 2.0 * xi * wn * v;
+}
+
+/* the spool clamped at +-x_max after a step (plastic: v = 0 at the end) */
+HH_INLINE void hc_spool_clamp(double *x, double *v, double x_max)
+{
+    if (*x > x_max) {
+        *x = x_max;
+        *v = *v > 0.0 ? 0.0 : *v;
+    } else if (*x < -x_max) {
+        *x = -x_max;
+        *v = *v < 0.0 ? 0.0 : *v;
+    }
+}
+
+#endif
