@@ -64,7 +64,7 @@ def test_relief_valve_holds_its_pressure_at_a_given_flow():
                  "relief": {"type": "relief_valve", "p": "n", "t": "t", "cracking_pressure": "120 bar",
                             "rated_flow": "30 l/min", "rated_pressure": "140 bar"},
                  "v": {"type": "volume", "p": "n", "volume": "2 l"}})
-    r = simulate_circuit(c, 3.0)
+    r = simulate_circuit(c, 3.0, rest=False)        # from the tank's pressure (at rest it would start open)
     q = 10e-6 * 20.0
     k = (30e-3 / 60) / 20e5
     assert r.column("n.p")[-1] == pytest.approx(120e5 + q / k, rel=1e-13)     # (measured: 2e-15)
@@ -280,7 +280,7 @@ def test_cylinder_extends_at_pump_flow_over_area_then_stops_at_the_end():
                  "cyl": {"type": "cylinder", "a": "a", "b": "b", "bore": bore, "rod": rod, "stroke": stroke,
                          "mass": 50.0, "damping": 2000.0, "dead_volume_a": "0.2 l", "dead_volume_b": "0.2 l"},
                  "out": {"type": "orifice", "a": "b", "b": "t", "area": "4 mm2"}})
-    r = simulate_circuit(c, 3.0)
+    r = simulate_circuit(c, 3.0, rest=False)        # from empty chambers
     assert all(s.stable for s in node_stiffness(c, r))         # (a smaller rod-side volume or a larger outlet
                                                                # is too stiff for 0.5 ms: circuit show says so)
     a1 = math.pi * bore ** 2 / 4
@@ -328,10 +328,10 @@ def test_a_node_too_stiff_for_the_step_is_reported():
                  "cyl": {"type": "cylinder", "a": "a", "b": "b", "bore": 0.05, "rod": 0.028, "stroke": 0.2,
                          "mass": 50.0, "damping": 2000.0},
                  "out": {"type": "orifice", "a": "b", "b": "t", "area": "20 mm2"}})
-    coarse = {s.node: s for s in node_stiffness(c, simulate_circuit(c, 0.5))}
+    coarse = {s.node: s for s in node_stiffness(c, simulate_circuit(c, 0.5, rest=False))}
     assert not coarse["b"].stable and coarse["b"].lam_h > 2.51 and coarse["a"].stable
     assert "too stiff for rk3 at 0.5 ms" in coarse["b"].treatment("rk3", 5e-4)
-    fine = {s.node: s for s in node_stiffness(c, simulate_circuit(c, 0.5, h=5e-4 / 16))}
+    fine = {s.node: s for s in node_stiffness(c, simulate_circuit(c, 0.5, h=5e-4 / 16, rest=False))}
     assert fine["b"].stable
 
 
@@ -359,3 +359,33 @@ def test_two_cylinders_on_one_pump():
     for n in ("supply.p", "a1.p", "b1.p", "a2.p", "b2.p"):
         assert np.max(np.abs(r.column(n) - fine.column(n))) < 0.15e5, n
     assert all(s.stable for s in node_stiffness(c, r))
+
+
+def test_circuits_start_at_rest_unless_initial_pressures_are_given():
+    """SPEC §12.5: without [initial] the node pressures start at rest: the closed-centre valves' symmetric
+    leakage holds each chamber at half the supply (closed form), the relief valve takes what the pump gives
+    beyond the leakage (the supply node's flow balance), and the supply circuit starts where its dynamic run
+    from 100 bar ends; a pump with nowhere to go has no rest and says where."""
+    c = load_circuit("two_cylinders")
+    c.initial = {}
+    r = simulate_circuit(c, 0.0)
+    ps = r.column("supply.p")[0]
+    for n in ("a1", "b1", "a2", "b2"):
+        assert r.column(f"{n}.p")[0] == pytest.approx(ps / 2, rel=1e-12)
+    leaks = sum(r.column(f"valve{i}.q_{e}")[0] for i in (1, 2) for e in ("pa", "pb"))
+    assert r.column("relief.q")[0] + leaks == pytest.approx(r.column("pump.q")[0], rel=1e-9)
+    assert r.column("relief.mode")[0] == 1 and 180e5 < ps < 195e5
+    given = load_circuit("pump_relief_accumulator")
+    dynamic = simulate_circuit(given, 1.99)                          # from the file's 100 bar to rest
+    given.initial = {}
+    rest = simulate_circuit(given, 0.0)
+    for n in ("supply.p", "load_port.p"):
+        assert rest.column(n)[0] == pytest.approx(dynamic.column(n)[-1], rel=1e-9)
+    assert dynamic.column("supply.p")[0] == 100e5                    # [initial] is kept when given
+    dead = circuit({"tank": {"type": "tank", "p": "t"},
+                    "pump": {"type": "pump", "inlet": "t", "outlet": "n", "displacement": "10 cm3/rev",
+                             "speed": "1500 rpm"},
+                    "v": {"type": "volume", "p": "n", "volume": "1 l"}})
+    with pytest.raises(InputError, match="test.toml: initial: no state at rest: the pressures at n do not settle"):
+        simulate_circuit(dead, 1.0)
+    assert simulate_circuit(dead, 0.1, rest=False).column("n.p")[-1] > 0         # without: it just fills

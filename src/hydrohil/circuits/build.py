@@ -20,6 +20,8 @@ CORE = Path(__file__).resolve().parent.parent / "core"
 CDEF = """
 void hc_init(const double *P, const double *u, double *y, int64_t *m);
 void hc_rhs(const double *P, const double *y, const int64_t *m, const double *u, double *dy);
+int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const int64_t *held, int method, double h,
+                int64_t max_steps, double rel_tol);
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            const double *u, double *log, int64_t *rows);
 """
@@ -42,7 +44,7 @@ def compile_circuit(c: Circuit) -> CompiledCircuit:
     from cffi import FFI
     from hydrohil.core.build import CFLAGS
     source, lay = generate(c)
-    digest = hashlib.sha256(source.encode())
+    digest = hashlib.sha256(source.encode() + CDEF.encode())
     for f in sorted(CORE.glob("*.[ch]")):
         digest.update(f.name.encode() + b"\0" + f.read_bytes())
     digest.update(" ".join(CFLAGS).encode())

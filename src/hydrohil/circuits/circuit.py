@@ -18,7 +18,7 @@ converted at the boundary; a mistake names the file, the component, the key and 
     [inputs]                                  # parameters driven as signals, with their default drive:
     "load.opening" = { t = [0, 1], value = [0.2, 1.0] }     # held from each t (zero-order hold), or a number
     [initial]
-    supply = "100 bar"                        # node pressures (default: the lowest fixed pressure)
+    supply = "100 bar"                        # node pressures (default: at rest, hydrohil.circuits.run.settle)
 """
 
 from __future__ import annotations

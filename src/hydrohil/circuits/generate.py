@@ -191,6 +191,49 @@ static void log_row(double t, const double *y, const int64_t *m, const double *u
         row[LOG_MODES + i] = (double)m[i];
 }}
 
+/* The node pressures at rest (SPEC §12.5): the components' states held (pistons and motors still, spools where
+ * their command puts them), the nodes not in `held` marched with the method until no pressure moves by more
+ * than rel_tol*(1 bar + |p|) in a step; the modes follow their guards. Returns the steps taken, or -1 when not
+ * settled within max_steps, -2 when non-finite. */
+int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const int64_t *held, int method, double h,
+                int64_t max_steps, double rel_tol)
+{{
+    const hh_tableau *tab = &HH_TABLEAUS[method];
+    double k[HH_MAX_STAGES][NY], ytmp[NY];
+    int64_t step;
+    int s, j, i;
+    for (step = 0; step < max_steps; step++) {{
+        double moved = 0.0;
+        for (s = 0; s < tab->stages; s++) {{
+            for (i = 0; i < NY; i++) {{
+                double acc = y[i];
+                for (j = 0; j < s; j++)
+                    acc += h * tab->a[s][j] * k[j][i];
+                ytmp[i] = acc;
+            }}
+            rhs(ytmp, m, u, P, k[s]);
+            for (i = 0; i < NY; i++)
+                if (i >= NNODES || held[i])
+                    k[s][i] = 0.0;
+        }}
+        for (i = 0; i < NNODES; i++) {{
+            double acc = y[i], d;
+            for (s = 0; s < tab->stages; s++)
+                acc += h * tab->b[s] * k[s][i];
+            if (!isfinite(acc))
+                return -2;
+            acc = acc < {PRESSURE_FLOOR!r} ? {PRESSURE_FLOOR!r} : acc;
+            d = fabs(acc - y[i]) / (1e5 + fabs(acc));
+            moved = d > moved ? d : moved;
+            y[i] = acc;
+        }}
+        update_modes(y, m, u, P);
+        if (moved < rel_tol)
+            return step + 1;
+    }}
+    return -1;
+}}
+
 /* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it); a row every `every`
  * steps from step 0 (the state before the step). Returns 0, or 1 when the state went non-finite (rows so far
  * written, *rows set). */

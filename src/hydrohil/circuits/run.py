@@ -49,10 +49,57 @@ def input_table(c: Circuit, n: int, h: float, inputs: dict | None = None) -> np.
     return u
 
 
+REST_MARCH_S = 20.0         # simulated seconds of the rest march (the fast parts: a relief, an accumulator)
+REST_TOL = 1e-13            # a pressure at rest moves less than this * (1 bar + |p|) in a step
+
+
+def settle(c: Circuit, cc, P, u, y, m, h: float, method: str) -> None:
+    """The node pressures at rest (SPEC §12.5) in place of their initial guesses: the components' states held,
+    the pressures marched until the fast parts settle (a relief valve, an accumulator), then the flow balance of
+    every node solved (nodes fed by leakage alone take minutes to settle), the modes following their guards; a
+    node given in ``[initial]`` keeps its value. Pressures that do not settle (a pump with nowhere to go) are
+    an error naming the nodes."""
+    from scipy.optimize import root
+    ffi, lib = cc.ffi, cc.lib
+    nn = len(c.state_nodes)
+    held = np.array([n in c.initial for n in c.state_nodes] or [0], dtype=np.int64)
+    free = [i for i in range(nn) if not held[i]]
+    y0 = y.copy()
+    buf = {name: ffi.from_buffer(t, a) for name, t, a in (("P", "double[]", P), ("u", "double[]", u),
+                                                         ("y", "double[]", y), ("m", "int64_t[]", m),
+                                                         ("held", "int64_t[]", held))}
+
+    def march(seconds):
+        return lib.hc_rest(buf["P"], buf["u"], buf["y"], buf["m"], buf["held"], METHODS.index(method), float(h),
+                           max(int(seconds / h), 1), REST_TOL)
+    settled = march(REST_MARCH_S) > 0
+    dy = np.zeros(len(y))
+    for _ in range(5):                    # a few rounds: the modes at the solution may differ from the march's
+        if settled or not free:
+            break
+
+        def balance(p):
+            yy = y.copy()
+            yy[free] = p
+            lib.hc_rhs(buf["P"], ffi.from_buffer("double[]", yy), buf["m"], buf["u"], ffi.from_buffer("double[]", dy))
+            return dy[free]
+        sol = root(balance, y[free], method="hybr", options={"xtol": 1e-15})
+        if np.all(np.isfinite(sol.x)):
+            y[free] = sol.x
+        settled = march(10 * h) > 0       # the modes follow; settled when no pressure moves any more
+    if not settled:
+        moving = [c.state_nodes[i] for i in free]
+        raise InputError(f"no state at rest: the pressures at {', '.join(moving)} do not settle (from "
+                         f"{', '.join(f'{x / 1e5:.4g}' for x in y0[:nn])} bar); does a pump have nowhere to go? "
+                         "Give [initial] pressures to start from a state of your own", source=c.source, key="initial")
+
+
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
-                     inputs: dict | None = None) -> CircuitResult:
-    """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. Raises
-    SimulationDiverged with the time, the modes and the node pressures when the state leaves the finite."""
+                     inputs: dict | None = None, rest: bool = True) -> CircuitResult:
+    """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
+    (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
+    circuit's ``[initial]`` keeps its value). Raises SimulationDiverged with the time, the modes and the state
+    when the state leaves the finite."""
     if method not in METHODS:
         raise InputError(f"one of {', '.join(METHODS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
@@ -67,6 +114,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     ffi, lib = cc.ffi, cc.lib
     lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
                 ffi.from_buffer("int64_t[]", m))
+    if rest:
+        settle(c, cc, P, u, y, m, h, method)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
