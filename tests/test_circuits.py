@@ -389,3 +389,75 @@ def test_circuits_start_at_rest_unless_initial_pressures_are_given():
     with pytest.raises(InputError, match="test.toml: initial: no state at rest: the pressures at n do not settle"):
         simulate_circuit(dead, 1.0)
     assert simulate_circuit(dead, 0.1, rest=False).column("n.p")[-1] > 0         # without: it just fills
+
+
+def test_double_rod_cylinder_and_a_load_with_spring_and_weight():
+    """A double-rod cylinder pushes out at each end what the pump pushes in (equal areas: Q = A*v both sides);
+    a cylinder at a fixed pressure against a spring and its load's weight (rod 60° up) comes to rest at
+    x = x_s + (p*A1 - M*g*sin 60°)/k (closed forms)."""
+    bore, rod = 0.05, 0.025
+    area = math.pi * (bore ** 2 - rod ** 2) / 4
+    q = 6e-3 / 60
+    c = circuit({"tank": {"type": "tank", "p": "t"},
+                 "pump": {"type": "pump", "inlet": "t", "outlet": "a", "displacement": q, "speed": 1.0},
+                 "cyl": {"type": "double_rod_cylinder", "a": "a", "b": "b", "bore": bore, "rod": rod, "stroke": 0.5,
+                         "mass": 20.0, "damping": 1000.0, "dead_volume_a": "0.2 l", "dead_volume_b": "0.2 l"},
+                 "out": {"type": "orifice", "a": "b", "b": "t", "area": "4 mm2"}})
+    r = simulate_circuit(c, 1.5, rest=False)
+    assert r.column("cyl.v")[-1] == pytest.approx(q / area, rel=1e-9)
+    assert r.column("out.q")[-1] == pytest.approx(q, rel=1e-9)
+    p, k, m, x_s = 20e5, 2e6, 100.0, 0.02
+    c = circuit({"src": {"type": "pressure_source", "p": "s", "pressure": p},
+                 "tank": {"type": "tank", "p": "t"},
+                 "cyl": {"type": "cylinder", "a": "s", "b": "t", "bore": bore, "rod": rod, "stroke": 0.5, "mass": m,
+                         "damping": 2e4, "spring": k, "spring_x0": x_s, "incline": "60 deg"}})
+    r = simulate_circuit(c, 2.0)
+    x_eq = x_s + (p * math.pi * bore ** 2 / 4 - m * 9.80665 * math.sin(math.radians(60))) / k
+    assert r.column("cyl.x")[-1] == pytest.approx(x_eq, rel=1e-9)
+
+
+def test_counterbalance_valve_holds_the_load_and_lowers_it_under_pilot():
+    """A 500 kg load on a vertical cylinder held on its cap side by a counterbalance valve (its valve port
+    returning to tank) set at 1.3 x the load pressure: without pilot pressure it does not move; with 20 bar on the pilot (ratio 3) it lowers at the speed
+    where the relief path passes A1*|v| = K*(p_load + r*p_pilot - p_set), p_load from the force balance with its
+    friction: v = -K*(W/A1 + r*p_x - p_set) / (A1 + K*c/A1)."""
+    bore, rod, m, c_visc = 0.05, 0.028, 500.0, 2e4
+    a1 = math.pi * bore ** 2 / 4
+    w = m * 9.80665
+    p_load = w / a1
+    p_set = 1.3 * p_load
+    k = (10e-3 / 60) / 20e5
+
+    def rig(pilot):
+        return circuit({"tank": {"type": "tank", "p": "t"},
+                        "pilot": {"type": "pressure_source", "p": "x", "pressure": pilot},
+                        "cb": {"type": "counterbalance_valve", "valve": "t", "load": "a", "pilot": "x",
+                               "set_pressure": p_set, "pilot_ratio": 3.0, "rated_flow": "10 l/min",
+                               "rated_excess": "20 bar", "check_rated_flow": "20 l/min", "check_rated_pressure": "5 bar"},
+                        "cyl": {"type": "cylinder", "a": "a", "b": "t", "bore": bore, "rod": rod, "stroke": 0.6,
+                                "mass": m, "damping": c_visc, "incline": "90 deg", "x0": 0.4,
+                                "dead_volume_a": "0.2 l"}},
+                       initial={"a": p_load})
+    held = simulate_circuit(rig(0.0), 2.0)
+    assert np.max(np.abs(held.column("cyl.x") - 0.4)) < 1e-9 and np.all(held.column("cb.mode") == 0)
+    p_x = 20e5
+    low = simulate_circuit(rig(p_x), 1.0)                    # (0.16 m of its 0.4 m)
+    v = -k * (w / a1 + 3.0 * p_x - p_set) / (a1 + k * c_visc / a1)
+    assert low.column("cyl.v")[-1] == pytest.approx(v, rel=1e-6) and low.column("cb.mode")[-1] == 2
+
+
+def test_open_centre_valve_passes_the_pump_to_tank_at_centre():
+    """A 6/3 valve at x = 0: its centre path passes k*x_c*sqrt(ps) from P to T (closed form); at full stroke the
+    centre is shut and P feeds A."""
+    cq, w, xc = 0.67, 3e-3, 0.3e-3
+    body = {"src": {"type": "pressure_source", "p": "s", "pressure": 50e5}, "tank": {"type": "tank", "p": "t"},
+            "valve": {"type": "valve_63", "P": "s", "T": "t", "A": "a", "B": "b", "x_max": "1 mm",
+                      "area_gradient": w, "discharge_coefficient": cq, "centre_travel": xc, "wn": 500.0,
+                      "leakage_opening": 0.0, "command": 0.0},
+            "va": {"type": "volume", "p": "a", "volume": "0.1 l"}, "vb": {"type": "volume", "p": "b", "volume": "0.1 l"}}
+    k = cq * w * math.sqrt(2 / RHO)
+    assert at_start(circuit(body, initial={"a": 0.0, "b": 0.0}), "valve.q_pt") == pytest.approx(k * xc * math.sqrt(50e5),
+                                                                                               rel=1e-12)
+    body["valve"]["command"] = 1.0
+    r = simulate_circuit(circuit(body, initial={"a": 0.0, "b": 0.0}), 0.0)
+    assert r.column("valve.q_pt")[0] == 0.0 and r.column("valve.q_pa")[0] > 0

@@ -219,10 +219,12 @@ def _drive(drive, prm, source: str, where: str):
 
 
 def _cross_check(ctype: ComponentType, v: dict) -> str | None:
+    if ctype.name == "counterbalance_valve" and not v["check_rated_pressure"] > v["check_cracking"]:
+        return "check_rated_pressure must be above check_cracking"
     if ctype.name in ("relief_valve", "check_valve") and not v["rated_pressure"] > v["cracking_pressure"]:
         return (f"rated_pressure ({v['rated_pressure'] / 1e5:g} bar) must be above cracking_pressure "
                 f"({v['cracking_pressure'] / 1e5:g} bar)")
-    if ctype.name == "cylinder":
+    if ctype.name in ("cylinder", "double_rod_cylinder"):
         if not v["rod"] < v["bore"]:
             return f"rod ({v['rod'] * 1e3:g} mm) must be thinner than bore ({v['bore'] * 1e3:g} mm)"
         if not v["x0"] <= v["stroke"]:

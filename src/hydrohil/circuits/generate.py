@@ -75,7 +75,8 @@ def _pressure(lay: Layout, node: str) -> str:
     c = lay.circuit
     if node in c.fixed:
         comp, key = c.fixed[node]
-        return f"P[{lay.slot[f'{comp}.{key}']}]"
+        sig = f"{comp}.{key}"
+        return f"u[{lay.inputs.index(sig)}]" if sig in lay.inputs else f"P[{lay.slot[sig]}]"
     return f"y[{c.state_nodes.index(node)}]"
 
 

@@ -74,6 +74,14 @@ class ComponentType:
         return _PORT_VOLUME.get(self.name, lambda v, port: 0.0)(values, port)
 
 
+G = 9.80665          # m/s2
+
+
+def _weight(v):
+    """The load's weight along the rod [N], opposing extension when the rod points up (incline > 0)."""
+    return v["mass"] * G * math.sin(math.radians(v["incline"]))
+
+
 def _pump_derive(v):
     if v.get("volumetric_efficiency") is not None:
         leak = (1.0 - v["volumetric_efficiency"]) * v["displacement"] * v["rated_speed"] / v["rated_pressure"]
@@ -94,9 +102,17 @@ _DERIVE = {"pump": _pump_derive, "relief_valve": _valve_k, "check_valve": _valve
            "accumulator": lambda v: {"min_gas_volume": v["gas_volume"] * v["min_gas_fraction"]},
            "hose": lambda v: {"volume": math.pi * v["diameter"] ** 2 * v["length"] / 4.0},
            "cylinder": lambda v: {"area_a": math.pi * v["bore"] ** 2 / 4.0,
-                                  "area_b": math.pi * (v["bore"] ** 2 - v["rod"] ** 2) / 4.0},
+                                  "area_b": math.pi * (v["bore"] ** 2 - v["rod"] ** 2) / 4.0,
+                                  "weight": _weight(v)},
+           "double_rod_cylinder": lambda v: {"area_a": math.pi * (v["bore"] ** 2 - v["rod"] ** 2) / 4.0,
+                                             "area_b": math.pi * (v["bore"] ** 2 - v["rod"] ** 2) / 4.0,
+                                             "weight": _weight(v)},
            "valve_43": lambda v: {"flow_gain": v["discharge_coefficient"] * v["area_gradient"]
-                                  * math.sqrt(2.0 / v["density"])}}
+                                  * math.sqrt(2.0 / v["density"])},
+           "counterbalance_valve": lambda v: {"check_gain": v["check_rated_flow"] / (v["check_rated_pressure"]
+                                                                                     - v["check_cracking"]),
+                                              "relief_gain": v["rated_flow"] / v["rated_excess"]}}
+_DERIVE["valve_63"] = _DERIVE["valve_43"]
 
 
 def _emit_tank(c):
@@ -154,7 +170,7 @@ def _emit_motor(c):
 def _emit_cylinder(c):
     x, v = c.x("x"), c.x("v")
     force = (f"{c.p('a')} * {c.par('area_a')} - {c.p('b')} * {c.par('area_b')} - {c.par('damping')} * {v} - "
-             f"{c.par('force')}")
+             f"{c.par('force')} - {c.par('spring')} * ({x} - {c.par('spring_x0')}) - {c.par('weight')}")
     return Emit(pre=[("f", force)],
                 flows=[("a", None, f"{c.par('area_a')} * {v}"), (None, "b", f"{c.par('area_b')} * {v}")],
                 volume=[("a", f"({c.par('dead_volume_a')} + {c.par('area_a')} * {x})"),
@@ -164,6 +180,15 @@ def _emit_cylinder(c):
                 initial={"x": c.par("x0"), "v": "0.0"},
                 mode_update=f"{c.mode} = hc_stop_mode((int){c.mode}, &{x}, &{v}, {c.par('stroke')}, {force});",
                 outputs={"x": (x, "m"), "v": (v, "m/s"), "force": (force, "N")})
+
+
+def _emit_counterbalance(c):
+    pv, pl, px = c.p("valve"), c.p("load"), c.p("pilot")
+    args = f"{c.par('check_cracking')}, {c.par('set_pressure')}, {c.par('pilot_ratio')}"
+    q = (f"hc_cb_flow((int){c.mode}, {c.par('check_gain')}, {c.par('check_cracking')}, {c.par('relief_gain')}, "
+         f"{c.par('set_pressure')}, {c.par('pilot_ratio')}, {pv}, {pl}, {px})")
+    return Emit(flows=[("valve", "load", q)], outputs={"q": (q, "m3/s")},
+                mode_update=f"{c.mode} = hc_cb_mode({args}, {pv}, {pl}, {px});")
 
 
 def _emit_valve43(c):
@@ -176,7 +201,11 @@ def _emit_valve43(c):
         return f"hc_sqrt_law({k} * hc_edge_opening({sign}{x}, {c.par(lap)}, {leak}), {a} - {b}, {dpt})"
     qs = {"PA": edge("", "lap_pa", P, A), "AT": edge("-", "lap_at", A, T), "PB": edge("-", "lap_pb", P, B),
           "BT": edge("", "lap_bt", B, T)}
-    return Emit(flows=[("P", "A", qs["PA"]), ("A", "T", qs["AT"]), ("P", "B", qs["PB"]), ("B", "T", qs["BT"])],
+    flows = [("P", "A", qs["PA"]), ("A", "T", qs["AT"]), ("P", "B", qs["PB"]), ("B", "T", qs["BT"])]
+    if "centre_travel" in c.comp.type.params:      # the open centre of a 6/3 valve: P -> T around x = 0
+        qs["PT"] = f"hc_sqrt_law({k} * hc_centre_opening({x}, {c.par('centre_travel')}), {P} - {T}, {dpt})"
+        flows.append(("P", "T", qs["PT"]))
+    return Emit(flows=flows,
                 derivatives={"x": v, "v": f"hc_spool_accel({x}, {v}, {c.par('command')} * {c.par('x_max')}, "
                                           f"{c.par('wn')}, {c.par('xi')})"},
                 initial={"x": f"{c.par('command')} * {c.par('x_max')}", "v": "0.0"},
@@ -187,17 +216,20 @@ def _emit_valve43(c):
 _EMIT = {"tank": _emit_tank, "pressure_source": _emit_tank, "pump": _emit_pump,
          "relief_valve": lambda c: _emit_valve(c, "p", "t"), "check_valve": lambda c: _emit_valve(c, "a", "b"),
          "orifice": _emit_orifice, "accumulator": _emit_accumulator, "hose": _emit_hose, "volume": _emit_volume,
-         "motor": _emit_motor, "cylinder": _emit_cylinder, "valve_43": _emit_valve43}
+         "motor": _emit_motor, "cylinder": _emit_cylinder, "double_rod_cylinder": _emit_cylinder,
+         "valve_43": _emit_valve43, "valve_63": _emit_valve43, "counterbalance_valve": _emit_counterbalance}
 _PORT_VOLUME = {"hose": lambda v, port: 0.5 * v["volume"], "volume": lambda v, port: v["volume"],
                 "cylinder": lambda v, port: (v["dead_volume_a"] + v["area_a"] * v["x0"] if port == "a" else
                                              v["dead_volume_b"] + v["area_b"] * (v["stroke"] - v["x0"]))}
+_PORT_VOLUME["double_rod_cylinder"] = _PORT_VOLUME["cylinder"]
 
 _P = 1e9      # Pa: the ranges' upper bound for pressures (10 000 bar)
 TYPES: dict[str, ComponentType] = {t.name: t for t in (
     ComponentType("tank", "reservoir at a fixed pressure", ("p",),
                   {"pressure": Param("Pa", -1e5, _P, "tank pressure (gauge)", 0.0)}, fixes="pressure"),
-    ComponentType("pressure_source", "ideal pressure source (an ideal supply)", ("p",),
-                  {"pressure": Param("Pa", -1e5, _P, "supply pressure (gauge)")}, fixes="pressure"),
+    ComponentType("pressure_source", "ideal pressure source (an ideal supply, a pilot line)", ("p",),
+                  {"pressure": Param("Pa", -1e5, _P, "pressure (gauge), or the signal NAME.pressure")},
+                  fixes="pressure", inputs=("pressure",)),
     ComponentType("pump", "fixed-displacement pump: q = D*n - Cl*(p_out - p_in)", ("inlet", "outlet"),
                   {"displacement": Param("m3/rev", 0.0, 1e-2, "displacement per revolution", lo_strict=True),
                    "speed": Param("rev/s", 0.0, 1e3, "shaft speed (or the signal pump.speed)"),
@@ -258,9 +290,31 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "mass": Param("kg", 0.0, 1e6, "moved mass", lo_strict=True),
                    "damping": Param("N.s/m", 0.0, 1e8, "viscous friction", 0.0),
                    "force": Param("N", -1e8, 1e8, "external force, + opposes extension (or the signal)", 0.0),
+                   "spring": Param("N/m", 0.0, 1e10, "spring on the rod, k*(x - spring_x0) opposes extension", 0.0),
+                   "spring_x0": Param("m", -20.0, 20.0, "position where the spring is relaxed", 0.0),
+                   "incline": Param("deg", -90.0, 90.0, "rod's angle above the horizontal (90: up, the weight "
+                                    "opposes extension)", 0.0),
                    "x0": Param("m", 0.0, 20.0, "initial position", 0.0)},
                   modes=("free", "at_retract", "at_extend"), inputs=("force",), states=(("x", "m"), ("v", "m/s")),
-                  derived=(("area_a", "m2"), ("area_b", "m2"))),
+                  derived=(("area_a", "m2"), ("area_b", "m2"), ("weight", "N"))),
+    ComponentType("double_rod_cylinder", "double-rod cylinder (equal areas) with its load and end stops",
+                  ("a", "b"),
+                  {"bore": Param("m", 0.0, 2.0, "piston diameter", lo_strict=True),
+                   "rod": Param("m", 0.0, 2.0, "rod diameter (both sides)", lo_strict=True),
+                   "stroke": Param("m", 0.0, 20.0, "stroke", lo_strict=True),
+                   "dead_volume_a": Param("m3", 0.0, 1.0, "cap-side volume at x = 0 (ports, hose)", 5e-5,
+                                          lo_strict=True),
+                   "dead_volume_b": Param("m3", 0.0, 1.0, "rod-side volume at full stroke", 5e-5, lo_strict=True),
+                   "mass": Param("kg", 0.0, 1e6, "moved mass", lo_strict=True),
+                   "damping": Param("N.s/m", 0.0, 1e8, "viscous friction", 0.0),
+                   "force": Param("N", -1e8, 1e8, "external force, + opposes extension (or the signal)", 0.0),
+                   "spring": Param("N/m", 0.0, 1e10, "spring on the rod, k*(x - spring_x0) opposes extension", 0.0),
+                   "spring_x0": Param("m", -20.0, 20.0, "position where the spring is relaxed", 0.0),
+                   "incline": Param("deg", -90.0, 90.0, "rod's angle above the horizontal (90: up, the weight "
+                                    "opposes extension)", 0.0),
+                   "x0": Param("m", 0.0, 20.0, "initial position", 0.0)},
+                  modes=("free", "at_retract", "at_extend"), inputs=("force",), states=(("x", "m"), ("v", "m/s")),
+                  derived=(("area_a", "m2"), ("area_b", "m2"), ("weight", "N"))),
     ComponentType("valve_43", "4/3 proportional valve by geometry: spool lag (wn, xi), an opening per edge",
                   ("P", "T", "A", "B"),
                   {"command": Param("-", -1.0, 1.0, "spool command u (or the signal NAME.command)", 0.0),
@@ -277,6 +331,42 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", lo_strict=True),
                    "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.7, lo_strict=True)},
                   inputs=("command",), states=(("x", "m"), ("v", "m/s")), derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),
+    ComponentType("valve_63", "open-centre 6/3 valve (mobile hydraulics): the 4/3 valve plus a P -> T centre path "
+                  "open at x = 0, closed at |x| >= centre_travel",
+                  ("P", "T", "A", "B"),
+                  {"command": Param("-", -1.0, 1.0, "spool command u (or the signal NAME.command)", 0.0),
+                   "x_max": Param("m", 0.0, 0.05, "spool stroke", lo_strict=True),
+                   "area_gradient": Param("m", 0.0, 1.0, "opening per spool travel, w = pi*d*fraction",
+                                          lo_strict=True),
+                   "discharge_coefficient": Param("-", 0.0, 1.0, "Cq", 0.67, lo_strict=True),
+                   "lap_pa": Param("m", -0.01, 0.01, "overlap of P->A (< 0: underlap)", 0.0),
+                   "lap_at": Param("m", -0.01, 0.01, "overlap of A->T", 0.0),
+                   "lap_pb": Param("m", -0.01, 0.01, "overlap of P->B", 0.0),
+                   "lap_bt": Param("m", -0.01, 0.01, "overlap of B->T", 0.0),
+                   "leakage_opening": Param("m", 0.0, 0.001, "opening of a closed edge (its leakage)", 1e-7),
+                   "transition_pressure": Param("Pa", 0.0, 1e7, "laminar transition", 1e5, lo_strict=True),
+                   "centre_travel": Param("m", 0.0, 0.05, "spool travel that closes the centre path",
+                                          lo_strict=True),
+                   "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", lo_strict=True),
+                   "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.7, lo_strict=True)},
+                  inputs=("command",), states=(("x", "m"), ("v", "m/s")), derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),
+    ComponentType("counterbalance_valve", "counterbalance valve: free flow into the load through a check; out of "
+                  "it a relief path opening at p_load + r*p_pilot >= p_set", ("valve", "load", "pilot"),
+                  {"set_pressure": Param("Pa", 0.0, 1e9, "setting p_set (typically 1.3 x the load's pressure)",
+                                         lo_strict=True),
+                   "pilot_ratio": Param("-", 0.0, 100.0, "pilot ratio r", 3.0),
+                   "rated_flow": Param("m3/s", 0.0, 1.0, "flow of the relief path at its rated excess",
+                                       lo_strict=True),
+                   "rated_excess": Param("Pa", 0.0, 1e9, "excess of p_load + r*p_pilot over p_set at the rated flow",
+                                         lo_strict=True),
+                   "check_cracking": Param("Pa", 0.0, 1e8, "check's cracking pressure difference", 2e5,
+                                           lo_strict=True),
+                   "check_rated_flow": Param("m3/s", 0.0, 1.0, "check's flow at its rated difference",
+                                             lo_strict=True),
+                   "check_rated_pressure": Param("Pa", 0.0, 1e8, "check's pressure difference at that flow",
+                                                 lo_strict=True)},
+                  modes=("closed", "check_open", "relief_open", "both_open"),
+                  derived=(("check_gain", "m3/(s.Pa)"), ("relief_gain", "m3/(s.Pa)"))),
 )}
 
 FLUID = {"density": Param("kg/m3", 500.0, 2000.0, "density", 860.0),

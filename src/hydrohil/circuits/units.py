@@ -21,7 +21,7 @@ UNITS: dict[str, tuple[float, str]] = {
     "s": (1.0, "s"), "ms": (1e-3, "s"), "-": (1.0, "-"), "%": (0.01, "-"),
     "kg": (1.0, "kg"), "t": (1e3, "kg"), "N": (1.0, "N"), "kN": (1e3, "N"), "N.s/m": (1.0, "N.s/m"),
     "kg.m2": (1.0, "kg.m2"), "N.m": (1.0, "N.m"), "N.m.s/rad": (1.0, "N.m.s/rad"), "rad/s": (1.0, "rad/s"),
-    "Hz": (1.0, "Hz"),
+    "Hz": (1.0, "Hz"), "N/m": (1.0, "N/m"), "N/mm": (1e3, "N/m"), "deg": (1.0, "deg"),
 }
 # the same word for another SI unit: rpm is rev/s for a pump's speed, rad/s for a motor's; Hz as rad/s
 ALIASES: dict[tuple[str, str], float] = {("rpm", "rad/s"): 2.0 * math.pi / 60.0, ("rev/s", "rad/s"): 2.0 * math.pi,

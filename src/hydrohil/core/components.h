@@ -18,6 +18,7 @@
 #include "hc_end_stops.h"
 #include "hc_motor.h"
 #include "hc_valve_43.h"
+#include "hc_counterbalance.h"
 #include "hc_node.h"
 
 #endif

@@ -14,6 +14,9 @@ HH_INLINE double hc_spool_accel(double x, double v, double x_ref, double wn, dou
     return wn * wn * (x_ref - x) - 2.0 * xi * wn * v;
 }
 
+/* the open-centre bypass P -> T of a 6/3 valve: fully open at x = 0, closed at |x| >= x_c */
+HH_INLINE double hc_centre_opening(double x, double x_c) { return x_c > fabs(x) ? x_c - fabs(x) : 0.0; }
+
 /* the spool clamped at +-x_max after a step (plastic: v = 0 at the end) */
 HH_INLINE void hc_spool_clamp(double *x, double *v, double x_max)
 {
