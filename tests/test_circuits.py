@@ -461,3 +461,21 @@ def test_open_centre_valve_passes_the_pump_to_tank_at_centre():
     body["valve"]["command"] = 1.0
     r = simulate_circuit(circuit(body, initial={"a": 0.0, "b": 0.0}), 0.0)
     assert r.column("valve.q_pt")[0] == 0.0 and r.column("valve.q_pa")[0] > 0
+
+
+def test_circuit_draw_labels_every_component_node_and_signal(tmp_path):
+    """hydrohil circuit draw: an SVG whose text names every component (with its key figures in catalogue units),
+    every node and every signal; a PNG; a wrong suffix refused (exit 2)."""
+    import xml.etree.ElementTree as ET
+    from conftest import hh
+    r = hh("circuit", "draw", "two_cylinders", "--out", tmp_path / "two.svg")
+    assert r.returncode == 0, r.stderr
+    texts = " ".join(t.text or "" for t in ET.parse(tmp_path / "two.svg").iter() if t.tag.endswith("text"))
+    c = load_circuit("two_cylinders")
+    for name in [*c.components, *c.nodes, *c.inputs]:
+        assert name in texts, name
+    assert "63/36 × 400 mm, 200 kg" in texts and "180 bar, 40 l/min at 195" in texts and "20 cm³/rev" in texts
+    assert hh("circuit", "draw", "two_cylinders", "--out", tmp_path / "two.png").returncode == 0
+    assert (tmp_path / "two.png").read_bytes()[:4] == b"\x89PNG"
+    r = hh("circuit", "draw", "two_cylinders", "--out", tmp_path / "two.jpg")
+    assert r.returncode == 2 and ".png or a .svg" in r.stderr and not (tmp_path / "two.jpg").exists()

@@ -76,6 +76,9 @@ def circuit_figures():
         c = load_circuit(name)
         plot_run(simulate_circuit(c, default_duration(c)), HERE / file, title)
         print("wrote", HERE / file)
+    from hydrohil.circuits.draw import draw_circuit
+    draw_circuit(load_circuit("two_cylinders"), HERE / "circuit_two_cylinders_diagram.png")
+    print("wrote", HERE / "circuit_two_cylinders_diagram.png")
 
 
 if __name__ == "__main__":

@@ -326,6 +326,18 @@ def circuit_show(circuit: str = typer.Argument(..., help="built-in name (example
     typer.echo(json.dumps(d, indent=2) if as_json else text(d), nl=as_json)
 
 
+@circuit_app.command("draw")
+def circuit_draw(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or circuit TOML"),
+                 out: Path = typer.Option(..., "--out", help="F.png or F.svg")):
+    """The circuit as a labelled diagram (Graphviz): nodes, components with their key figures, ports, signals."""
+    from hydrohil.circuits.circuit import load_circuit
+    from hydrohil.circuits.draw import draw_circuit
+    try:
+        typer.echo(f"wrote {draw_circuit(load_circuit(circuit), out)}")
+    except HydrohilError as exc:
+        fail(exc)
+
+
 @circuit_app.command("run")
 def circuit_run(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or circuit TOML"),
                 out: Path = typer.Option(..., "--out", help="folder for log.csv and plot.png"),

@@ -1,0 +1,103 @@
+"""``hydrohil circuit draw``: the circuit as a labelled diagram (Graphviz): hydraulic nodes as dots, each
+component as a shape in the spirit of its ISO 1219 symbol (a valve's three envelopes, a pump's circle, an
+accumulator's capsule, a tank's open box) with its key figures in catalogue units, its ports' lines to the
+nodes, the signals that drive it as dashed arrows."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from hydrohil.circuits.circuit import Circuit
+from hydrohil.errors import InputError
+
+# component type -> (graphviz shape, a glyph for the symbol, extra attributes)
+STYLE = {
+    "tank": ("invhouse", "tank", {}),
+    "pressure_source": ("circle", "P", {"style": "filled", "fillcolor": "#fde2e2"}),
+    "pump": ("circle", "▲ pump", {"style": "filled", "fillcolor": "#e2f0fd"}),
+    "relief_valve": ("diamond", "relief", {"style": "filled", "fillcolor": "#fff3d6"}),
+    "check_valve": ("diamond", "check ▶", {"style": "filled", "fillcolor": "#fff3d6"}),
+    "counterbalance_valve": ("diamond", "counterbalance", {"style": "filled", "fillcolor": "#fff3d6"}),
+    "orifice": ("rarrow", "orifice", {}),
+    "accumulator": ("ellipse", "accumulator", {"style": "filled", "fillcolor": "#e9e2fd"}),
+    "hose": ("box", "hose", {"style": "rounded,dashed"}),
+    "volume": ("cylinder", "volume", {}),
+    "motor": ("circle", "▽ motor", {"style": "filled", "fillcolor": "#e2fde8"}),
+    "cylinder": ("box3d", "cylinder", {"style": "filled", "fillcolor": "#e2fde8"}),
+    "double_rod_cylinder": ("box3d", "double-rod cylinder", {"style": "filled", "fillcolor": "#e2fde8"}),
+}
+VALVES = {"valve_43": ("⇉", "⊥ ⊤", "⇆"), "valve_63": ("⇉", "⇢ P→T", "⇆")}
+INTO = {"inlet", "a", "P", "p", "pilot", "valve"}        # ports the flow usually enters a component by
+
+
+def _figures(comp) -> list[str]:
+    """A component's key figures in catalogue units."""
+    v, t = comp.values, comp.type.name
+    out = []
+    if t in ("tank", "pressure_source") and v.get("pressure") is not None and v["pressure"] == v["pressure"]:
+        out.append(f"{v['pressure'] / 1e5:g} bar")
+    if t == "pump":
+        out.append(f"{v['displacement'] * 1e6:g} cm³/rev")
+        if v["speed"] == v["speed"]:
+            out.append(f"{v['speed'] * 60:g} rpm")
+    if t in ("relief_valve", "check_valve"):
+        out.append(f"{v['cracking_pressure'] / 1e5:g} bar, {v['rated_flow'] * 6e4:g} l/min at {v['rated_pressure'] / 1e5:g}")
+    if t == "counterbalance_valve":
+        out.append(f"set {v['set_pressure'] / 1e5:.4g} bar, pilot {v['pilot_ratio']:g}:1")
+    if t == "orifice":
+        out.append(f"{v['area'] * 1e6:g} mm²")
+    if t == "accumulator":
+        out.append(f"{v['gas_volume'] * 1e3:g} l at {v['precharge'] / 1e5:g} bar")
+    if t == "hose":
+        out.append(f"{v['diameter'] * 1e3:g} mm × {v['length']:g} m")
+    if t == "volume":
+        out.append(f"{v['volume'] * 1e3:g} l")
+    if t == "motor":
+        out.append(f"{v['displacement'] * 1e6:g} cm³/rev")
+    if t in ("cylinder", "double_rod_cylinder"):
+        out.append(f"{v['bore'] * 1e3:g}/{v['rod'] * 1e3:g} × {v['stroke'] * 1e3:g} mm, {v['mass']:g} kg")
+    if t in VALVES:
+        out.append(f"x_max {v['x_max'] * 1e3:g} mm")
+    return out
+
+
+def draw_circuit(c: Circuit, out: str | Path) -> Path:
+    """Write the diagram of ``c`` to ``out`` (.png or .svg); returns the path."""
+    out = Path(out)
+    fmt = out.suffix.lstrip(".").lower()
+    if fmt not in ("png", "svg"):
+        raise InputError(f"the drawing is a .png or a .svg, got {out.name!r}", key="out")
+    if shutil.which("dot") is None:
+        raise InputError("circuit draw needs Graphviz's dot program (Debian: apt-get install graphviz)")
+    import graphviz
+    g = graphviz.Digraph(c.name, engine="dot", format=fmt,
+                       graph_attr={"rankdir": "TB", "label": f"{c.name}", "labelloc": "t", "fontname": "Helvetica",
+                                   "fontsize": "16", "splines": "true", "nodesep": "0.4", "ranksep": "0.7"},
+                       node_attr={"fontname": "Helvetica", "fontsize": "11"},
+                       edge_attr={"fontname": "Helvetica", "fontsize": "9", "color": "#3060a0", "penwidth": "1.6",
+                                  "arrowhead": "none"})
+    for node in c.nodes:
+        fixed = f" (fixed by {c.fixed[node][0]})" if node in c.fixed else ""
+        g.node(f"n__{node}", label="", xlabel=node + fixed, shape="point", width="0.14", color="#3060a0")
+    for comp in c.components.values():
+        t = comp.type.name
+        figures = "\\n".join(_figures(comp))
+        if t in VALVES:                                     # the ISO symbol's three envelopes, side by side
+            a, centre, b = VALVES[t]
+            g.node(f"c__{comp.name}", shape="record", style="filled", fillcolor="#fff3d6",
+                   label=f"{{{comp.name} ({t.replace('_', ' ')})|{{ {a} | {centre} | {b} }}|{figures}}}")
+        else:
+            shape, glyph, extra = STYLE.get(t, ("box", t, {}))
+            name = comp.name if glyph in (comp.name, t) and comp.name == glyph else f"{comp.name}\\n{glyph}"
+            g.node(f"c__{comp.name}", label=name + (f"\\n{figures}" if figures else ""), shape=shape, **extra)
+        for port, node in comp.ports.items():     # drawn along the flow: supply at the top, tank at the bottom
+            into = port in INTO and t != "pressure_source"
+            g.edge(*((f"n__{node}", f"c__{comp.name}") if into else (f"c__{comp.name}", f"n__{node}")), label=port)
+    for sig in c.inputs:
+        comp = sig.split(".", 1)[0]
+        g.node(f"s__{sig}", label=sig, shape="plaintext", fontcolor="#a03030")
+        g.edge(f"s__{sig}", f"c__{comp}", style="dashed", color="#a03030", arrowhead="normal", penwidth="1.0")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    g.render(outfile=str(out), cleanup=True)
+    return out
