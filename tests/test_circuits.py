@@ -12,7 +12,7 @@ from scipy.optimize import brentq
 from hydrohil.circuits.circuit import circuit_from_dict, load_circuit
 from hydrohil.circuits.run import node_stiffness, simulate_circuit
 from hydrohil.circuits.units import to_si
-from hydrohil.errors import InputError
+from hydrohil.errors import InputError, InputWarning
 
 RHO, BETA, NU = 860.0, 1.4e9, 46e-6
 FLUID = {"density": RHO, "bulk_modulus": BETA, "viscosity": NU}
@@ -285,12 +285,12 @@ def test_cylinder_extends_at_pump_flow_over_area_then_stops_at_the_end():
                                                                # is too stiff for 0.5 ms: circuit show says so)
     a1 = math.pi * bore ** 2 / 4
     t, x, v = r.column("t"), r.column("cyl.x"), r.column("cyl.v")
-    assert v[np.searchsorted(t, 1.0)] == pytest.approx(q / a1, rel=1e-6)
+    assert v[np.searchsorted(t, 1.0)] == pytest.approx(q / a1, rel=1e-12)        # (measured: 3e-16)
     t_end = t[np.argmax(r.column("cyl.mode") == 2)]
-    assert t_end == pytest.approx(stroke / (q / a1), abs=0.03)      # (the start-up: compressing the chamber)
+    assert t_end == pytest.approx(stroke / (q / a1), abs=3e-3)      # the start-up: compressing the chamber (0.8 ms)
     assert x[-1] == stroke and v[-1] == 0.0
     k = (20e-3 / 60) / 10e5
-    assert r.column("a.p")[-1] == pytest.approx(100e5 + q / k, rel=1e-9)
+    assert r.column("a.p")[-1] == pytest.approx(100e5 + q / k, rel=1e-12)       # (measured: 6e-16)
     assert r.column("relief.mode")[-1] == 1
 
 
@@ -311,11 +311,12 @@ def test_valve_controlled_cylinder_moves_at_the_orifice_equation_speed():
     x = 0.5 * xmax
     assert at_start(circuit(body, initial={"a": 0.0, "b": 0.0}), "valve.q_pa") == pytest.approx(k * x * math.sqrt(ps),
                                                                                                rel=1e-12)
-    r = simulate_circuit(circuit(body), 1.0)
+    with pytest.warns(InputWarning, match="cyl is not held at rest"):       # (the valve is open: it moves)
+        r = simulate_circuit(circuit(body), 1.0)
     a1, a2 = math.pi * bore ** 2 / 4, math.pi * (bore ** 2 - rod ** 2) / 4
     v = k * x * math.sqrt(a1 * ps / (a1 ** 3 + a2 ** 3))
-    assert r.column("cyl.v")[-1] == pytest.approx(v, rel=1e-6)
-    assert r.column("a.p")[-1] * a1 == pytest.approx(r.column("b.p")[-1] * a2, rel=1e-6)
+    assert r.column("cyl.v")[-1] == pytest.approx(v, rel=6e-7)          # (measured: 2e-7, still settling at 1 s)
+    assert r.column("a.p")[-1] * a1 == pytest.approx(r.column("b.p")[-1] * a2, rel=1.5e-8)      # (5e-9)
     assert r.column("valve.x")[-1] == pytest.approx(x, rel=1e-12)
 
 
@@ -368,7 +369,8 @@ def test_circuits_start_at_rest_unless_initial_pressures_are_given():
     from 100 bar ends; a pump with nowhere to go has no rest and says where."""
     c = load_circuit("two_cylinders")
     c.initial = {}
-    r = simulate_circuit(c, 0.0)
+    with pytest.warns(InputWarning, match="cyl1 is not held at rest: the net force on it at the start is 9706 N"):
+        r = simulate_circuit(c, 0.0)           # (ps/2 on both sides of a differential piston: it extends)
     ps = r.column("supply.p")[0]
     for n in ("a1", "b1", "a2", "b2"):
         assert r.column(f"{n}.p")[0] == pytest.approx(ps / 2, rel=1e-12)
@@ -411,7 +413,8 @@ def test_double_rod_cylinder_and_a_load_with_spring_and_weight():
                  "tank": {"type": "tank", "p": "t"},
                  "cyl": {"type": "cylinder", "a": "s", "b": "t", "bore": bore, "rod": rod, "stroke": 0.5, "mass": m,
                          "damping": 2e4, "spring": k, "spring_x0": x_s, "incline": "60 deg"}})
-    r = simulate_circuit(c, 2.0)
+    with pytest.warns(InputWarning, match="cyl is not held at rest"):        # (the spring and weight move it)
+        r = simulate_circuit(c, 2.0)
     x_eq = x_s + (p * math.pi * bore ** 2 / 4 - m * 9.80665 * math.sin(math.radians(60))) / k
     assert r.column("cyl.x")[-1] == pytest.approx(x_eq, rel=1e-9)
 
@@ -443,7 +446,16 @@ def test_counterbalance_valve_holds_the_load_and_lowers_it_under_pilot():
     p_x = 20e5
     low = simulate_circuit(rig(p_x), 1.0)                    # (0.16 m of its 0.4 m)
     v = -k * (w / a1 + 3.0 * p_x - p_set) / (a1 + k * c_visc / a1)
-    assert low.column("cyl.v")[-1] == pytest.approx(v, rel=1e-6) and low.column("cb.mode")[-1] == 2
+    assert low.column("cyl.v")[-1] == pytest.approx(v, rel=1e-12) and low.column("cb.mode")[-1] == 2   # (1e-15)
+    # the relief path never carries oil into a load whose valve port is higher (100 bar against 99.5)
+    up = circuit({"src": {"type": "pressure_source", "p": "v", "pressure": 100e5},
+                  "pilot": {"type": "pressure_source", "p": "x", "pressure": p_x},
+                  "cb": {"type": "counterbalance_valve", "valve": "v", "load": "a", "pilot": "x", "set_pressure": p_set,
+                         "rated_flow": "10 l/min", "rated_excess": "20 bar", "check_rated_flow": "20 l/min",
+                         "check_rated_pressure": "5 bar"},
+                  "vol": {"type": "volume", "p": "a", "volume": "1 l"}}, initial={"a": 99.5e5})
+    r = simulate_circuit(up, 0.5)
+    assert r.column("cb.q")[0] >= 0.0 and np.all(np.diff(r.column("a.p")) >= -1e-6)
 
 
 def test_open_centre_valve_passes_the_pump_to_tank_at_centre():
@@ -479,3 +491,40 @@ def test_circuit_draw_labels_every_component_node_and_signal(tmp_path):
     assert (tmp_path / "two.png").read_bytes()[:4] == b"\x89PNG"
     r = hh("circuit", "draw", "two_cylinders", "--out", tmp_path / "two.jpg")
     assert r.returncode == 2 and ".png or a .svg" in r.stderr and not (tmp_path / "two.jpg").exists()
+
+
+def test_names_inputs_and_tables_are_checked_and_a_circuit_without_states_runs():
+    """Component and node names are C identifiers (they name C); an input that is no signal, a signal given
+    twice, a bad time or node table: each an error naming the key. A circuit with no pressure node and no state
+    (two fixed pressures and an orifice) runs and logs its flow."""
+    base = {"src": {"type": "pressure_source", "p": "s", "pressure": "10 bar"}, "tank": {"type": "tank", "p": "t"},
+            "o": {"type": "orifice", "a": "s", "b": "t", "area": "1 mm2"}}
+    for bad, where, message in (
+            ({"my-valve": {"type": "volume", "p": "s", "volume": 1e-3}}, "components.my-valve", "letters, digits"),
+            ({"v": {"type": "volume", "p": "node*/x", "volume": 1e-3}}, "components.v.p", "letters, digits")):
+        with pytest.raises(InputError, match=f"test.toml: {where}: .*{message}"):
+            circuit({**base, **bad})
+    for inputs, where, message in (({"o.area": 1e-6}, "inputs.o.area", "not a signal of"),
+                                   ({"o": 1.0}, "inputs.o", "not a signal of o"),
+                                   ({"o.opening": {"t": [0, "1 bar"], "value": [1, 1]}}, "inputs.o.opening.t",
+                                    "s is wanted")):
+        with pytest.raises(InputError, match=f"test.toml: {where}: .*{message}"):
+            circuit(base, inputs=inputs)
+    with pytest.raises(InputError, match="components.o.opening: given here and driven in"):
+        circuit({**base, "o": {**base["o"], "opening": 0.5}}, inputs={"o.opening": 1.0})
+    with pytest.raises(InputError, match="nodes.s: a node's table has one key"):
+        circuit({**base, "v": {"type": "volume", "p": "n", "volume": 1e-3},
+                 "o2": {"type": "orifice", "a": "n", "b": "t", "area": "1 mm2"}}, nodes={"s": {"volum": "5 l"}})
+    r = simulate_circuit(circuit(base), 0.01)
+    assert np.all(r.column("o.q") == pytest.approx(0.61e-6 * math.sqrt(2 * 10e5 / RHO), rel=1e-12))
+
+
+def test_a_node_without_an_open_path_at_rest_is_reported():
+    """Closed-centre valve without leakage: its chambers have no path at rest; their pressure is the initial
+    guess, and the run says so."""
+    body = {"src": {"type": "pressure_source", "p": "s", "pressure": "100 bar"}, "tank": {"type": "tank", "p": "t"},
+            "valve": {"type": "valve_43", "P": "s", "T": "t", "A": "a", "B": "b", "x_max": "1 mm",
+                      "area_gradient": "2 mm", "leakage_opening": 0.0, "wn": 600.0},
+            "va": {"type": "volume", "p": "a", "volume": "0.1 l"}, "vb": {"type": "volume", "p": "b", "volume": "0.1 l"}}
+    with pytest.warns(InputWarning, match="node a has no open path at rest"):
+        simulate_circuit(circuit(body), 0.0)

@@ -9,6 +9,7 @@ import importlib.machinery
 import importlib.util
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
@@ -44,14 +45,17 @@ def compile_circuit(c: Circuit) -> CompiledCircuit:
     from cffi import FFI
     from hydrohil.core.build import CFLAGS
     source, lay = generate(c)
+    from hydrohil.core.build import c_compiler
     digest = hashlib.sha256(source.encode() + CDEF.encode())
+    digest.update(f"{sys.version}|{importlib.machinery.EXTENSION_SUFFIXES[0]}|{c_compiler()}".encode())
     for f in sorted(CORE.glob("*.[ch]")):
         digest.update(f.name.encode() + b"\0" + f.read_bytes())
     digest.update(" ".join(CFLAGS).encode())
     name = f"_hc_{digest.hexdigest()[:16]}"
     folder = cache_dir()
     folder.mkdir(parents=True, exist_ok=True)
-    found = sorted(folder.glob(f"{name}.*.so")) + sorted(folder.glob(f"{name}.so"))
+    path = folder / (name + importlib.machinery.EXTENSION_SUFFIXES[0])
+    found = [path] if path.exists() else []
     if not found:
         ffi = FFI()
         ffi.cdef(CDEF)
@@ -61,10 +65,10 @@ def compile_circuit(c: Circuit) -> CompiledCircuit:
                 built = Path(ffi.compile(tmpdir=tmp, verbose=False))
             except Exception as exc:        # noqa: BLE001 - the compiler's message, with the file it failed on
                 raise HydrohilError(f"compiling circuit {c.name!r} ({c.source}) failed: {exc}") from None
-            target = folder / built.name
-            shutil.copyfile(built, target.with_suffix(f".part{os.getpid()}"))
-            os.replace(target.with_suffix(f".part{os.getpid()}"), target)
-            found = [target]
+            part = path.with_name(path.name + f".part{os.getpid()}")
+            shutil.copyfile(built, part)
+            os.replace(part, path)                  # (atomic: another process may build the same meanwhile)
+            found = [path]
     path = found[0]
     loader = importlib.machinery.ExtensionFileLoader(name, str(path))
     spec = importlib.util.spec_from_file_location(name, path, loader=loader)

@@ -24,6 +24,7 @@ converted at the boundary; a mistake names the file, the component, the key and 
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -73,6 +74,9 @@ class Circuit:
         return v
 
 
+NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")      # component and node names: C identifiers (they name C)
+
+
 def _err(source: str, where: str, message: str) -> InputError:
     return InputError(message, source=source, key=where)
 
@@ -117,6 +121,8 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
     fixed: dict[str, tuple[str, str]] = {}
     for name, body in comps_data.items():
         where = f"components.{name}"
+        if not NAME.match(name):
+            raise _err(source, where, "a component's name is letters, digits and _ (not starting with a digit)")
         if not isinstance(body, dict) or "type" not in body:
             raise _err(source, where, f"needs type = one of {', '.join(TYPES)}")
         ctype = TYPES.get(body["type"])
@@ -125,9 +131,9 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
         ports = {}
         for port in ctype.ports:
             node = body.get(port)
-            if not isinstance(node, str) or not node:
-                raise _err(source, f"{where}.{port}", f"port {port} of a {ctype.name} needs a node name "
-                                                      f"(ports: {', '.join(ctype.ports)})")
+            if not isinstance(node, str) or not NAME.match(node):
+                raise _err(source, f"{where}.{port}", f"port {port} of a {ctype.name} needs a node name of letters, "
+                                                      f"digits and _ (ports: {', '.join(ctype.ports)})")
             ports[port] = node
             if node not in nodes:
                 nodes.append(node)
@@ -137,6 +143,9 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
                 if key not in ctype.inputs:
                     raise _err(source, f"inputs.{name}.{key}", f"not a signal of a {ctype.name} (signals: "
                                                                 f"{', '.join(ctype.inputs) or 'none'})")
+                if key in body:
+                    raise _err(source, f"{where}.{key}", f"given here and driven in [inputs] \"{name}.{key}\": "
+                                                         "one or the other")
                 values[key] = math.nan
                 continue
             values[key] = _value(body, key, prm, source, where)
@@ -160,12 +169,17 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
     for node, body in data.get("nodes", {}).items():
         if node not in nodes:
             raise _err(source, f"nodes.{node}", f"no component's port is at this node (nodes: {', '.join(nodes)})")
+        if not isinstance(body, dict) or set(body) - {"volume"}:
+            raise _err(source, f"nodes.{node}", "a node's table has one key: volume = \"<number> <unit>\"")
         node_volumes[node] = _value(body, "volume", _NODE_VOLUME, source, f"nodes.{node}")
     inputs = {}
     for sig, drive in inputs_data.items():
         comp, _, key = sig.partition(".")
         if comp not in components:
             raise _err(source, f"inputs.{sig}", f"no component {comp!r} (components: {', '.join(components)})")
+        if key not in components[comp].type.inputs:
+            raise _err(source, f"inputs.{sig}", f"not a signal of {comp} (signals of a {components[comp].type.name}: "
+                                                f"{', '.join(components[comp].type.inputs) or 'none'})")
         prm = components[comp].type.params[key]
         inputs[sig] = _drive(drive, prm, source, f"inputs.{sig}")
     initial = {}
@@ -211,7 +225,10 @@ def _drive(drive, prm, source: str, where: str):
     t, v = drive.get("t"), drive.get("value")
     if not isinstance(t, list) or not isinstance(v, list) or len(t) != len(v) or not t:
         raise _err(source, where, "a table needs t = [...] and value = [...] of one length")
-    ts = np.array([to_si(x, "s") for x in t])
+    try:
+        ts = np.array([to_si(x, "s") for x in t])
+    except ValueError as exc:
+        raise _err(source, f"{where}.t", str(exc)) from None
     if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
         raise _err(source, f"{where}.t", "times start at 0 and increase")
     vs = np.array([_value({"value": x}, "value", prm, source, where) for x in v])

@@ -147,7 +147,10 @@ enum {{ LOG_T, LOG_NODES, LOG_OUTPUTS = LOG_NODES + {len(c.nodes)}, LOG_MODES = 
 
 static void rhs(const double *y, const int64_t *m, const double *u, const double *P, double *dy)
 {{
+    int i;
     (void)m; (void)u; (void)P; (void)y;
+    for (i = 0; i < NY; i++)             /* (a circuit without states has one, constant) */
+        dy[i] = 0.0;
 {chr(10).join(rhs)}
 }}
 
@@ -280,10 +283,13 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
 
 
 def _initial(c: Circuit, lay: Layout, node: str) -> str:
+    """A node's initial guess: its [initial] pressure, else the lowest fixed pressure (driven ones: their value at
+    step 0 is not known here; the tank's 0 when every fixed pressure is driven)."""
     if node in c.initial:
         return repr(float(c.initial[node]))
-    lowest = min(c.fixed, key=lambda n: c.components[c.fixed[n][0]].values[c.fixed[n][1]])
-    return _pressure(lay, lowest)
+    fixed = [(c.components[comp].values[key], n) for n, (comp, key) in c.fixed.items()
+             if not math.isnan(c.components[comp].values[key])]
+    return _pressure(lay, min(fixed)[1]) if fixed else "0.0"
 
 
 def _ident(name: str) -> str:

@@ -116,7 +116,7 @@ _DERIVE["valve_63"] = _DERIVE["valve_43"]
 
 
 def _emit_tank(c):
-    return Emit(outputs={"p": (c.par("pressure"), "Pa")})
+    return Emit()                 # (its pressure is its node's column)
 
 
 def _emit_pump(c):
@@ -186,7 +186,7 @@ def _emit_counterbalance(c):
     pv, pl, px = c.p("valve"), c.p("load"), c.p("pilot")
     args = f"{c.par('check_cracking')}, {c.par('set_pressure')}, {c.par('pilot_ratio')}"
     q = (f"hc_cb_flow((int){c.mode}, {c.par('check_gain')}, {c.par('check_cracking')}, {c.par('relief_gain')}, "
-         f"{c.par('set_pressure')}, {c.par('pilot_ratio')}, {pv}, {pl}, {px})")
+         f"{c.par('set_pressure')}, {c.par('pilot_ratio')}, {c.par('transition_pressure')}, {pv}, {pl}, {px})")
     return Emit(flows=[("valve", "load", q)], outputs={"q": (q, "m3/s")},
                 mode_update=f"{c.mode} = hc_cb_mode({args}, {pv}, {pl}, {px});")
 
@@ -351,7 +351,7 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.7, lo_strict=True)},
                   inputs=("command",), states=(("x", "m"), ("v", "m/s")), derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),
     ComponentType("counterbalance_valve", "counterbalance valve: free flow into the load through a check; out of "
-                  "it a relief path opening at p_load + r*p_pilot >= p_set", ("valve", "load", "pilot"),
+                  "it a relief path opening at p_load - p_valve + r*p_pilot >= p_set", ("valve", "load", "pilot"),
                   {"set_pressure": Param("Pa", 0.0, 1e9, "setting p_set (typically 1.3 x the load's pressure)",
                                          lo_strict=True),
                    "pilot_ratio": Param("-", 0.0, 100.0, "pilot ratio r", 3.0),
@@ -364,7 +364,9 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "check_rated_flow": Param("m3/s", 0.0, 1.0, "check's flow at its rated difference",
                                              lo_strict=True),
                    "check_rated_pressure": Param("Pa", 0.0, 1e8, "check's pressure difference at that flow",
-                                                 lo_strict=True)},
+                                                 lo_strict=True),
+                   "transition_pressure": Param("Pa", 0.0, 1e7, "load-to-valve difference below which the relief "
+                                                "path's flow fades to 0", 1e5, lo_strict=True)},
                   modes=("closed", "check_open", "relief_open", "both_open"),
                   derived=(("check_gain", "m3/(s.Pa)"), ("relief_gain", "m3/(s.Pa)"))),
 )}

@@ -73,7 +73,7 @@ def settle(c: Circuit, cc, P, u, y, m, h: float, method: str) -> None:
         return lib.hc_rest(buf["P"], buf["u"], buf["y"], buf["m"], buf["held"], METHODS.index(method), float(h),
                            max(int(seconds / h), 1), REST_TOL)
     settled = march(REST_MARCH_S) > 0
-    dy = np.zeros(len(y))
+    dy = np.zeros(max(len(y), 1))
     for _ in range(5):                    # a few rounds: the modes at the solution may differ from the march's
         if settled or not free:
             break
@@ -87,11 +87,47 @@ def settle(c: Circuit, cc, P, u, y, m, h: float, method: str) -> None:
         if np.all(np.isfinite(sol.x)):
             y[free] = sol.x
         settled = march(10 * h) > 0       # the modes follow; settled when no pressure moves any more
+    if settled:
+        _warn_indeterminate(c, cc, buf, y, free)
     if not settled:
         moving = [c.state_nodes[i] for i in free]
         raise InputError(f"no state at rest: the pressures at {', '.join(moving)} do not settle (from "
                          f"{', '.join(f'{x / 1e5:.4g}' for x in y0[:nn])} bar); does a pump have nowhere to go? "
                          "Give [initial] pressures to start from a state of your own", source=c.source, key="initial")
+
+
+def _warn_indeterminate(c: Circuit, cc, buf, y, free) -> None:
+    """A node whose flow balance does not depend on its pressure (no path but closed ones) has no pressure at
+    rest: it keeps its initial guess, which the user should know (and may give in [initial])."""
+    import warnings
+    from hydrohil.errors import InputWarning
+    ffi, lib = cc.ffi, cc.lib
+    hi, lo = np.zeros(max(len(y), 1)), np.zeros(max(len(y), 1))
+    for i in free:
+        d = max(1e3, 1e-6 * abs(y[i]))
+        for sign, out in ((1, hi), (-1, lo)):
+            yy = y.copy()
+            yy[i] += sign * d
+            lib.hc_rhs(buf["P"], ffi.from_buffer("double[]", yy), buf["m"], buf["u"], ffi.from_buffer("double[]", out))
+        if abs(hi[i] - lo[i]) / (2 * d) < 1e-9:
+            warnings.warn(f"{c.source}: node {c.state_nodes[i]} has no open path at rest: its pressure is no rest "
+                          f"value but its initial guess, {y[i] / 1e5:.4g} bar (give it in [initial])", InputWarning,
+                          stacklevel=3)
+
+
+def _warn_unbalanced(c: Circuit, res) -> None:
+    """A piston started at rest whose chambers' pressures do not balance its load moves at once (SPEC §12.5: a
+    closed loop holds it with its spool offset; [initial] pressures can too)."""
+    import warnings
+    from hydrohil.errors import InputWarning
+    for comp in c.components.values():
+        if comp.type.name in ("cylinder", "double_rod_cylinder") and res.columns[f"{comp.name}.mode"][0] == 0:
+            f = res.columns[f"{comp.name}.force"][0]
+            scale = abs(res.columns[f"{comp.ports['a']}.p"][0]) * comp.values["area_a"] + 1.0
+            if abs(f) > 1e-6 * scale:
+                warnings.warn(f"{c.source}: {comp.name} is not held at rest: the net force on it at the start is "
+                              f"{f:.4g} N (its chambers' pressures at rest do not balance its load); it moves at "
+                              "once", InputWarning, stacklevel=3)
 
 
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
@@ -109,7 +145,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     n = int(round(duration / h))
     u = np.ascontiguousarray(input_table(c, n, h, inputs))
     P = np.ascontiguousarray(lay.values())
-    y = np.zeros(len(lay.states))
+    y = np.zeros(max(len(lay.states), 1))         # (the C has one state at least)
     m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
     ffi, lib = cc.ffi, cc.lib
     lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
@@ -122,14 +158,16 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
                         ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows)
     log = log[:rows[0]]
+    res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method)
     if status != 0:
         k = int(rows[0]) * every
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         raise SimulationDiverged(k * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
                                  "a state is not finite")
-    units = {"t": "s", **{f"{nd}.p": "Pa" for nd in c.nodes}, **dict(lay.outputs), **{md: "-" for md in lay.modes}}
-    return CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, units, lay.mode_names, h,
-                         method)
+    res.units = {"t": "s", **{f"{nd}.p": "Pa" for nd in c.nodes}, **dict(lay.outputs), **{md: "-" for md in lay.modes}}
+    if rest and len(log):
+        _warn_unbalanced(c, res)
+    return res
 
 
 @dataclass
@@ -165,7 +203,7 @@ def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list
     u_all = input_table(c, max(n, 1), dt_row)          # the inputs at the rows' times
     limit = core.hh_real_axis_limit(METHODS.index(res.method))
     lam = np.zeros(len(c.state_nodes))
-    dy_hi, dy_lo = np.zeros(len(lay.states)), np.zeros(len(lay.states))
+    dy_hi, dy_lo = np.zeros(max(len(lay.states), 1)), np.zeros(max(len(lay.states), 1))
     for row in np.unique(np.linspace(0, n - 1, min(samples, n)).astype(int)):
         y = np.array([res.columns[s][row] for s in lay.states])
         m = np.array([res.columns[md][row] for md in lay.modes] or [0], dtype=np.int64)
