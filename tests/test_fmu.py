@@ -263,7 +263,7 @@ def test_edge_calls_under_sanitizers(tmp_path, version):
                        env={"ASAN_OPTIONS": "detect_leaks=1", "PATH": "/usr/bin:/bin"})
     assert r.returncode == 0 and "ok: 0 failed" in r.stdout, r.stdout + r.stderr
     assert "ERROR: AddressSanitizer" not in r.stderr and "runtime error" not in r.stderr, r.stderr
-    for message in ("too short for a hydrohil FMU state", "not a hydrohil FMU state", "this FMU reads format 1",
+    for message in ("too short for a hydrohil FMU state", "not a hydrohil FMU state", "this FMU reads format 2",
                     "FMU state of another export", "only in step mode", "only in initialisation mode",
                     "outputs and calculated parameters exist from initialisation mode on",
                     "before the last communication point"):

@@ -7,7 +7,7 @@
 #include "plant_fmu.h"
 
 #define STATE_TAG "hydrohil FMU state"
-#define STATE_VERSION 1u
+#define STATE_VERSION 2u        /* 2: the rig's command path (hh_watchdog) saved too */
 #define DELAY_MAX 100000000       /* a saved delay line longer than this is not one of this plant's */
 
 void plant_logf(plant *pl, int status, const char *fmt, ...)
@@ -38,6 +38,13 @@ void plant_defaults(plant *pl)
     pl->mode = PLANT_INSTANTIATED;
 }
 
+/* The rig around the instance's sim: the command path alone (an FMU's input arrives every step: the watchdog
+ * never trips; no fault table; its readings are the FMU's outputs, not the rig's sensing). */
+static void rig_init(plant *pl)
+{
+    hh_rig_init(&pl->rig, &pl->sim, 1e-6, 0, HUGE_VAL, 0, 0.0, NULL, 0);
+}
+
 plant *plant_new(const char *name, plant_log_fn log, void *env)
 {
     plant *pl = calloc(1, sizeof *pl);
@@ -47,6 +54,7 @@ plant *plant_new(const char *name, plant_log_fn log, void *env)
     pl->log = log;
     pl->env = env;
     plant_defaults(pl);
+    rig_init(pl);
     return pl;
 }
 
@@ -163,6 +171,7 @@ static int prepare(plant *pl)
     hh_initial_state(pl->sim.p, pl->par[VR_XP0], pl->par[VR_AT_REST] == 1.0 ? pl->xs_rest : pl->par[VR_XS0], 0.0,
                      NAN, NAN, 0.0, pl->sim.y, pl->sim.m);
     hh_sim_reset(&pl->sim);
+    rig_init(pl);
     if (!held && pl->par[VR_AT_REST] == 1.0 && pl->sim.m[HH_M_TRAVEL] == HH_FREE)
         plant_logf(pl, PLANT_WARNING, "no spool position holds the piston at rest: the load is more than the cylinder "
                    "gives at a supply pressure of %g bar; the spool starts centred and the load moves the piston", p[HH_SUPPLY_PS] / 1e5);
@@ -282,7 +291,7 @@ int plant_terminate(plant *pl)
  * steps the next doStep takes (the first of them begins at that grid point), each held over its step. */
 int plant_do_step(plant *pl, double t, double dt)
 {
-    double h = pl->sim.h, u = hh_command_clamp(pl->u);   /* as the rig's command path saturates it */
+    double h = pl->sim.h, u_valve;
     long long n, i;
     if (pl->mode != PLANT_STEPPING)
         return wrong_mode(pl, "doStep", "step (initialise first; a failed instance must be reset)");
@@ -302,7 +311,7 @@ int plant_do_step(plant *pl, double t, double dt)
     pl->sim.p[HH_LOAD_FORCE] = pl->f_load;
     pl->sim.p[HH_SUPPLY_PS] = pl->ps;
     for (i = 0; i < n; i++) {
-        if (hh_sim_step(&pl->sim, u) != HH_OK) {
+        if (hh_rig_step(&pl->rig, pl->sim.k, 1, pl->u, &u_valve) != HH_OK) {   /* the rig's step, saturating u */
             const double *y = pl->sim.y;
             plant_logf(pl, PLANT_ERROR, "the simulation diverged at t = %.6g s (travel %d, friction %d, spool %d): "
                        "xs %g, vs %g, p1 %g Pa, p2 %g Pa, xp %g m, vp %g m/s, z %g m", pl->t0 + pl->sim.out[HH_OUT_T],
@@ -330,6 +339,8 @@ typedef struct {
     int64_t f_load_set, ps_set, mode;
     double p[HH_NP], y[HH_NY], out[HH_NOUT], h, delay_alpha;
     int64_t m[HH_NM], k, model, method, bounded, delay_pos, delay_n;
+    double link_u_held, link_hold_x;          /* the rig's command path (hh_watchdog) */
+    int64_t link_k_delivered, link_k_interfered, link_delivered, link_active, link_trips, link_trips_unexplained;
 } state_values;
 
 static void state_header_of(state_header *hd, uint64_t dbuf_size)
@@ -427,6 +438,14 @@ int plant_state_get(plant *pl, void **state)
     v.delay_alpha = s->delay.alpha;
     v.delay_pos = s->delay.pos;
     v.delay_n = s->delay.n;
+    v.link_u_held = pl->rig.link.u_held;
+    v.link_hold_x = pl->rig.link.hold_x;
+    v.link_k_delivered = pl->rig.link.k_delivered;
+    v.link_k_interfered = pl->rig.link.k_interfered;
+    v.link_delivered = pl->rig.link.delivered;
+    v.link_active = pl->rig.link.active;
+    v.link_trips = pl->rig.link.trips;
+    v.link_trips_unexplained = pl->rig.link.trips_unexplained;
     memcpy(bytes, &hd, sizeof hd);
     memcpy(bytes + sizeof hd, &v, sizeof v);
     if (pl->dbuf_size > 0)
@@ -509,6 +528,15 @@ int plant_state_set(plant *pl, const void *state)
     s->delay.pos = (int)v.delay_pos;
     s->delay.n = (int)v.delay_n;
     s->delay.alpha = v.delay_alpha;
+    rig_init(pl);
+    pl->rig.link.u_held = v.link_u_held;
+    pl->rig.link.hold_x = v.link_hold_x;
+    pl->rig.link.k_delivered = v.link_k_delivered;
+    pl->rig.link.k_interfered = v.link_k_interfered;
+    pl->rig.link.delivered = v.link_delivered;
+    pl->rig.link.active = (int)v.link_active;
+    pl->rig.link.trips = v.link_trips;
+    pl->rig.link.trips_unexplained = v.link_trips_unexplained;
     if (pl->dbuf_size > 0)
         memcpy(pl->dbuf, bytes + sizeof hd + sizeof v, sizeof(double) * (size_t)pl->dbuf_size);
     return PLANT_OK;
