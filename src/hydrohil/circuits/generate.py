@@ -195,6 +195,28 @@ static void log_row(double t, const double *y, const int64_t *m, const double *u
         row[LOG_MODES + i] = (double)m[i];
 }}
 
+/* The stage derivatives k of an explicit step of h from y with tableau tab; held (NULL: none): the node
+ * pressures kept where they are, the components' states too (the rest march of hc_rest). */
+static void stages(const hh_tableau *tab, double h, const double *y, int64_t *m, const double *u, const double *P,
+                   const int64_t *held, double k[][NY])
+{{
+    double ytmp[NY];
+    int s, j, i;
+    for (s = 0; s < tab->stages; s++) {{
+        for (i = 0; i < NY; i++) {{
+            double acc = y[i];
+            for (j = 0; j < s; j++)
+                acc += h * tab->a[s][j] * k[j][i];
+            ytmp[i] = acc;
+        }}
+        rhs(ytmp, m, u, P, k[s]);
+        if (held)
+            for (i = 0; i < NY; i++)
+                if (i >= NNODES || held[i])
+                    k[s][i] = 0.0;
+    }}
+}}
+
 /* The node pressures at rest (SPEC §12.5): the components' states held (pistons and motors still, spools where
  * their command puts them), the nodes not in `held` marched with the method until no pressure moves by more
  * than rel_tol*(1 bar + |p|) in a step; the modes follow their guards. Returns the steps taken, or -1 when not
@@ -203,23 +225,12 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
                 int64_t max_steps, double rel_tol)
 {{
     const hh_tableau *tab = &HH_TABLEAUS[method];
-    double k[HH_MAX_STAGES][NY], ytmp[NY];
+    double k[HH_MAX_STAGES][NY];
     int64_t step;
-    int s, j, i;
+    int s, i;
     for (step = 0; step < max_steps; step++) {{
         double moved = 0.0;
-        for (s = 0; s < tab->stages; s++) {{
-            for (i = 0; i < NY; i++) {{
-                double acc = y[i];
-                for (j = 0; j < s; j++)
-                    acc += h * tab->a[s][j] * k[j][i];
-                ytmp[i] = acc;
-            }}
-            rhs(ytmp, m, u, P, k[s]);
-            for (i = 0; i < NY; i++)
-                if (i >= NNODES || held[i])
-                    k[s][i] = 0.0;
-        }}
+        stages(tab, h, y, m, u, P, held, k);
         for (i = 0; i < NNODES; i++) {{
             double acc = y[i], d;
             for (s = 0; s < tab->stages; s++)
@@ -245,24 +256,16 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            const double *u, double *log, int64_t *rows)
 {{
     const hh_tableau *tab = &HH_TABLEAUS[method];
-    double k[HH_MAX_STAGES][NY], ytmp[NY];
+    double k[HH_MAX_STAGES][NY];
     int64_t step, row = 0;
-    int s, j, i;
+    int s, i;
     for (step = 0; step <= n; step++) {{
         const double *uk = u + (step < n ? step : n - 1 > 0 ? n - 1 : 0) * NU;
         if (step % every == 0)
             log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);
         if (step == n)
             break;
-        for (s = 0; s < tab->stages; s++) {{
-            for (i = 0; i < NY; i++) {{
-                double acc = y[i];
-                for (j = 0; j < s; j++)
-                    acc += h * tab->a[s][j] * k[j][i];
-                ytmp[i] = acc;
-            }}
-            rhs(ytmp, m, uk, P, k[s]);
-        }}
+        stages(tab, h, y, m, uk, P, 0, k);
         for (i = 0; i < NY; i++) {{
             double acc = y[i];
             for (s = 0; s < tab->stages; s++)

@@ -223,6 +223,28 @@ _PORT_VOLUME = {"hose": lambda v, port: 0.5 * v["volume"], "volume": lambda v, p
                                              v["dead_volume_b"] + v["area_b"] * (v["stroke"] - v["x0"]))}
 _PORT_VOLUME["double_rod_cylinder"] = _PORT_VOLUME["cylinder"]
 
+def _cylinder_params(rod: str) -> dict[str, Param]:
+    """A linear actuator's parameters with its load (both cylinder types; ``rod``: the rod's description)."""
+    return {"bore": Param("m", 0.0, 2.0, "piston diameter", lo_strict=True),
+            "rod": Param("m", 0.0, 2.0, rod, lo_strict=True),
+            "stroke": Param("m", 0.0, 20.0, "stroke", lo_strict=True),
+            "dead_volume_a": Param("m3", 0.0, 1.0, "cap-side volume at x = 0 (ports, hose)", 5e-5,
+                                   lo_strict=True),
+            "dead_volume_b": Param("m3", 0.0, 1.0, "rod-side volume at full stroke", 5e-5, lo_strict=True),
+            "mass": Param("kg", 0.0, 1e6, "moved mass", lo_strict=True),
+            "damping": Param("N.s/m", 0.0, 1e8, "viscous friction", 0.0),
+            "force": Param("N", -1e8, 1e8, "external force, + opposes extension (or the signal)", 0.0),
+            "spring": Param("N/m", 0.0, 1e10, "spring on the rod, k*(x - spring_x0) opposes extension", 0.0),
+            "spring_x0": Param("m", -20.0, 20.0, "position where the spring is relaxed", 0.0),
+            "incline": Param("deg", -90.0, 90.0, "rod's angle above the horizontal (90: up, the weight "
+                             "opposes extension)", 0.0),
+            "x0": Param("m", 0.0, 20.0, "initial position", 0.0)}
+
+
+_STOPS = ("free", "at_retract", "at_extend")
+_PISTON = (("x", "m"), ("v", "m/s"))
+_CYLINDER_DERIVED = (("area_a", "m2"), ("area_b", "m2"), ("weight", "N"))
+
 _P = 1e9      # Pa: the ranges' upper bound for pressures (10 000 bar)
 TYPES: dict[str, ComponentType] = {t.name: t for t in (
     ComponentType("tank", "reservoir at a fixed pressure", ("p",),
@@ -280,41 +302,11 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "speed0": Param("rad/s", -1e4, 1e4, "initial speed", 0.0)},
                   inputs=("load_torque",), states=(("w", "rad/s"),)),
     ComponentType("cylinder", "differential cylinder with its load (mass, viscous friction, force) and end stops",
-                  ("a", "b"),
-                  {"bore": Param("m", 0.0, 2.0, "piston diameter", lo_strict=True),
-                   "rod": Param("m", 0.0, 2.0, "rod diameter", lo_strict=True),
-                   "stroke": Param("m", 0.0, 20.0, "stroke", lo_strict=True),
-                   "dead_volume_a": Param("m3", 0.0, 1.0, "cap-side volume at x = 0 (ports, hose)", 5e-5,
-                                          lo_strict=True),
-                   "dead_volume_b": Param("m3", 0.0, 1.0, "rod-side volume at full stroke", 5e-5, lo_strict=True),
-                   "mass": Param("kg", 0.0, 1e6, "moved mass", lo_strict=True),
-                   "damping": Param("N.s/m", 0.0, 1e8, "viscous friction", 0.0),
-                   "force": Param("N", -1e8, 1e8, "external force, + opposes extension (or the signal)", 0.0),
-                   "spring": Param("N/m", 0.0, 1e10, "spring on the rod, k*(x - spring_x0) opposes extension", 0.0),
-                   "spring_x0": Param("m", -20.0, 20.0, "position where the spring is relaxed", 0.0),
-                   "incline": Param("deg", -90.0, 90.0, "rod's angle above the horizontal (90: up, the weight "
-                                    "opposes extension)", 0.0),
-                   "x0": Param("m", 0.0, 20.0, "initial position", 0.0)},
-                  modes=("free", "at_retract", "at_extend"), inputs=("force",), states=(("x", "m"), ("v", "m/s")),
-                  derived=(("area_a", "m2"), ("area_b", "m2"), ("weight", "N"))),
+                  ("a", "b"), _cylinder_params("rod diameter"), modes=_STOPS, inputs=("force",), states=_PISTON,
+                  derived=_CYLINDER_DERIVED),
     ComponentType("double_rod_cylinder", "double-rod cylinder (equal areas) with its load and end stops",
-                  ("a", "b"),
-                  {"bore": Param("m", 0.0, 2.0, "piston diameter", lo_strict=True),
-                   "rod": Param("m", 0.0, 2.0, "rod diameter (both sides)", lo_strict=True),
-                   "stroke": Param("m", 0.0, 20.0, "stroke", lo_strict=True),
-                   "dead_volume_a": Param("m3", 0.0, 1.0, "cap-side volume at x = 0 (ports, hose)", 5e-5,
-                                          lo_strict=True),
-                   "dead_volume_b": Param("m3", 0.0, 1.0, "rod-side volume at full stroke", 5e-5, lo_strict=True),
-                   "mass": Param("kg", 0.0, 1e6, "moved mass", lo_strict=True),
-                   "damping": Param("N.s/m", 0.0, 1e8, "viscous friction", 0.0),
-                   "force": Param("N", -1e8, 1e8, "external force, + opposes extension (or the signal)", 0.0),
-                   "spring": Param("N/m", 0.0, 1e10, "spring on the rod, k*(x - spring_x0) opposes extension", 0.0),
-                   "spring_x0": Param("m", -20.0, 20.0, "position where the spring is relaxed", 0.0),
-                   "incline": Param("deg", -90.0, 90.0, "rod's angle above the horizontal (90: up, the weight "
-                                    "opposes extension)", 0.0),
-                   "x0": Param("m", 0.0, 20.0, "initial position", 0.0)},
-                  modes=("free", "at_retract", "at_extend"), inputs=("force",), states=(("x", "m"), ("v", "m/s")),
-                  derived=(("area_a", "m2"), ("area_b", "m2"), ("weight", "N"))),
+                  ("a", "b"), _cylinder_params("rod diameter (both sides)"), modes=_STOPS, inputs=("force",),
+                  states=_PISTON, derived=_CYLINDER_DERIVED),
     ComponentType("valve_43", "4/3 proportional valve by geometry: spool lag (wn, xi), an opening per edge",
                   ("P", "T", "A", "B"),
                   {"command": Param("-", -1.0, 1.0, "spool command u (or the signal NAME.command)", 0.0),
