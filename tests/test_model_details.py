@@ -158,7 +158,7 @@ def test_reference_radau_fallback_and_failure(monkeypatch):
     from conftest import EXAMPLES
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import load_scenario
-    from hydrohil.simulation import reference
+    from hydrohil.core import stiff as reference
     sc = load_scenario(EXAMPLES / "fig11_p_control.toml", duration=0.05, solver="reference")
     normal = run_scenario(sc)
     assert normal.extra["reference_radau_fallbacks"] == 0

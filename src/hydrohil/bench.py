@@ -8,6 +8,7 @@ Sections (each a function returning a dict; medians over repeats, ratios compute
   per_step_api      µs per ``HybridPlant.step(u)`` call from Python
   reference_solver  wall time of the LSODA reference per simulated second, ratio to the hybrid loop
   max_stable_step   largest stable RK3 step, hybrid vs continuous stiff-stop model, ratio
+  circuits          each example circuit: ns per RK3 step, real-time factor, largest stable step, accuracy
   realtime_0.5ms    plant + controller processes over loopback, wall-clock locked: jitter, overruns, RTT
   realtime_0.1ms    the same at 0.1 ms: does it keep up?
   udp_ping_pong     bare Python UDP round trip on loopback (the floor under the HIL RTT)
@@ -133,6 +134,30 @@ def reference_solver(duration: float = 6.0, repeats: int = 3) -> dict:
     w_hyb = statistics.median(run_scenario(hyb).wall_time_s for _ in range(repeats))
     return {"lsoda_s_per_simulated_s": w_ref / duration, "hybrid_s_per_simulated_s": w_hyb / duration,
             "ratio": w_ref / w_hyb}
+
+
+def circuits(duration: float = 60.0, repeats: int = 7) -> dict:
+    """Each example circuit (``examples/circuits/*/scenario.toml``): its RK3 step at 0.5 ms (median ns per step
+    of the generated loop over ``duration`` simulated seconds, a log row every 1000 steps; real-time factor),
+    its largest stable RK3 step and its accuracy at 0.5 ms against its continuous reference (maxstep)."""
+    from hydrohil.circuits.circuit import CIRCUITS_DIR
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.maxstep import circuit_max_stable_step
+    out = {}
+    for f in sorted(CIRCUITS_DIR.glob("*/scenario.toml")):
+        cs = load_circuit_scenario(f, solver="rk3", step=5e-4)
+        walls = [simulate_circuit(cs.circuit, duration, h=cs.step, every=1000).wall for _ in range(repeats)]
+        med = statistics.median(walls)
+        ms = circuit_max_stable_step(cs, "rk3")
+        acc = ms["accuracy_at_step"]
+        out[f.parent.name] = {"ns_per_step": med / int(round(duration / cs.step)) * 1e9,
+                              "realtime_factor": duration / med, "pressure_nodes": len(cs.circuit.state_nodes),
+                              "max_stable_step_s": ms["max_stable_step"],
+                              "worst_position_m": acc["worst_position_m"],
+                              "worst_pressure_relative": acc["worst_pressure_relative"],
+                              "worst_speed_relative": acc["worst_speed_relative"], "holds": acc["holds"]}
+    return out
 
 
 def max_stable_step() -> dict:
@@ -281,6 +306,7 @@ def run_bench(*, seconds: float = 60.0, quick: bool = False,
         ("per_step_api", lambda: per_step_api(2000 if quick else 20000, 2 if quick else 5)),
         ("reference_solver", lambda: reference_solver(1.0 if quick else 6.0, 1 if quick else 3)),
         ("max_stable_step", max_stable_step),
+        ("circuits", lambda: circuits(6.0 if quick else 60.0, 2 if quick else 7)),
         ("realtime_0.5ms", lambda: hil(rt, 5e-4)),
         ("realtime_0.5ms_c", lambda: hil(rt, 5e-4, plant="c")),
         ("hiccup", lambda: hiccup(rt)),
@@ -367,7 +393,27 @@ def markdown(res: dict) -> str:
             f"C core: {m.get('compiler', '?')} via cffi {m.get('cffi', '?')}, {m['date_utc']} UTC; "
             f"real-time priority: {rt5['os_rt_priority']}.", "",
             "| figure | measured | target |", "|---|---|---|"]
-    return "\n".join(head + [f"| {a} | {b} | {c} |" for a, b, c in rows]) + "\n" + plants_table(res)
+    return ("\n".join(head + [f"| {a} | {b} | {c} |" for a, b, c in rows]) + "\n" + plants_table(res)
+            + circuits_table(res))
+
+
+def circuits_table(res: dict) -> str:
+    """The example circuits' table: step cost, real-time factor, largest stable step, accuracy at 0.5 ms."""
+    if not res.get("circuits"):
+        return ""
+    lines = ["", "Example circuits (`examples/circuits/*/scenario.toml`), RK3 at 0.5 ms against each circuit's "
+             "continuous reference (LSODA, generated from the same description):", "",
+             "| circuit | step | real-time factor | largest stable step | position RMS | pressure RMS "
+             "(of highest) | speed RMS (of largest) |", "|---|---|---|---|---|---|---|"]
+    for name, r in res["circuits"].items():
+        lines.append(f"| `{name}` | {r['ns_per_step']:.0f} ns | {r['realtime_factor']:.0f} | "
+                     f"{_f(r['max_stable_step_s'] and r['max_stable_step_s'] * 1e3)} ms | "
+                     f"{r['worst_position_m'] * 1e6:.2g} µm | {r['worst_pressure_relative'] * 100:.2g} % | "
+                     f"{r['worst_speed_relative'] * 100:.2g} % |")
+    lines.append("")
+    lines.append("Limits (every example): position ≤ 0.1 mm, pressure ≤ 3 %, speed ≤ 2 % RMS; largest stable step "
+                 "≥ 1 ms.")
+    return "\n".join(lines) + "\n"
 
 
 def plants_table(res: dict) -> str:

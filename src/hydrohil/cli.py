@@ -12,7 +12,7 @@ from typing import Optional
 
 import typer
 
-from hydrohil.errors import HydrohilError
+from hydrohil.errors import HydrohilError, InputError
 from hydrohil.hil.commands import controller_cmd, plant_cmd
 from hydrohil.terminal import fail, interruptible, show_warnings_as_lines
 
@@ -51,10 +51,16 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
              sets: Optional[dict] = None) -> dict:
     """Run one scenario and write ``out/log.csv``, ``out/summary.json`` and ``out/simulation.png``.
     ``params`` replaces the scenario's parameter set, ``sets`` (dotted keys) apply on top of its overrides."""
+    from hydrohil.circuits.scenario import is_circuit_scenario
     from hydrohil.simulation.outputs import write_json, write_log_csv
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import load_scenario
 
+    if is_circuit_scenario(scenario):
+        if params is not None:
+            raise InputError("a circuit scenario has no parameter set: give its values with --set component.key=value",
+                             source="--params", key=params)
+        return simulate_circuit_scenario(scenario, out, solver, step, plot, progress, sets)
     sc = load_scenario(scenario, solver=solver, step=step, params=params, sets=sets)
     prog = None
     if progress and sc.scenario.solver.method == "reference" and sys.stderr.isatty():
@@ -92,6 +98,34 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
     return summary
 
 
+def simulate_circuit_scenario(scenario: Path, out: Path, solver: Optional[str] = None, step: Optional[float] = None,
+                              plot: bool = True, progress: bool = True, sets: Optional[dict] = None) -> dict:
+    """Run a scenario that names its circuit (``circuit = ...``): ``out/log.csv`` (a column per signal,
+    ``<component>.<variable> [SI unit]``), ``out/summary.json`` and ``out/plot.png``."""
+    from hydrohil.circuits.scenario import load_circuit_scenario, run_circuit_scenario
+    from hydrohil.circuits.show import plot_run, write_log
+    from hydrohil.simulation.outputs import write_json
+    cs = load_circuit_scenario(scenario, solver=solver, step=step, sets=sets)
+    prog, bar = None, None
+    if progress and cs.method == "reference" and sys.stderr.isatty():
+        from rich.progress import Progress
+        bar = Progress(transient=True)
+        bar.start()
+        task = bar.add_task("reference (LSODA)", total=cs.n_steps)
+        prog = lambda k: bar.update(task, completed=k)  # noqa: E731
+    try:
+        res, summary = run_circuit_scenario(cs, progress=prog)
+    finally:
+        if bar:
+            bar.stop()
+    out.mkdir(parents=True, exist_ok=True)
+    write_log(res, out / "log.csv")
+    write_json(out / "summary.json", summary)
+    if plot:
+        plot_run(res, out / "plot.png", f"{scenario.name} ({cs.circuit.name}): {cs.method} at {cs.step * 1e3:g} ms")
+    return summary
+
+
 @app.command("simulate")
 def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                  out: Path = typer.Option(Path("hydrohil-out"), "--out", help="output folder"),
@@ -107,6 +141,11 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
         s = simulate(scenario, out, solver, step, plot, params=params, sets=_parse_sets(sets))
     except HydrohilError as exc:
         fail(exc)
+    if "circuit" in s:
+        typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']} on circuit {s['circuit']}: wall "
+                   f"{s['wall_time_s']:.3f} s, real-time factor {s['realtime_factor']:.0f}; wrote {out}/log.csv, "
+                   f"summary.json" + (", plot.png" if plot else ""))
+        return
     written = ", ".join(["log.csv", "summary.json"] + (["simulation.png"] if plot else []))
     typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']}: wall {s['wall_time_s']:.3f} s, "
                f"real-time factor {s['realtime_factor']:.0f}; final xp = {s['final_state']['xp'] * 1e3:.3f} mm; "
@@ -192,13 +231,23 @@ def maxstep_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                                                   "the scenario's"),
                 sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on top of "
                                                "the scenario's [overrides], e.g. --set load.mass=120")):
-    """Find the largest stable fixed step by bisection; prints JSON."""
-    from hydrohil.maxstep import max_stable_step
+    """Find the largest stable fixed step by bisection; prints JSON. A circuit scenario: the hybrid model
+    against the circuit's continuous reference, with the accuracy at the scenario's step."""
+    from hydrohil.circuits.scenario import is_circuit_scenario, load_circuit_scenario
+    from hydrohil.maxstep import circuit_max_stable_step, max_stable_step
     from hydrohil.simulation.scenario import load_scenario
+    say = lambda h, r: typer.echo(f"  h = {h:.3e} s: {r['reason']}", err=True)  # noqa: E731
     try:
+        if is_circuit_scenario(scenario):
+            if model != "hybrid" or params is not None:
+                raise InputError("a circuit scenario: the hybrid model (against its continuous reference), its "
+                                 "values by --set", source=str(scenario), key="--model/--params")
+            cs = load_circuit_scenario(scenario, duration=duration, sets=_parse_sets(sets))
+            typer.echo(json.dumps(circuit_max_stable_step(cs, solver, tol_x=tol_x, tol_p=tol_p, progress=say),
+                                  indent=2))
+            return
         sc = load_scenario(scenario, duration=duration, params=params, sets=_parse_sets(sets))
-        res = max_stable_step(sc, model, solver, tol_x=tol_x, tol_p=tol_p,
-                              progress=lambda h, r: typer.echo(f"  h = {h:.3e} s: {r['reason']}", err=True))
+        res = max_stable_step(sc, model, solver, tol_x=tol_x, tol_p=tol_p, progress=say)
     except HydrohilError as exc:
         fail(exc)
     except ValueError as exc:
@@ -420,7 +469,9 @@ def export_c_cmd(out: Path = typer.Option(..., "--out", help="folder to write th
 
 def _parse_sets(items: list[str]) -> dict:
     """``key=value`` pairs from repeated ``--set`` options; values are TOML literals (``0`` is an
-    integer, ``7e6`` a float, ``true`` a boolean), exactly as in a scenario's ``[overrides]``."""
+    integer, ``7e6`` a float, ``true`` a boolean), exactly as in a scenario's ``[overrides]``, or a number with
+    its unit (``300 kg``: a circuit's parameter)."""
+    import re
     import tomllib
     from hydrohil.errors import InputError
     out = {}
@@ -431,7 +482,10 @@ def _parse_sets(items: list[str]) -> dict:
         try:
             out[key.strip()] = tomllib.loads(f"v = {val.strip()}")["v"]
         except tomllib.TOMLDecodeError:
-            raise InputError(f"not a TOML value: {val!r}", source="--set", key=key) from None
+            if not re.match(r"^[-+]?[0-9.]+(e[-+]?[0-9]+)?\s*[A-Za-z%°][\w/.^%°]*$", val.strip()):
+                raise InputError(f"not a TOML value nor a number with its unit: {val!r}", source="--set",
+                                 key=key) from None
+            out[key.strip()] = val.strip()        # "300 kg", "150bar": a value with its unit (circuits)
     return out
 
 

@@ -79,6 +79,42 @@ def check_step(sc: LoadedScenario, model: str, solver: str, h: float, ref_log: n
             "wall_s": time.perf_counter() - t0}
 
 
+def largest_stable(test, *, h0: float = 5e-4, rel_tol: float = 0.05, h_min: float = 1e-10,
+                   h_max: float = 2e-2) -> tuple[float | None, float | None]:
+    """(largest stable, smallest unstable) step by ``test(h) -> bool``: from h0 doubling (or quartering) to a
+    bracket, then geometric bisection until the bracket's ratio is below 1 + rel_tol."""
+    lo, hi = None, None
+    h = h0
+    if test(h):
+        lo = h
+        while hi is None:
+            h *= 2
+            if h > h_max:
+                break
+            if test(h):
+                lo = h
+            else:
+                hi = h
+    else:
+        hi = h
+        while lo is None:
+            h /= 4
+            if h < h_min:
+                break
+            if test(h):
+                lo = h
+            else:
+                hi = h
+    if lo is not None and hi is not None:
+        while hi / lo > 1 + rel_tol:
+            mid = float(np.sqrt(lo * hi))
+            if test(mid):
+                lo = mid
+            else:
+                hi = mid
+    return lo, hi
+
+
 def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk3", *, tol_x: float = 2e-3,
                     tol_p: float = 10e5, rel_tol: float = 0.05, h_min: float = 1e-10, h_max: float = 2e-2,
                     progress=None) -> dict:
@@ -111,36 +147,51 @@ def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk
             progress(h, r)
         return r["stable"]
 
-    lo, hi = None, None
-    h = 5e-4
-    if test(h):
-        lo = h
-        while hi is None:
-            h *= 2
-            if h > h_max:
-                break
-            if test(h):
-                lo = h
-            else:
-                hi = h
-    else:
-        hi = h
-        while lo is None:
-            h /= 4
-            if h < h_min:
-                break
-            if test(h):
-                lo = h
-            else:
-                hi = h
-    if lo is not None and hi is not None:
-        while hi / lo > 1 + rel_tol:
-            mid = float(np.sqrt(lo * hi))
-            if test(mid):
-                lo = mid
-            else:
-                hi = mid
+    lo, hi = largest_stable(test, rel_tol=rel_tol, h_min=h_min, h_max=h_max)
     return {"max_stable_step": lo, "first_unstable_step": hi, "model": model, "solver": solver,
             "scenario": sc.source, "duration": s.duration, "tol_x_m": tol_x, "tol_p_pa": tol_p,
             "criteria": "finite, |p| <= 1.5 Ps, RMS error vs LSODA reference <= tol_x and tol_p",
             "trials": [{k: v for k, v in t.items()} for t in trials]}
+
+
+def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol_p: float = 10e5,
+                            rel_tol: float = 0.05, h_max: float = 2e-2, progress=None) -> dict:
+    """The largest stable fixed step of a circuit scenario (``hydrohil.circuits.scenario``) with ``solver``: the
+    run at h stays finite, its pressures below 1.5x the reference's highest, and its RMS errors against the
+    circuit's continuous reference (at the scenario's step) within tol_x in every position and tol_p in every
+    pressure. Also the accuracy at the scenario's step (the README's table)."""
+    from hydrohil.circuits.accuracy import compare_to_reference
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.errors import SimulationDiverged
+    c, h_out = cs.circuit, cs.step
+    ref = simulate_circuit(c, cs.duration, h=h_out, method="reference", rest=cs.rest)
+    at_step = compare_to_reference(simulate_circuit(c, cs.duration, h=h_out, method=solver, rest=cs.rest), ref)
+    trials = []
+
+    def test(h):
+        t0 = time.perf_counter()
+        try:
+            run = simulate_circuit(c, cs.duration, h=h, method=solver, rest=cs.rest)
+        except SimulationDiverged:
+            r = {"stable": False, "reason": "diverged"}
+        else:
+            acc = compare_to_reference(run, ref)
+            highest = max(float(np.max(run.columns[k])) for k in acc.pressures) if acc.pressures else 0.0
+            rms_x, rms_p = acc.worst_position, max(acc.pressures.values(), default=0.0)
+            if highest > 1.5 * acc.p_highest:
+                r = {"stable": False, "reason": "unbounded pressure"}
+            else:
+                ok = rms_x <= tol_x and rms_p <= tol_p
+                r = {"stable": ok, "reason": "ok" if ok else "far from reference", "rms_x": rms_x, "rms_p": rms_p}
+        r.update(step=h, wall_s=time.perf_counter() - t0)
+        trials.append(r)
+        if progress:
+            progress(h, r)
+        return r["stable"]
+
+    lo, hi = largest_stable(test, h0=h_out, rel_tol=rel_tol, h_max=h_max)
+    return {"max_stable_step": lo, "first_unstable_step": hi, "model": "hybrid", "solver": solver,
+            "scenario": cs.source, "circuit": c.name, "duration": cs.duration, "tol_x_m": tol_x, "tol_p_pa": tol_p,
+            "criteria": "finite, pressures <= 1.5x the reference's highest, RMS error vs the circuit's continuous "
+                        "reference (LSODA) <= tol_x in every position and tol_p in every pressure",
+            "accuracy_at_step": {"step": h_out, **at_step.as_dict()}, "trials": trials}

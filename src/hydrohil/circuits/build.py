@@ -25,6 +25,8 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
                 int64_t max_steps, double rel_tol);
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            const double *u, double *log, int64_t *rows);
+void hc_reference_rhs(const double *P, const double *y, const double *u, double *dy);
+void hc_reference_row(const double *P, const double *y, const double *u, double t, double *row);
 """
 
 

@@ -85,42 +85,12 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     lay = Layout(c)
     emits = [(comp, comp.type.emit(_View(lay, comp))) for comp in c.components.values()]
     ny, nm, nu = len(lay.states), len(lay.modes), len(lay.inputs)
-    # right-hand side: locals and flows, then each state node's sum, volume and capacitance, then the
-    # components' states, all in netlist order
-    rhs, qin = [], {n: [] for n in c.state_nodes}
-    cap, vol = {n: [] for n in c.state_nodes}, {n: [] for n in c.state_nodes}
-    for comp, e in emits:
-        for name, expr in e.pre:
-            rhs.append(f"    const double v_{_ident(comp.name)}_{name} = {expr};")
-        for j, (a, b, expr) in enumerate(e.flows):
-            var = f"q_{_ident(comp.name)}_{j}"
-            rhs.append(f"    const double {var} = {expr};   /* {comp.name}: {a or 'out'} -> {b or 'out'} */")
-            used = False
-            if a is not None and comp.ports[a] in qin:
-                qin[comp.ports[a]].append(f"- {var}")
-                used = True
-            if b is not None and comp.ports[b] in qin:
-                qin[comp.ports[b]].append(f"+ {var}")
-                used = True
-            if not used:                          # between fixed pressures: logged, in no node's sum
-                rhs.append(f"    (void){var};")
-        for port, expr in e.capacitance:
-            if comp.ports[port] in cap:
-                cap[comp.ports[port]].append(expr)
-        for port, expr in e.volume:
-            if comp.ports[port] in vol:
-                vol[comp.ports[port]].append(expr)
-    for i, node in enumerate(c.state_nodes):
-        q = " ".join(qin[node]) or "0.0"
-        extra = " + ".join(cap[node]) or "0.0"
-        volume = " + ".join([f"P[{lay.slot[f'node.{node}.volume']}]", *vol[node]])
-        rhs.append(f"    dy[{i}] = hc_node_rate({q}, {volume}, P[{lay.slot['fluid.bulk_modulus']}], {extra});"
-                   f"   /* {node} */")
-    for comp, e in emits:
-        for state, expr in e.derivatives.items():
-            j = lay.states.index(f"{comp.name}.{state}")
-            rhs.append(f"    dy[{j}] = {expr};   /* {comp.name}.{state} */")
-    updates = [f"    {e.mode_update}   /* {comp.name} */" for comp, e in emits if e.mode_update]
+    rhs = _rhs_lines(c, lay, emits, reference=False)
+    ref_rhs = _rhs_lines(c, lay, emits, reference=True)
+    updates = [f"    {_mode_update(comp, e, lay)}   /* {comp.name} */" for comp, e in emits
+               if e.mode_update or e.mode_of_state]
+    ref_modes = [f"    m[{lay.modes.index(comp.name + '.mode')}] = {e.mode_of_state};   /* {comp.name} */"
+                 for comp, e in emits if e.mode_of_state]
     outs = []
     for comp, e in emits:
         for st, unit in comp.type.states:          # every state of a component is logged
@@ -152,6 +122,26 @@ static void rhs(const double *y, const int64_t *m, const double *u, const double
     for (i = 0; i < NY; i++)             /* (a circuit without states has one, constant) */
         dy[i] = 0.0;
 {chr(10).join(rhs)}
+}}
+
+/* The continuous reference (SPEC §6, §12.4): the same laws, the modes that are functions of the state evaluated
+ * at each call, end stops and spool ends as stiff spring-dampers (no clamp) */
+static void reference_rhs(const double *y, const int64_t *m, const double *u, const double *P, double *dy)
+{{
+    int i;
+    (void)m; (void)u; (void)P; (void)y;
+    for (i = 0; i < NY; i++)
+        dy[i] = 0.0;
+{chr(10).join(ref_rhs)}
+}}
+
+static void reference_modes(const double *y, int64_t *m, const double *u, const double *P)
+{{
+    int i;
+    (void)u; (void)P; (void)y;
+    for (i = 0; i < NM; i++)
+        m[i] = 0;
+{chr(10).join(ref_modes)}
 }}
 
 static void update_modes(double *y, int64_t *m, const double *u, const double *P)
@@ -193,6 +183,27 @@ static void log_row(double t, const double *y, const int64_t *m, const double *u
         row[LOG_OUTPUTS + i] = o[i];
     for (i = 0; i < {nm}; i++)
         row[LOG_MODES + i] = (double)m[i];
+}}
+
+/* dy/dt of the continuous reference at y under inputs u; a node at the pressure floor does not fall further
+ * (cavitation, as the core's reference) */
+void hc_reference_rhs(const double *P, const double *y, const double *u, double *dy)
+{{
+    int64_t m[NM];
+    int i;
+    reference_modes(y, m, u, P);
+    reference_rhs(y, m, u, P, dy);
+    for (i = 0; i < NNODES; i++)
+        if (y[i] <= {PRESSURE_FLOOR!r} && dy[i] < 0.0)
+            dy[i] = 0.0;
+}}
+
+/* a log row of the continuous reference at (t, y) under inputs u (its modes read off the state) */
+void hc_reference_row(const double *P, const double *y, const double *u, double t, double *row)
+{{
+    int64_t m[NM];
+    reference_modes(y, m, u, P);
+    log_row(t, y, m, u, P, row);
 }}
 
 /* The stage derivatives k of an explicit step of h from y with tableau tab; held (NULL: none): the node
@@ -283,6 +294,54 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
 }}
 """
     return text, lay
+
+
+def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool) -> list[str]:
+    """The body of a right-hand side: the components' locals and flows, each state node's sum, volume and
+    capacitance, then the components' states (the reference's derivatives where it has its own), in netlist
+    order."""
+    rhs, qin = [], {n: [] for n in c.state_nodes}
+    cap, vol = {n: [] for n in c.state_nodes}, {n: [] for n in c.state_nodes}
+    for comp, e in emits:
+        for name, expr in e.pre:
+            rhs.append(f"    const double v_{_ident(comp.name)}_{name} = {expr};")
+        for j, (a, b, expr) in enumerate(e.flows):
+            var = f"q_{_ident(comp.name)}_{j}"
+            rhs.append(f"    const double {var} = {expr};   /* {comp.name}: {a or 'out'} -> {b or 'out'} */")
+            used = False
+            if a is not None and comp.ports[a] in qin:
+                qin[comp.ports[a]].append(f"- {var}")
+                used = True
+            if b is not None and comp.ports[b] in qin:
+                qin[comp.ports[b]].append(f"+ {var}")
+                used = True
+            if not used:                          # between fixed pressures: logged, in no node's sum
+                rhs.append(f"    (void){var};")
+        for port, expr in e.capacitance:
+            if comp.ports[port] in cap:
+                cap[comp.ports[port]].append(expr)
+        for port, expr in e.volume:
+            if comp.ports[port] in vol:
+                vol[comp.ports[port]].append(expr)
+    for i, node in enumerate(c.state_nodes):
+        q = " ".join(qin[node]) or "0.0"
+        extra = " + ".join(cap[node]) or "0.0"
+        volume = " + ".join([f"P[{lay.slot[f'node.{node}.volume']}]", *vol[node]])
+        rhs.append(f"    dy[{i}] = hc_node_rate({q}, {volume}, P[{lay.slot['fluid.bulk_modulus']}], {extra});"
+                   f"   /* {node} */")
+    for comp, e in emits:
+        derivatives = {**e.derivatives, **e.reference} if reference else e.derivatives
+        for state, expr in derivatives.items():
+            j = lay.states.index(f"{comp.name}.{state}")
+            rhs.append(f"    dy[{j}] = {expr};   /* {comp.name}.{state} */")
+    return rhs
+
+
+def _mode_update(comp, e, lay: Layout) -> str:
+    """The C of a component's mode update after a step: its own, or its mode set to its function of the state."""
+    if e.mode_update:
+        return e.mode_update
+    return f"m[{lay.modes.index(comp.name + '.mode')}] = {e.mode_of_state};"
 
 
 def _initial(c: Circuit, lay: Layout, node: str) -> str:

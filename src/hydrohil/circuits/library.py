@@ -37,7 +37,13 @@ class Emit:
     enters the circuit's nodes there, e.g. a piston's displacement), capacitance [m³/Pa] and volume [m³] (C
     expressions) at a port's node, its states' derivatives (state -> C) and initial values (state -> C, may use
     the inputs u), the update of its mode after a step (C statements, may clamp its states), its outputs
-    (name -> (C expression, SI unit))."""
+    (name -> (C expression, SI unit)).
+
+    The continuous reference generated from the same description (SPEC §6, §12.4) has no memory of modes: a
+    mode that is a function of the state (``mode_of_state``, a C expression; the hybrid model's update is then
+    that assignment after each step) is evaluated at every call of the right-hand side; a mode that clamps
+    states (end stops, spool ends) is replaced by ``reference`` derivatives (state -> C) with stiff
+    spring-dampers, its mode staying 0."""
     pre: list = field(default_factory=list)
     flows: list = field(default_factory=list)
     capacitance: list = field(default_factory=list)
@@ -46,6 +52,8 @@ class Emit:
     initial: dict = field(default_factory=dict)
     mode_update: str | None = None
     outputs: dict = field(default_factory=dict)
+    mode_of_state: str | None = None
+    reference: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -129,7 +137,7 @@ def _emit_valve(c, a, b):
     dp = f"({c.p(a)} - {c.p(b)})"
     q = f"hc_relief_flow((int){c.mode}, {c.par('flow_gain')}, {c.par('cracking_pressure')}, {dp})"
     return Emit(flows=[(a, b, q)], outputs={"q": (q, "m3/s")},
-                mode_update=f"{c.mode} = hc_relief_mode((int){c.mode}, {c.par('cracking_pressure')}, {dp});")
+                mode_of_state=f"hc_relief_mode((int){c.mode}, {c.par('cracking_pressure')}, {dp})")
 
 
 def _emit_orifice(c):
@@ -141,7 +149,7 @@ def _emit_orifice(c):
 def _emit_accumulator(c):
     args = f"{c.par('gas_volume')}, {c.par('precharge')}, {c.par('exponent')}"
     return Emit(capacitance=[("p", f"hc_acc_capacitance((int){c.mode}, {args}, {c.p('p')})")],
-                mode_update=f"{c.mode} = hc_acc_mode({args}, {c.par('min_gas_volume')}, {c.p('p')});",
+                mode_of_state=f"hc_acc_mode({args}, {c.par('min_gas_volume')}, {c.p('p')})",
                 outputs={"v_oil": (f"hc_acc_oil_volume({args}, {c.p('p')})", "m3")})
 
 
@@ -179,7 +187,9 @@ def _emit_cylinder(c):
                              "v": f"hc_stop_accel((int){c.mode}, {c.v('f')}, {c.par('mass')})"},
                 initial={"x": c.par("x0"), "v": "0.0"},
                 mode_update=f"{c.mode} = hc_stop_mode((int){c.mode}, &{x}, &{v}, {c.par('stroke')}, {force});",
-                outputs={"x": (x, "m"), "v": (v, "m/s"), "force": (force, "N")})
+                outputs={"x": (x, "m"), "v": (v, "m/s"), "force": (force, "N")},
+                reference={"x": v, "v": f"({c.v('f')} + hc_stop_penalty({x}, {v}, {c.par('stroke')}, "
+                                        f"{c.par('mass')})) / {c.par('mass')}"})
 
 
 def _emit_counterbalance(c):
@@ -188,7 +198,7 @@ def _emit_counterbalance(c):
     q = (f"hc_cb_flow((int){c.mode}, {c.par('check_gain')}, {c.par('check_cracking')}, {c.par('relief_gain')}, "
          f"{c.par('set_pressure')}, {c.par('pilot_ratio')}, {c.par('transition_pressure')}, {pv}, {pl}, {px})")
     return Emit(flows=[("valve", "load", q)], outputs={"q": (q, "m3/s")},
-                mode_update=f"{c.mode} = hc_cb_mode({args}, {pv}, {pl}, {px});")
+                mode_of_state=f"hc_cb_mode({args}, {pv}, {pl}, {px})")
 
 
 def _emit_valve43(c):
@@ -210,6 +220,8 @@ def _emit_valve43(c):
                                           f"{c.par('wn')}, {c.par('xi')})"},
                 initial={"x": f"{c.par('command')} * {c.par('x_max')}", "v": "0.0"},
                 mode_update=f"hc_spool_clamp(&{x}, &{v}, {c.par('x_max')});",
+                reference={"v": f"hc_spool_accel({x}, {v}, {c.par('command')} * {c.par('x_max')}, {c.par('wn')}, "
+                                f"{c.par('xi')}) + hc_spool_penalty({x}, {v}, {c.par('x_max')}, {c.par('wn')})"},
                 outputs={"x": (x, "m"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}})
 
 

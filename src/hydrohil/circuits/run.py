@@ -3,7 +3,8 @@ the core's explicit methods, its inputs from the circuit's default drive or give
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -12,6 +13,7 @@ from hydrohil.circuits.circuit import Circuit
 from hydrohil.errors import InputError, SimulationDiverged
 
 METHODS = ("euler", "heun", "rk3", "rk4")       # the core's tableaus, in its order (HH_EULER ..)
+SOLVERS = (*METHODS, "reference")               # "reference": the continuous model, LSODA/Radau
 
 
 @dataclass
@@ -21,6 +23,9 @@ class CircuitResult:
     mode_names: dict[str, tuple[str, ...]]
     h: float
     method: str
+    wall: float = 0.0                   # [s] of the run itself (not the compile, not the rest march)
+    stats: dict = field(default_factory=dict)   # the reference's: intervals, radau_fallbacks
+    states: list = field(default_factory=list)  # the components' state columns ("cyl.x", "cyl.v", "motor.w")
 
     def column(self, name: str) -> np.ndarray:
         try:
@@ -131,13 +136,15 @@ def _warn_unbalanced(c: Circuit, res) -> None:
 
 
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
-                     inputs: dict | None = None, rest: bool = True) -> CircuitResult:
+                     inputs: dict | None = None, rest: bool = True, progress=None) -> CircuitResult:
     """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
     (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
-    circuit's ``[initial]`` keeps its value). Raises SimulationDiverged with the time, the modes and the state
-    when the state leaves the finite."""
-    if method not in METHODS:
-        raise InputError(f"one of {', '.join(METHODS)}, got {method!r}", key="method")
+    circuit's ``[initial]`` keeps its value). ``method`` "reference": the continuous reference generated from
+    the same description (:mod:`hydrohil.circuits.reference`), from the same state at rest (settled by RK3 at
+    ``h``), its log on the same grid; ``progress(step)`` is called now and then. Raises SimulationDiverged with
+    the time, the modes and the state when the state leaves the finite (or the reference's solvers fail)."""
+    if method not in SOLVERS:
+        raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
         raise InputError(f"need h > 0, duration >= 0, every >= 1 (got {h}, {duration}, {every})")
     cc = compile_circuit(c)
@@ -151,23 +158,50 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
                 ffi.from_buffer("int64_t[]", m))
     if rest:
-        settle(c, cc, P, u, y, m, h, method)
+        settle(c, cc, P, u, y, m, h, "rk3" if method == "reference" else method)
+    if method == "reference":
+        return _reference_run(c, cc, P, y, m, u, h, n, every, progress)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
+    t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
                         ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows)
+    wall = time.perf_counter() - t0
     log = log[:rows[0]]
-    res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method)
+    res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method,
+                        wall, states=lay.states[len(c.state_nodes):])
     if status != 0:
         k = int(rows[0]) * every
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         raise SimulationDiverged(k * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
                                  "a state is not finite")
-    res.units = {"t": "s", **{f"{nd}.p": "Pa" for nd in c.nodes}, **dict(lay.outputs), **{md: "-" for md in lay.modes}}
+    res.units = _units(c, lay)
     if rest and len(log):
         _warn_unbalanced(c, res)
     return res
+
+
+def _units(c: Circuit, lay) -> dict[str, str]:
+    return {"t": "s", **{f"{nd}.p": "Pa" for nd in c.nodes}, **dict(lay.outputs), **{md: "-" for md in lay.modes}}
+
+
+def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, progress) -> CircuitResult:
+    from hydrohil.circuits.reference import solve_circuit_reference
+    from hydrohil.core.stiff import ReferenceSolverFailed
+    lay = cc.layout
+    stats: dict = {}
+    t0 = time.perf_counter()
+    try:
+        log = solve_circuit_reference(cc, P, y[:len(lay.states)], u, h, n, every, progress=progress, stats=stats)
+    except ReferenceSolverFailed as exc:
+        modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
+        state = exc.y if exc.y is not None else y
+        raise SimulationDiverged(exc.t, modes, {s: float(state[i]) for i, s in enumerate(lay.states)},
+                                 str(exc)) from None
+    return CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, _units(c, lay),
+                         lay.mode_names, h, "reference", time.perf_counter() - t0, stats,
+                         lay.states[len(c.state_nodes):])
 
 
 @dataclass

@@ -102,15 +102,21 @@ def write_run(res: CircuitResult, out: Path, title: str) -> list[Path]:
     """``log.csv`` (a column per signal, SI; modes by name) and ``plot.png`` (pressures in bar, flows in l/min,
     modes) into ``out``."""
     out.mkdir(parents=True, exist_ok=True)
+    write_log(res, out / "log.csv")
+    return [out / "log.csv", plot_run(res, out / "plot.png", title)]
+
+
+def write_log(res: CircuitResult, path: Path) -> Path:
+    """The run as CSV: a column per signal, ``<component>.<variable> [SI unit]``; modes by name."""
     names = list(res.columns)
-    with open(out / "log.csv", "w", newline="") as fh:
+    with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow([f"{n} [{res.units[n]}]" for n in names])
         cols = [res.columns[n] for n in names]
         for i in range(len(cols[0])):
             w.writerow([res.mode_names[n][int(c[i])] if n in res.mode_names else repr(float(c[i]))
                         for n, c in zip(names, cols)])
-    return [out / "log.csv", plot_run(res, out / "plot.png", title)]
+    return path
 
 
 def plot_run(res: CircuitResult, path: Path, title: str) -> Path:

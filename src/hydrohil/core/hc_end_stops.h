@@ -34,4 +34,23 @@ HH_INLINE int hc_stop_mode(int mode, double *x, double *v, double stroke, double
     return HC_FREE;
 }
 
+/* The continuous reference's end stops (SPEC §6, for any linear actuator): no modes; past an end a stiff
+ * unilateral spring-damper of natural frequency HC_REF_STOP_WN per unit mass, critically damped, pushes the
+ * piston back (it pushes, never pulls). Returns the force [N] along +x on a mass m at (x, v). */
+#define HC_REF_STOP_WN 1e4          /* rad/s: 50 kN on 200 kg penetrates 2.5 um */
+HH_INLINE double hc_stop_penalty(double x, double v, double stroke, double m)
+{
+    const double k = m * HC_REF_STOP_WN * HC_REF_STOP_WN, c = 2.0 * m * HC_REF_STOP_WN;
+    double f;
+    if (x < 0.0) {
+        f = k * (-x) - c * v;
+        return f > 0.0 ? f : 0.0;
+    }
+    if (x > stroke) {
+        f = k * (x - stroke) + c * v;
+        return f > 0.0 ? -f : 0.0;
+    }
+    return 0.0;
+}
+
 #endif

@@ -29,4 +29,21 @@ HH_INLINE void hc_spool_clamp(double *x, double *v, double x_max)
     }
 }
 
+/* The continuous reference's spool ends: past +-x_max a stiff unilateral spring-damper (20 wn, critically damped)
+ * instead of the clamp. Returns an acceleration [m/s^2]. */
+HH_INLINE double hc_spool_penalty(double x, double v, double x_max, double wn)
+{
+    const double ws = 20.0 * wn;
+    double a;
+    if (x > x_max) {
+        a = ws * ws * (x - x_max) + 2.0 * ws * v;
+        return a > 0.0 ? -a : 0.0;
+    }
+    if (x < -x_max) {
+        a = ws * ws * (-x_max - x) - 2.0 * ws * v;
+        return a > 0.0 ? a : 0.0;
+    }
+    return 0.0;
+}
+
 #endif

@@ -1,59 +1,28 @@
 """Stiff variable-step solution of the continuous reference model (SPEC §6).
 
-LSODA (scipy ``odeint``) at tight tolerance, restarted at every discontinuity of the plant input: the
-zero-order-held command changes at each sample t_k and reaches the spool delayed by dt = (n + alpha)*h,
-so each step is split at t_k + alpha*h. In closed loop the same sampled P controller as the hybrid
-model's acts at t_k on the encoder reading (like-for-like comparison, SPEC §6).
-
-LSODA can give up on an interval: with a light load pressed on a stiff stop it may chatter at sub-ns
-steps on the stop's and the friction's switching until its step budget is spent, and then returns a
-state from *before* the interval's end. Such an interval is redone with Radau (implicit, L-stable) at
-the same tolerances; if Radau fails too the run stops with the solver's message. ``stats`` counts both.
+LSODA at tight tolerance, Radau where it gives up (:mod:`hydrohil.core.stiff`), restarted at every
+discontinuity of the plant input: the zero-order-held command changes at each sample t_k and reaches the spool
+delayed by dt = (n + alpha)*h, so each step is split at t_k + alpha*h. In closed loop the same sampled P
+controller as the hybrid model's acts at t_k on the encoder reading (like-for-like comparison, SPEC §6).
 """
 
 from __future__ import annotations
 
 import numpy as np
-import warnings
 
-from hydrohil.core import dptr, ffi, lib
+from hydrohil.core import dptr, ffi, lib, stiff
+from hydrohil.core.stiff import ReferenceSolverFailed
 from hydrohil.models.layout import NY
 from hydrohil.simulation.loop import Sim
 
 DEFAULT_RTOL = 1e-7
 # absolute tolerances per state: xs, vs, p1, p2 [Pa], xp [m], vp [m/s], z [m]
 DEFAULT_ATOL = np.array([1e-8, 1e-6, 1.0, 1.0, 1e-9, 1e-8, 1e-11])
-LSODA_MXSTEP = 20000   # internal steps per interval before LSODA gives up (then Radau redoes it)
-
-
-class ReferenceSolverFailed(RuntimeError):
-    """Neither LSODA nor Radau could integrate an interval of the reference model."""
-
-
-def odeint(*args, **kwargs):
-    """scipy.integrate.odeint, imported on first use (SciPy's import costs 0.5 s of every start-up)."""
-    from scipy.integrate import odeint as lsoda
-    return lsoda(*args, **kwargs)
-
-
-def solve_ivp(*args, **kwargs):
-    """scipy.integrate.solve_ivp, imported on first use."""
-    from scipy.integrate import solve_ivp as ivp
-    return ivp(*args, **kwargs)
 
 
 def advance(f, y, t0: float, t1: float, ud: float, rtol: float, atol, stats: dict) -> np.ndarray:
-    """State at t1 from ``y`` at t0 under spool input ``ud``: LSODA, Radau where LSODA gives up."""
-    out, info = odeint(f, y, [t0, t1], args=(ud,), rtol=rtol, atol=atol, mxstep=LSODA_MXSTEP, full_output=True)
-    stats["intervals"] += 1
-    if info["message"] == "Integration successful.":
-        return out[-1]
-    stats["radau_fallbacks"] += 1
-    r = solve_ivp(lambda t, yv: f(yv, t, ud).copy(), (t0, t1), y, method="Radau", rtol=rtol, atol=atol)
-    if not r.success:
-        raise ReferenceSolverFailed(f"LSODA ({info['message'].strip()}) and Radau ({r.message}) failed on "
-                                    f"[{t0:.6g}, {t1:.6g}] s")
-    return r.y[:, -1]
+    """State at t1 from ``y`` at t0 under spool input ``ud`` (:func:`hydrohil.core.stiff.advance`)."""
+    return stiff.advance(f, y, [t0, t1], ud, rtol, atol, stats)[-1]
 
 
 def reference_rhs(p: np.ndarray):
@@ -122,11 +91,8 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, value
     handle = ffi.new_handle(stepper)
     sim._sim.advance = lib.hh_py_advance
     sim._sim.ctx = handle
-    from scipy.integrate import ODEintWarning
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ODEintWarning)   # LSODA giving up is handled in advance()
-        status, done, log = sim.run(n_steps, every, values, controller=controller, slopes=slopes, seed=seed,
-                                    progress=progress)
+    status, done, log = sim.run(n_steps, every, values, controller=controller, slopes=slopes, seed=seed,
+                                progress=progress)
     if stepper.error is not None:
         raise stepper.error
     return status, done, log, sim.y.copy()

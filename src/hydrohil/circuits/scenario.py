@@ -1,0 +1,175 @@
+"""A scenario that names its circuit (SPEC §12.1): which circuit, how long, which solver and step, parameter
+values on top of the circuit's, and drives of its signals in place of the circuit's defaults.
+
+::
+
+    circuit = "circuit.toml"          # a path (relative to this file) or a built-in circuit's name
+    duration = 7.5                    # [s] (default: the drive's last change + 2 s)
+    [solver]
+    method = "rk3"                    # euler, heun, rk3, rk4 or reference (the continuous model, LSODA)
+    step = 0.0005                     # [s]
+    output_every = 1                  # a log row every n steps
+    [set]                             # parameters, as in the circuit file ("<number> <unit>" or SI)
+    "cyl1.mass" = "300 kg"
+    "fluid.bulk_modulus" = "12000 bar"
+    [inputs]                          # drives of the circuit's signals, as in its [inputs]
+    "valve1.command" = { t = [0, 0.5], value = [0, 0.6] }
+
+``--set component.key=value`` on the command line applies on top of ``[set]``; setting a signal replaces its
+drive by that constant.
+"""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from hydrohil.circuits.circuit import CIRCUITS_DIR, Circuit, circuit_from_dict
+from hydrohil.circuits.run import SOLVERS
+from hydrohil.errors import InputError
+
+KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest"}
+SOLVER_KEYS = {"method", "step", "output_every"}
+
+
+@dataclass
+class CircuitScenario:
+    source: str
+    circuit: Circuit
+    duration: float
+    method: str = "rk3"
+    step: float = 5e-4
+    every: int = 1
+    rest: bool = True
+    description: str = ""
+    sets: dict = field(default_factory=dict)       # "component.key" -> value as given (scenario [set] + --set)
+
+    @property
+    def n_steps(self) -> int:
+        return int(round(self.duration / self.step))
+
+
+def is_circuit_scenario(path: str | Path) -> bool:
+    """True when the TOML file at ``path`` names a circuit (``circuit = ...``)."""
+    try:
+        return "circuit" in tomllib.loads(Path(path).read_text())
+    except (OSError, tomllib.TOMLDecodeError):
+        return False
+
+
+def circuit_file(name: str, base: Path) -> Path:
+    """The file of a circuit named in a scenario: a path relative to the scenario's folder, or a built-in."""
+    for p in (base / name, Path(name)):
+        if p.is_file():
+            return p
+        if p.is_dir() and (p / "circuit.toml").is_file():
+            return p / "circuit.toml"
+    builtin = CIRCUITS_DIR / name / "circuit.toml"
+    if builtin.is_file():
+        return builtin
+    names = sorted(d.name for d in CIRCUITS_DIR.iterdir() if (d / "circuit.toml").is_file())
+    raise InputError(f"no circuit {name!r}: not a file next to the scenario nor a built-in circuit (built-in: "
+                     f"{', '.join(names)})", source=str(base), key="circuit")
+
+
+def load_circuit_scenario(path: str | Path, *, solver: str | None = None, step: float | None = None,
+                          duration: float | None = None, sets: dict | None = None) -> CircuitScenario:
+    """The scenario at ``path`` with its circuit, ``sets`` ("component.key" -> value) on top of its [set]."""
+    path = Path(path)
+    source = str(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError("no such scenario file", source=source) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not valid TOML: {exc}", source=source) from None
+    unknown = set(data) - KEYS
+    if unknown:
+        raise InputError(f"unknown key (keys of a circuit scenario: {', '.join(sorted(KEYS))})", source=source,
+                         key=sorted(unknown)[0])
+    if not isinstance(data.get("circuit"), str):
+        raise InputError("the circuit's file or built-in name", source=source, key="circuit")
+    cfile = circuit_file(data["circuit"], path.parent)
+    try:
+        raw = tomllib.loads(cfile.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not valid TOML: {exc}", source=str(cfile)) from None
+    solver_t = data.get("solver", {})
+    if not isinstance(solver_t, dict) or set(solver_t) - SOLVER_KEYS:
+        bad = sorted(set(solver_t) - SOLVER_KEYS)[0] if isinstance(solver_t, dict) else "solver"
+        raise InputError(f"unknown key (keys: {', '.join(sorted(SOLVER_KEYS))})", source=source, key=f"solver.{bad}")
+    method = solver or solver_t.get("method", "rk3")
+    if method not in SOLVERS:
+        raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", source=source, key="solver.method")
+    h = step if step is not None else solver_t.get("step", 5e-4)
+    every = solver_t.get("output_every", 1)
+    if not (isinstance(h, (int, float)) and 1e-7 <= h <= 0.1):
+        raise InputError(f"a fixed step in [1e-7, 0.1] s, got {h!r}", source=source, key="solver.step")
+    if not (isinstance(every, int) and every >= 1):
+        raise InputError(f"an integer >= 1, got {every!r}", source=source, key="solver.output_every")
+    for key in ("set", "inputs"):
+        if not isinstance(data.get(key, {}), dict):
+            raise InputError("a table of \"component.key\" = value", source=source, key=key)
+    raw = copy.deepcopy(raw)
+    raw.setdefault("inputs", {}).update(data.get("inputs", {}))
+    given = {**data.get("set", {}), **(sets or {})}
+    for key, value in given.items():
+        _apply(raw, key, value, source if key in data.get("set", {}) and key not in (sets or {}) else "--set")
+    origin = str(cfile) if not (given or data.get("inputs")) else f"{cfile} (with {source}'s [set], [inputs] and --set)"
+    c = circuit_from_dict(raw, origin)
+    if c.name == "circuit" or not raw.get("name"):
+        c.name = cfile.parent.name
+    from hydrohil.circuits.show import default_duration
+    dur = duration if duration is not None else data.get("duration", default_duration(c))
+    if not (isinstance(dur, (int, float)) and 0 < dur <= 1e5):
+        raise InputError(f"a duration in (0, 1e5] s, got {dur!r}", source=source, key="duration")
+    rest = data.get("rest", True)
+    if not isinstance(rest, bool):
+        raise InputError(f"true or false, got {rest!r}", source=source, key="rest")
+    return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
+                           given)
+
+
+def _apply(raw: dict, key: str, value, source: str) -> None:
+    """``component.key = value`` (or ``fluid.key``) into the circuit's raw tables; a signal's drive replaced."""
+    comp, dot, name = key.partition(".")
+    comps = raw.get("components", {})
+    if not dot or not name:
+        raise InputError("expected component.key (or fluid.key), e.g. cyl1.mass", source=source, key=key)
+    if comp == "fluid":
+        raw.setdefault("fluid", {})[name] = value
+        return
+    if comp not in comps:
+        raise InputError(f"no component {comp!r} (components: {', '.join(comps)}; or fluid)", source=source, key=key)
+    if key in raw.get("inputs", {}):
+        raw["inputs"][key] = value              # a signal: its drive is now this constant
+        return
+    if name in ("type",) or name in _ports(comps[comp]):
+        raise InputError(f"{name} of {comp} is its {'type' if name == 'type' else 'port'}: not a parameter",
+                         source=source, key=key)
+    comps[comp][name] = value
+
+
+def _ports(body: dict) -> set[str]:
+    from hydrohil.circuits.library import TYPES
+    t = TYPES.get(body.get("type", ""))
+    return set(t.ports) if t else set()
+
+
+def run_circuit_scenario(cs: CircuitScenario, progress=None):
+    """The scenario's run (:func:`hydrohil.circuits.run.simulate_circuit`) and its summary: steps, step, solver,
+    wall time of the run (not the compile, not the rest march) and real-time factor, the final value of every
+    column, the reference's solver statistics."""
+    from hydrohil.circuits.run import simulate_circuit
+    res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
+                           progress=progress)
+    wall = res.wall
+    final = {k: (res.mode_names[k][int(v[-1])] if k in res.mode_names else float(v[-1]))
+             for k, v in res.columns.items() if k != "t"}
+    summary = {"scenario": cs.source, "circuit": cs.circuit.name, "circuit_source": cs.circuit.source,
+               "solver": cs.method, "step": cs.step, "steps": cs.n_steps, "duration": cs.duration,
+               "wall_time_s": wall, "realtime_factor": cs.duration / wall if wall > 0 else float("inf"),
+               "sets": cs.sets, "units": res.units, "final_state": final, **res.stats}
+    return res, summary
