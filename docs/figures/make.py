@@ -65,7 +65,7 @@ def panel_figures():
 
 def circuit_figures():
     """The example circuits of examples/circuits/ (hydrohil circuit run)."""
-    from hydrohil.circuits.circuit import load_circuit
+    from hydrohil.circuits.circuit import CIRCUITS_DIR as CIRCUITS, load_circuit
     from hydrohil.circuits.run import simulate_circuit
     from hydrohil.circuits.show import default_duration, plot_run
     for name, file, title in (
@@ -76,9 +76,19 @@ def circuit_figures():
         c = load_circuit(name)
         plot_run(simulate_circuit(c, default_duration(c)), HERE / file, title)
         print("wrote", HERE / file)
+    from hydrohil.circuits.scenario import load_circuit_scenario, run_circuit_scenario
+    for name, file, title in (
+            ("motor_speed", "circuit_motor_speed.png",
+             "PI speed control of a valve-controlled motor: 1000 rpm, 600 rpm, a 10 N·m load at 3 s"),
+            ("counterbalance_hose_burst", "circuit_counterbalance.png",
+             "1000 kg lifted through a counterbalance valve; the A hose bursts at 1.5 s: the load stays")):
+        res, _ = run_circuit_scenario(load_circuit_scenario(CIRCUITS / name / "scenario.toml"))
+        plot_run(res, HERE / file, title)
+        print("wrote", HERE / file)
     from hydrohil.circuits.draw import draw_circuit
-    draw_circuit(load_circuit("two_cylinders"), HERE / "circuit_two_cylinders_diagram.png")
-    print("wrote", HERE / "circuit_two_cylinders_diagram.png")
+    for name in ("two_cylinders", "counterbalance_hose_burst", "motor_speed"):
+        draw_circuit(load_circuit(name), HERE / f"circuit_{name}_diagram.png")
+        print("wrote", HERE / f"circuit_{name}_diagram.png")
 
 
 if __name__ == "__main__":

@@ -156,7 +156,8 @@ def circuits(duration: float = 60.0, repeats: int = 7) -> dict:
                               "max_stable_step_s": ms["max_stable_step"],
                               "worst_position_m": acc["worst_position_m"],
                               "worst_pressure_relative": acc["worst_pressure_relative"],
-                              "worst_speed_relative": acc["worst_speed_relative"], "holds": acc["holds"]}
+                              "worst_speed_relative": acc["worst_speed_relative"], "holds": acc["holds"],
+                              "positions": len(acc["rms_position_m"]), "speeds": len(acc["rms_speed_relative"])}
     return out
 
 
@@ -408,8 +409,9 @@ def circuits_table(res: dict) -> str:
     for name, r in res["circuits"].items():
         lines.append(f"| `{name}` | {r['ns_per_step']:.0f} ns | {r['realtime_factor']:.0f} | "
                      f"{_f(r['max_stable_step_s'] and r['max_stable_step_s'] * 1e3)} ms | "
-                     f"{r['worst_position_m'] * 1e6:.2g} µm | {r['worst_pressure_relative'] * 100:.2g} % | "
-                     f"{r['worst_speed_relative'] * 100:.2g} % |")
+                     f"{_f(r.get('positions') and r['worst_position_m'] * 1e6, '{:.2g} µm')} | "
+                     f"{r['worst_pressure_relative'] * 100:.2g} % | "
+                     f"{_f(r.get('speeds') and r['worst_speed_relative'] * 100, '{:.2g} %')} |")
     lines.append("")
     lines.append("Limits (every example): position ≤ 0.1 mm, pressure ≤ 3 %, speed ≤ 2 % RMS; largest stable step "
                  "≥ 1 ms.")

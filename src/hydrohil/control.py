@@ -150,7 +150,7 @@ class BuiltinController:
 
     ``h`` is the sample time [s] (the plant step: one command per sensor packet)."""
 
-    def __init__(self, cfg: ControllerCfg, params: Parameters, h: float):
+    def __init__(self, cfg: ControllerCfg, params: Parameters | None, h: float):
         if cfg.type not in BUILTIN_TYPES:
             raise ValueError(f"'{cfg.type}' is not a built-in controller ({', '.join(BUILTIN_TYPES)})")
         self.h, self.params = float(h), params
@@ -177,7 +177,8 @@ class BuiltinController:
         c.e_deadband = getattr(cfg, "e_deadband", 1e-4)
         c.kpl = getattr(cfg, "kpl", 0.0)
         c.tpl = getattr(cfg, "tpl", 0.0)
-        c.area_ratio = params.cylinder.a2 / params.cylinder.a1
+        c.area_ratio = params.cylinder.a2 / params.cylinder.a1 if params is not None else 0.0   # (a circuit's
+        # loop: no load-pressure feedback)
         c.u_min, c.u_max = cfg.u_min, cfg.u_max
 
     def retune(self, **gains: float) -> None:

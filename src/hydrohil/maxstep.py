@@ -164,14 +164,18 @@ def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol
     from hydrohil.circuits.run import simulate_circuit
     from hydrohil.errors import SimulationDiverged
     c, h_out = cs.circuit, cs.step
-    ref = simulate_circuit(c, cs.duration, h=h_out, method="reference", rest=cs.rest)
-    at_step = compare_to_reference(simulate_circuit(c, cs.duration, h=h_out, method=solver, rest=cs.rest), ref)
+    ref = simulate_circuit(c, cs.duration, h=h_out, method="reference", rest=cs.rest, loop=cs.loop)
+    at_step = compare_to_reference(simulate_circuit(c, cs.duration, h=h_out, method=solver, rest=cs.rest,
+                                                    loop=cs.loop), ref)
     trials = []
 
     def test(h):
+        import warnings
         t0 = time.perf_counter()
         try:
-            run = simulate_circuit(c, cs.duration, h=h, method=solver, rest=cs.rest)
+            with warnings.catch_warnings():          # (a candidate's own rest may be off: judged by its run)
+                warnings.simplefilter("ignore")
+                run = simulate_circuit(c, cs.duration, h=h, method=solver, rest=cs.rest, loop=cs.loop)
         except SimulationDiverged:
             r = {"stable": False, "reason": "diverged"}
         else:

@@ -109,6 +109,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
 #include "core.h"
 #include "components.h"
 #include "rk.c"
+#include "control.c"
 
 enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nout, 1)}, NLOG = {len(cols)},
        NNODES = {len(c.state_nodes)} }};   /* y: the NNODES node pressures, then the components' states */
@@ -261,17 +262,25 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
 }}
 
 /* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it); a row every `every`
- * steps from step 0 (the state before the step). Returns 0, or 1 when the state went non-finite (rows so far
- * written, *rows set). */
+ * steps from step 0 (the state before the step). Closed loop (ctl not NULL, the core's controller law,
+ * control.c): at each step k the controller reads log column `meas` of the state at t_k and sets input `cmd`
+ * of step k (written into u) for the reference ref[k] (slope dref[k]). Returns 0, or 1 when the state went
+ * non-finite (rows so far written, *rows set). */
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
-           const double *u, double *log, int64_t *rows)
+           double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
+           const double *dref, int64_t meas, int64_t cmd)
 {{
     const hh_tableau *tab = &HH_TABLEAUS[method];
-    double k[HH_MAX_STAGES][NY];
+    double k[HH_MAX_STAGES][NY], seen[NLOG];
     int64_t step, row = 0;
     int s, i;
     for (step = 0; step <= n; step++) {{
-        const double *uk = u + (step < n ? step : n - 1 > 0 ? n - 1 : 0) * NU;
+        double *uk = u + (step < n ? step : n - 1 > 0 ? n - 1 : 0) * NU;
+        if (ctl && step < n) {{
+            log_row((double)step * h, y, m, uk, P, seen);
+            uk[cmd] = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state, ref[step],
+                                           dref[step], seen[meas], 0.0, 0.0);
+        }}
         if (step % every == 0)
             log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);
         if (step == n)

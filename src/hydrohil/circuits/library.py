@@ -119,7 +119,7 @@ _DERIVE = {"pump": _pump_derive, "relief_valve": _valve_k, "check_valve": _valve
                                   * math.sqrt(2.0 / v["density"])},
            "counterbalance_valve": lambda v: {"check_gain": v["check_rated_flow"] / (v["check_rated_pressure"]
                                                                                      - v["check_cracking"]),
-                                              "relief_gain": v["rated_flow"] / v["rated_excess"]}}
+                                              "relief_coefficient": v["rated_flow"] / math.sqrt(v["rated_drop"])}}
 _DERIVE["valve_63"] = _DERIVE["valve_43"]
 
 
@@ -195,9 +195,11 @@ def _emit_cylinder(c):
 def _emit_counterbalance(c):
     pv, pl, px = c.p("valve"), c.p("load"), c.p("pilot")
     args = f"{c.par('check_cracking')}, {c.par('set_pressure')}, {c.par('pilot_ratio')}"
-    q = (f"hc_cb_flow((int){c.mode}, {c.par('check_gain')}, {c.par('check_cracking')}, {c.par('relief_gain')}, "
-         f"{c.par('set_pressure')}, {c.par('pilot_ratio')}, {c.par('transition_pressure')}, {pv}, {pl}, {px})")
-    return Emit(flows=[("valve", "load", q)], outputs={"q": (q, "m3/s")},
+    q = (f"hc_cb_flow((int){c.mode}, {c.par('check_gain')}, {c.par('check_cracking')}, "
+         f"{c.par('relief_coefficient')}, {c.par('set_pressure')}, {c.par('pilot_ratio')}, {c.par('rated_excess')}, "
+         f"{c.par('transition_pressure')}, {pv}, {pl}, {px})")
+    opening = f"hc_cb_opening({c.par('set_pressure')}, {c.par('pilot_ratio')}, {c.par('rated_excess')}, {pv}, {pl}, {px})"
+    return Emit(flows=[("valve", "load", q)], outputs={"q": (q, "m3/s"), "opening": (opening, "-")},
                 mode_of_state=f"hc_cb_mode({args}, {pv}, {pl}, {px})")
 
 
@@ -355,24 +357,27 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.7, lo_strict=True)},
                   inputs=("command",), states=(("x", "m"), ("v", "m/s")), derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),
     ComponentType("counterbalance_valve", "counterbalance valve: free flow into the load through a check; out of "
-                  "it a relief path opening at p_load - p_valve + r*p_pilot >= p_set", ("valve", "load", "pilot"),
+                  "it a main stage (an orifice) opened by p_load - p_valve + r*p_pilot beyond p_set",
+                  ("valve", "load", "pilot"),
                   {"set_pressure": Param("Pa", 0.0, 1e9, "setting p_set (typically 1.3 x the load's pressure)",
                                          lo_strict=True),
                    "pilot_ratio": Param("-", 0.0, 100.0, "pilot ratio r", 3.0),
-                   "rated_flow": Param("m3/s", 0.0, 1.0, "flow of the relief path at its rated excess",
+                   "rated_flow": Param("m3/s", 0.0, 1.0, "flow of the main stage fully open at its rated drop",
                                        lo_strict=True),
-                   "rated_excess": Param("Pa", 0.0, 1e9, "excess of p_load + r*p_pilot over p_set at the rated flow",
-                                         lo_strict=True),
+                   "rated_drop": Param("Pa", 0.0, 1e9, "pressure drop load -> valve port at the rated flow, fully "
+                                       "open", 10e5, lo_strict=True),
+                   "rated_excess": Param("Pa", 0.0, 1e9, "excess of p_load - p_valve + r*p_pilot over p_set that "
+                                         "opens the main stage fully", lo_strict=True),
                    "check_cracking": Param("Pa", 0.0, 1e8, "check's cracking pressure difference", 2e5,
                                            lo_strict=True),
                    "check_rated_flow": Param("m3/s", 0.0, 1.0, "check's flow at its rated difference",
                                              lo_strict=True),
                    "check_rated_pressure": Param("Pa", 0.0, 1e8, "check's pressure difference at that flow",
                                                  lo_strict=True),
-                   "transition_pressure": Param("Pa", 0.0, 1e7, "load-to-valve difference below which the relief "
-                                                "path's flow fades to 0", 1e5, lo_strict=True)},
+                   "transition_pressure": Param("Pa", 0.0, 1e7, "laminar transition of the main stage's orifice",
+                                                1e5, lo_strict=True)},
                   modes=("closed", "check_open", "relief_open", "both_open"),
-                  derived=(("check_gain", "m3/(s.Pa)"), ("relief_gain", "m3/(s.Pa)"))),
+                  derived=(("check_gain", "m3/(s.Pa)"), ("relief_coefficient", "m3/s/sqrt(Pa)"))),
 )}
 
 FLUID = {"density": Param("kg/m3", 500.0, 2000.0, "density", 860.0),

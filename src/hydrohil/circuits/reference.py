@@ -20,9 +20,12 @@ def reference_atol(units: list[str]) -> np.ndarray:
 
 
 def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h: float, n: int, every: int, *,
-                            rtol: float = RTOL, progress=None, stats: dict | None = None) -> np.ndarray:
+                            rtol: float = RTOL, progress=None, stats: dict | None = None,
+                            control=None) -> np.ndarray:
     """The reference's log rows (NLOG columns, the hybrid run's) at steps 0, every, 2*every, .. n from ``y0``
-    under the inputs ``u`` (a row per step, held over it). Raises stiff.ReferenceSolverFailed."""
+    under the inputs ``u`` (a row per step, held over it). ``control(k, row)``: a sampled controller that sets
+    u[k] from the log row of the state at step k (each step is then an interval of its own). Raises
+    stiff.ReferenceSolverFailed."""
     ffi, lib, lay = cc.ffi, cc.lib, cc.layout
     stats = {} if stats is None else stats
     stats.update(intervals=0, radau_fallbacks=0)
@@ -41,6 +44,8 @@ def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h:
     rows = np.arange(0, n + 1, every)
     log = np.zeros((len(rows), len(lay.log_columns)))
     # segments of constant input: [k0, k1) steps
+    if control is not None:
+        return _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, log, progress)
     change = [0] + [k for k in range(1, n) if np.any(u[k] != u[k - 1])] + [n]
     y = np.array(y0, dtype=float)
     r = 0
@@ -66,4 +71,30 @@ def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h:
         y = np.array(ys[-1])
         if progress:
             progress(k1)
+    return log
+
+
+def _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, log, progress):
+    """Step by step: the row of the state at t_k, the controller's command, the interval [t_k, t_k+1]."""
+    ffi, lib = cc.ffi, cc.lib
+    nlog = log.shape[1]
+    row = np.zeros(nlog)
+    y = np.array(y0, dtype=float)
+    for k in range(n + 1):
+        uk = u[min(k, len(u) - 1)]
+        lib.hc_reference_row(Pb, ffi.from_buffer("double[]", np.ascontiguousarray(y)),
+                             ffi.from_buffer("double[]", uk), k * h, ffi.from_buffer("double[]", row))
+        if k < n:
+            control(k, row)
+            lib.hc_reference_row(Pb, ffi.from_buffer("double[]", np.ascontiguousarray(y)),
+                                 ffi.from_buffer("double[]", uk), k * h, ffi.from_buffer("double[]", row))
+        if k % every == 0:
+            log[k // every] = row
+        if k == n:
+            break
+        ub[k] = ffi.from_buffer("double[]", uk)
+        y = np.array(stiff.advance(f, y, [k * h, (k + 1) * h], k, rtol, atol, stats)[-1])
+        del ub[k]
+        if progress and k % 1000 == 0:
+            progress(k)
     return log

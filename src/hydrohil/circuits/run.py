@@ -10,6 +10,7 @@ import numpy as np
 
 from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.circuit import Circuit
+from hydrohil.circuits.generate import PRESSURE_FLOOR
 from hydrohil.errors import InputError, SimulationDiverged
 
 METHODS = ("euler", "heun", "rk3", "rk4")       # the core's tableaus, in its order (HH_EULER ..)
@@ -34,6 +35,13 @@ class CircuitResult:
             raise InputError(f"no column {name!r} (columns: {', '.join(self.columns)})") from None
 
 
+def held(table: tuple[np.ndarray, np.ndarray], t: np.ndarray, h: float) -> np.ndarray:
+    """A table (times, values) held from each time (zero-order hold) at the step times t of step h (a step
+    starting within 1e-12 h of a table's time counts as at it)."""
+    ts, vs = table
+    return vs[np.searchsorted(ts, np.asarray(t) + 1e-12 * h, side="right") - 1]
+
+
 def input_table(c: Circuit, n: int, h: float, inputs: dict | None = None) -> np.ndarray:
     """The inputs of steps 0..n-1 (n x NU): each signal's drive (a value, or (t, values) held from each t),
     ``inputs`` replacing the circuit's defaults."""
@@ -47,8 +55,7 @@ def input_table(c: Circuit, n: int, h: float, inputs: dict | None = None) -> np.
     for j, name in enumerate(c.inputs):
         d = drives[name]
         if isinstance(d, tuple):
-            ts, vs = d
-            u[:, j] = vs[np.searchsorted(ts, t + 1e-12 * h, side="right") - 1]
+            u[:, j] = held(d, t, h)
         else:
             u[:, j] = float(d)
     return u
@@ -93,7 +100,9 @@ def settle(c: Circuit, cc, P, u, y, m, h: float, method: str) -> None:
             y[free] = sol.x
         settled = march(10 * h) > 0       # the modes follow; settled when no pressure moves any more
     if settled:
-        _warn_indeterminate(c, cc, buf, y, free)
+        open_nodes = _indeterminate(cc, buf, y, free)
+        open_nodes = _force_balance(c, cc, buf, y, open_nodes)
+        _warn_indeterminate(c, y, open_nodes)
     if not settled:
         moving = [c.state_nodes[i] for i in free]
         raise InputError(f"no state at rest: the pressures at {', '.join(moving)} do not settle (from "
@@ -101,23 +110,61 @@ def settle(c: Circuit, cc, P, u, y, m, h: float, method: str) -> None:
                          "Give [initial] pressures to start from a state of your own", source=c.source, key="initial")
 
 
-def _warn_indeterminate(c: Circuit, cc, buf, y, free) -> None:
-    """A node whose flow balance does not depend on its pressure (no path but closed ones) has no pressure at
-    rest: it keeps its initial guess, which the user should know (and may give in [initial])."""
-    import warnings
-    from hydrohil.errors import InputWarning
+def _indeterminate(cc, buf, y, free) -> list[int]:
+    """The free nodes whose flow balance does not depend on their pressure (no path but closed ones): they have
+    no pressure at rest from the flows."""
     ffi, lib = cc.ffi, cc.lib
     hi, lo = np.zeros(max(len(y), 1)), np.zeros(max(len(y), 1))
+    out = []
     for i in free:
         d = max(1e3, 1e-6 * abs(y[i]))
-        for sign, out in ((1, hi), (-1, lo)):
+        for sign, res in ((1, hi), (-1, lo)):
             yy = y.copy()
             yy[i] += sign * d
-            lib.hc_rhs(buf["P"], ffi.from_buffer("double[]", yy), buf["m"], buf["u"], ffi.from_buffer("double[]", out))
+            lib.hc_rhs(buf["P"], ffi.from_buffer("double[]", yy), buf["m"], buf["u"], ffi.from_buffer("double[]", res))
         if abs(hi[i] - lo[i]) / (2 * d) < 1e-9:
-            warnings.warn(f"{c.source}: node {c.state_nodes[i]} has no open path at rest: its pressure is no rest "
-                          f"value but its initial guess, {y[i] / 1e5:.4g} bar (give it in [initial])", InputWarning,
-                          stacklevel=3)
+            out.append(i)
+    return out
+
+
+def _force_balance(c: Circuit, cc, buf, y, nodes: list[int]) -> list[int]:
+    """A piston chamber closed off at rest (a counterbalance or check valve holding a load) takes the pressure
+    that holds the piston still (SPEC §12.5: the force balance), when the other chamber's is known; the
+    nodes still without a pressure are returned."""
+    ffi, lib = cc.ffi, cc.lib
+    lay = cc.layout
+    dy = np.zeros(max(len(y), 1))
+    left = list(nodes)
+    for comp in c.components.values():
+        if comp.type.name not in ("cylinder", "double_rod_cylinder"):
+            continue
+        idx = [c.state_nodes.index(comp.ports[p]) if comp.ports[p] in c.state_nodes else None for p in ("a", "b")]
+        chambers = [i for i in idx if i is not None and i in left]
+        if len(chambers) != 1:
+            continue
+        i, j = chambers[0], lay.states.index(f"{comp.name}.v")
+
+        def accel(p):
+            yy = y.copy()
+            yy[i] = p
+            lib.hc_rhs(buf["P"], ffi.from_buffer("double[]", yy), buf["m"], buf["u"], ffi.from_buffer("double[]", dy))
+            return dy[j]
+        a0, a1 = accel(y[i]), accel(y[i] + 1e5)
+        if a1 != a0:                                   # (at an end stop pushed into it: held by the stop)
+            y[i] = max(y[i] - a0 * 1e5 / (a1 - a0), PRESSURE_FLOOR)
+            left.remove(i)
+    return left
+
+
+def _warn_indeterminate(c: Circuit, y, nodes: list[int]) -> None:
+    """A node without a pressure at rest keeps its initial guess, which the user should know (and may give in
+    [initial])."""
+    import warnings
+    from hydrohil.errors import InputWarning
+    for i in nodes:
+        warnings.warn(f"{c.source}: node {c.state_nodes[i]} has no open path at rest: its pressure is no rest "
+                      f"value but its initial guess, {y[i] / 1e5:.4g} bar (give it in [initial])", InputWarning,
+                      stacklevel=4)
 
 
 def _warn_unbalanced(c: Circuit, res) -> None:
@@ -135,14 +182,40 @@ def _warn_unbalanced(c: Circuit, res) -> None:
                               "once", InputWarning, stacklevel=3)
 
 
+@dataclass
+class Loop:
+    """A closed loop on a circuit: the core's law (``cfg``, a built-in [controller] table; run by
+    :class:`hydrohil.control.BuiltinController` sampled at the run's step) reads the signal ``measure`` (a log
+    column) at each step and sets the input ``command`` for the reference (SI units of the measured signal)."""
+    cfg: object
+    measure: str
+    command: str
+    reference: tuple                    # (times, values): held from each time
+    controller: object = None           # the law at the run's step (set by simulate_circuit)
+
+    def start(self, h: float) -> None:
+        """A fresh controller sampled at h (no integrator or filter state from another run)."""
+        from hydrohil.control import BuiltinController
+        self.controller = BuiltinController(self.cfg, None, h)
+
+    def at(self, t: np.ndarray, h: float) -> np.ndarray:
+        return held(self.reference, t, h)
+
+    def table(self, n: int, h: float) -> tuple[np.ndarray, np.ndarray]:
+        r = np.ascontiguousarray(self.at(np.arange(n + 1) * h, h), dtype=float)
+        return r, np.zeros_like(r)      # (references held over each step: no slope)
+
+
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
-                     inputs: dict | None = None, rest: bool = True, progress=None) -> CircuitResult:
+                     inputs: dict | None = None, rest: bool = True, progress=None,
+                     loop: Loop | None = None) -> CircuitResult:
     """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
     (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
     circuit's ``[initial]`` keeps its value). ``method`` "reference": the continuous reference generated from
     the same description (:mod:`hydrohil.circuits.reference`), from the same state at rest (settled by RK3 at
     ``h``), its log on the same grid; ``progress(step)`` is called now and then. Raises SimulationDiverged with
-    the time, the modes and the state when the state leaves the finite (or the reference's solvers fail)."""
+    the time, the modes and the state when the state leaves the finite (or the reference's solvers fail).
+    ``loop``: closed loop (:class:`Loop`); the log gets the controller's reference as a column."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
@@ -159,14 +232,20 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                 ffi.from_buffer("int64_t[]", m))
     if rest:
         settle(c, cc, P, u, y, m, h, "rk3" if method == "reference" else method)
+    if loop is not None:
+        _check_loop(c, lay, loop)
+        loop.start(h)
     if method == "reference":
-        return _reference_run(c, cc, P, y, m, u, h, n, every, progress)
+        res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
+        return _with_drives(c, res, u, every, loop)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
+    ctl = (_loop_args(cc, lay, loop, n, h) if loop is not None else
+           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0))
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
-                        ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows)
+                        ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows, *ctl)
     wall = time.perf_counter() - t0
     log = log[:rows[0]]
     res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method,
@@ -179,21 +258,72 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     res.units = _units(c, lay)
     if rest and len(log):
         _warn_unbalanced(c, res)
+    return _with_drives(c, res, u, every, loop)
+
+
+def _check_loop(c: Circuit, lay, loop: Loop) -> None:
+    if loop.measure not in lay.log_columns or loop.measure == "t":
+        raise InputError(f"not a signal of circuit {c.name!r}: {loop.measure!r} (signals: "
+                         f"{', '.join(x for x in lay.log_columns if x != 't')})", key="controller.measure")
+    if loop.command not in c.inputs:
+        raise InputError(f"not an input of circuit {c.name!r}: {loop.command!r} (inputs: "
+                         f"{', '.join(c.inputs) or 'none: give a signal in the circuit [inputs]'})",
+                         key="controller.command")
+
+
+def _loop_args(cc, lay, loop: Loop, n: int, h: float):
+    """hc_run's closed-loop arguments: the core's controller and its state (the core module's structs, passed
+    by address: the same header, the same compiler), the reference and its slope per step, the indices."""
+    from hydrohil.core import ffi as core_ffi
+    ffi = cc.ffi
+    ref, dref = loop.table(n, h)
+    loop._keep = (ref, dref)                                     # alive while hc_run reads them
+    addr = lambda p: ffi.cast("void *", int(core_ffi.cast("uintptr_t", p)))  # noqa: E731
+    return (addr(loop.controller.c), addr(loop.controller.state), ffi.from_buffer("double[]", ref),
+            ffi.from_buffer("double[]", dref), lay.log_columns.index(loop.measure), cc.layout.inputs.index(loop.command))
+
+
+def _with_drives(c: Circuit, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
+    """The run's inputs as columns (``valve.command``: what drove each step; closed loop: what the controller
+    sent) and the loop's reference (``<measure>.reference``)."""
+    rows = len(res.columns["t"])
+    idx = np.minimum(np.arange(rows) * every, len(u) - 1)
+    for j, sig in enumerate(c.inputs):
+        res.columns[sig] = u[idx, j].copy()
+        res.units[sig] = input_unit(c, sig)
+    if loop is not None:
+        res.columns[f"{loop.measure}.reference"] = loop.at(res.columns["t"], res.h)
+        res.units[f"{loop.measure}.reference"] = res.units.get(loop.measure, "-")
     return res
+
+
+def input_unit(c: Circuit, sig: str) -> str:
+    """The SI unit of an input signal (a parameter a circuit drives)."""
+    comp, _, key = sig.partition(".")
+    return c.components[comp].type.params[key].unit
 
 
 def _units(c: Circuit, lay) -> dict[str, str]:
     return {"t": "s", **{f"{nd}.p": "Pa" for nd in c.nodes}, **dict(lay.outputs), **{md: "-" for md in lay.modes}}
 
 
-def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, progress) -> CircuitResult:
+def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, progress,
+                   loop: Loop | None) -> CircuitResult:
     from hydrohil.circuits.reference import solve_circuit_reference
     from hydrohil.core.stiff import ReferenceSolverFailed
     lay = cc.layout
     stats: dict = {}
+    control = None
+    if loop is not None:                       # the same sampled law at each step, on the reference's state
+        ref, dref = loop.table(n, h)
+        meas, cmd = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
+
+        def control(k, row):
+            u[k, cmd] = loop.controller.update(ref[k], dref[k], row[meas])
     t0 = time.perf_counter()
     try:
-        log = solve_circuit_reference(cc, P, y[:len(lay.states)], u, h, n, every, progress=progress, stats=stats)
+        log = solve_circuit_reference(cc, P, y[:len(lay.states)], u, h, n, every, progress=progress, stats=stats,
+                                      control=control)
     except ReferenceSolverFailed as exc:
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         state = exc.y if exc.y is not None else y

@@ -14,6 +14,15 @@ values on top of the circuit's, and drives of its signals in place of the circui
     "fluid.bulk_modulus" = "12000 bar"
     [inputs]                          # drives of the circuit's signals, as in its [inputs]
     "valve1.command" = { t = [0, 0.5], value = [0, 0.6] }
+    [controller]                      # optional closed loop: the core's law (control.h) on any signal
+    type = "pi"                       # p, pi, pid or p_ff
+    measure = "motor.w"               # the signal it reads (a log column)
+    command = "valve.command"         # the input it drives (one of the circuit's [inputs])
+    kp = 0.002                        # gains in the command's unit per the measured signal's SI unit
+    ki = 0.02
+    [reference]                       # the measured signal's reference, held from each t, with units
+    t = [0, 0.5, 3]
+    value = ["0 rpm", "600 rpm", "300 rpm"]
 
 ``--set component.key=value`` on the command line applies on top of ``[set]``; setting a signal replaces its
 drive by that constant.
@@ -27,10 +36,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from hydrohil.circuits.circuit import CIRCUITS_DIR, Circuit, circuit_from_dict
-from hydrohil.circuits.run import SOLVERS
+from hydrohil.circuits.run import SOLVERS, Loop
 from hydrohil.errors import InputError
 
-KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest"}
+KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "controller", "reference"}
+LOOP_TYPES = ("p", "pi", "pid", "p_ff")
 SOLVER_KEYS = {"method", "step", "output_every"}
 
 
@@ -45,6 +55,7 @@ class CircuitScenario:
     rest: bool = True
     description: str = ""
     sets: dict = field(default_factory=dict)       # "component.key" -> value as given (scenario [set] + --set)
+    loop: Loop | None = None                       # closed loop ([controller] + [reference])
 
     @property
     def n_steps(self) -> int:
@@ -128,8 +139,62 @@ def load_circuit_scenario(path: str | Path, *, solver: str | None = None, step: 
     rest = data.get("rest", True)
     if not isinstance(rest, bool):
         raise InputError(f"true or false, got {rest!r}", source=source, key="rest")
+    loop = _loop(data, c, source)
     return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
-                           given)
+                           given, loop)
+
+
+def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
+    """The closed loop of [controller] + [reference]: the core's built-in law (hydrohil.control) with its gains
+    checked as a paper scenario's are, the measured signal and the driven input named, the reference in the
+    measured signal's unit."""
+    import numpy as np
+    from pydantic import ValidationError
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.units import to_si
+    from hydrohil.control import PControllerCfg, PFFControllerCfg, PIControllerCfg, PIDControllerCfg
+    LOOP_CFG = {"p": PControllerCfg, "pi": PIControllerCfg, "pid": PIDControllerCfg, "p_ff": PFFControllerCfg}
+    if "controller" not in data and "reference" not in data:
+        return None
+    if not isinstance(data.get("controller"), dict) or not isinstance(data.get("reference"), dict):
+        raise InputError("a closed loop needs both [controller] (type, measure, command, gains) and [reference] "
+                         "(t, value)", source=source, key="controller" if "controller" not in data else "reference")
+    table = dict(data["controller"])
+    for key in ("measure", "command"):
+        if not isinstance(table.get(key), str):
+            raise InputError("the signal's name, component.variable", source=source, key=f"controller.{key}")
+    measure, command = table.pop("measure"), table.pop("command")
+    if table.get("type") not in LOOP_TYPES:
+        raise InputError(f"a circuit's loop runs the core's laws: type one of {', '.join(LOOP_TYPES)}, got "
+                         f"{table.get('type')!r}", source=source, key="controller.type")
+    try:
+        cfg = LOOP_CFG[table["type"]].model_validate(table)
+    except ValidationError as exc:
+        e = exc.errors()[0]
+        loc = ".".join(str(x) for x in e["loc"]) or "type"
+        raise InputError(e["msg"], source=source, key=f"controller.{loc}") from None
+    lay = compile_circuit(c).layout
+    units = {"t": "s", **{f"{n}.p": "Pa" for n in c.nodes}, **dict(lay.outputs)}
+    if measure not in units or measure == "t":
+        raise InputError(f"not a signal of circuit {c.name!r} (signals: {', '.join(x for x in units if x != 't')})",
+                         source=source, key="controller.measure")
+    if command not in c.inputs:
+        raise InputError(f"not an input of circuit {c.name!r} (inputs: {', '.join(c.inputs) or 'none'}; a "
+                         "circuit's [inputs] names the signals it lets be driven)", source=source,
+                         key="controller.command")
+    ref = data["reference"]
+    t, v = ref.get("t"), ref.get("value")
+    if set(ref) - {"t", "value"} or not isinstance(t, list) or not isinstance(v, list) or len(t) != len(v) or not t:
+        raise InputError("t = [...] and value = [...] of one length", source=source, key="reference")
+    try:
+        ts = np.array([to_si(x, "s") for x in t])
+        vs = np.array([to_si(x, units[measure]) for x in v])
+    except ValueError as exc:
+        raise InputError(f"{exc} (the reference of {measure} [{units[measure]}])", source=source,
+                         key="reference") from None
+    if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
+        raise InputError("times start at 0 and increase", source=source, key="reference.t")
+    return Loop(cfg, measure, command, (ts, vs))
 
 
 def _apply(raw: dict, key: str, value, source: str) -> None:
@@ -164,7 +229,7 @@ def run_circuit_scenario(cs: CircuitScenario, progress=None):
     column, the reference's solver statistics."""
     from hydrohil.circuits.run import simulate_circuit
     res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
-                           progress=progress)
+                           progress=progress, loop=cs.loop)
     wall = res.wall
     final = {k: (res.mode_names[k][int(v[-1])] if k in res.mode_names else float(v[-1]))
              for k, v in res.columns.items() if k != "t"}

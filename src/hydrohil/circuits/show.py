@@ -12,7 +12,7 @@ import numpy as np
 
 from hydrohil.circuits.circuit import Circuit
 from hydrohil.circuits.generate import Layout
-from hydrohil.circuits.run import CircuitResult, node_stiffness, simulate_circuit
+from hydrohil.circuits.run import CircuitResult, input_unit, node_stiffness, simulate_circuit
 
 
 def default_duration(c: Circuit) -> float:
@@ -51,17 +51,13 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3") -> dict:
             "fluid": [{"key": k, "value": v} for k, v in c.fluid.items()], "components": comps, "nodes": nodes,
             "states": [{"name": s, "unit": u} for s, u in zip(lay.states, lay.state_units)],
             "modes": [{"name": m, "values": list(lay.mode_names[m])} for m in lay.modes],
-            "inputs": [{"name": n, "unit": _input_unit(c, n), "drive": _drive_text(d)} for n, d in c.inputs.items()],
+            "inputs": [{"name": n, "unit": input_unit(c, n), "drive": _drive_text(d)} for n, d in c.inputs.items()],
             "signals": signals}
 
 
 def _num(v):
     return None if v is None or (isinstance(v, float) and math.isnan(v)) else v
 
-
-def _input_unit(c: Circuit, sig: str) -> str:
-    comp, _, key = sig.partition(".")
-    return c.components[comp].type.params[key].unit
 
 
 def _drive_text(d) -> str:

@@ -2,23 +2,33 @@
 #ifndef HC_COUNTERBALANCE_H
 #define HC_COUNTERBALANCE_H
 #include "core.h"
+#include "hc_sqrt_law.h"
 
 /* ---- counterbalance valve (load holding): free flow into the load through its check (cracking dp_cr, flow
- * k_c*(p_valve - p_load - dp_cr)); out of the load a relief path whose spring chamber is vented to the valve
- * port: it opens when p_load - p_valve + r*p_pilot >= p_set (r the pilot ratio) and passes k_r times that
- * excess from the load to the valve port, only while p_load > p_valve (the flow goes to 0 across the last
- * dp_t, as an orifice's laminar end: continuous). The two paths are in parallel, each flowing while its guard
- * holds; the mode says which: closed, check open, relief open, both. Flow valve -> load. */
+ * k_c*(p_valve - p_load - dp_cr)); out of the load a main stage whose spring chamber is vented to the valve
+ * port, opened by p_load - p_valve + r*p_pilot beyond p_set (r the pilot ratio): its opening
+ * s = clamp((p_load - p_valve + r*p_pilot - p_set)/dp_open, 0, 1) (fully open dp_open beyond the setting) makes
+ * an orifice s*k_o*sqrt(p_load - p_valve) (k_o = Q_r/sqrt(dp_r): the rated flow at the rated drop fully
+ * open; the laminar transition dp_t near 0), flowing out of the load only (the seat is one-way). The two
+ * paths are in parallel, each flowing while its guard holds; the mode says which: closed, check open, main
+ * stage open, both. Flow valve -> load. */
 enum { HC_CB_CLOSED, HC_CB_CHECK, HC_CB_RELIEF, HC_CB_BOTH };
 
-HH_INLINE double hc_cb_flow(int mode, double k_c, double dp_cr, double k_r, double p_set, double r, double dp_t,
-                            double p_valve, double p_load, double p_pilot)
+/* the main stage's opening [0, 1] */
+HH_INLINE double hc_cb_opening(double p_set, double r, double dp_open, double p_valve, double p_load, double p_pilot)
+{
+    double s = (p_load - p_valve + r * p_pilot - p_set) / dp_open;
+    return s <= 0.0 ? 0.0 : s >= 1.0 ? 1.0 : s;
+}
+
+HH_INLINE double hc_cb_flow(int mode, double k_c, double dp_cr, double k_o, double p_set, double r, double dp_open,
+                            double dp_t, double p_valve, double p_load, double p_pilot)
 {
     double q = 0.0, dp = p_load - p_valve;
     if (mode == HC_CB_CHECK || mode == HC_CB_BOTH)
         q += k_c * (p_valve - p_load - dp_cr);
     if ((mode == HC_CB_RELIEF || mode == HC_CB_BOTH) && dp > 0.0)
-        q -= k_r * (dp + r * p_pilot - p_set) * (dp < dp_t ? dp / dp_t : 1.0);
+        q -= hc_sqrt_law(k_o * hc_cb_opening(p_set, r, dp_open, p_valve, p_load, p_pilot), dp, dp_t);
     return q;
 }
 
