@@ -61,6 +61,10 @@ def test_the_reference_of_a_cylinder_against_its_end_stop_and_relief_closed_form
     ("pump_relief_accumulator", 0.0, 1.5e-6, 0.0),
     ("motor_speed", 1.2e-7, 3e-4, 1.7e-4),
     ("counterbalance_hose_burst", 8e-6, 5e-4, 1.5e-3),
+    # the paper's rig and its servo valve and LuGre cylinder on a pump supply (closed loops): 5.0e-6 m,
+    # 1.0e-3, 2.6e-3; 6.0e-6 m, 8.3e-4, 9.8e-4
+    ("ferreira2004", 1.5e-5, 3e-3, 8e-3),
+    ("servo_supply", 1.8e-5, 2.5e-3, 3e-3),
 ])
 def test_each_example_at_half_a_millisecond_against_its_reference_and_its_largest_step(name, position, pressure,
                                                                                        speed):
@@ -75,7 +79,7 @@ def test_each_example_at_half_a_millisecond_against_its_reference_and_its_larges
     assert acc["worst_pressure_relative"] <= LIMIT_PRESSURE and acc["worst_speed_relative"] <= LIMIT_SPEED
     assert acc["worst_position_m"] <= position and acc["worst_pressure_relative"] <= pressure
     assert acc["worst_speed_relative"] <= speed
-    assert ms["max_stable_step"] >= 1e-3              # (measured: 4.6, 7.7, 3.8 and 1.2 ms)
+    assert ms["max_stable_step"] >= 1e-3              # (measured: 4.6, 7.7, 3.8, 1.2, 3.1, 3.0 ms)
     assert ms["first_unstable_step"] / ms["max_stable_step"] <= 1.05
     failed = [tr for tr in ms["trials"] if not tr["stable"]]
     assert failed and all(tr["step"] > ms["max_stable_step"] for tr in failed)

@@ -81,12 +81,14 @@ def circuit_figures():
             ("motor_speed", "circuit_motor_speed.png",
              "PI speed control of a valve-controlled motor: 1000 rpm, 600 rpm, a 10 N·m load at 3 s"),
             ("counterbalance_hose_burst", "circuit_counterbalance.png",
-             "1000 kg lifted through a counterbalance valve; the A hose bursts at 1.5 s: the load stays")):
+             "1000 kg lifted through a counterbalance valve; the A hose bursts at 1.5 s: the load stays"),
+            ("servo_supply", "circuit_servo_supply.png",
+             "the paper's servo valve and cylinder under P control, fed by a pump and an accumulator")):
         res, _ = run_circuit_scenario(load_circuit_scenario(CIRCUITS / name / "scenario.toml"))
         plot_run(res, HERE / file, title)
         print("wrote", HERE / file)
     from hydrohil.circuits.draw import draw_circuit
-    for name in ("two_cylinders", "counterbalance_hose_burst", "motor_speed"):
+    for name in ("two_cylinders", "counterbalance_hose_burst", "motor_speed", "servo_supply"):
         draw_circuit(load_circuit(name), HERE / f"circuit_{name}_diagram.png")
         print("wrote", HERE / f"circuit_{name}_diagram.png")
 

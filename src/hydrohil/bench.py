@@ -147,7 +147,8 @@ def circuits(duration: float = 60.0, repeats: int = 7) -> dict:
     out = {}
     for f in sorted(CIRCUITS_DIR.glob("*/scenario.toml")):
         cs = load_circuit_scenario(f, solver="rk3", step=5e-4)
-        walls = [simulate_circuit(cs.circuit, duration, h=cs.step, every=1000).wall for _ in range(repeats)]
+        walls = [simulate_circuit(cs.circuit, duration, h=cs.step, every=1000, loop=cs.loop).wall
+                 for _ in range(repeats)]
         med = statistics.median(walls)
         ms = circuit_max_stable_step(cs, "rk3")
         acc = ms["accuracy_at_step"]

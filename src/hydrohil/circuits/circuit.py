@@ -236,6 +236,24 @@ def _drive(drive, prm, source: str, where: str):
 
 
 def _cross_check(ctype: ComponentType, v: dict) -> str | None:
+    if ctype.name == "lugre_cylinder":
+        areas, sizes = [v[k] == v[k] for k in ("area_a", "area_b")], [v[k] == v[k] for k in ("bore", "rod")]
+        if not (all(areas) and not any(sizes)) and not (all(sizes) and not any(areas)):
+            return "give bore and rod, or area_a and area_b (one pair)"
+        if (v["bulk_b"] == v["bulk_b"]) != (v["bulk_c"] == v["bulk_c"]):
+            return "eq 21 needs both bulk_b and bulk_c"
+        if (v["beta_a"] == v["beta_a"]) != (v["beta_b"] == v["beta_b"]):
+            return "constant chamber bulk moduli need both beta_a and beta_b"
+        if v["bulk_b"] == v["bulk_b"] and v["beta_a"] == v["beta_a"]:
+            return "give eq 21 (bulk_b, bulk_c) or constant beta_a, beta_b, not both"
+        if v["fs_pos"] < v["fc_pos"] or v["fs_neg"] < v["fc_neg"]:
+            return "a breakaway force fs_* is at least its Coulomb force fc_*"
+        if all(sizes) and not v["rod"] < v["bore"]:
+            return f"rod ({v['rod'] * 1e3:g} mm) must be thinner than bore ({v['bore'] * 1e3:g} mm)"
+        if all(areas) and not v["area_b"] < v["area_a"]:
+            return "area_b (the annulus) must be smaller than area_a"
+        if not v["x0"] <= v["stroke"]:
+            return f"x0 ({v['x0']:g} m) must be within the stroke ({v['stroke']:g} m)"
     if ctype.name == "counterbalance_valve" and not v["check_rated_pressure"] > v["check_cracking"]:
         return "check_rated_pressure must be above check_cracking"
     if ctype.name in ("relief_valve", "check_valve") and not v["rated_pressure"] > v["cracking_pressure"]:

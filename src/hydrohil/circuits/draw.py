@@ -26,8 +26,9 @@ STYLE = {
     "motor": ("circle", "▽ motor", {"style": "filled", "fillcolor": "#e2fde8"}),
     "cylinder": ("box3d", "cylinder", {"style": "filled", "fillcolor": "#e2fde8"}),
     "double_rod_cylinder": ("box3d", "double-rod cylinder", {"style": "filled", "fillcolor": "#e2fde8"}),
+    "lugre_cylinder": ("box3d", "cylinder, LuGre seals", {"style": "filled", "fillcolor": "#e2fde8"}),
 }
-VALVES = {"valve_43": ("⇉", "⊥ ⊤", "⇆"), "valve_63": ("⇉", "⇢ P→T", "⇆")}
+VALVES = {"valve_43": ("⇉", "⊥ ⊤", "⇆"), "valve_63": ("⇉", "⇢ P→T", "⇆"), "servo_valve": ("⇉", "⊥ ⊤", "⇆")}
 INTO = {"inlet", "a", "P", "p", "pilot", "valve"}        # ports the flow usually enters a component by
 
 
@@ -58,7 +59,12 @@ def _figures(comp) -> list[str]:
         out.append(f"{v['displacement'] * 1e6:g} cm³/rev")
     if t in ("cylinder", "double_rod_cylinder"):
         out.append(f"{v['bore'] * 1e3:g}/{v['rod'] * 1e3:g} × {v['stroke'] * 1e3:g} mm, {v['mass']:g} kg")
-    if t in VALVES:
+    if t == "lugre_cylinder":
+        out.append(f"A1 {v['area_a'] * 1e4:.4g} cm², A2 {v['area_b'] * 1e4:.4g} cm², {v['stroke'] * 1e3:g} mm, "
+                   f"{v['mass']:g} kg")
+    if t == "servo_valve":
+        out.append(f"servo, ωn {v['wn']:.4g} rad/s")
+    elif t in VALVES:
         out.append(f"x_max {v['x_max'] * 1e3:g} mm")
     return out
 

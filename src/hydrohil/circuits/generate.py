@@ -311,6 +311,11 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool) -> list[str]:
     order."""
     rhs, qin = [], {n: [] for n in c.state_nodes}
     cap, vol = {n: [] for n in c.state_nodes}, {n: [] for n in c.state_nodes}
+    beta = {n: f"P[{lay.slot['fluid.bulk_modulus']}]" for n in c.state_nodes}
+    for comp, e in emits:
+        for port, expr in e.bulk_modulus:          # (a node's own oil: eq 21 of a chamber on it)
+            if comp.ports[port] in beta:
+                beta[comp.ports[port]] = expr
     for comp, e in emits:
         for name, expr in e.pre:
             rhs.append(f"    const double v_{_ident(comp.name)}_{name} = {expr};")
@@ -336,8 +341,7 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool) -> list[str]:
         q = " ".join(qin[node]) or "0.0"
         extra = " + ".join(cap[node]) or "0.0"
         volume = " + ".join([f"P[{lay.slot[f'node.{node}.volume']}]", *vol[node]])
-        rhs.append(f"    dy[{i}] = hc_node_rate({q}, {volume}, P[{lay.slot['fluid.bulk_modulus']}], {extra});"
-                   f"   /* {node} */")
+        rhs.append(f"    dy[{i}] = hc_node_rate({q}, {volume}, {beta[node]}, {extra});   /* {node} */")
     for comp, e in emits:
         derivatives = {**e.derivatives, **e.reference} if reference else e.derivatives
         for state, expr in derivatives.items():

@@ -43,7 +43,8 @@ class Emit:
     mode that is a function of the state (``mode_of_state``, a C expression; the hybrid model's update is then
     that assignment after each step) is evaluated at every call of the right-hand side; a mode that clamps
     states (end stops, spool ends) is replaced by ``reference`` derivatives (state -> C) with stiff
-    spring-dampers, its mode staying 0."""
+    spring-dampers, its mode staying 0. A component may set its ports' nodes' bulk modulus (``bulk_modulus``:
+    the paper's cylinder chambers follow eq 21); other nodes take the fluid's."""
     pre: list = field(default_factory=list)
     flows: list = field(default_factory=list)
     capacitance: list = field(default_factory=list)
@@ -54,6 +55,7 @@ class Emit:
     outputs: dict = field(default_factory=dict)
     mode_of_state: str | None = None
     reference: dict = field(default_factory=dict)
+    bulk_modulus: list = field(default_factory=list)     # (port, C expression of its node's bulk modulus [Pa])
 
 
 @dataclass(frozen=True)
@@ -121,6 +123,17 @@ _DERIVE = {"pump": _pump_derive, "relief_valve": _valve_k, "check_valve": _valve
                                                                                      - v["check_cracking"]),
                                               "relief_coefficient": v["rated_flow"] / math.sqrt(v["rated_drop"])}}
 _DERIVE["valve_63"] = _DERIVE["valve_43"]
+
+
+def _lugre_cylinder_derive(v):
+    given = v["area_a"] == v["area_a"]                  # areas given (not NaN), else from bore and rod
+    a1 = v["area_a"] if given else math.pi * v["bore"] ** 2 / 4.0
+    a2 = v["area_b"] if given else math.pi * (v["bore"] ** 2 - v["rod"] ** 2) / 4.0
+    return {"area_a": a1, "area_b": a2,
+            "weight": v["mass"] * v["gravity"] * math.sin(math.radians(v["incline"]))}
+
+
+_DERIVE["lugre_cylinder"] = _lugre_cylinder_derive
 
 
 def _emit_tank(c):
@@ -227,15 +240,80 @@ def _emit_valve43(c):
                 outputs={"x": (x, "m"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}})
 
 
+def _emit_servo_valve(c):
+    """The paper's servo-solenoid valve (SPEC §3): pseudo-sections of eq 3 per edge, the limited spool."""
+    x, v = c.x("x"), c.x("v")
+    k = ", ".join(c.par(f"k{i}") for i in range(1, 6))
+    kt = ", ".join(c.par(f"kt{i}") for i in range(1, 6))
+    dpt = c.par("dp_laminar")
+    xc = f"hh_clamp({x}, -1.0, 1.0)"
+    spool = f"{c.par('wn')}, {c.par('xi')}, {c.par('la')}, {c.par('lv')}"
+    P, T, A, B = (c.p(n) for n in ("P", "T", "A", "B"))
+
+    def edge(sign, coeffs, a, b):
+        return f"hc_sqrt_law(hc_section({sign}{xc}, {coeffs}) * HH_LPM_PER_SQRT_BAR, {a} - {b}, {dpt})"
+    qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T), "PB": edge("", k, P, B), "BT": edge("-", kt, B, T)}
+    u = c.par("command")
+    return Emit(flows=[("P", "A", qs["PA"]), ("A", "T", qs["AT"]), ("P", "B", qs["PB"]), ("B", "T", qs["BT"])],
+                derivatives={"x": f"hc_servo_spool_speed({x}, {v})",
+                             "v": f"hc_servo_spool_accel({x}, {v}, {u}, {spool})"},
+                initial={"x": f"hh_clamp({u}, -1.0, 1.0)", "v": "0.0"},
+                mode_update=f"hc_spool_project(&{x}, &{v}, {c.par('lv')}); "
+                            f"{c.mode} = hc_spool_region({x}, {v}, {u}, {spool});",
+                reference={"v": f"hc_servo_spool_accel_free({x}, {v}, {u}, {spool})"},
+                outputs={"x": (x, "-"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}})
+
+
+def _emit_lugre_cylinder(c):
+    """The paper's differential cylinder (SPEC §4-§6): eq 21 chambers, leakage, LuGre friction, end stops."""
+    x, v, z = c.x("x"), c.x("v"), c.x("z")
+    fr = ", ".join(c.par(k) for k in ("sigma0", "sigma1", "fc_pos", "fs_pos", "vs_pos", "kv_pos", "fc_neg",
+                                      "fs_neg", "vs_neg", "kv_neg"))
+    static = ", ".join(c.par(k) for k in ("fc_pos", "fs_pos", "vs_pos", "fc_neg", "fs_neg", "vs_neg"))
+    a1, a2, stroke = c.par("area_a"), c.par("area_b"), c.par("stroke")
+    free = f"({c.mode} < HC_LC_AT_RETRACT)"
+    f_ext = f"{c.p('a')} * {a1} - {c.p('b')} * {a2} - {c.par('force')} - {c.par('weight')}"
+    vp = f"({free} ? {v} : 0.0)"
+    ff = f"hc_lc_friction((int){c.mode}, {v}, {z}, {fr})"
+    xin = f"hc_in_stroke({x}, {stroke})"
+    kv = f"({v} >= 0.0 ? {c.par('kv_pos')} : {c.par('kv_neg')})"
+    g = f"hc_stribeck({v}, {static})"
+    e = Emit(pre=[("f", f_ext), ("vp", vp)],
+             flows=[("a", None, f"{a1} * {c.v('vp')}"), (None, "b", f"{a2} * {c.v('vp')}"),
+                    ("a", "b", f"{c.par('leakage')} * ({c.p('a')} - {c.p('b')})")],
+             volume=[("a", f"({c.par('dead_volume_a')} + {a1} * {xin})"),
+                     ("b", f"({c.par('dead_volume_b')} + {a2} * ({stroke} - {xin}))")],
+             derivatives={"x": c.v("vp"),
+                          "v": f"({free} ? ({c.v('f')} - {ff}) / {c.par('mass')} : 0.0)",
+                          "z": f"({c.mode} == HC_LC_STICK ? {v} : 0.0)"},
+             initial={"x": c.par("x0"), "v": "0.0", "z": "0.0"},
+             mode_update=f"{c.mode} = hc_lc_mode((int){c.mode}, &{x}, &{v}, &{z}, {f_ext}, {stroke}, "
+                         f"{c.par('sigma0')}, {static});",
+             reference={"x": v, "z": f"{v} - {c.par('sigma0')} * fabs({v}) * {z} / {g}",
+                        "v": f"({c.v('f')} - ({c.par('sigma0')} * {z} + {c.par('sigma1')} * ({v} - "
+                             f"{c.par('sigma0')} * fabs({v}) * {z} / {g}) + {kv} * {v}) + "
+                             f"hc_stop_penalty({x}, {v}, {stroke}, {c.par('mass')})) / {c.par('mass')}"},
+             outputs={"x": (x, "m"), "v": (v, "m/s"), "force": (f_ext, "N"), "friction": (ff, "N")})
+    val = c.comp.values
+    if val["bulk_b"] == val["bulk_b"]:                                     # eq 21 given (not NaN)
+        e.bulk_modulus = [(port, f"hc_bulk_modulus({c.p(port)}, {c.par('bulk_b')}, {c.par('bulk_c')})")
+                          for port in ("a", "b")]
+    elif val["beta_a"] == val["beta_a"]:                                  # a constant per chamber
+        e.bulk_modulus = [("a", c.par("beta_a")), ("b", c.par("beta_b"))]
+    return e
+
+
 _EMIT = {"tank": _emit_tank, "pressure_source": _emit_tank, "pump": _emit_pump,
          "relief_valve": lambda c: _emit_valve(c, "p", "t"), "check_valve": lambda c: _emit_valve(c, "a", "b"),
          "orifice": _emit_orifice, "accumulator": _emit_accumulator, "hose": _emit_hose, "volume": _emit_volume,
          "motor": _emit_motor, "cylinder": _emit_cylinder, "double_rod_cylinder": _emit_cylinder,
-         "valve_43": _emit_valve43, "valve_63": _emit_valve43, "counterbalance_valve": _emit_counterbalance}
+         "valve_43": _emit_valve43, "valve_63": _emit_valve43, "counterbalance_valve": _emit_counterbalance,
+         "servo_valve": _emit_servo_valve, "lugre_cylinder": _emit_lugre_cylinder}
 _PORT_VOLUME = {"hose": lambda v, port: 0.5 * v["volume"], "volume": lambda v, port: v["volume"],
                 "cylinder": lambda v, port: (v["dead_volume_a"] + v["area_a"] * v["x0"] if port == "a" else
                                              v["dead_volume_b"] + v["area_b"] * (v["stroke"] - v["x0"]))}
 _PORT_VOLUME["double_rod_cylinder"] = _PORT_VOLUME["cylinder"]
+_PORT_VOLUME["lugre_cylinder"] = _PORT_VOLUME["cylinder"]
 
 def _cylinder_params(rod: str) -> dict[str, Param]:
     """A linear actuator's parameters with its load (both cylinder types; ``rod``: the rod's description)."""
@@ -379,6 +457,60 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                   modes=("closed", "check_open", "relief_open", "both_open"),
                   derived=(("check_gain", "m3/(s.Pa)"), ("relief_coefficient", "m3/s/sqrt(Pa)"))),
 )}
+
+# the paper's rig (SPEC §8, parameters/ferreira2004.toml): the defaults of its servo valve and its seal friction
+_FERREIRA_K = (-2.136, 1.602e-2, 4.561, -8.084e-2, 1.563e-2)
+_FERREIRA_KT = (-2.145, 7.276e-3, 4.602, -4.208e-2, 1.092e-2)
+_SECTION = "(l/min)/sqrt(bar)"
+TYPES["servo_valve"] = ComponentType(
+    "servo_valve", "the paper's servo-solenoid 4/3 valve (SPEC §3): a limited 2nd-order spool and eq 3's "
+    "pseudo-sections per edge (defaults: the paper's valve)", ("P", "T", "A", "B"),
+    {"command": Param("-", -1.0, 1.0, "normalised spool command u (or the signal NAME.command)", 0.0),
+     **{f"k{i}": Param("-", -1e3, 1e3, f"eq 3 coefficient k{i} of P->A, P->B [{_SECTION}]", k)
+        for i, k in enumerate(_FERREIRA_K, 1)},
+     **{f"kt{i}": Param("-", -1e3, 1e3, f"eq 3 coefficient k{i}t of A->T, B->T [{_SECTION}]", k)
+        for i, k in enumerate(_FERREIRA_KT, 1)},
+     "dp_laminar": Param("Pa", 0.0, 1e7, "laminar transition of the orifice law", 1e5, lo_strict=True),
+     "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", 1007.01, lo_strict=True),
+     "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.48, lo_strict=True),
+     "la": Param("1/s2", 0.0, 1e9, "spool acceleration limit (normalised stroke)", 81184.24, lo_strict=True),
+     "lv": Param("1/s", 0.0, 1e6, "spool velocity limit (normalised stroke)", 125.56, lo_strict=True)},
+    modes=("linear", "acc_limited", "vel_limited", "at_end"), inputs=("command",), states=(("x", "-"), ("v", "1/s")))
+TYPES["lugre_cylinder"] = ComponentType(
+    "lugre_cylinder", "the paper's differential cylinder (SPEC §4-§6): LuGre seal friction with stick and slip "
+    "modes, end stops, eq 21 chambers, internal leakage (defaults: the paper's seals)", ("a", "b"),
+    {"bore": Param("m", 0.0, 2.0, "piston diameter (or area_a, area_b)", math.nan, lo_strict=True),
+     "rod": Param("m", 0.0, 2.0, "rod diameter (or area_a, area_b)", math.nan, lo_strict=True),
+     "area_a": Param("m2", 0.0, 4.0, "cap-side area A1 (or bore, rod)", math.nan, lo_strict=True),
+     "area_b": Param("m2", 0.0, 4.0, "rod-side annulus A2 (or bore, rod)", math.nan, lo_strict=True),
+     "stroke": Param("m", 0.0, 20.0, "stroke", lo_strict=True),
+     "dead_volume_a": Param("m3", 0.0, 1.0, "cap-side volume at x = 0 (ports, line)", 5e-5, lo_strict=True),
+     "dead_volume_b": Param("m3", 0.0, 1.0, "rod-side volume at full stroke", 5e-5, lo_strict=True),
+     "leakage": Param("m3/(s.Pa)", 0.0, 1e-6, "internal leakage conductance a -> b (eq 22)", 0.0),
+     "bulk_b": Param("1/Pa", 0.0, 1e-6, "eq 21 coefficient B (with bulk_c; else the fluid's bulk modulus)",
+                     math.nan),
+     "bulk_c": Param("-", 0.0, 1.0, "eq 21 coefficient C", math.nan, lo_strict=True),
+     "beta_a": Param("Pa", 1e6, 1e11, "a constant bulk modulus of the cap-side chamber (else eq 21 or the "
+                     "fluid's)", math.nan),
+     "beta_b": Param("Pa", 1e6, 1e11, "a constant bulk modulus of the rod-side chamber", math.nan),
+     "mass": Param("kg", 0.0, 1e6, "moved mass", lo_strict=True),
+     "gravity": Param("m/s2", 0.0, 100.0, "gravitational acceleration", G),
+     "incline": Param("deg", -90.0, 90.0, "rod's angle above the horizontal (90: up, the weight opposes "
+                      "extension; -90: down, it aids)", 0.0),
+     "force": Param("N", -1e8, 1e8, "external force, + opposes extension (or the signal)", 0.0),
+     "sigma0": Param("N/m", 0.0, 1e12, "bristle stiffness", 2.114e7, lo_strict=True),
+     "sigma1": Param("N.s/m", 0.0, 1e9, "bristle damping", 2.914e3),
+     "fc_pos": Param("N", 0.0, 1e7, "Coulomb friction, extending", 110.2),
+     "fs_pos": Param("N", 0.0, 1e7, "breakaway force, extending", 261.0, lo_strict=True),
+     "vs_pos": Param("m/s", 0.0, 10.0, "Stribeck velocity, extending", 0.0152, lo_strict=True),
+     "kv_pos": Param("N.s/m", 0.0, 1e8, "viscous friction, extending", 818.4),
+     "fc_neg": Param("N", 0.0, 1e7, "Coulomb friction, retracting (magnitude)", 89.26),
+     "fs_neg": Param("N", 0.0, 1e7, "breakaway force, retracting (magnitude)", 249.56, lo_strict=True),
+     "vs_neg": Param("m/s", 0.0, 10.0, "Stribeck velocity, retracting", 0.0251, lo_strict=True),
+     "kv_neg": Param("N.s/m", 0.0, 1e8, "viscous friction, retracting", 1387.0),
+     "x0": Param("m", 0.0, 20.0, "initial position", 0.0)},
+    modes=("stick", "slip_pos", "slip_neg", "at_retract", "at_extend"), inputs=("force",),
+    states=(("x", "m"), ("v", "m/s"), ("z", "m")), derived=(*_CYLINDER_DERIVED,))
 
 FLUID = {"density": Param("kg/m3", 500.0, 2000.0, "density", 860.0),
          "bulk_modulus": Param("Pa", 1e7, 1e11, "effective bulk modulus (constant)", 1.4e9),

@@ -15,6 +15,7 @@ from hydrohil.errors import InputError, SimulationDiverged
 
 METHODS = ("euler", "heun", "rk3", "rk4")       # the core's tableaus, in its order (HH_EULER ..)
 SOLVERS = (*METHODS, "reference")               # "reference": the continuous model, LSODA/Radau
+CYLINDERS = ("cylinder", "double_rod_cylinder", "lugre_cylinder")   # (mode 0: free, or free and sticking)
 
 
 @dataclass
@@ -136,7 +137,7 @@ def _force_balance(c: Circuit, cc, buf, y, nodes: list[int]) -> list[int]:
     dy = np.zeros(max(len(y), 1))
     left = list(nodes)
     for comp in c.components.values():
-        if comp.type.name not in ("cylinder", "double_rod_cylinder"):
+        if comp.type.name not in CYLINDERS:
             continue
         idx = [c.state_nodes.index(comp.ports[p]) if comp.ports[p] in c.state_nodes else None for p in ("a", "b")]
         chambers = [i for i in idx if i is not None and i in left]
@@ -173,8 +174,10 @@ def _warn_unbalanced(c: Circuit, res) -> None:
     import warnings
     from hydrohil.errors import InputWarning
     for comp in c.components.values():
-        if comp.type.name in ("cylinder", "double_rod_cylinder") and res.columns[f"{comp.name}.mode"][0] == 0:
+        if comp.type.name in CYLINDERS and res.columns[f"{comp.name}.mode"][0] == 0:
             f = res.columns[f"{comp.name}.force"][0]
+            if comp.type.name == "lugre_cylinder" and -comp.values["fs_neg"] <= f <= comp.values["fs_pos"]:
+                continue                       # its seals hold it (the bristles take the force at once)
             scale = abs(res.columns[f"{comp.ports['a']}.p"][0]) * comp.values["area_a"] + 1.0
             if abs(f) > 1e-6 * scale:
                 warnings.warn(f"{c.source}: {comp.name} is not held at rest: the net force on it at the start is "
@@ -190,8 +193,9 @@ class Loop:
     cfg: object
     measure: str
     command: str
-    reference: tuple                    # (times, values): held from each time
+    reference: tuple                    # (times, values): held from each time, or linear between them
     controller: object = None           # the law at the run's step (set by simulate_circuit)
+    linear: bool = False                # the reference interpolated linearly (else held)
 
     def start(self, h: float) -> None:
         """A fresh controller sampled at h (no integrator or filter state from another run)."""
@@ -199,11 +203,21 @@ class Loop:
         self.controller = BuiltinController(self.cfg, None, h)
 
     def at(self, t: np.ndarray, h: float) -> np.ndarray:
+        if self.linear:
+            return np.interp(t, *self.reference)
         return held(self.reference, t, h)
 
     def table(self, n: int, h: float) -> tuple[np.ndarray, np.ndarray]:
-        r = np.ascontiguousarray(self.at(np.arange(n + 1) * h, h), dtype=float)
-        return r, np.zeros_like(r)      # (references held over each step: no slope)
+        """The reference and its slope at each step (a held reference has none)."""
+        t = np.arange(n + 1) * h
+        r = np.ascontiguousarray(self.at(t, h), dtype=float)
+        if not self.linear:
+            return r, np.zeros_like(r)
+        ts, vs = self.reference
+        seg = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, max(len(ts) - 2, 0))
+        slope = np.diff(vs) / np.diff(ts) if len(ts) > 1 else np.zeros(1)
+        dr = np.where(t < ts[-1], slope[seg], 0.0) if len(ts) > 1 else np.zeros_like(t)
+        return r, np.ascontiguousarray(dr, dtype=float)
 
 
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
@@ -228,13 +242,17 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     y = np.zeros(max(len(lay.states), 1))         # (the C has one state at least)
     m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
     ffi, lib = cc.ffi, cc.lib
-    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
-                ffi.from_buffer("int64_t[]", m))
-    if rest:
-        settle(c, cc, P, u, y, m, h, "rk3" if method == "reference" else method)
     if loop is not None:
         _check_loop(c, lay, loop)
         loop.start(h)
+    rest_method = "rk3" if method == "reference" else method
+    if rest and loop is not None:
+        y, m = _held_by_loop(c, cc, P, u, h, rest_method, loop)
+    else:
+        lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
+                    ffi.from_buffer("int64_t[]", m))
+        if rest:
+            settle(c, cc, P, u, y, m, h, rest_method)
     if method == "reference":
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
         return _with_drives(c, res, u, every, loop)
@@ -259,6 +277,55 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     if rest and len(log):
         _warn_unbalanced(c, res)
     return _with_drives(c, res, u, every, loop)
+
+
+def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
+    """The state at rest of a closed loop (SPEC §12.5): the command that holds the piston the loop measures
+    (the net force on it zero, its chambers at their rest pressures; what `hydrohil linear` computes for the
+    paper's rig), found by root finding over the command's range, its valve there and the nodes settled; the
+    controller then starts from its own first command. Without a piston measured, or no command in range
+    holding it: the state at rest under the step-0 command (settle), as in open loop."""
+    import warnings
+    from scipy.optimize import brentq
+    ffi, lib, lay = cc.ffi, cc.lib, cc.layout
+    comp = c.components.get(loop.measure.rsplit(".", 1)[0])
+    j = lay.inputs.index(loop.command)
+
+    def state(u0):
+        uu = u.copy()
+        uu[0, j] = u0
+        y = np.zeros(max(len(lay.states), 1))
+        m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
+        lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", uu), ffi.from_buffer("double[]", y),
+                    ffi.from_buffer("int64_t[]", m))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            settle(c, cc, P, uu, y, m, h, method)
+        return y, m, uu
+
+    def force(u0):
+        y, m, uu = state(u0)
+        row = np.zeros(len(lay.log_columns))
+        lib.hc_reference_row(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
+                             ffi.from_buffer("double[]", uu[0]), 0.0, ffi.from_buffer("double[]", row))
+        return row[lay.log_columns.index(f"{comp.name}.force")]
+    if comp is not None and comp.type.name in CYLINDERS and loop.measure == f"{comp.name}.x":
+        prm = c.components[loop.command.split(".")[0]].type.params[loop.command.split(".")[1]]
+        lo, hi = max(prm.lo, -1.0), min(prm.hi, 1.0)
+        try:
+            f_lo, f_hi = force(lo), force(hi)
+            if f_lo * f_hi < 0:
+                u0 = brentq(force, lo, hi, xtol=1e-12, rtol=1e-12, maxiter=100)
+                y, m, _ = state(u0)
+                return y, m
+        except InputError:
+            pass
+    y = np.zeros(max(len(lay.states), 1))
+    m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
+    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
+                ffi.from_buffer("int64_t[]", m))
+    settle(c, cc, P, u, y, m, h, method)
+    return y, m
 
 
 def _check_loop(c: Circuit, lay, loop: Loop) -> None:

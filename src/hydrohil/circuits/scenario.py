@@ -23,6 +23,7 @@ values on top of the circuit's, and drives of its signals in place of the circui
     [reference]                       # the measured signal's reference, held from each t, with units
     t = [0, 0.5, 3]
     value = ["0 rpm", "600 rpm", "300 rpm"]
+    interpolation = "hold"            # or "linear" between the points (its slope goes to p_ff's kff)
 
 ``--set component.key=value`` on the command line applies on top of ``[set]``; setting a signal replaces its
 drive by that constant.
@@ -184,8 +185,13 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
                          key="controller.command")
     ref = data["reference"]
     t, v = ref.get("t"), ref.get("value")
-    if set(ref) - {"t", "value"} or not isinstance(t, list) or not isinstance(v, list) or len(t) != len(v) or not t:
-        raise InputError("t = [...] and value = [...] of one length", source=source, key="reference")
+    if set(ref) - {"t", "value", "interpolation"} or not isinstance(t, list) or not isinstance(v, list) \
+            or len(t) != len(v) or not t:
+        raise InputError("t = [...] and value = [...] of one length (and interpolation = \"hold\" or \"linear\")",
+                         source=source, key="reference")
+    if ref.get("interpolation", "hold") not in ("hold", "linear"):
+        raise InputError(f"\"hold\" (from each t) or \"linear\", got {ref['interpolation']!r}", source=source,
+                         key="reference.interpolation")
     try:
         ts = np.array([to_si(x, "s") for x in t])
         vs = np.array([to_si(x, units[measure]) for x in v])
@@ -194,7 +200,7 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
                          key="reference") from None
     if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
         raise InputError("times start at 0 and increase", source=source, key="reference.t")
-    return Loop(cfg, measure, command, (ts, vs))
+    return Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear")
 
 
 def _apply(raw: dict, key: str, value, source: str) -> None:

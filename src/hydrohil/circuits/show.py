@@ -76,7 +76,7 @@ def text(d: dict) -> str:
         for p in comp["parameters"]:
             given = f"  (file: {p['given']})" if p["given"] and p["given"] != repr(p["value"]) else ""
             sig = "  signal" if p["signal"] else ""
-            value = "driven" if p["signal"] else f"{p['value']:g}"
+            value = "driven" if p["signal"] else "—" if p["value"] is None else f"{p['value']:g}"
             out.append(f"    {p['key']:<24} {value:>12} {p['unit']:<10} {p['description']}{given}{sig}")
         for x in comp["derived"]:
             out.append(f"    {x['key']:<24} {x['value']:>12.6g} {x['unit']:<10} derived")

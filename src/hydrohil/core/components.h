@@ -19,6 +19,8 @@
 #include "hc_motor.h"
 #include "hc_valve_43.h"
 #include "hc_counterbalance.h"
+#include "hc_servo_valve.h"
+#include "hc_lugre_cylinder.h"
 #include "hc_node.h"
 
 #endif

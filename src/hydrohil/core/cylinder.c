@@ -5,11 +5,9 @@
  * value of the chamber (1 or 2) when cylinder.bulk_modulus = "constant". */
 HH_INLINE double bulk_modulus(double pressure, int chamber, const double *p)
 {
-    double pr;
     if (p[HH_CYLINDER_BULK_MODULUS] > 0.5)
         return chamber == 1 ? p[HH_CYLINDER_BETA1] : p[HH_CYLINDER_BETA2];
-    pr = hh_max(pressure, HH_P_MIN);
-    return (HH_P_ATM + pr) / (p[HH_CYLINDER_B] * pr + p[HH_CYLINDER_C]);
+    return hc_bulk_modulus(pressure, p[HH_CYLINDER_B], p[HH_CYLINDER_C]);
 }
 
 /* Chamber volumes [m^3]: V1 = V01 + A1*xp, V2 = V02 + A2*(L - xp), xp limited to the stroke. */

@@ -3,6 +3,7 @@
 #ifndef HH_CYLINDER_H
 #define HH_CYLINDER_H
 #include "valve.h"
+#include "hc_lugre_cylinder.h"
 
 HH_INLINE double bulk_modulus(double pressure, int chamber, const double *p);
 HH_INLINE void volumes(double xp, const double *p, double *v1, double *v2);

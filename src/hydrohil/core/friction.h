@@ -3,6 +3,7 @@
 #ifndef HH_FRICTION_H
 #define HH_FRICTION_H
 #include "core.h"
+#include "hc_lugre.h"
 
 HH_INLINE double stribeck(double v, const double *p);
 HH_INLINE double viscous(double v, const double *p);

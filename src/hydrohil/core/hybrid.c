@@ -182,13 +182,7 @@ HH_INLINE void project(double *y, const int64_t *m, const double *p)
 /* Spool region of the state at the end of a step (recorded, Fig 11b-style). */
 HH_INLINE int spool_mode(const double *y, double ud, const double *p)
 {
-    double wn = p[HH_SPOOL_WN], a;
-    if (y[HH_XS] >= 1.0 || y[HH_XS] <= -1.0)
-        return HH_SPOOL_AT_END;
-    if (fabs(y[HH_VS]) >= p[HH_SPOOL_LV] * (1.0 - 1e-9))
-        return HH_SPOOL_VEL_LIMITED;
-    a = wn * wn * (ud - y[HH_XS]) - 2.0 * p[HH_SPOOL_XI] * wn * y[HH_VS];
-    return fabs(a) > p[HH_SPOOL_LA] ? HH_SPOOL_ACC_LIMITED : HH_SPOOL_LINEAR;
+    return hc_spool_region(y[HH_XS], y[HH_VS], ud, p[HH_SPOOL_WN], p[HH_SPOOL_XI], p[HH_SPOOL_LA], p[HH_SPOOL_LV]);
 }
 
 /* One fixed step h of the hybrid model with tableau tab and delayed input ud; y, m in place; returns the

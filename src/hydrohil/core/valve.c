@@ -1,13 +1,8 @@
 /* valve.c: servo-solenoid valve, SPEC §3 (see valve.h). */
 #include "valve.h"
 
-/* One pseudo-section of eq 3: k1*x + k2 + sqrt(k3*x^2 + k4*x + k5), floored at zero. */
-HH_INLINE double section_(double x, double k1, double k2, double k3, double k4, double k5)
-{
-    return hh_max(k1 * x + k2 + sqrt(hh_max(k3 * x * x + k4 * x + k5, 0.0)), 0.0);
-}
-
-HH_INLINE double section(double x, const double *k) { return section_(x, k[0], k[1], k[2], k[3], k[4]); }
+/* One pseudo-section of eq 3 (hc_servo_valve.h) of the coefficients k[0..4]. */
+HH_INLINE double section(double x, const double *k) { return hc_section(x, k[0], k[1], k[2], k[3], k[4]); }
 
 /* (As1, As2, A1t, A2t) at spool position x (clamped to [-1, 1]), eq 3, plus the worn-lands leakage
  * section p[HH_VALVE_WEAR] on each (0 unless a valve-leakage fault is active). */
@@ -70,25 +65,7 @@ HH_INLINE double orifice_slope(double area, double dp, double dp_t)
  * (HH_SPOOL_ACTS_* bits): the acceleration clamp, the limited integrator at ±Lv, the spool at an end. */
 HH_INLINE int spool_limits(double xs, double vs, double ud, const double *p, double *dxs, double *dvs)
 {
-    double wn = p[HH_SPOOL_WN], la = p[HH_SPOOL_LA], lv = p[HH_SPOOL_LV];
-    double a = wn * wn * (ud - xs) - 2.0 * p[HH_SPOOL_XI] * wn * vs;
-    int acts = 0;
-    if (a > la) {
-        a = la;
-        acts = HH_SPOOL_ACTS_ACC;
-    } else if (a < -la) {
-        a = -la;
-        acts = HH_SPOOL_ACTS_ACC;
-    }
-    if ((vs >= lv && a > 0.0) || (vs <= -lv && a < 0.0)) {   /* limited integrator: no wind-up beyond +-Lv */
-        a = 0.0;
-        acts |= HH_SPOOL_ACTS_VEL;
-    }
-    if (xs >= 1.0 || xs <= -1.0)
-        acts |= HH_SPOOL_ACTS_END;
-    *dxs = vs;
-    *dvs = a;
-    return acts;
+    return hc_spool_limits(xs, vs, ud, p[HH_SPOOL_WN], p[HH_SPOOL_XI], p[HH_SPOOL_LA], p[HH_SPOOL_LV], dxs, dvs);
 }
 
 /* spool_limits as one spool mode (the logs' HH_SPOOL_*: an end before the velocity limit before the
@@ -105,16 +82,7 @@ HH_INLINE int spool_derivatives(double xs, double vs, double ud, const double *p
 
 /* The spool's mechanical end in the hybrid model (SPEC §3.1: x̄s in [-1, 1]): at an end, motion and
  * acceleration into it are stopped (the step's projection then holds x̄s = ±1, v̄s = 0). */
-HH_INLINE void spool_end_block(double xs, double vs, double *dxs, double *dvs)
-{
-    if (xs >= 1.0 && vs >= 0.0) {
-        *dxs = 0.0;
-        *dvs = hh_min(*dvs, 0.0);
-    } else if (xs <= -1.0 && vs <= 0.0) {
-        *dxs = 0.0;
-        *dvs = hh_max(*dvs, 0.0);
-    }
-}
+HH_INLINE void spool_end_block(double xs, double vs, double *dxs, double *dvs) { hc_spool_end_block(xs, vs, dxs, dvs); }
 
 /* The spool of the hybrid model (SPEC §3.1): eq 1 with its limits and its mechanical ends, the one
  * right-hand side of the plant's spool and of identification's sine responses; returns spool_limits' bits. */
@@ -127,30 +95,11 @@ HH_INLINE int spool_rhs(double xs, double vs, double ud, const double *p, double
 
 /* After a (sub)step of the hybrid spool: the velocity held in ±Lv (the limited integrator) and the
  * mechanical ends plastic (x̄s clamped to ±1, velocity into the end stopped). */
-HH_INLINE void spool_project(double *xs, double *vs, double lv)
-{
-    if (*vs > lv)
-        *vs = lv;
-    else if (*vs < -lv)
-        *vs = -lv;
-    if (*xs >= 1.0) {
-        *xs = 1.0;
-        if (*vs > 0.0)
-            *vs = 0.0;
-    } else if (*xs <= -1.0) {
-        *xs = -1.0;
-        if (*vs < 0.0)
-            *vs = 0.0;
-    }
-}
+HH_INLINE void spool_project(double *xs, double *vs, double lv) { hc_spool_project(xs, vs, lv); }
 
 /* The spool's end in the continuous reference model: a stiff unilateral spring-damper on penetration
  * beyond |x̄s| = 1 (HH_SPOOL_STOP_K, HH_SPOOL_STOP_C) [1/s^2]. */
 HH_INLINE double spool_stop_acceleration(double xs, double vs, const double *p)
 {
-    if (xs > 1.0)
-        return -hh_max(0.0, p[HH_SPOOL_STOP_K] * (xs - 1.0) + p[HH_SPOOL_STOP_C] * vs);
-    if (xs < -1.0)
-        return hh_max(0.0, p[HH_SPOOL_STOP_K] * (-1.0 - xs) - p[HH_SPOOL_STOP_C] * vs);
-    return 0.0;
+    return hc_spool_stop(xs, vs, p[HH_SPOOL_STOP_K], p[HH_SPOOL_STOP_C]);
 }

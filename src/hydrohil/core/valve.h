@@ -5,6 +5,7 @@
 #define HH_VALVE_H
 #include "core.h"
 #include "hc_sqrt_law.h"
+#include "hc_servo_valve.h"
 
 typedef struct { double as1, as2, a1t, a2t; } hh_sections;
 

@@ -1,0 +1,76 @@
+/* hc_lugre_cylinder.h: one component's law of the library (components.h, SPEC §12.3): the paper's differential
+ * cylinder (SPEC §4-§6): chambers whose oil follows eq 21's pressure-dependent bulk modulus, internal leakage,
+ * LuGre seal friction (hc_lugre.h) and end stops, as one statechart after each step: the friction's stick
+ * and slip modes (eq 25: breakaway at sigma0*z = Fs, stick again where the speed reverses) and the stops
+ * (plastic: at an end until the net force pulls the piston off). The core's hybrid model (hybrid.c) locates
+ * these events inside its step; a circuit switches at the step's end. */
+#ifndef HC_LUGRE_CYLINDER_H
+#define HC_LUGRE_CYLINDER_H
+#include "core.h"
+#include "hc_lugre.h"
+
+enum { HC_LC_STICK, HC_LC_SLIP_POS, HC_LC_SLIP_NEG, HC_LC_AT_RETRACT, HC_LC_AT_EXTEND };
+
+/* effective bulk modulus [Pa] at gauge pressure p [Pa], eq 21: (1e5 + P)/(B*P + C), P floored at HH_P_MIN */
+HH_INLINE double hc_bulk_modulus(double pressure, double b, double c)
+{
+    double pr = hh_max(pressure, HH_P_MIN);
+    return (HH_P_ATM + pr) / (b * pr + c);
+}
+
+/* the position inside the stroke (the chambers' volumes) */
+HH_INLINE double hc_in_stroke(double x, double stroke) { return hh_min(hh_max(x, 0.0), stroke); }
+
+/* the seal friction [N] in mode `mode` at speed v, bristles z (at a stop: sigma0*z) */
+HH_INLINE double hc_lc_friction(int mode, double v, double z, double sigma0, double sigma1, double fc_p, double fs_p,
+                                double vs_p, double kv_p, double fc_n, double fs_n, double vs_n, double kv_n)
+{
+    if (mode == HC_LC_SLIP_POS)
+        return hc_slip_friction(v, 1, fc_p, fs_p, vs_p, kv_p);
+    if (mode == HC_LC_SLIP_NEG)
+        return hc_slip_friction(v, -1, fc_n, fs_n, vs_n, kv_n);
+    if (mode != HC_LC_STICK)
+        return sigma0 * z;
+    return sigma0 * z + (sigma1 + (v >= 0.0 ? kv_p : kv_n)) * v;
+}
+
+/* the statechart after a step: x, v, z in place, f the net force on the piston without friction [N] */
+HH_INLINE int hc_lc_mode(int mode, double *x, double *v, double *z, double f, double stroke, double sigma0,
+                         double fc_p, double fs_p, double vs_p, double fc_n, double fs_n, double vs_n)
+{
+    double d;
+    if (mode == HC_LC_AT_RETRACT || mode == HC_LC_AT_EXTEND) {
+        double net = f - sigma0 * *z;
+        *x = mode == HC_LC_AT_RETRACT ? 0.0 : stroke;
+        *v = 0.0;
+        if ((mode == HC_LC_AT_RETRACT && net > 0.0) || (mode == HC_LC_AT_EXTEND && net < 0.0))
+            return HC_LC_STICK;          /* pulled off its stop: free, the bristles holding */
+        return mode;
+    }
+    if (*x < 0.0 || *x > stroke) {       /* a stop reached: bristles at their sliding state before impact */
+        if (mode != HC_LC_STICK) {
+            d = mode == HC_LC_SLIP_POS ? 1.0 : -1.0;
+            *z = d * hc_stribeck(*v, fc_p, fs_p, vs_p, fc_n, fs_n, vs_n) / sigma0;
+        }
+        mode = *x < 0.0 ? HC_LC_AT_RETRACT : HC_LC_AT_EXTEND;
+        *x = mode == HC_LC_AT_RETRACT ? 0.0 : stroke;
+        *v = 0.0;
+        return mode;
+    }
+    if (mode == HC_LC_STICK) {           /* breakaway */
+        if (fs_p - sigma0 * *z < 0.0)
+            return HC_LC_SLIP_POS;
+        if (fs_n + sigma0 * *z < 0.0)
+            return HC_LC_SLIP_NEG;
+        return mode;
+    }
+    if ((mode == HC_LC_SLIP_POS && *v < 0.0) || (mode == HC_LC_SLIP_NEG && *v > 0.0)) {   /* speed reverses */
+        d = mode == HC_LC_SLIP_POS ? 1.0 : -1.0;
+        *v = 0.0;
+        *z = d * (d > 0 ? fs_p : fs_n) / sigma0;
+        return HC_LC_STICK;
+    }
+    return mode;
+}
+
+#endif
