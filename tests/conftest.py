@@ -97,3 +97,23 @@ class PanelProcess:
 
     def close(self):
         self.child.stop(30)
+
+
+def sanitized_harness(tmp_path, harness: str, src: str, units: list[str], fmi: int) -> str:
+    """Build tests/c/<harness> with an FMU's sources (``src``: its sources folder; ``units``: its C files) under
+    AddressSanitizer and UBSan (-DFMI=fmi, warnings as errors), run it, check it passed with no sanitizer
+    report; returns what it printed (the FMU's messages)."""
+    import shutil
+    cc = shutil.which("gcc") or shutil.which("cc")
+    here = Path(__file__).parent / "c"
+    exe = tmp_path / "edges"
+    build = subprocess.run([cc, "-std=c99", "-g", "-O1", f"-DFMI={fmi}", "-fsanitize=address,undefined",
+                            "-fno-sanitize-recover=all", "-Wall", "-Wextra", "-Werror", "-I", src, "-I", here,
+                            here / harness, *[f"{src}/{u}" for u in units], "-lm", "-o", exe],
+                           capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr
+    r = subprocess.run([exe], capture_output=True, text=True, timeout=120,
+                       env={"ASAN_OPTIONS": "detect_leaks=1", "PATH": "/usr/bin:/bin"})
+    assert r.returncode == 0 and "ok: 0 failed" in r.stdout, r.stdout + r.stderr
+    assert "ERROR: AddressSanitizer" not in r.stderr and "runtime error" not in r.stderr, r.stderr
+    return r.stdout

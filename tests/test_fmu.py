@@ -248,26 +248,16 @@ def test_edge_calls_under_sanitizers(tmp_path, version):
     back into a stepping instance, which then runs as a fresh one; a doStep back in time is refused;
     truncated, oversized, untagged, other-version and other-export states are refused with a message, nothing
     read past the bytes given."""
-    import shutil
-    import subprocess
-    cc = shutil.which("gcc") or shutil.which("cc")
+    from conftest import sanitized_harness
     path = export_fmu(load_parameters("ferreira2004"), tmp_path / "plant.fmu", fmi=version)
     src = f"{extract(path, unzipdir=tmp_path / 'u')}/sources"
-    exe = tmp_path / "edges"
-    build = subprocess.run([cc, "-std=c99", "-g", "-O1", f"-DFMI={version}", "-fsanitize=address,undefined",
-                            "-fno-sanitize-recover=all", "-Wall", "-Wextra", "-Werror", "-I", src,
-                            Path(__file__).parent / "c" / "fmu_edges.c", f"{src}/hh_core.c", f"{src}/plant_fmu.c",
-                            f"{src}/fmi{version}Functions.c", "-lm", "-o", exe], capture_output=True, text=True)
-    assert build.returncode == 0, build.stderr
-    r = subprocess.run([exe], capture_output=True, text=True, timeout=120,
-                       env={"ASAN_OPTIONS": "detect_leaks=1", "PATH": "/usr/bin:/bin"})
-    assert r.returncode == 0 and "ok: 0 failed" in r.stdout, r.stdout + r.stderr
-    assert "ERROR: AddressSanitizer" not in r.stderr and "runtime error" not in r.stderr, r.stderr
-    for message in ("too short for a hydrohil FMU state", "not a hydrohil FMU state", "this FMU reads format 2",
+    out = sanitized_harness(tmp_path, "fmu_edges.c", src, ["hh_core.c", "plant_fmu.c", "fmu_instance.c",
+                                                           f"fmi{version}Functions.c"], version)
+    for message in ("too short for a hydrohil FMU state", "not a hydrohil FMU state", "this FMU reads format 3",
                     "FMU state of another export", "only in step mode", "only in initialisation mode",
                     "outputs and calculated parameters exist from initialisation mode on",
                     "before the last communication point"):
-        assert message in r.stdout, (message, r.stdout)
+        assert message in out, (message, out)
 
 
 def test_xs0_without_at_rest_0_is_said(fmu):

@@ -412,24 +412,42 @@ export_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
 app.add_typer(export_app, name="export")
 
 
-def export_fmu(out: Path, params: str = "ferreira2004", fmi: int = 2, step: float = 5e-4) -> Path:
-    """Write a Co-Simulation FMU (FMI 2.0 or 3.0) of the plant with the parameter set ``params``."""
-    from hydrohil.export.fmu import export_fmu as build
+def export_fmu(out: Path, params: str = "ferreira2004", fmi: int = 2, step: Optional[float] = None,
+               circuit: Optional[str] = None, scenario: Optional[Path] = None, sets: Optional[dict] = None) -> Path:
+    """Write a Co-Simulation FMU (FMI 2.0 or 3.0) of the plant with the parameter set ``params``; or of a circuit
+    (``circuit``: a built-in name or a circuit file; ``scenario``: a scenario naming its circuit, whose [set] and
+    closed loop's start it takes), ``sets`` ("component.key" -> value) on top."""
+    from hydrohil.export.fmu import export_circuit_fmu, export_fmu as build
+    if circuit is not None or scenario is not None:
+        from hydrohil.circuits.scenario import circuit_scenario
+        cs = circuit_scenario(circuit=circuit, scenario=scenario, sets=sets, step=step)
+        return export_circuit_fmu(cs.circuit, out, fmi=fmi, step=cs.step, loop=cs.loop)
+    if sets:
+        raise InputError("--set applies to a circuit's FMU (--circuit or --scenario); a parameter set's values: "
+                         "--params FILE", source="--set", key=next(iter(sets)))
     from hydrohil.parameters import load_parameters
-    return build(load_parameters(params), out, fmi=fmi, step=step)
+    return build(load_parameters(params), out, fmi=fmi, step=5e-4 if step is None else step)
 
 
 @export_app.command("fmu")
 def export_fmu_cmd(out: Path = typer.Option(..., "--out", help="FMU file to write (.fmu)"),
                    params: str = typer.Option("ferreira2004", "--params", help="parameter set (name or path)"),
                    fmi: int = typer.Option(2, "--fmi", help="FMI version: 2 or 3"),
-                   step: float = typer.Option(5e-4, "--step", help="internal fixed step [s]")):
-    """Co-Simulation FMU of the plant (C sources + a binary built here); see the README."""
+                   step: Optional[float] = typer.Option(None, "--step", help="internal fixed step [s] (default: "
+                                                        "0.5 ms, or the scenario's)"),
+                   circuit: Optional[str] = typer.Option(None, "--circuit", help="a circuit (built-in name or "
+                                                         "circuit TOML) in place of the paper's rig"),
+                   scenario: Optional[Path] = typer.Option(None, "--scenario", help="a scenario naming its circuit: "
+                                                           "its circuit, [set], step and closed loop's start"),
+                   sets: list[str] = typer.Option([], "--set", help="a circuit's parameter component.key=value "
+                                                  "(repeatable), e.g. --set 'cyl1.mass=300 kg'")):
+    """Co-Simulation FMU of the plant, or of a circuit (C sources + a binary built here); see the README."""
     try:
-        path = export_fmu(out, params, fmi, step)
+        path = export_fmu(out, params, fmi, step, circuit, scenario, _parse_sets(sets))
     except HydrohilError as exc:
         fail(exc)
-    typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation, internal step {step:g} s)")
+    what = f"circuit {circuit or scenario}" if circuit or scenario else f"parameter set {params}"
+    typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation of {what}, internal step {step or 5e-4:g} s)")
 
 
 def export_c(out: Path, params: str = "ferreira2004", step: float = 5e-4, duration: float = 10.0,

@@ -261,6 +261,25 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
     return -1;
 }}
 
+/* One step of h with tableau tab under the inputs u: the state marched (node pressures floored), the modes
+ * updated after it. Returns 0, or 1 when the state went non-finite. */
+static int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, const double *u, const double *P)
+{{
+    double k[HH_MAX_STAGES][NY];
+    int s, i;
+    stages(tab, h, y, m, u, P, 0, k);
+    for (i = 0; i < NY; i++) {{
+        double acc = y[i];
+        for (s = 0; s < tab->stages; s++)
+            acc += h * tab->b[s] * k[s][i];
+        y[i] = i < NNODES && acc < {PRESSURE_FLOOR!r} ? {PRESSURE_FLOOR!r} : acc;   /* pressures floored */
+        if (!isfinite(acc))
+            return 1;
+    }}
+    update_modes(y, m, u, P);
+    return 0;
+}}
+
 /* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it); a row every `every`
  * steps from step 0 (the state before the step). Closed loop (ctl not NULL, the core's controller law,
  * control.c): at each step k the controller reads log column `meas` of the state at t_k and sets input `cmd`
@@ -271,9 +290,8 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            const double *dref, int64_t meas, int64_t cmd)
 {{
     const hh_tableau *tab = &HH_TABLEAUS[method];
-    double k[HH_MAX_STAGES][NY], seen[NLOG];
+    double seen[NLOG];
     int64_t step, row = 0;
-    int s, i;
     for (step = 0; step <= n; step++) {{
         double *uk = u + (step < n ? step : n - 1 > 0 ? n - 1 : 0) * NU;
         if (ctl && step < n) {{
@@ -285,21 +303,25 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);
         if (step == n)
             break;
-        stages(tab, h, y, m, uk, P, 0, k);
-        for (i = 0; i < NY; i++) {{
-            double acc = y[i];
-            for (s = 0; s < tab->stages; s++)
-                acc += h * tab->b[s] * k[s][i];
-            y[i] = i < NNODES && acc < {PRESSURE_FLOOR!r} ? {PRESSURE_FLOOR!r} : acc;   /* pressures floored */
-            if (!isfinite(acc)) {{
-                *rows = row;
-                return 1;
-            }}
+        if (one_step(tab, h, y, m, uk, P)) {{
+            *rows = row;
+            return 1;
         }}
-        update_modes(y, m, uk, P);
     }}
     *rows = row;
     return 0;
+}}
+
+/* The per-step interface (the FMU, a plant): one step of h with the core's tableau `method` under the inputs
+ * u; a log row of the state at time t. */
+int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h)
+{{
+    return one_step(&HH_TABLEAUS[method], h, y, m, u, P);
+}}
+
+void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row)
+{{
+    log_row(t, y, m, u, P, row);
 }}
 """
     return text, lay

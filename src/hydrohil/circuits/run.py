@@ -239,20 +239,11 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     n = int(round(duration / h))
     u = np.ascontiguousarray(input_table(c, n, h, inputs))
     P = np.ascontiguousarray(lay.values())
-    y = np.zeros(max(len(lay.states), 1))         # (the C has one state at least)
-    m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
     ffi, lib = cc.ffi, cc.lib
     if loop is not None:
         _check_loop(c, lay, loop)
         loop.start(h)
-    rest_method = "rk3" if method == "reference" else method
-    if rest and loop is not None:
-        y, m = _held_by_loop(c, cc, P, u, h, rest_method, loop)
-    else:
-        lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
-                    ffi.from_buffer("int64_t[]", m))
-        if rest:
-            settle(c, cc, P, u, y, m, h, rest_method)
+    y, m, _ = _start(c, cc, P, u, h, "rk3" if method == "reference" else method, rest, loop)
     if method == "reference":
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
         return _with_drives(c, res, u, every, loop)
@@ -277,6 +268,31 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     if rest and len(log):
         _warn_unbalanced(c, res)
     return _with_drives(c, res, u, every, loop)
+
+
+def start_state(c: Circuit, *, h: float = 5e-4, method: str = "rk3", inputs: dict | None = None, rest: bool = True,
+                loop: Loop | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The state a run of ``c`` starts from (states y, modes m) and the inputs of its step 0 (a closed loop's
+    command: the one that holds its piston): what :func:`simulate_circuit` starts from, and an exported plant's
+    initial state."""
+    cc = compile_circuit(c)
+    u = np.ascontiguousarray(input_table(c, 1, h, inputs))
+    if loop is not None:
+        _check_loop(c, cc.layout, loop)
+    return _start(c, cc, np.ascontiguousarray(cc.layout.values()), u, h, method, rest, loop)
+
+
+def _start(c: Circuit, cc, P, u, h: float, method: str, rest: bool, loop: Loop | None):
+    ffi, lib, lay = cc.ffi, cc.lib, cc.layout
+    if rest and loop is not None:
+        return _held_by_loop(c, cc, P, u, h, method, loop)
+    y = np.zeros(max(len(lay.states), 1))         # (the C has one state at least)
+    m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
+    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
+                ffi.from_buffer("int64_t[]", m))
+    if rest:
+        settle(c, cc, P, u, y, m, h, method)
+    return y, m, u[0].copy()
 
 
 def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
@@ -316,16 +332,11 @@ def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
             f_lo, f_hi = force(lo), force(hi)
             if f_lo * f_hi < 0:
                 u0 = brentq(force, lo, hi, xtol=1e-12, rtol=1e-12, maxiter=100)
-                y, m, _ = state(u0)
-                return y, m
+                y, m, uu = state(u0)
+                return y, m, uu[0].copy()
         except InputError:
             pass
-    y = np.zeros(max(len(lay.states), 1))
-    m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
-    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
-                ffi.from_buffer("int64_t[]", m))
-    settle(c, cc, P, u, y, m, h, method)
-    return y, m
+    return _start(c, cc, P, u, h, method, True, None)
 
 
 def _check_loop(c: Circuit, lay, loop: Loop) -> None:

@@ -71,7 +71,7 @@ def is_circuit_scenario(path: str | Path) -> bool:
         return False
 
 
-def circuit_file(name: str, base: Path) -> Path:
+def circuit_file(name: str, base: Path, source: str = "") -> Path:
     """The file of a circuit named in a scenario: a path relative to the scenario's folder, or a built-in."""
     for p in (base / name, Path(name)):
         if p.is_file():
@@ -83,7 +83,7 @@ def circuit_file(name: str, base: Path) -> Path:
         return builtin
     names = sorted(d.name for d in CIRCUITS_DIR.iterdir() if (d / "circuit.toml").is_file())
     raise InputError(f"no circuit {name!r}: not a file next to the scenario nor a built-in circuit (built-in: "
-                     f"{', '.join(names)})", source=str(base), key="circuit")
+                     f"{', '.join(names)})", source=source or str(base), key="circuit")
 
 
 def load_circuit_scenario(path: str | Path, *, solver: str | None = None, step: float | None = None,
@@ -97,13 +97,19 @@ def load_circuit_scenario(path: str | Path, *, solver: str | None = None, step: 
         raise InputError("no such scenario file", source=source) from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"not valid TOML: {exc}", source=source) from None
+    return scenario_from_dict(data, path.parent, source, solver=solver, step=step, duration=duration, sets=sets)
+
+
+def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | None = None, step: float | None = None,
+                       duration: float | None = None, sets: dict | None = None) -> CircuitScenario:
+    """A circuit scenario from its tables (``base``: the folder its circuit path is relative to)."""
     unknown = set(data) - KEYS
     if unknown:
         raise InputError(f"unknown key (keys of a circuit scenario: {', '.join(sorted(KEYS))})", source=source,
                          key=sorted(unknown)[0])
     if not isinstance(data.get("circuit"), str):
         raise InputError("the circuit's file or built-in name", source=source, key="circuit")
-    cfile = circuit_file(data["circuit"], path.parent)
+    cfile = circuit_file(data["circuit"], base, source)
     try:
         raw = tomllib.loads(cfile.read_text())
     except tomllib.TOMLDecodeError as exc:
@@ -244,3 +250,20 @@ def run_circuit_scenario(cs: CircuitScenario, progress=None):
                "wall_time_s": wall, "realtime_factor": cs.duration / wall if wall > 0 else float("inf"),
                "sets": cs.sets, "units": res.units, "final_state": final, **res.stats}
     return res, summary
+
+
+def circuit_scenario(*, circuit: str | None = None, scenario: str | Path | None = None, sets: dict | None = None,
+                     step: float | None = None) -> CircuitScenario:
+    """A circuit scenario from a scenario file naming its circuit, or a circuit (built-in name or file) alone
+    with its default drive; ``sets`` and ``step`` on top. One of the two, not both."""
+    if (circuit is None) == (scenario is None):
+        raise InputError("give a circuit (--circuit NAME|PATH) or a scenario naming one (--scenario FILE)",
+                         key="--circuit/--scenario")
+    if scenario is not None:
+        if not is_circuit_scenario(scenario):
+            raise InputError("this scenario names no circuit (circuit = \"NAME|PATH\")", source=str(scenario),
+                             key="circuit")
+        return load_circuit_scenario(scenario, step=step, sets=sets)
+    cs = scenario_from_dict({"circuit": str(circuit)}, Path.cwd(), "--circuit", step=step, sets=sets)
+    cs.source = str(circuit)
+    return cs

@@ -147,12 +147,21 @@ def model_description(params: Parameters, fmi: int, step: float, token: str) -> 
         outputs.append(len(vars_))
         vars_.append(dict(name=name, vr=vr, causality="output", variability="discrete", initial=None,
                           desc=desc, unit="", start=None, lo=None, hi=None, kind="int"))
-    units = _units(slots)
+    return _description_xml(vars_, outputs, calculated, fmi, step, token, _units(slots),
+                            "hydrohil: servo-solenoid valve + differential cylinder, hybrid model (Ferreira et al., "
+                            "Part 2), parameter set exported with its values")
+
+
+def _description_xml(vars_: list[dict], outputs: list[int], calculated: list[int], fmi: int, step: float, token: str,
+                     units: list[str], description: str, feedthrough: bool = False) -> str:
+    """modelDescription.xml of FMI ``fmi`` from the variables (dicts: name, vr, causality, variability, initial,
+    desc, unit, start, lo, hi, kind "real"/"int"), the indices of the outputs and calculated parameters;
+    ``feedthrough``: the outputs may depend on the inputs directly (their dependencies not declared)."""
+    deps = "" if feedthrough else ' dependencies=""'
     attrs = lambda d: " ".join(f'{k}="{escape(str(v))}"' for k, v in d.items() if v is not None)  # noqa: E731
     out = ['<?xml version="1.0" encoding="UTF-8"?>']
-    head = dict(modelName=MODEL_IDENTIFIER, description="hydrohil: servo-solenoid valve + differential cylinder, "
-                "hybrid model (Ferreira et al., Part 2), parameter set exported with its values",
-                generationTool=f"hydrohil {__version__}", variableNamingConvention="structured")
+    head = dict(modelName=MODEL_IDENTIFIER, description=description, generationTool=f"hydrohil {__version__}",
+                variableNamingConvention="structured")
     if fmi == 2:
         out.append(f'<fmiModelDescription fmiVersion="2.0" guid="{token}" numberOfEventIndicators="0" {attrs(head)}>')
         out.append(f'  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" '
@@ -188,13 +197,13 @@ def model_description(params: Parameters, fmi: int, step: float, token: str) -> 
     out.append("  <ModelStructure>")
     if fmi == 2:
         out.append("    <Outputs>")
-        out += [f'      <Unknown index="{i + 1}" dependencies=""/>' for i in outputs]
+        out += [f'      <Unknown index="{i + 1}"{deps}/>' for i in outputs]
         out.append("    </Outputs>")
         out.append("    <InitialUnknowns>")
         out += [f'      <Unknown index="{i + 1}"/>' for i in sorted(outputs + calculated)]
         out.append("    </InitialUnknowns>")
     else:
-        out += [f'    <Output valueReference="{vars_[i]["vr"]}" dependencies=""/>' for i in outputs]
+        out += [f'    <Output valueReference="{vars_[i]["vr"]}"{deps}/>' for i in outputs]
         out += [f'    <InitialUnknown valueReference="{vars_[i]["vr"]}"/>' for i in sorted(outputs + calculated)]
     out.append("  </ModelStructure>")
     out.append("</fmiModelDescription>")
@@ -214,8 +223,8 @@ def _fmi_headers(fmi: int) -> list[Path]:
     return paths
 
 
-def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-4, cc: str | None = None) -> Path:
-    """Write the FMU ``out`` (FMI ``fmi`` = 2 or 3, internal step ``step`` [s]); returns its path."""
+def _checked(out, fmi: int, step: float) -> Path:
+    """The output path of an export, its FMI version and step checked."""
     if fmi not in (2, 3):
         raise InputError(f"--fmi must be 2 or 3, got {fmi}", key="fmi")
     if not 1e-7 <= step <= 0.01:
@@ -223,7 +232,24 @@ def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-
     out = Path(out)
     if out.suffix != ".fmu":
         raise InputError(f"the output file must end in .fmu, got {out.name}", key="out")
+    return out
+
+
+def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-4, cc: str | None = None) -> Path:
+    """Write the FMU ``out`` (FMI ``fmi`` = 2 or 3, internal step ``step`` [s]); returns its path."""
+    out = _checked(out, fmi, step)
     token = "{" + str(uuid.UUID(hashlib.md5(f"{params.model_dump_json()}|{fmi}|{step}".encode()).hexdigest())) + "}"
+    return package_fmu(out, fmi, {"plant_fmu.h": HERE / "c" / "fmu" / "plant_fmu.h",
+                                  "plant_fmu.c": HERE / "c" / "fmu" / "plant_fmu.c",
+                                  "config.h": config_h(params, step, token)},
+                       ["hh_core.c", "plant_fmu.c"], model_description(params, fmi, step, token), cc)
+
+
+def package_fmu(out: Path, fmi: int, files: dict, units: list[str], description: str, cc: str | None = None) -> Path:
+    """Build and zip an FMU: the core's sources, the shared FMI layer (fmu_instance.[ch], fmi<N>Functions.c),
+    the FMI headers and the model's ``files`` (name -> a Path to copy or the text to write) into sources/, the
+    binary compiled from ``units`` (+ the shared layer) with the core's flags, ``description`` as
+    modelDescription.xml; written to ``out`` (whole or not at all)."""
     from hydrohil.core.build import CFLAGS, c_compiler, core_sources, write_headers
     cc = cc or c_compiler()
     if shutil.which(cc) is None:
@@ -235,16 +261,21 @@ def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-
         write_headers(CORE)
         for path in core_sources():
             shutil.copy2(path, src / path.name)
-        for name in ("plant_fmu.h", "plant_fmu.c", f"fmi{fmi}Functions.c"):
+        for name in ("fmu_instance.h", "fmu_instance.c", f"fmi{fmi}Functions.c"):
             shutil.copy2(HERE / "c" / "fmu" / name, src / name)
         for h in _fmi_headers(fmi):
             shutil.copy2(h, src / h.name)
-        (src / "config.h").write_text(config_h(params, step, token))
-        (root / "modelDescription.xml").write_text(model_description(params, fmi, step, token))
+        for name, body in files.items():
+            if isinstance(body, Path):
+                shutil.copy2(body, src / name)
+            else:
+                (src / name).write_text(body)
+        (root / "modelDescription.xml").write_text(description)
         binary = root / "binaries" / PLATFORM[fmi] / f"{MODEL_IDENTIFIER}.so"
         binary.parent.mkdir(parents=True)
-        cmd = [cc, *CFLAGS, "-shared", "-fPIC", "-fvisibility=hidden", "-I", str(src), str(src / "hh_core.c"),
-               str(src / "plant_fmu.c"), str(src / f"fmi{fmi}Functions.c"), "-lm", "-o", str(binary)]
+        compiled = [*units, "fmu_instance.c", f"fmi{fmi}Functions.c"]
+        cmd = [cc, *CFLAGS, "-shared", "-fPIC", "-fvisibility=hidden", "-I", str(src),
+               *[str(src / u) for u in compiled], "-lm", "-o", str(binary)]
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
             raise RuntimeError(f"building the FMU's binary failed:\n{' '.join(cmd)}\n{r.stderr}")
@@ -256,3 +287,93 @@ def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-
                     z.write(f, f.relative_to(root).as_posix())
         part.replace(out)
     return out
+
+
+# ---- a circuit as an FMU (issue #27): the circuit's generated C behind the same FMI layer ------------------
+
+VR_INPUT0, VR_OUTPUT0, VR_MODE0 = 1000, 2000, 3000
+
+
+def _c_double(v: float) -> str:
+    v = float(v)
+    return "NAN" if v != v else ("INFINITY" if v > 0 else "-INFINITY") if abs(v) == float("inf") else repr(v)
+
+
+def _c_array(ctype: str, name: str, values, fmt=repr) -> list[str]:
+    values = list(values) or [0]                       # (C has no empty arrays)
+    return [f"static const {ctype} {name}[{len(values)}] = {{", *[f"    {fmt(v)}," for v in values], "};"]
+
+
+def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
+    """``config.h`` of a circuit's FMU: sizes, value references, the exported parameters and initial state."""
+    outputs = [i for i, col in enumerate(lay.log_columns) if col != "t" and col not in lay.modes]
+    q = lambda v: '"' + v + '"'  # noqa: E731
+    lines = ["/* config.h: GENERATED by `hydrohil export fmu --circuit` (hydrohil " + __version__ + "): do not edit. */",
+             "#ifndef PLANT_CONFIG_H", "#define PLANT_CONFIG_H", "#include <math.h>", "#include <stdint.h>", "",
+             f'#define PLANT_TOKEN "{token}"', f'#define CIRCUIT_NAME "{c.name}"',
+             f"#define CIRCUIT_METHOD {METHOD_RK3}   /* HH_RK3 */", f"#define CIRCUIT_STEP {_fmt(step)}",
+             f"#define CIRCUIT_NP {len(lay.params)}", f"#define CIRCUIT_NU {max(len(lay.inputs), 1)}",
+             f"#define CIRCUIT_NY {max(len(lay.states), 1)}", f"#define CIRCUIT_NM {max(len(lay.modes), 1)}",
+             f"#define CIRCUIT_NLOG {len(lay.log_columns)}", f"#define CIRCUIT_NINPUTS {len(lay.inputs)}",
+             f"#define CIRCUIT_NOUTPUTS {len(outputs)}", f"#define CIRCUIT_NMODES {len(lay.modes)}",
+             f"#define VR_INPUT0 {VR_INPUT0}", f"#define VR_OUTPUT0 {VR_OUTPUT0}", f"#define VR_MODE0 {VR_MODE0}", ""]
+    lines += _c_array("double", "CIRCUIT_P", lay.values(), _c_double)
+    lines += _c_array("double", "CIRCUIT_U0", u0[:max(len(lay.inputs), 1)], _c_double)
+    lines += _c_array("double", "CIRCUIT_Y0", y0, _c_double)
+    lines += _c_array("int64_t", "CIRCUIT_M0", m0, lambda v: str(int(v)))
+    lines += _c_array("int", "CIRCUIT_OUTPUT_COLUMN", outputs, str)
+    lines += _c_array("char *const", "CIRCUIT_INPUT_NAMES", lay.inputs, q)
+    lines += ["", "#endif", ""]
+    return "\n".join(lines)
+
+
+def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str) -> str:
+    """modelDescription.xml of a circuit's FMU: its input signals (start: the exported drive at t = 0), every
+    signal as an output with its SI unit, the modes as Integer outputs naming their values."""
+    from hydrohil.circuits.run import input_unit
+    vars_: list[dict] = []
+    for j, sig in enumerate(lay.inputs):
+        prm = c.components[sig.split(".")[0]].type.params[sig.split(".")[1]]
+        vars_.append(dict(name=sig, vr=VR_INPUT0 + j, causality="input", variability="continuous", initial=None,
+                          desc=prm.description, unit=input_unit(c, sig), start=float(u0[j]), lo=prm.lo, hi=prm.hi,
+                          kind="real"))
+    units = dict(lay.outputs)
+    outputs = []
+    k = 0
+    for i, col in enumerate(lay.log_columns):
+        if col == "t" or col in lay.modes:
+            continue
+        outputs.append(len(vars_))
+        unit = "Pa" if col.endswith(".p") and col[:-2] in c.nodes else units.get(col, "")
+        desc = f"pressure of node {col[:-2]}" if unit == "Pa" and col[:-2] in c.nodes else f"{col} [{unit}]"
+        vars_.append(dict(name=col, vr=VR_OUTPUT0 + k, causality="output", variability="continuous", initial=None,
+                          desc=desc, unit=unit, start=None, lo=None, hi=None, kind="real"))
+        k += 1
+    for j, md in enumerate(lay.modes):
+        outputs.append(len(vars_))
+        vars_.append(dict(name=md, vr=VR_MODE0 + j, causality="output", variability="discrete", initial=None,
+                          desc=", ".join(f"{i} {n}" for i, n in enumerate(lay.mode_names[md])), unit="", start=None,
+                          lo=None, hi=None, kind="int"))
+    units_used = sorted({v["unit"] for v in vars_ if v["unit"] not in ("", "-")} | {"s"})   # (s: FMI 3 time)
+    return _description_xml(vars_, outputs, [], fmi, step, token, units_used,
+                             f"hydrohil circuit {c.name!r} ({c.source}): generated from its description, RK3 at a "
+                             f"fixed {step * 1e3:g} ms step, parameters as exported", feedthrough=True)
+
+
+def export_circuit_fmu(c, out: Path, *, fmi: int = 2, step: float = 5e-4, loop=None, cc: str | None = None) -> Path:
+    """Write circuit ``c`` as an FMU (FMI ``fmi`` = 2 or 3) to ``out``: its generated C (the same file
+    ``simulate`` compiles) behind the shared FMI layer, starting at rest as a run of the circuit does (``loop``:
+    a closed loop's start, the command that holds its piston as the command input's start value)."""
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.generate import generate
+    from hydrohil.circuits.run import start_state
+    out = _checked(out, fmi, step)
+    source, lay = generate(c)
+    compile_circuit(c)
+    y0, m0, u0 = start_state(c, h=step, loop=loop)
+    token = "{" + str(uuid.UUID(hashlib.md5(f"{source}|{y0.tobytes().hex()}|{u0.tobytes().hex()}|{fmi}|{step}"
+                                            .encode()).hexdigest())) + "}"
+    model = HERE / "c" / "circuit_fmu"
+    return package_fmu(out, fmi, {"plant_fmu.h": model / "plant_fmu.h", "plant_fmu.c": model / "plant_fmu.c",
+                                  "circuit.c": source, "config.h": circuit_config_h(c, lay, y0, m0, u0, step, token)},
+                       ["circuit.c", "plant_fmu.c"], circuit_model_description(c, lay, u0, fmi, step, token), cc)

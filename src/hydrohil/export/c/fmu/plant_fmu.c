@@ -1,27 +1,13 @@
 /* plant_fmu.c: the exported plant's instance (see plant_fmu.h). */
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "plant_fmu.h"
 
 #define STATE_TAG "hydrohil FMU state"
-#define STATE_VERSION 2u        /* 2: the rig's command path (hh_watchdog) saved too */
+#define STATE_VERSION 3u        /* 2: the rig's command path (hh_watchdog) saved too; 3: the shared header */
 #define DELAY_MAX 100000000       /* a saved delay line longer than this is not one of this plant's */
-
-void plant_logf(plant *pl, int status, const char *fmt, ...)
-{
-    char msg[512];
-    va_list ap;
-    if (!pl->log)
-        return;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    pl->log(pl->env, pl->name, status, status == PLANT_ERROR ? "logStatusError" : status == PLANT_WARNING
-            ? "logStatusWarning" : "logAll", msg);
-}
 
 void plant_defaults(plant *pl)
 {
@@ -145,7 +131,7 @@ static int model_params(plant *pl, double *p)
 /* The initial state of the parameters as set (SPEC §12.5): at rest (at_rest = 1: the spool offset that holds
  * the piston, the pressures balancing the chambers' flows) or with the spool at xs0; sim and its delay line
  * set up, xs_rest computed. */
-static int prepare(plant *pl)
+int plant_prepare(plant *pl)
 {
     double p[HH_NP], h = pl->par[VR_STEP], alpha, p1, p2;
     int n, held;
@@ -200,7 +186,7 @@ int plant_get_real(plant *pl, unsigned vr, double *v)
                    "initialisation mode on", vr);
         return PLANT_ERROR;
     }
-    if (pl->mode == PLANT_INITIALIZING && !pl->prepared && prepare(pl) != PLANT_OK)   /* the initial values of */
+    if (pl->mode == PLANT_INITIALIZING && !pl->prepared && plant_prepare(pl) != PLANT_OK)   /* the initial values of */
         return PLANT_ERROR;                                                            /* what is set now */
     switch (vr) {
     case VR_XS_REST: *v = pl->xs_rest; return PLANT_OK;
@@ -227,7 +213,7 @@ int plant_get_integer(plant *pl, unsigned vr, int *v)
         plant_logf(pl, PLANT_ERROR, "value reference %u: outputs exist from initialisation mode on", vr);
         return PLANT_ERROR;
     }
-    if (pl->mode == PLANT_INITIALIZING && !pl->prepared && prepare(pl) != PLANT_OK)
+    if (pl->mode == PLANT_INITIALIZING && !pl->prepared && plant_prepare(pl) != PLANT_OK)
         return PLANT_ERROR;
     switch (vr) {
     case VR_TRAVEL: *v = (int)pl->sim.m[HH_M_TRAVEL]; return PLANT_OK;
@@ -241,50 +227,6 @@ int plant_get_integer(plant *pl, unsigned vr, int *v)
     }
 }
 
-static int wrong_mode(plant *pl, const char *call, const char *where)
-{
-    static const char *const names[] = {"instantiated", "initialisation", "step", "terminated", "failed"};
-    plant_logf(pl, PLANT_ERROR, "%s: only in %s mode (the instance is in %s mode)", call, where, names[pl->mode]);
-    return PLANT_ERROR;
-}
-
-int plant_setup(plant *pl, double t0)
-{
-    if (pl->mode != PLANT_INSTANTIATED)
-        return wrong_mode(pl, "setting up the experiment", "instantiated");
-    pl->t0 = pl->t_comm = t0;
-    return PLANT_OK;
-}
-
-int plant_enter_init(plant *pl, double t0)
-{
-    if (pl->mode != PLANT_INSTANTIATED)
-        return wrong_mode(pl, "entering initialisation mode", "instantiated");
-    pl->t0 = pl->t_comm = t0;
-    pl->mode = PLANT_INITIALIZING;
-    return PLANT_OK;
-}
-
-int plant_exit_init(plant *pl)
-{
-    if (pl->mode != PLANT_INITIALIZING)
-        return wrong_mode(pl, "exiting initialisation mode", "initialisation");
-    if (!pl->prepared && prepare(pl) != PLANT_OK) {
-        pl->mode = PLANT_FAILED;
-        return PLANT_ERROR;
-    }
-    pl->mode = PLANT_STEPPING;
-    return PLANT_OK;
-}
-
-int plant_terminate(plant *pl)
-{
-    if (pl->mode != PLANT_STEPPING)
-        return wrong_mode(pl, "terminating", "step");
-    pl->mode = PLANT_TERMINATED;
-    return PLANT_OK;
-}
-
 /* A communication step of any size: the plant steps on its own grid t0 + k*h, as many whole internal steps as
  * end by the communication point t + dt (within 1e-6 h); the rest carries over to the next doStep. The outputs
  * are those of the last grid point at or before the communication point; inputs set there drive the internal
@@ -293,20 +235,8 @@ int plant_do_step(plant *pl, double t, double dt)
 {
     double h = pl->sim.h, u_valve;
     long long n, i;
-    if (pl->mode != PLANT_STEPPING)
-        return wrong_mode(pl, "doStep", "step (initialise first; a failed instance must be reset)");
-    if (!(dt > 0.0 && isfinite(dt) && isfinite(t))) {
-        plant_logf(pl, PLANT_ERROR, "doStep at t = %g s with a step of %g s: need a finite step > 0", t, dt);
+    if (plant_step_check(pl, t, dt, h) != PLANT_OK)
         return PLANT_ERROR;
-    }
-    if (t < pl->t_comm - 1e-6 * h - 1e-12 * fabs(t)) {
-        plant_logf(pl, PLANT_ERROR, "doStep at t = %.9g s, before the last communication point t = %.9g s (set an "
-                   "FMU state to go back)", t, pl->t_comm);
-        return PLANT_ERROR;
-    }
-    if (t > pl->t_comm + 1e-6 * h + 1e-12 * fabs(t))
-        plant_logf(pl, PLANT_WARNING, "doStep at t = %.9g s, the last communication point was t = %.9g s: the plant "
-                   "steps through the gap with the inputs held", t, pl->t_comm);
     n = (long long)floor((t + dt - pl->t0) / h + 1e-6) - (long long)pl->sim.k;
     pl->sim.p[HH_LOAD_FORCE] = pl->f_load;
     pl->sim.p[HH_SUPPLY_PS] = pl->ps;
@@ -325,15 +255,7 @@ int plant_do_step(plant *pl, double t, double dt)
     return PLANT_OK;
 }
 
-/* ---- FMU state: values only, as one block ----------------------------------------------------------- */
-typedef struct {
-    char tag[24];                 /* STATE_TAG */
-    uint32_t version;             /* STATE_VERSION */
-    uint32_t header_size;
-    char token[48];               /* PLANT_TOKEN: the export (parameter set, FMI version, step) */
-    uint64_t npar, np, ny, nm, nout, values_size, dbuf_size, total;
-} state_header;
-
+/* ---- FMU state: values only, as one block (the header: fmu_instance.h) -------------------------------- */
 typedef struct {
     double par[PLANT_NPAR], u, f_load, ps, t0, t_comm, xs_rest;
     int64_t f_load_set, ps_set, mode;
@@ -343,67 +265,30 @@ typedef struct {
     int64_t link_k_delivered, link_k_interfered, link_delivered, link_active, link_trips, link_trips_unexplained;
 } state_values;
 
-static void state_header_of(state_header *hd, uint64_t dbuf_size)
+static void state_header_of(plant_state_header *hd, uint64_t dbuf_size)
 {
-    memset(hd, 0, sizeof *hd);
-    snprintf(hd->tag, sizeof hd->tag, "%s", STATE_TAG);
-    hd->version = STATE_VERSION;
-    hd->header_size = sizeof(state_header);
-    snprintf(hd->token, sizeof hd->token, "%s", PLANT_TOKEN);
-    hd->npar = PLANT_NPAR;
-    hd->np = HH_NP;
-    hd->ny = HH_NY;
-    hd->nm = HH_NM;
-    hd->nout = HH_NOUT;
-    hd->values_size = sizeof(state_values);
-    hd->dbuf_size = dbuf_size;
-    hd->total = sizeof(state_header) + sizeof(state_values) + sizeof(double) * dbuf_size;
+    const uint64_t dims[6] = {PLANT_NPAR, HH_NP, HH_NY, HH_NM, HH_NOUT, 0};
+    plant_state_header_of(hd, STATE_TAG, STATE_VERSION, dims, sizeof(state_values), dbuf_size);
 }
 
 /* Whether `bytes` (size bytes) is a state block of this FMU: its tag, format version, token, layout and size. */
-static int state_check(plant *pl, const void *bytes, size_t size)
+int plant_state_check(plant *pl, const void *bytes, size_t size)
 {
-    state_header hd, mine;
-    if (!bytes) {
-        plant_logf(pl, PLANT_ERROR, "no FMU state given");
+    plant_state_header hd, mine;
+    if (plant_state_header_read(pl, bytes, size, STATE_TAG, STATE_VERSION, &hd) != PLANT_OK)
         return PLANT_ERROR;
-    }
-    if (size < sizeof hd) {
-        plant_logf(pl, PLANT_ERROR, "FMU state of %zu bytes: too short for a hydrohil FMU state (its header alone "
-                   "has %zu)", size, sizeof hd);
-        return PLANT_ERROR;
-    }
-    memcpy(&hd, bytes, sizeof hd);
-    if (memcmp(hd.tag, STATE_TAG, sizeof STATE_TAG) != 0) {
-        plant_logf(pl, PLANT_ERROR, "not a hydrohil FMU state (no '%s' tag)", STATE_TAG);
-        return PLANT_ERROR;
-    }
-    if (hd.version != STATE_VERSION) {
-        plant_logf(pl, PLANT_ERROR, "FMU state of format %u: this FMU reads format %u", hd.version, STATE_VERSION);
-        return PLANT_ERROR;
-    }
-    hd.token[sizeof hd.token - 1] = '\0';
-    if (strcmp(hd.token, PLANT_TOKEN) != 0) {
-        plant_logf(pl, PLANT_ERROR, "FMU state of another export (token %s; this FMU is %s)", hd.token, PLANT_TOKEN);
-        return PLANT_ERROR;
-    }
-    if (hd.dbuf_size > DELAY_MAX) {
+    if (hd.extra > DELAY_MAX) {
         plant_logf(pl, PLANT_ERROR, "FMU state with a delay line of %llu steps: not one of this plant's",
-                   (unsigned long long)hd.dbuf_size);
+                   (unsigned long long)hd.extra);
         return PLANT_ERROR;
     }
-    state_header_of(&mine, hd.dbuf_size);
-    if (memcmp(&hd, &mine, sizeof hd) != 0 || hd.total != size) {
-        plant_logf(pl, PLANT_ERROR, "FMU state of %zu bytes: its header describes another layout or %llu bytes",
-                   size, (unsigned long long)hd.total);
-        return PLANT_ERROR;
-    }
-    return PLANT_OK;
+    state_header_of(&mine, hd.extra);
+    return plant_state_header_match(pl, &hd, &mine, size);
 }
 
 int plant_state_get(plant *pl, void **state)
 {
-    state_header hd;
+    plant_state_header hd;
     state_values v;
     const hh_sim *s = &pl->sim;
     char *bytes;
@@ -473,7 +358,7 @@ static int state_values_valid(const state_values *v, uint64_t dbuf_size)
 int plant_state_set(plant *pl, const void *state)
 {
     const char *bytes = state;
-    state_header hd;
+    plant_state_header hd;
     state_values v;
     hh_sim *s = &pl->sim;
     int i;
@@ -481,25 +366,25 @@ int plant_state_set(plant *pl, const void *state)
         plant_logf(pl, PLANT_ERROR, "no FMU state given");
         return PLANT_ERROR;
     }
-    if (state_check(pl, state, plant_state_block_size(state)) != PLANT_OK)
+    if (plant_state_check(pl, state, plant_state_block_size(state)) != PLANT_OK)
         return PLANT_ERROR;
     memcpy(&hd, bytes, sizeof hd);
     memcpy(&v, bytes + sizeof hd, sizeof v);
-    if (!state_values_valid(&v, hd.dbuf_size)) {
+    if (!state_values_valid(&v, hd.extra)) {
         plant_logf(pl, PLANT_ERROR, "FMU state with inconsistent values (mode %lld, model %lld, method %lld, step %g s, "
                    "k %lld, delay line %lld of %llu)", (long long)v.mode, (long long)v.model, (long long)v.method,
-                   v.h, (long long)v.k, (long long)v.delay_n, (unsigned long long)hd.dbuf_size);
+                   v.h, (long long)v.k, (long long)v.delay_n, (unsigned long long)hd.extra);
         return PLANT_ERROR;
     }
-    if ((uint64_t)pl->dbuf_size != hd.dbuf_size) {   /* e.g. a state set right after instantiation */
-        double *buf = hd.dbuf_size > 0 ? malloc(sizeof(double) * (size_t)hd.dbuf_size) : NULL;
-        if (hd.dbuf_size > 0 && !buf) {
+    if ((uint64_t)pl->dbuf_size != hd.extra) {   /* e.g. a state set right after instantiation */
+        double *buf = hd.extra > 0 ? malloc(sizeof(double) * (size_t)hd.extra) : NULL;
+        if (hd.extra > 0 && !buf) {
             plant_logf(pl, PLANT_ERROR, "out of memory for the FMU state's delay line");
             return PLANT_ERROR;
         }
         free(pl->dbuf);
         pl->dbuf = buf;
-        pl->dbuf_size = (int)hd.dbuf_size;
+        pl->dbuf_size = (int)hd.extra;
     }
     memcpy(pl->par, v.par, sizeof v.par);
     pl->u = v.u;
@@ -539,42 +424,5 @@ int plant_state_set(plant *pl, const void *state)
     pl->rig.link.trips_unexplained = v.link_trips_unexplained;
     if (pl->dbuf_size > 0)
         memcpy(pl->dbuf, bytes + sizeof hd + sizeof v, sizeof(double) * (size_t)pl->dbuf_size);
-    return PLANT_OK;
-}
-
-size_t plant_state_block_size(const void *state)
-{
-    state_header hd;
-    memcpy(&hd, state, sizeof hd);
-    return (size_t)hd.total;
-}
-
-int plant_state_serialize(plant *pl, const void *state, void *bytes, size_t size)
-{
-    if (!state || !bytes || size != plant_state_block_size(state)) {
-        plant_logf(pl, PLANT_ERROR, "serialising an FMU state into a buffer of another size (%zu bytes)", size);
-        return PLANT_ERROR;
-    }
-    memcpy(bytes, state, size);
-    return PLANT_OK;
-}
-
-int plant_state_deserialize(plant *pl, const void *bytes, size_t size, void **state)
-{
-    void *copy;
-    if (!state) {
-        plant_logf(pl, PLANT_ERROR, "deserialising an FMU state: no place for it given");
-        return PLANT_ERROR;
-    }
-    if (state_check(pl, bytes, size) != PLANT_OK)
-        return PLANT_ERROR;
-    copy = malloc(size);
-    if (!copy) {
-        plant_logf(pl, PLANT_ERROR, "out of memory for an FMU state of %zu bytes", size);
-        return PLANT_ERROR;
-    }
-    memcpy(copy, bytes, size);
-    free(*state);
-    *state = copy;
     return PLANT_OK;
 }

@@ -1,0 +1,223 @@
+/* plant_fmu.c: an exported circuit's instance (see plant_fmu.h). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "plant_fmu.h"
+
+#define STATE_TAG "hydrohil circuit state"
+#define STATE_VERSION 1u
+#define REST_S 20.0                  /* simulated seconds of the rest march when inputs set change the rest */
+#define REST_TOL 1e-13
+
+void plant_defaults(plant *pl)
+{
+    memcpy(pl->v.P, CIRCUIT_P, sizeof pl->v.P);
+    memcpy(pl->v.u, CIRCUIT_U0, sizeof pl->v.u);
+    memcpy(pl->v.y, CIRCUIT_Y0, sizeof pl->v.y);
+    memcpy(pl->v.m, CIRCUIT_M0, sizeof pl->v.m);
+    memset(pl->v.row, 0, sizeof pl->v.row);
+    pl->v.row_valid = 0;
+    pl->v.k = 0;
+    pl->t0 = pl->t_comm = 0.0;
+    pl->v.inputs_set = 0;
+    pl->prepared = 0;
+    pl->mode = PLANT_INSTANTIATED;
+}
+
+plant *plant_new(const char *name, plant_log_fn log, void *env)
+{
+    plant *pl = calloc(1, sizeof *pl);
+    if (!pl)
+        return 0;
+    snprintf(pl->name, sizeof pl->name, "%s", name ? name : CIRCUIT_NAME);
+    pl->log = log;
+    pl->env = env;
+    plant_defaults(pl);
+    return pl;
+}
+
+void plant_free(plant *pl) { free(pl); }
+
+int plant_set_real(plant *pl, unsigned vr, double v)
+{
+    if (vr >= VR_INPUT0 && vr < VR_INPUT0 + CIRCUIT_NINPUTS) {
+        if (!isfinite(v)) {
+            plant_logf(pl, PLANT_ERROR, "input %s = %g: must be finite", CIRCUIT_INPUT_NAMES[vr - VR_INPUT0], v);
+            return PLANT_ERROR;
+        }
+        pl->v.u[vr - VR_INPUT0] = v;
+        pl->v.row_valid = 0;              /* (an output may depend on an input directly: an orifice's flow) */
+        if (pl->mode == PLANT_INSTANTIATED || pl->mode == PLANT_INITIALIZING) {
+            pl->v.inputs_set = 1;
+            pl->prepared = 0;
+        }
+        return PLANT_OK;
+    }
+    plant_logf(pl, PLANT_ERROR, "value reference %u is not a settable Real (the circuit's parameters are fixed at "
+               "export: hydrohil export fmu --circuit ... --set component.key=value)", vr);
+    return PLANT_ERROR;
+}
+
+/* The initial state: the circuit's state at rest as exported (under the inputs' start values); inputs set
+ * before initialisation to other values: the node pressures marched to their rest under them (the components'
+ * states held, REST_S simulated seconds at most; without the exporter's final root polish). */
+int plant_prepare(plant *pl)
+{
+    int64_t held[CIRCUIT_NY];
+    int i, differ = 0;
+    for (i = 0; i < CIRCUIT_NINPUTS; i++)
+        differ |= pl->v.u[i] != CIRCUIT_U0[i];
+    memcpy(pl->v.y, CIRCUIT_Y0, sizeof pl->v.y);
+    memcpy(pl->v.m, CIRCUIT_M0, sizeof pl->v.m);
+    if (pl->v.inputs_set && differ) {
+        for (i = 0; i < CIRCUIT_NY; i++)
+            held[i] = 0;
+        hc_init(pl->v.P, pl->v.u, pl->v.y, pl->v.m);
+        if (hc_rest(pl->v.P, pl->v.u, pl->v.y, pl->v.m, held, CIRCUIT_METHOD, CIRCUIT_STEP,
+                    (int64_t)(REST_S / CIRCUIT_STEP), REST_TOL) < 0)
+            plant_logf(pl, PLANT_WARNING, "the node pressures did not settle in %g s under the inputs set: the run "
+                       "starts from where they are", REST_S);
+    }
+    pl->v.k = 0;
+    pl->v.row_valid = 0;
+    pl->prepared = 1;
+    return PLANT_OK;
+}
+
+static int outputs_ready(plant *pl, unsigned vr)
+{
+    if (pl->mode == PLANT_INSTANTIATED) {
+        plant_logf(pl, PLANT_ERROR, "value reference %u: outputs exist from initialisation mode on", vr);
+        return PLANT_ERROR;
+    }
+    if (pl->mode == PLANT_INITIALIZING && !pl->prepared && plant_prepare(pl) != PLANT_OK)
+        return PLANT_ERROR;
+    if (!pl->v.row_valid) {
+        hc_row(pl->v.P, pl->v.y, pl->v.m, pl->v.u, (double)pl->v.k * CIRCUIT_STEP, pl->v.row);
+        pl->v.row_valid = 1;
+    }
+    return PLANT_OK;
+}
+
+int plant_get_real(plant *pl, unsigned vr, double *v)
+{
+    if (vr >= VR_INPUT0 && vr < VR_INPUT0 + CIRCUIT_NINPUTS) {
+        *v = pl->v.u[vr - VR_INPUT0];
+        return PLANT_OK;
+    }
+    if (vr >= VR_OUTPUT0 && vr < VR_OUTPUT0 + CIRCUIT_NOUTPUTS) {
+        if (outputs_ready(pl, vr) != PLANT_OK)
+            return PLANT_ERROR;
+        *v = pl->v.row[CIRCUIT_OUTPUT_COLUMN[vr - VR_OUTPUT0]];
+        return PLANT_OK;
+    }
+    plant_logf(pl, PLANT_ERROR, "value reference %u is not a Real", vr);
+    return PLANT_ERROR;
+}
+
+int plant_get_integer(plant *pl, unsigned vr, int *v)
+{
+    if (vr >= VR_MODE0 && vr < VR_MODE0 + CIRCUIT_NMODES) {
+        if (outputs_ready(pl, vr) != PLANT_OK)
+            return PLANT_ERROR;
+        *v = (int)pl->v.m[vr - VR_MODE0];
+        return PLANT_OK;
+    }
+    plant_logf(pl, PLANT_ERROR, "value reference %u is not an Integer", vr);
+    return PLANT_ERROR;
+}
+
+/* A communication step of any size: the plant steps on its own grid t0 + k*h, as many whole internal steps as
+ * end by the communication point t + dt (within 1e-6 h), the inputs held over each; the outputs are those of
+ * the last grid point at or before the communication point under the inputs as set when they are read (the
+ * rig's FMU steps the same way). */
+int plant_do_step(plant *pl, double t, double dt)
+{
+    const double h = CIRCUIT_STEP;
+    long long n, i;
+    if (plant_step_check(pl, t, dt, h) != PLANT_OK)
+        return PLANT_ERROR;
+    n = (long long)floor((t + dt - pl->t0) / h + 1e-6) - (long long)pl->v.k;
+    for (i = 0; i < n; i++) {
+        if (hc_step(pl->v.P, pl->v.y, pl->v.m, pl->v.u, CIRCUIT_METHOD, h) != 0) {
+            plant_logf(pl, PLANT_ERROR, "the simulation diverged at t = %.6g s (a state is not finite)",
+                       pl->t0 + (double)(pl->v.k + 1) * h);
+            pl->mode = PLANT_FAILED;
+            return PLANT_ERROR;
+        }
+        pl->v.k++;
+    }
+    pl->v.row_valid = 0;
+    pl->t_comm = t + dt;
+    return PLANT_OK;
+}
+
+/* ---- FMU state: values only, as one block ----------------------------------------------------------- */
+typedef struct {
+    circuit_values v;
+    double t0, t_comm;
+    int64_t mode, prepared;
+} state_values;
+
+static void state_header_of(plant_state_header *hd)
+{
+    const uint64_t dims[6] = {CIRCUIT_NP, CIRCUIT_NU, CIRCUIT_NY, CIRCUIT_NM, CIRCUIT_NLOG, 0};
+    plant_state_header_of(hd, STATE_TAG, STATE_VERSION, dims, sizeof(state_values), 0);
+}
+
+int plant_state_check(plant *pl, const void *bytes, size_t size)
+{
+    plant_state_header hd, mine;
+    if (plant_state_header_read(pl, bytes, size, STATE_TAG, STATE_VERSION, &hd) != PLANT_OK)
+        return PLANT_ERROR;
+    state_header_of(&mine);
+    return plant_state_header_match(pl, &hd, &mine, size);
+}
+
+int plant_state_get(plant *pl, void **state)
+{
+    plant_state_header hd;
+    state_values v;
+    char *bytes;
+    state_header_of(&hd);
+    bytes = *state ? realloc(*state, hd.total) : malloc(hd.total);
+    if (!bytes) {
+        plant_logf(pl, PLANT_ERROR, "out of memory for an FMU state");
+        return PLANT_ERROR;
+    }
+    memset(&v, 0, sizeof v);
+    v.v = pl->v;
+    v.t0 = pl->t0;
+    v.t_comm = pl->t_comm;
+    v.mode = pl->mode;
+    v.prepared = pl->prepared;
+    memcpy(bytes, &hd, sizeof hd);
+    memcpy(bytes + sizeof hd, &v, sizeof v);
+    *state = bytes;
+    return PLANT_OK;
+}
+
+int plant_state_set(plant *pl, const void *state)
+{
+    state_values v;
+    if (!state) {
+        plant_logf(pl, PLANT_ERROR, "no FMU state given");
+        return PLANT_ERROR;
+    }
+    if (plant_state_check(pl, state, plant_state_block_size(state)) != PLANT_OK)
+        return PLANT_ERROR;
+    memcpy(&v, (const char *)state + sizeof(plant_state_header), sizeof v);
+    if (v.mode < PLANT_INSTANTIATED || v.mode > PLANT_FAILED || v.v.k < 0) {
+        plant_logf(pl, PLANT_ERROR, "FMU state with inconsistent values (mode %lld, k %lld)", (long long)v.mode,
+                   (long long)v.v.k);
+        return PLANT_ERROR;
+    }
+    pl->v = v.v;
+    pl->v.row_valid = 0;
+    pl->t0 = v.t0;
+    pl->t_comm = v.t_comm;
+    pl->mode = (int)v.mode;
+    pl->prepared = (int)v.prepared;
+    return PLANT_OK;
+}

@@ -1,0 +1,64 @@
+/* fmu_instance.h: the instance interface every exported plant gives the FMI layer (fmi2Functions.c,
+ * fmi3Functions.c): status codes, the life cycle's modes, the functions. Each model's plant_fmu.h defines its
+ * `struct plant` (with at least the fields mode, prepared, t0, t_comm, name, log, env) and includes this;
+ * fmu_instance.c has what they share. */
+#ifndef FMU_INSTANCE_H
+#define FMU_INSTANCE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+enum { PLANT_OK = 0, PLANT_WARNING = 1, PLANT_ERROR = 3 };
+enum { PLANT_INSTANTIATED, PLANT_INITIALIZING, PLANT_STEPPING, PLANT_TERMINATED, PLANT_FAILED };
+
+/* status: PLANT_OK / PLANT_WARNING / PLANT_ERROR; category: "logStatusError", ... */
+typedef void (*plant_log_fn)(void *env, const char *instance, int status, const char *category, const char *msg);
+typedef struct plant plant;
+
+plant *plant_new(const char *name, plant_log_fn log, void *env);
+void plant_free(plant *pl);
+void plant_defaults(plant *pl);                 /* start values of every variable, state INSTANTIATED */
+int plant_set_real(plant *pl, unsigned vr, double v);
+int plant_get_real(plant *pl, unsigned vr, double *v);
+int plant_get_integer(plant *pl, unsigned vr, int *v);
+int plant_setup(plant *pl, double t0);          /* the start time, before initialisation */
+int plant_enter_init(plant *pl, double t0);
+int plant_exit_init(plant *pl);                 /* checks the parameters, sets the initial state */
+int plant_do_step(plant *pl, double t, double dt);
+int plant_terminate(plant *pl);
+/* FMU state: the instance's values (no pointers) as one block of bytes: a tag, its format version, the
+ * export's token and the sizes first, then the values; serialising is a copy, deserialising checks the tag,
+ * version, token and sizes. get: (re)allocates *state; set: restores it; size: of the block. */
+int plant_state_get(plant *pl, void **state);
+int plant_state_set(plant *pl, const void *state);
+size_t plant_state_block_size(const void *state);
+int plant_state_serialize(plant *pl, const void *state, void *bytes, size_t size);
+int plant_state_deserialize(plant *pl, const void *bytes, size_t size, void **state);
+void plant_logf(plant *pl, int status, const char *fmt, ...);
+
+/* An FMU state block's header (each model's values and, for the rig, its delay line follow it): a tag, the
+ * format version, the export's token, the model's sizes, the size of its values, its extra doubles, the
+ * block's size. */
+typedef struct {
+    char tag[24];
+    uint32_t version, header_size;
+    char token[48];
+    uint64_t dims[6], values_size, extra, total;
+} plant_state_header;
+
+/* shared by every exported plant (fmu_instance.c) */
+int plant_wrong_mode(plant *pl, const char *call, const char *where);
+int plant_step_check(plant *pl, double t, double dt, double h);
+void plant_state_header_of(plant_state_header *hd, const char *tag, uint32_t version, const uint64_t dims[6],
+                           uint64_t values_size, uint64_t extra);
+/* the header of `bytes` (size bytes) into *hd when it is a block of this FMU's tag, version and token;
+ * PLANT_ERROR with a message when not (the model then checks its sizes: plant_state_check) */
+int plant_state_header_read(plant *pl, const void *bytes, size_t size, const char *tag, uint32_t version,
+                            plant_state_header *hd);
+/* the block is exactly the model's (its header equal to `mine`, its size the header's total) */
+int plant_state_header_match(plant *pl, const plant_state_header *hd, const plant_state_header *mine, size_t size);
+/* given by the model's instance layer (plant_fmu.c) */
+int plant_prepare(plant *pl);                    /* the initial state of the values as set */
+int plant_state_check(plant *pl, const void *bytes, size_t size);   /* a state block of this FMU? */
+
+#endif
