@@ -93,15 +93,17 @@ def test_bench_quick_measures_every_section(tmp_path):
     res = bench(tmp_path / "bench.json", tmp_path / "bench.md", quick=True, progress=False)
     on_disk = json.loads((tmp_path / "bench.json").read_text())
     for section in ("machine", "startup", "compiled_loop", "per_step_api", "reference_solver", "max_stable_step",
-                    "realtime_0.5ms", "realtime_0.1ms", "udp_ping_pong", "lockstep", "identification", "ratios"):
+                    "circuits", "paper_circuit", "realtime_0.5ms", "realtime_0.1ms", "udp_ping_pong", "lockstep",
+                    "identification", "ratios"):
         assert section in on_disk, section
     # measured, not judged: how fast is the machine's business (benchmarks), not the suite's
     assert res["compiled_loop"]["open_loop"]["ns_per_step"] > 0 and res["lockstep"]["steps_per_s"] > 0
     assert res["realtime_0.5ms"]["steps"] == 4000 and math.isfinite(res["realtime_0.5ms"]["jitter_us_p99"])
     assert res["realtime_0.5ms"]["verdict"] in ("VALID", "INVALID")
     assert res["ratios"]["hybrid_vs_continuous_step"] > 100
+    assert all(r["holds"] for r in res["circuits"].values()) and res["paper_circuit"]["circuit_ns_per_step"] > 0
     table = (tmp_path / "bench.md").read_text()
-    assert table.count("\n|") >= 14 and "None" not in table
+    assert table.count("\n|") >= 14 and "None" not in table and "`two_cylinders`" in table
 
 
 @pytest.mark.slow

@@ -9,6 +9,7 @@ Sections (each a function returning a dict; medians over repeats, ratios compute
   reference_solver  wall time of the LSODA reference per simulated second, ratio to the hybrid loop
   max_stable_step   largest stable RK3 step, hybrid vs continuous stiff-stop model, ratio
   circuits          each example circuit: ns per RK3 step, real-time factor, largest stable step, accuracy
+  paper_circuit     the paper's rig as a generated circuit beside the core: ns and instructions per step
   realtime_0.5ms    plant + controller processes over loopback, wall-clock locked: jitter, overruns, RTT
   realtime_0.1ms    the same at 0.1 ms: does it keep up?
   udp_ping_pong     bare Python UDP round trip on loopback (the floor under the HIL RTT)
@@ -162,6 +163,57 @@ def circuits(duration: float = 60.0, repeats: int = 7) -> dict:
     return out
 
 
+def _paper_runs(duration: float):
+    """Fig 10's open-loop sine (without the valve's input delay, which a circuit's loop has not) on the core's
+    loop and on the paper's rig as a circuit (hydrohil.circuits.paper): (scenario, steps, run core, run circuit);
+    each run returns its wall time [s]."""
+    import warnings
+    from hydrohil.circuits.paper import paper_circuit
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.simulation.run import run_scenario
+    sc = _scenario("fig10_open_loop_sine.toml", duration)
+    sc = sc.model_copy(update={"params": sc.params.model_copy(update={"spool": sc.params.spool.model_copy(
+        update={"delay": 0.0})})})
+    s = sc.scenario
+    h, n = s.solver.step, s.n_steps()
+    drive = {"valve.command": (np.arange(n + 1) * h, s.commands())}
+    c = paper_circuit(sc.params, s.initial.xp)
+
+    def circuit():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")            # (open loop: the piston is not held at rest)
+            return simulate_circuit(c, duration, h=h, every=1000, inputs=drive).wall
+    return n, lambda: run_scenario(sc).wall_time_s, circuit
+
+
+def paper_circuit(duration: float = 60.0, repeats: int = 7, steps: int | None = 4000) -> dict:
+    """The paper's rig as a generated circuit beside the hand-written core, in one run: median ns per RK3 step
+    of each loop (Fig 10 open loop, no input delay) and, with valgrind, machine instructions per step inside
+    ``hh_sim_run`` and ``hc_run`` (the first ``steps`` steps). The circuit switches modes at the step's end
+    (no event location, no stiff-chamber slowing, no delay line): not yet the same work. ``steps`` None: no
+    instruction count."""
+    import shutil
+    import subprocess
+    n, core, circuit = _paper_runs(duration)
+    walls = [(core(), circuit()) for _ in range(repeats)]
+    out = {"core_ns_per_step": statistics.median(w[0] for w in walls) / n * 1e9,
+           "circuit_ns_per_step": statistics.median(w[1] for w in walls) / n * 1e9}
+    out["ratio"] = out["circuit_ns_per_step"] / out["core_ns_per_step"]
+    if shutil.which("valgrind") is None or steps is None:
+        return {**out, "core_instructions": None, "circuit_instructions": None}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, fn, idx in (("core", "hh_sim_run", 1), ("circuit", "hc_run", 2)):
+            prog = ("from hydrohil.bench import "
+                    f"_paper_runs; r = _paper_runs({steps * 5e-4!r}); r[{idx}]()")
+            cg = Path(tmp) / f"{name}.out"
+            subprocess.run(["valgrind", "--tool=callgrind", f"--toggle-collect={fn}", f"--callgrind-out-file={cg}",
+                            sys.executable, "-c", prog], check=True, capture_output=True)
+            total = next(int(line.split()[1]) for line in cg.read_text().splitlines()
+                         if line.startswith(("summary:", "totals:")))
+            out[f"{name}_instructions"] = total / steps
+    return out
+
+
 def max_stable_step() -> dict:
     from hydrohil.maxstep import max_stable_step as search
     from hydrohil.simulation.scenario import load_scenario
@@ -309,6 +361,7 @@ def run_bench(*, seconds: float = 60.0, quick: bool = False,
         ("reference_solver", lambda: reference_solver(1.0 if quick else 6.0, 1 if quick else 3)),
         ("max_stable_step", max_stable_step),
         ("circuits", lambda: circuits(6.0 if quick else 60.0, 2 if quick else 7)),
+        ("paper_circuit", lambda: paper_circuit(6.0 if quick else 60.0, 2 if quick else 7, None if quick else 4000)),
         ("realtime_0.5ms", lambda: hil(rt, 5e-4)),
         ("realtime_0.5ms_c", lambda: hil(rt, 5e-4, plant="c")),
         ("hiccup", lambda: hiccup(rt)),
@@ -416,6 +469,13 @@ def circuits_table(res: dict) -> str:
     lines.append("")
     lines.append("Limits (every example): position ≤ 0.1 mm, pressure ≤ 3 %, speed ≤ 2 % RMS; largest stable step "
                  "≥ 1 ms.")
+    pc = res.get("paper_circuit")
+    if pc:
+        lines += ["", f"The paper's rig generated as a circuit beside the hand-written core (Fig 10, no input delay, "
+                  f"same run): {pc['circuit_ns_per_step']:.0f} vs {pc['core_ns_per_step']:.0f} ns per RK3 step "
+                  f"(ratio {pc['ratio']:.2f}), {_f(pc['circuit_instructions'], '{:.0f}')} vs "
+                  f"{_f(pc['core_instructions'], '{:.0f}')} instructions per step (callgrind); the circuit does not "
+                  "locate events inside its step yet."]
     return "\n".join(lines) + "\n"
 
 
