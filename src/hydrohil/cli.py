@@ -407,6 +407,58 @@ def circuit_run(circuit: str = typer.Argument(..., help="built-in name (examples
     typer.echo(f"wrote {', '.join(str(f) for f in files)}")
 
 
+def circuit_linear(circuit: str, sets: Optional[dict] = None, out: Optional[Path] = None):
+    """A circuit (built-in name or file, ``sets`` on top) linearised at its state at rest
+    (:func:`hydrohil.circuits.linear.linearise_circuit`); written to ``out`` (.json or .npz) when given."""
+    from hydrohil.circuits.linear import linearise_circuit
+    from hydrohil.circuits.scenario import circuit_scenario
+    cs = circuit_scenario(circuit=circuit, sets=sets)
+    lin = linearise_circuit(cs.circuit, h=cs.step)
+    if out is not None:
+        out = Path(out)
+        if out.suffix == ".npz":
+            import numpy as np
+            np.savez(out, A=lin.A, B=lin.B, x0=lin.x0, u0=lin.u0, states=lin.states, inputs=lin.inputs)
+        elif out.suffix == ".json":
+            out.write_text(json.dumps(lin.to_dict(), indent=2))
+        else:
+            raise InputError(f"a .json or .npz file, got {out.name}", source="--out", key=str(out))
+    return lin
+
+
+@circuit_app.command("linear")
+def circuit_linear_cmd(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or "
+                                                     "circuit TOML"),
+                       sets: list[str] = typer.Option([], "--set", help="component.key=value (repeatable)"),
+                       as_json: bool = typer.Option(False, "--json", help="print JSON (A, B, the modes)"),
+                       out: Optional[Path] = typer.Option(None, "--out", help="write the model: .json or .npz")):
+    """The circuit linearised at its state at rest: A, B by central differences of its generated right-hand
+    side, its eigenvalues as time constants and as natural frequencies with their damping."""
+    try:
+        lin = circuit_linear(circuit, _parse_sets(sets), out)
+    except HydrohilError as exc:
+        fail(exc)
+    if as_json:
+        typer.echo(json.dumps(lin.to_dict(), indent=2))
+        return
+    typer.echo(f"{circuit}: {len(lin.states)} states ({', '.join(lin.states)}), inputs "
+               f"{', '.join(lin.inputs) or 'none'}; linearised where its runs start (at rest)")
+    if lin.moving():
+        typer.echo(f"  not an equilibrium: {', '.join(lin.moving())} move where it starts (an [initial] pressure "
+                   "or an unbalanced piston): the model is the tangent there")
+    for m in lin.modes():
+        if "damping" in m:
+            typer.echo(f"  oscillation {m['natural_frequency_rad_s']:.1f} rad/s ({m['frequency_hz']:.1f} Hz), "
+                       f"damping {m['damping']:.3f}")
+        elif "time_constant_s" in m:
+            typer.echo(f"  time constant {m['time_constant_s']:.4g} s (eigenvalue {m['eigenvalue'][0]:.4g} 1/s)")
+        else:
+            typer.echo(f"  not decaying: eigenvalue {m['eigenvalue'][0]:.4g} 1/s (an integrator, or growing "
+                       f"e-fold in {m['growth_time_s']:.4g} s)")
+    if out is not None:
+        typer.echo(f"wrote {out}")
+
+
 export_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
                          help="Generate real-time code of the plant from the C core.")
 app.add_typer(export_app, name="export")
