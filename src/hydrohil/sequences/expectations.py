@@ -45,19 +45,31 @@ When = Union[float, str]
 DISPLAY = {"m": (1e3, "mm"), "Pa": (1e-5, "bar"), "m/s": (1e3, "mm/s")}     # how people read these units
 
 
-def fmt(signal: str, v: float) -> str:
+def unit_of(signal: str, units: dict | None = None) -> str:
+    """A signal's SI unit: the rig's (UNITS) or, for a circuit's ``component.variable``, its run's."""
+    return (units or {}).get(signal) or UNITS.get(signal, "")
+
+
+def fmt(signal: str, v: float, units: dict | None = None) -> str:
     """A value of ``signal`` as people read it: 6.19 mm, 58.5 bar."""
-    k, unit = DISPLAY.get(UNITS[signal], (1.0, UNITS[signal]))
-    return f"{v * k:.4g} {unit}"
+    unit = unit_of(signal, units)
+    k, shown = DISPLAY.get(unit, (1.0, unit))
+    return f"{v * k:.4g} {shown}".rstrip()
+
+
+def _error_text(v: float, s) -> str:
+    """A tracking error: in mm for a position loop (the rig's), else in the measured signal's unit."""
+    return f"{v * 1e3:.3f} mm" if unit_of("error", s.units) == "m" else fmt("error", v, s.units)
 
 
 class Signals(dict):
     """The run's signals by name (numpy arrays, one value per logged step) and its actions' times."""
 
     def __init__(self, columns: dict[str, np.ndarray], events: dict[str, float], *, safe_state: str = "centre",
-                 mode: str = "offline"):
+                 mode: str = "offline", units: dict[str, str] | None = None):
         super().__init__(columns)
         self.events, self.safe_state, self.mode = dict(events), safe_state, mode
+        self.units = dict(units or UNITS)          # a circuit's run: its signals' SI units
 
     @property
     def t(self) -> np.ndarray:
@@ -125,6 +137,11 @@ class _Expect(StrictModel):
         return Outcome(self.label(), self.type, "pass", f"{met} after {delay * 1e3:.1f} ms", delay, limit, plot)
 
 
+def _no_loop(e) -> Outcome:
+    return Outcome(e.label(), e.type, "error", "no reference to follow: the circuit scenario is an open loop (no "
+                   "[controller] and [reference])")
+
+
 def _signal_field(default=None):
     if default is None:
         return Field(description=f"one of: {', '.join(SIGNALS)}")
@@ -132,7 +149,8 @@ def _signal_field(default=None):
 
 
 def _check_signal(name: str) -> None:
-    if name not in SIGNALS:
+    """A rig signal (SIGNALS), or a circuit's ``component.variable`` (checked against its run)."""
+    if name not in SIGNALS and "." not in name:
         from hydrohil.errors import unknown_name
         raise ValueError(unknown_name(name, SIGNALS, what="signal"))
 
@@ -159,7 +177,7 @@ class Bounds(_Expect):
     def describe(self):
         lo = "" if self.min is None else f"{self.min:g} ≤ "
         hi = "" if self.max is None else f" ≤ {self.max:g}"
-        return f"{lo}{self.signal}{hi} [{UNITS[self.signal]}]"
+        return f"{lo}{self.signal}{hi} [{UNITS.get(self.signal, 'SI')}]"
 
     def evaluate(self, s: Signals) -> Outcome:
         t0, t1 = self.window(s)
@@ -175,22 +193,25 @@ class Bounds(_Expect):
         if excess[i] > 0:
             bad = np.nonzero(excess > 0)[0]
             plot["violation"] = (float(t[bad[0]]), float(v[bad[0]]))
-            return Outcome(self.label(), self.type, "fail", f"{self.signal} = {fmt(self.signal, worst)} at "
+            return Outcome(self.label(), self.type, "fail", f"{self.signal} = {fmt(self.signal, worst, s.units)} at "
                            f"t = {t[i]:.4f} s (first outside at {t[bad[0]]:.4f} s, {len(bad)} samples)",
                            worst, limit, plot)
         return Outcome(self.label(), self.type, "pass", f"{self.signal} stayed within bounds (extreme "
-                       f"{fmt(self.signal, worst)})", worst, limit, plot)
+                       f"{fmt(self.signal, worst, s.units)})", worst, limit, plot)
 
 
 class Tracking(_Expect):
     type: Literal["tracking"]
-    tol: float = Field(gt=0, le=10, description="largest |x_ref − xp| [m]")
+    tol: float = Field(gt=0, le=1e9, description="largest |x_ref − xp| [m] (a circuit's loop: |reference − measure| "
+                       "in the measured signal's SI unit)")
     within: float = Field(0.0, ge=0, le=3600, description="time after 'after' from which the error is judged [s]")
 
     def describe(self):
         return f"|x_ref − xp| ≤ {self.tol * 1e3:g} mm from {self.within:g} s after {_when(self.after)}"
 
     def evaluate(self, s: Signals) -> Outcome:
+        if "error" not in s:
+            return _no_loop(self)
         t0, t1 = self.window(s)
         t0 = t0 + self.within
         m = s.mask(t0, t1)
@@ -202,9 +223,10 @@ class Tracking(_Expect):
         if e[i] > self.tol:
             bad = np.nonzero(e > self.tol)[0]
             plot["violation"] = (float(t[bad[0]]), float(s["error"][m][bad[0]]))
-            return Outcome(self.label(), self.type, "fail", f"|error| = {e[i] * 1e3:.3f} mm at t = {t[i]:.4f} s "
-                           f"(limit {self.tol * 1e3:g} mm; first beyond at {t[bad[0]]:.4f} s)", float(e[i]), self.tol, plot)
-        return Outcome(self.label(), self.type, "pass", f"largest |error| {e[i] * 1e3:.3f} mm", float(e[i]),
+            return Outcome(self.label(), self.type, "fail", f"|error| = {_error_text(e[i], s)} at t = {t[i]:.4f} s "
+                           f"(limit {_error_text(self.tol, s)}; first beyond at {t[bad[0]]:.4f} s)", float(e[i]),
+                           self.tol, plot)
+        return Outcome(self.label(), self.type, "pass", f"largest |error| {_error_text(e[i], s)}", float(e[i]),
                        self.tol, plot)
 
 
@@ -212,7 +234,8 @@ class StepResponse(_Expect):
     type: Literal["step_response"]
     max_overshoot_pct: float | None = Field(None, ge=0, le=1e4, description="[%] of the move")
     max_settling_time: float | None = Field(None, gt=0, le=3600, description="[s] from the move's start")
-    max_steady_state_error: float | None = Field(None, gt=0, le=10, description="|e_ss| [m]")
+    max_steady_state_error: float | None = Field(None, gt=0, le=1e9, description="|e_ss| [m] (a circuit's loop: the "
+                                                 "measured signal's SI unit)")
     max_rise_time: float | None = Field(None, gt=0, le=3600, description="10-90 % [s]")
     band: float = Field(0.02, gt=0, lt=1, description="settling band, a fraction of the move [-]")
 
@@ -229,6 +252,8 @@ class StepResponse(_Expect):
 
     def evaluate(self, s: Signals) -> Outcome:
         from hydrohil.metrics import step_metrics
+        if "x_ref" not in s:
+            return _no_loop(self)
         t0, t1 = self.window(s)
         m = step_metrics(s.t, s["xp"], s["x_ref"], band=self.band)
         move = next((mv for mv in m["moves"] if t0 - 0.01 <= mv["start"] < t1), None)
@@ -236,10 +261,11 @@ class StepResponse(_Expect):
         if move is None:
             return Outcome(self.label(), self.type, "error", f"no move of the reference starts in "
                            f"[{t0:g}, {t1:g}] s", plot=plot)
+        e_unit, e_k = ("mm", 1e3) if unit_of("error", s.units) == "m" else (unit_of("error", s.units), 1.0)
         checks = (("overshoot", move["overshoot_pct"], self.max_overshoot_pct, "%", 1.0),
                   ("settling time", move["settling_time"], self.max_settling_time, "s", 1.0),
                   ("steady-state error", None if move["steady_state_error"] is None else abs(move["steady_state_error"]),
-                   self.max_steady_state_error, "mm", 1e3),
+                   self.max_steady_state_error, e_unit, e_k),
                   ("rise time", move["rise_time"], self.max_rise_time, "s", 1.0))
         broken, said = [], []
         for label, v, lim, unit, k in checks:
@@ -278,6 +304,9 @@ class Watchdog(_Expect):
 
     def evaluate(self, s: Signals) -> Outcome:
         t0, t1 = self.window(s)
+        if "watchdog" not in s:
+            return Outcome(self.label(), self.type, "error", "no watchdog in this run (a circuit's offline loop has "
+                           "none)")
         m = s.mask(t0, t1)
         on = s["watchdog"] != 0
         rise = np.zeros_like(on)

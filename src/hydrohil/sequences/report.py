@@ -11,7 +11,7 @@ import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from hydrohil.sequences.expectations import DISPLAY, UNITS, Outcome
+from hydrohil.sequences.expectations import DISPLAY, Outcome, unit_of
 from hydrohil.sequences.sequence import slug
 
 
@@ -61,7 +61,8 @@ def failure_figure(result, index: int, outcome: Outcome, path: Path) -> Path:
     import matplotlib.pyplot as plt
     s, p = result.signals, outcome.plot
     name = p.get("signal", "xp")
-    k, unit = DISPLAY.get(UNITS[name], (1.0, UNITS[name]))
+    si = unit_of(name, s.units)
+    k, unit = DISPLAY.get(si, (1.0, si))
     t = s.t
     t0, t1 = p.get("window", (0.0, float(t[-1])))
     pad = max(0.05 * (t1 - t0), 0.02)

@@ -84,6 +84,8 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
                          "[controller] table (type = \"python\") or a program", key="controller")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    if seq.circuit is not None:
+        return _run_circuit_sequence(seq, out, mode, controller, predicates)
     scen = seq.compile(out / "scenario.toml")
     preds = _predicates(seq, predicates)
     from hydrohil.simulation.scenario import load_scenario
@@ -143,6 +145,57 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
     else:
         status = "pass" if all(o.passed for o in outcomes) else "fail"
     result = SequenceResult(seq.name, mode, status, outcomes, out, str(seq.source), error, wall, signals, verdict)
+    (out / "result.json").write_text(json.dumps(result.summary(), indent=2, default=float) + "\n")
+    return result
+
+
+def _run_circuit_sequence(seq: LoadedSequence, out: Path, mode: str, controller, predicates) -> SequenceResult:
+    """A circuit's sequence, offline: its compiled circuit scenario run with its loop (the generated C), its
+    signals every log column (``component.variable``) with, in closed loop, the loop's ``x_ref`` (its
+    reference), ``xp`` (its measured signal) and ``error``, in their SI units."""
+    import time
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.circuits.show import write_log
+    from hydrohil.errors import SimulationDiverged
+    from hydrohil.sequences.expectations import Bounds, Reaction
+    if mode != "offline" or controller is not None:
+        raise InputError("a circuit's sequence runs offline with its scenario's controller (lock-step and real-time "
+                         "runs of circuits: not yet)", source=str(seq.source), key="mode")
+    cs = load_circuit_scenario(seq.compile(out / "scenario.toml"))
+    preds = _predicates(seq, predicates)
+    t0 = time.perf_counter()
+    error, signals, outcomes = None, None, []
+    try:
+        res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
+                               loop=cs.loop)
+    except SimulationDiverged as exc:
+        error, res = f"{type(exc).__name__}: {exc}", None
+    if res is not None:
+        write_log(res, out / "log.csv")
+        lp = cs.loop
+        cols = {k: np.asarray(v, float) for k, v in res.columns.items()}
+        units = dict(res.units)
+        if lp is not None:                 # the loop's reference, measure and error under the rig's names
+            cols["x_ref"], cols["xp"] = cols[f"{lp.measure}.reference"], cols[lp.measure]
+            cols["error"] = cols["x_ref"] - cols["xp"]
+            units.update(dict.fromkeys(("x_ref", "xp", "error"), res.units.get(lp.measure, "")))
+        for i, e in enumerate(seq.expectations):
+            sig = getattr(e, "signal", None) if isinstance(e, (Bounds, Reaction)) else None
+            if sig is not None and sig not in cols:
+                from hydrohil.errors import unknown_name
+                raise InputError(unknown_name(sig, [c for c in cols if c != "t"], what="signal of this circuit"),
+                                 source=str(seq.source), key=f"expect[{i}].signal")
+        signals = Signals(cols, seq.event_times(), mode=mode, units=units)
+        outcomes = evaluate(seq.expectations, signals, preds)
+    wall = time.perf_counter() - t0
+    if error is not None:
+        status = "error"
+    elif any(o.status == "error" for o in outcomes):
+        status = "error"
+    else:
+        status = "pass" if all(o.passed for o in outcomes) else "fail"
+    result = SequenceResult(seq.name, mode, status, outcomes, out, str(seq.source), error, wall, signals)
     (out / "result.json").write_text(json.dumps(result.summary(), indent=2, default=float) + "\n")
     return result
 

@@ -9,7 +9,8 @@ what ran, and what ``hydrohil simulate`` / ``hydrohil hil`` run again by hand.
 Format (``examples/sequences/``)::
 
     name = "P control holds the load through a hose burst"    # default: the file's stem
-    scenario = "../faults/hose_burst.toml"    # path (relative to this file) or built-in experiment name
+    scenario = "../faults/hose_burst.toml"    # path (relative to this file) or built-in experiment name; a
+                                              # scenario naming a circuit: actions step/ramp (value) and set
     duration = 6.0                            # optional: replaces the scenario's
     [set]                                     # optional: parameter values (dotted keys, SI units)
     "load.mass" = 120.0
@@ -93,6 +94,33 @@ class FaultAction(StrictModel):
 
 Action = Annotated[Union[StepAction, RampAction], Field(discriminator="type")]
 
+# ---- a circuit's sequence (its scenario names a circuit): the loop's reference moves, its inputs are set ----
+
+_Value = Union[float, str]
+
+
+class CircuitStep(_Action):
+    type: Literal["step"]
+    value: _Value = Field(description="the loop's new reference: SI or \"<number> <unit>\" of the measured signal")
+
+
+class CircuitRamp(_Action):
+    type: Literal["ramp"]
+    value: _Value = Field(description="the reference at the end of the ramp")
+    over: float = Field(gt=0, le=3600, description="duration of the ramp [s]")
+
+
+class SetAction(_Action):
+    type: Literal["set"]
+    signal: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*\.[A-Za-z_][A-Za-z0-9_]*$",
+                        description="one of the circuit's [inputs] (component.key)")
+    value: _Value = Field(description="its value from 'at' (SI or \"<number> <unit>\")")
+    until: float | None = Field(None, gt=0, le=3600, description="back to its drive at this time [s] (omit: never)")
+
+
+CircuitAction = Annotated[Union[CircuitStep, CircuitRamp, SetAction], Field(discriminator="type")]
+CIRCUIT_ACTIONS = ("step", "ramp", "set")
+
 
 class Sequence(StrictModel):
     name: str | None = Field(None, min_length=1, max_length=200, description="default: the file's stem")
@@ -103,6 +131,19 @@ class Sequence(StrictModel):
     hil: dict[str, Any] = Field(default_factory=dict, description="keys set on top of the scenario's [hil]")
     actions: list[dict[str, Any]] = Field(default_factory=list, max_length=53)   # (faults: core HH_MAX_FAULTS)
     expect: list[Expectation] = Field(default_factory=list, max_length=1000)
+
+
+def _circuit_action(i: int, table: dict, source: str):
+    kind = table.get("type")
+    if kind not in CIRCUIT_ACTIONS:
+        raise InputError(f"a circuit's sequence has actions {', '.join(CIRCUIT_ACTIONS)} (the loop's reference, an "
+                         f"input signal), got {kind!r}", source=source, key=f"actions[{i}].type")
+    try:
+        return TypeAdapter(CircuitAction).validate_python(table)
+    except ValidationError as exc:
+        key, msg = format_validation_error(exc, {"step": CircuitStep, "ramp": CircuitRamp, "set": SetAction}[kind])
+        key = (key or "").removeprefix(f"{kind}.")
+        raise InputError(msg, source=source, key=f"actions[{i}]" + (f".{key}" if key else "")) from None
 
 
 def _action(i: int, table: dict, source: str) -> StepAction | RampAction | FaultAction:
@@ -129,9 +170,10 @@ def _action(i: int, table: dict, source: str) -> StepAction | RampAction | Fault
 class LoadedSequence:
     """A validated sequence: its actions (times, names) and expectations; :meth:`compile` writes its scenario."""
 
-    def __init__(self, seq: Sequence, source: Path, actions: list):
+    def __init__(self, seq: Sequence, source: Path, actions: list, circuit: Path | None = None):
         self.seq, self.source, self.actions = seq, source, actions
         self.name = seq.name or source.stem
+        self.circuit = circuit           # a circuit scenario's path: the sequence runs that circuit
 
     @property
     def expectations(self) -> list:
@@ -152,6 +194,8 @@ class LoadedSequence:
         """Write the scenario this sequence runs to ``dest`` (TOML) and check it loads; InputError names the
         sequence file for any problem of the compiled scenario."""
         import tomli_w
+        if self.circuit is not None:
+            return self._compile_circuit(Path(dest))
 
         from hydrohil.simulation.scenario import load_scenario, scenario_data
         seq, src = self.seq, str(self.source)
@@ -182,6 +226,106 @@ class LoadedSequence:
         except InputError as exc:
             raise InputError(f"the scenario it compiles to: {exc}", source=src) from None
         return dest
+
+
+    def _compile_circuit(self, dest: Path) -> Path:
+        """The circuit scenario this sequence runs: its circuit by absolute path, [set] and duration on top, the
+        reference moved by the step and ramp actions, the inputs set by the set actions."""
+        import tomli_w
+        from hydrohil.circuits.scenario import circuit_file, load_circuit_scenario
+        from hydrohil.parameters import read_toml
+        seq, src, scen = self.seq, str(self.source), self.circuit
+        data = read_toml(scen)
+        cfile = circuit_file(data["circuit"], scen.parent, str(scen)).resolve()
+        data["circuit"] = str(cfile)
+        if seq.hil:
+            raise InputError("a circuit's sequence runs offline: no [hil] table", source=src, key="hil")
+        if seq.set:
+            data["set"] = {**data.get("set", {}), **seq.set}
+        if seq.duration is not None:
+            data["duration"] = seq.duration
+        if seq.controller is not None:
+            data["controller"] = {**(data.get("controller") or {}), **seq.controller}
+        duration = float(data.get("duration") or load_circuit_scenario(scen).duration)
+        data["duration"] = duration
+        for i, a in enumerate(self.actions):
+            if a.at >= duration:
+                raise InputError(f"at = {a.at:g} s is not before the end of the run ({duration:g} s)", source=src,
+                                 key=f"actions[{i}].at")
+        refs = sorted((a for a in self.actions if a.type in REFERENCE_ACTIONS), key=lambda a: a.at)
+        if refs:
+            if "reference" not in data:
+                raise InputError("step and ramp actions move the loop's reference: the scenario has no [reference]",
+                                 source=src, key="actions")
+            data["reference"] = _circuit_reference(data["reference"], refs, duration, src)
+        circuit_inputs = read_toml(cfile).get("inputs", {})
+        for a in sorted((a for a in self.actions if a.type == "set"), key=lambda a: a.at):
+            base = data.get("inputs", {}).get(a.signal, circuit_inputs.get(a.signal))
+            if base is None:
+                raise InputError(f"{a.signal} is not one of the circuit's inputs (inputs: "
+                                 f"{', '.join(circuit_inputs) or 'none'})", source=src, key="actions")
+            data.setdefault("inputs", {})[a.signal] = _set_drive(base, a)
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        dest.write_text(f"# compiled from the test sequence {self.source.name} (hydrohil test)\n" + tomli_w.dumps(data))
+        try:
+            cs = load_circuit_scenario(dest)
+        except InputError as exc:
+            raise InputError(f"the scenario it compiles to: {exc}", source=src) from None
+        del cs                           # (loaded to check it: an open loop's sequence judges its signals alone)
+        return dest
+
+
+def _held_at(table, t: float):
+    """A drive's raw value (a number or "<number> <unit>") held at time t: a constant, or {t, value}."""
+    if not isinstance(table, dict):
+        return table
+    i = max(k for k, tk in enumerate(table["t"]) if float(tk) <= t + 1e-12)
+    return table["value"][i]
+
+
+def _set_drive(base, a) -> dict:
+    """The drive ``base`` with ``a.value`` from ``a.at`` (and ``base`` again from ``a.until``)."""
+    ts = [float(x) for x in base["t"]] if isinstance(base, dict) else [0.0]
+    vs = list(base["value"]) if isinstance(base, dict) else [base]
+    t_new = [t for t in ts if t < a.at] or [0.0]
+    v_new = [v for t, v in zip(ts, vs) if t < a.at] or [vs[0]]
+    if a.at == 0.0:
+        t_new, v_new = [], []
+    t_new.append(a.at)
+    v_new.append(a.value)
+    if a.until is not None:
+        t_new.append(a.until)
+        v_new.append(_held_at({"t": ts, "value": vs}, a.until))
+        t_new += [t for t in ts if t > a.until]
+        v_new += [v for t, v in zip(ts, vs) if t > a.until]
+    return {"t": t_new, "value": v_new}
+
+
+def _circuit_reference(ref: dict, refs: list, duration: float, source: str) -> dict:
+    """A circuit loop's [reference] moved by the step and ramp actions: held steps, or linear when a ramp is
+    in it (a step then rises over 1 us: a table's times increase)."""
+    linear = ref.get("interpolation") == "linear" or any(a.type == "ramp" for a in refs)
+    t = [float(x) for x in ref["t"]]
+    v = list(ref["value"])
+    t_out, v_out = [x for x in t if x < refs[0].at], [y for x, y in zip(t, v) if x < refs[0].at]
+    for a in refs:
+        prev = v_out[-1] if v_out else v[0]
+        if t_out and a.at < t_out[-1]:
+            raise InputError(f"'{a.name or a.type}' at {a.at:g} s starts before the ramp before it ends "
+                             f"({t_out[-1]:g} s)", source=source, key="actions")
+        if linear and a.at > (t_out[-1] if t_out else -1.0):
+            t_out.append(a.at)
+            v_out.append(prev)
+        end = a.at + (a.over if a.type == "ramp" else (1e-6 if linear else 0.0))
+        if not linear and t_out and t_out[-1] == a.at:
+            v_out[-1] = a.value
+        else:
+            t_out.append(end)
+            v_out.append(a.value)
+    if t_out[0] != 0.0:
+        t_out.insert(0, 0.0)
+        v_out.insert(0, v[0])
+    return {"t": t_out, "value": v_out, "interpolation": "linear" if linear else "hold"}
 
 
 def _reference_table(data: dict, refs: list, duration: float, source: str) -> dict:
@@ -218,12 +362,13 @@ def load_sequence(path: str | Path, *, allow_empty: bool = False) -> LoadedSeque
     except ValidationError as exc:
         key, msg = format_validation_error(exc, Sequence)
         raise InputError(msg, source=str(path), key=key) from None
-    actions = [_action(i, a, str(path)) for i, a in enumerate(seq.actions)]
+    circuit = _circuit_scenario(seq.scenario, path.parent)
+    actions = [(_circuit_action if circuit else _action)(i, a, str(path)) for i, a in enumerate(seq.actions)]
     names = [a.name for a in actions if a.name]
     dup = next((n for n in names if names.count(n) > 1), None)
     if dup:
         raise InputError(f"action name '{dup}' is used twice", source=str(path), key="actions")
-    loaded = LoadedSequence(seq, path, actions)
+    loaded = LoadedSequence(seq, path, actions, circuit)
     events = loaded.event_times()
     for i, e in enumerate(seq.expect):
         for key in ("after", "until"):
@@ -233,6 +378,13 @@ def load_sequence(path: str | Path, *, allow_empty: bool = False) -> LoadedSeque
                 raise InputError(unknown_name(v, events, what="action name"), source=str(path),
                                  key=f"expect[{i}].{key}")
     return loaded
+
+
+def _circuit_scenario(name: str, base: Path) -> Path | None:
+    """The scenario file when it names a circuit (a circuit's sequence), else None."""
+    from hydrohil.circuits.scenario import is_circuit_scenario
+    p = base / name
+    return p if p.is_file() and is_circuit_scenario(p) else None
 
 
 def slug(text: str) -> str:

@@ -1,0 +1,113 @@
+"""Test sequences on circuits (issue #27): a sequence whose scenario names a circuit runs it offline with its
+loop; its actions move the loop's reference (step, ramp) and set input signals (set, with until); its
+expectations judge any signal of the circuit in its SI unit. Every example circuit has one, and each passes."""
+
+import tomllib
+
+import numpy as np
+import pytest
+
+from hydrohil.circuits.circuit import CIRCUITS_DIR
+from hydrohil.errors import InputError
+from hydrohil.sequences.runner import exit_code, run_sequence, run_suite
+from hydrohil.sequences.sequence import load_sequence
+
+
+def test_every_example_circuit_has_a_sequence_and_it_passes(tmp_path):
+    examples = sorted(p.parent.name for p in CIRCUITS_DIR.glob("*/circuit.toml"))
+    files = sorted(CIRCUITS_DIR.glob("*/sequence.toml"))
+    assert [f.parent.name for f in files] == examples
+    results = run_suite(files, tmp_path, report=True, junit=tmp_path / "junit.xml")
+    assert exit_code(results) == 0, [(r.name, [o.message for o in r.outcomes if not o.passed]) for r in results]
+    assert all(len(r.outcomes) >= 3 for r in results)
+    assert "6 sequence(s): 6 passed" in (tmp_path / "report.md").read_text()
+
+
+def _write(tmp_path, text: str):
+    scen = CIRCUITS_DIR / "motor_speed" / "scenario.toml"
+    p = tmp_path / "seq.toml"
+    p.write_text(f'scenario = "{scen}"\nduration = 2.0\n' + text)
+    return p
+
+
+def test_actions_compile_into_the_circuit_scenario_and_a_failure_is_shown_in_the_signals_unit(tmp_path):
+    """A step of the reference with a unit, a load torque set for 0.5 s: the compiled scenario holds the
+    reference table and the input's drive (back to its value at 'until'); a bound broken on a circuit signal is
+    a fail with the value in its unit and a figure in the report."""
+    p = _write(tmp_path, '''
+[[actions]]
+name = "up"
+at = 0.2
+type = "step"
+value = "800 rpm"
+[[actions]]
+name = "load"
+at = 1.0
+until = 1.5
+type = "set"
+signal = "motor.load_torque"
+value = "15 N.m"
+[[expect]]
+name = "speed at 800 rpm within 0.5 s, until the load"
+type = "tracking"
+after = "up"
+within = 0.5
+until = "load"
+tol = 1.0                  # rad/s (measured: 0.42, the integral still closing in)
+[[expect]]
+name = "too tight on purpose"
+type = "bounds"
+signal = "a.p"
+max = 9.0e6
+''')
+    r = run_sequence(p, tmp_path / "out")
+    compiled = tomllib.loads((tmp_path / "out" / "scenario.toml").read_text())
+    assert compiled["reference"]["t"] == [0.0, 0.2] and compiled["reference"]["value"][1] == "800 rpm"
+    assert compiled["inputs"]["motor.load_torque"] == {"t": [0.0, 1.0, 1.5, 3.0],   # (3 s: the circuit's own step)
+                                                       "value": [0.0, "15 N.m", 0.0, 10.0]}
+    by = {o.name: o for o in r.outcomes}
+    assert by["speed at 800 rpm within 0.5 s, until the load"].passed
+    bad = by["too tight on purpose"]
+    assert bad.status == "fail" and "a.p = " in bad.message and " bar at t = " in bad.message
+    assert r.status == "fail" and exit_code([r]) == 1
+    s = r.signals
+    torque = s["motor.load_torque"]
+    assert torque[np.searchsorted(s.t, 1.2)] == 15.0 and torque[-1] == 0.0
+    assert np.allclose(s["error"], s["x_ref"] - s["motor.w"])
+    run_suite([p], tmp_path / "suite")
+    figures = list((tmp_path / "suite").rglob("*.png"))
+    assert figures and figures[0].stat().st_size > 10000
+
+
+@pytest.mark.parametrize("text, key, message", [
+    ('[[actions]]\nat = 0.5\ntype = "hose_burst"\n[[expect]]\ntype = "bounds"\nsignal = "a.p"\nmax = 1e9\n',
+     "actions[0].type", "actions step, ramp, set"),
+    ('[[actions]]\nat = 0.5\ntype = "set"\nsignal = "pump.speed"\nvalue = 1.0\n[[expect]]\ntype = "bounds"\n'
+     'signal = "a.p"\nmax = 1e9\n', "actions", "not one of the circuit's inputs"),
+    ('[[expect]]\ntype = "bounds"\nsignal = "motor.speed"\nmax = 1.0\n', "expect[0].signal", "motor.speed"),
+    ('[[actions]]\nat = 5.0\ntype = "step"\nvalue = 1.0\n[[expect]]\ntype = "bounds"\nsignal = "a.p"\nmax = 1e9\n',
+     "actions[0].at", "not before the end of the run"),
+    ('[[actions]]\nat = 0.5\ntype = "step"\nvalue = "3 bar"\n[[expect]]\ntype = "bounds"\nsignal = "a.p"\n'
+     'max = 1e9\n', None, "rad/s is wanted"),
+])
+def test_a_bad_circuit_sequence_names_its_key(tmp_path, text, key, message):
+    p = _write(tmp_path, text)
+    with pytest.raises(InputError, match=message) as e:
+        run_sequence(p, tmp_path / "out")
+    if key:
+        assert e.value.key == key
+
+
+def test_what_a_circuit_run_cannot_judge_is_an_error_not_a_pass(tmp_path):
+    """A watchdog expectation (no watchdog offline), tracking on an open loop, lock-step mode: errors."""
+    p = _write(tmp_path, '[[expect]]\ntype = "watchdog"\n')
+    r = run_sequence(p, tmp_path / "w")
+    assert r.status == "error" and "no watchdog" in r.outcomes[0].message
+    open_loop = tmp_path / "open.toml"
+    open_loop.write_text(f'scenario = "{CIRCUITS_DIR / "two_cylinders" / "scenario.toml"}"\n'
+                         '[[expect]]\ntype = "tracking"\ntol = 0.001\n')
+    r = run_sequence(open_loop, tmp_path / "o")
+    assert r.status == "error" and "open loop" in r.outcomes[0].message
+    with pytest.raises(InputError, match="runs offline") as e:
+        run_sequence(load_sequence(open_loop), tmp_path / "l", mode="lockstep")
+    assert e.value.key == "mode"
