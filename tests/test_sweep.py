@@ -14,6 +14,7 @@ import pytest
 from scipy import stats
 
 from conftest import EXAMPLES, hh
+from hydrohil.errors import InputError
 from hydrohil.studies.engine import run_study
 from hydrohil.studies.report import load_table
 from hydrohil.studies.study import load_study
@@ -269,3 +270,38 @@ def test_study_figures_label_inputs_with_units(tmp_path):
     assert input_axis(st, "initial.xp") == (1e3, "initial.xp [mm]")
     assert input_axis(st, "controller.kp") == (1.0, "controller.kp [1/m]")
     assert input_axis(st, "load.mass") == (1.0, "load.mass [kg]")
+
+
+def test_a_circuit_study_varies_component_values_and_its_rows_are_the_runs(tmp_path):
+    """examples/studies/servo_supply_monte_carlo.toml (8 runs) on a LocalCluster of 2 workers: inputs named
+    component.key, each row's metrics those of the circuit run with its values, computed here directly
+    (simulate_circuit with the row's --set values, the hold error over the reference's holds)."""
+    from hydrohil.circuits.circuit import CIRCUITS_DIR
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.metrics import holds
+    src = EXAMPLES / "studies" / "servo_supply_monte_carlo.toml"
+    p = tmp_path / "mc8.toml"
+    p.write_text(src.read_text().replace("samples = 200", "samples = 8").replace(
+        'scenario = "../circuits/servo_supply/scenario.toml"',
+        f'scenario = "{CIRCUITS_DIR / "servo_supply" / "scenario.toml"}"'))
+    r = run_study(p, tmp_path / "out", workers=2, progress=False)
+    rows = load_table(tmp_path / "out" / "results.parquet")
+    assert sorted(rows["run_id"]) == [f"r{i:06d}" for i in range(8)] and set(rows["status"]) == {"ok"}
+    names = ("accumulator.precharge", "accumulator.gas_volume", "pump.speed", "cyl.mass")
+    for i in (0, 5):
+        sets = {n: rows[f"in.{n}"][i] for n in names}
+        cs = load_circuit_scenario(CIRCUITS_DIR / "servo_supply" / "scenario.toml", sets=sets)
+        res = simulate_circuit(cs.circuit, cs.duration, loop=cs.loop)
+        t, x, ref = res.column("t"), res.column("cyl.x"), res.column("cyl.x.reference")
+        worst = max(float(np.max(np.abs(ref[a + (b - a) // 2:b + 1] - x[a + (b - a) // 2:b + 1])))
+                    for a, b in holds(t, ref))
+        assert rows["max_hold_error"][i] == worst
+        peak = max(float(np.max(res.column(f"{n}.p"))) for n in cs.circuit.nodes)
+        assert rows["max_p1"][i] == peak
+    assert r.runs == 8 and r.summary["status"]["ok"] == 8 and r.summary["criterion"]["metric"] == "max_hold_error"
+    bad = tmp_path / "bad.toml"
+    bad.write_text(p.read_text().replace('name = "cyl.mass"', 'name = "cyl.masss"'))
+    with pytest.raises(InputError, match="no such value .*'cyl.masss'") as e:
+        load_study(bad)
+    assert e.value.key == "vary[3]"

@@ -35,6 +35,8 @@ def run_data(study, inputs: dict) -> tuple[dict, str]:
     st = study.settings(inputs)
     base = Path(st["base"])
     kind = "sequence" if study.study.sequence is not None else "scenario"
+    if kind == "scenario" and study.circuit:
+        return _circuit_data(base, st), "circuit"
     if kind == "scenario":
         data = scenario_data(base, sets=st["sets"] or None)
     else:
@@ -61,6 +63,25 @@ def run_data(study, inputs: dict) -> tuple[dict, str]:
     if st["duration"] is not None:
         data["duration"] = st["duration"]
     return data, kind
+
+
+def _circuit_data(base: Path, st: dict) -> dict:
+    """A circuit scenario's table with a run's values: "component.key" in its [set], its loop's gains in its
+    [controller], its circuit by absolute path (the run's file lives elsewhere)."""
+    from hydrohil.circuits.scenario import circuit_file
+    from hydrohil.parameters import read_toml
+    data = read_toml(base)
+    data["circuit"] = str(circuit_file(data["circuit"], base.parent, str(base)).resolve())
+    if st["sets"]:
+        data["set"] = {**data.get("set", {}), **st["sets"]}
+    if st["controller"]:
+        data["controller"] = {**data.get("controller", {}), **st["controller"]}
+    if st["initial"]:
+        raise InputError("a circuit scenario's initial state is its [set] (component.x0) and its circuit's "
+                         "[initial]: vary those", source=str(base), key="vary")
+    if st["duration"] is not None:
+        data["duration"] = st["duration"]
+    return data
 
 
 def hold_error(t, x, x_ref) -> float:
@@ -106,6 +127,8 @@ def execute(task: dict) -> dict:
             path.write_text(tomli_w.dumps(data))
             if kind == "scenario":
                 cols, diverged = _run_scenario(path)
+            elif kind == "circuit":
+                cols, diverged = _run_circuit(path)
             else:
                 cols, diverged, verdicts = _run_sequence(path, Path(d))
                 row.update(verdicts)
@@ -136,13 +159,44 @@ def _run_scenario(path: Path):
     return cols, (str(res.diverged) if res.diverged else None)
 
 
+def _run_circuit(path: Path):
+    """A circuit scenario's run, as the rig's columns: ``xp`` and ``x_ref`` the loop's measured signal and
+    reference, ``p1`` and ``p2`` the highest node pressure at each step (so max_p1 = max_p2: the circuit's
+    peak pressure), ``u`` the loop's command; every signal of the circuit besides (the per-run log)."""
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.errors import SimulationDiverged
+    cs = load_circuit_scenario(path)
+    if cs.loop is None:
+        raise InputError("a study's circuit scenario must be a closed loop ([controller] + [reference])",
+                         source=str(path))
+    try:
+        res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
+                               loop=cs.loop)
+    except SimulationDiverged as exc:
+        return {k: np.zeros(1) for k in ("t", "xp", "x_ref", "p1", "p2", "u")}, str(exc)
+    cols = {k: v for k, v in res.columns.items()}
+    nodes = [f"{n}.p" for n in cs.circuit.nodes]
+    peak = np.max(np.vstack([cols[n] for n in nodes]), axis=0)
+    cols.update({"xp": cols[cs.loop.measure], "x_ref": cols[f"{cs.loop.measure}.reference"], "p1": peak,
+                 "p2": peak, "u": cols[cs.loop.command]})
+    return cols, None
+
+
 def _run_sequence(path: Path, folder: Path):
     from hydrohil.sequences.runner import run_sequence
     r = run_sequence(path, folder / "run")
     if r.signals is None:
         raise RuntimeError(r.error or "the sequence's run produced no signals")
     s = r.signals
-    cols = {c: s[c] for c in ("t", "xp", "p1", "p2", "u", "xs", "x_ref")}
+    if "p1" in s:
+        cols = {c: s[c] for c in ("t", "xp", "p1", "p2", "u", "xs", "x_ref")}
+    else:                                  # a circuit's sequence: its signals, the peak node pressure as p1, p2
+        if "xp" not in s:
+            raise InputError("a study's circuit sequence must be a closed loop ([controller] + [reference])",
+                             source=str(path))
+        peak = np.max(np.vstack([v for k, v in s.items() if s.units.get(k) == "Pa" and k.endswith(".p")]), axis=0)
+        cols = {**s, "p1": peak, "p2": peak}
     verdicts = {f"expect.{i}": o.status for i, o in enumerate(r.outcomes)}
     verdicts["verdict"] = r.status
     return cols, r.error if r.status == "error" else None, verdicts

@@ -150,9 +150,18 @@ class LoadedStudy:
         self.base = self._base_file()
         self.nominal = self._nominal()
 
+    @property
+    def circuit(self) -> bool:
+        """The base scenario names a circuit: its runs are the circuit's (values "component.key")."""
+        from hydrohil.circuits.scenario import is_circuit_scenario
+        return is_circuit_scenario(self.base_scenario())
+
     def _base_file(self) -> Path:
         from hydrohil.simulation.scenario import resolve_scenario
         s = self.study
+        base = self.source.parent / (s.scenario or s.sequence)
+        if base.is_file():
+            return base.resolve()
         try:
             return resolve_scenario(s.scenario or s.sequence, self.source.parent).resolve()
         except InputError as exc:
@@ -166,26 +175,47 @@ class LoadedStudy:
         return load_sequence(base).scenario_path()
 
     def _nominal(self) -> dict[str, Any]:
-        """Nominal value of every varied entry (the base scenario's parameters, controller, initial state)."""
-        from hydrohil.simulation.scenario import load_scenario
-        sc = load_scenario(self.base_scenario())
-        params = self.param_values = sc.params.model_dump(mode="python")
-        data = sc.scenario.model_dump(mode="python")
+        """Nominal value of every varied entry: the base scenario's parameters, controller and initial state;
+        a circuit's: its components' values (SI, "component.key"), its fluid's ("fluid.key"), its loop's gains
+        ("controller.key")."""
+        if self.circuit:
+            from hydrohil.circuits.scenario import load_circuit_scenario
+            cs = load_circuit_scenario(self.base_scenario())
+            values = {f"{c.name}.{k}": v for c in cs.circuit.components.values() for k, v in c.values.items()
+                      if k in c.type.params}
+            values.update({f"fluid.{k}": v for k, v in cs.circuit.fluid.items()})
+            if cs.loop is not None:
+                values.update({f"controller.{k}": v for k, v in cs.loop.cfg.model_dump().items()})
+            self.param_values = {}
+
+            def lookup(name, idx):
+                if idx is not None:
+                    raise KeyError(name)
+                return values[name]
+            what = "value (component.key, fluid.key, controller.key) of the circuit scenario"
+        else:
+            from hydrohil.simulation.scenario import load_scenario
+            sc = load_scenario(self.base_scenario())
+            params = self.param_values = sc.params.model_dump(mode="python")
+            data = sc.scenario.model_dump(mode="python")
+
+            def lookup(name, idx):
+                return _lookup(data if name.split(".")[0] in ("controller", "initial") else params, name, idx)
+            what = "parameter or key in"
         out = {}
         for i, v in enumerate(self.study.vary):
             for entry in (v.scale or [v.name]):
                 name, idx, _ = _parse_entry(entry)
                 if name in SPECIAL:
                     continue
-                root = data if name.split(".")[0] in ("controller", "initial") else params
                 try:
-                    node = _lookup(root, name, idx)
+                    node = lookup(name, idx)
                 except (KeyError, IndexError, TypeError):
                     if v.scale is None and v.dist in ("choice", "grid") and name.split(".")[0] == "controller":
                         continue            # a controller key the base controller does not have (e.g. ki)
-                    raise InputError(f"no such parameter or key {entry!r} in {self.base_scenario()}",
+                    raise InputError(f"no such {what} {entry!r} in {self.base_scenario()}",
                                      source=str(self.source), key=f"vary[{i}]") from None
-                if isinstance(node, (int, float)) and not isinstance(node, bool):
+                if isinstance(node, (int, float)) and not isinstance(node, bool) and node == node:
                     out[entry] = float(node)
         return out
 
