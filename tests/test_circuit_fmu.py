@@ -130,3 +130,35 @@ def test_a_circuit_fmu_under_address_and_undefined_behaviour_sanitizers(tmp_path
                     "before the last communication point", "too short for a hydrohil FMU state",
                     "not a hydrohil FMU state", "this FMU reads format 1", "FMU state of another export"):
         assert message in out, (message, out)
+
+
+def test_a_circuit_without_inputs_exports_and_exports_differing_in_values_differ(tmp_path):
+    """A circuit with no input signal still makes an FMU (validates, steps); two exports differing only in a
+    parameter value have different tokens (a state of one is refused by the other)."""
+    from fmpy import read_model_description
+    from hydrohil.circuits.circuit import circuit_from_dict
+    c = circuit_from_dict({"name": "no \"inputs\"", "components": {
+        "s": {"type": "pressure_source", "p": "s", "pressure": "100 bar"}, "t": {"type": "tank", "p": "t"},
+        "o": {"type": "orifice", "a": "s", "b": "n", "area": "1 mm2"},
+        "o2": {"type": "orifice", "a": "n", "b": "t", "area": "1 mm2"},
+        "v": {"type": "volume", "p": "n", "volume": "1 l"}}}, "test.toml")
+    path = export_circuit_fmu(c, tmp_path / "none.fmu", fmi=2)
+    assert validate_fmu(str(path)) == []
+    f = Fmu(str(path), extract(str(path), unzipdir=tmp_path / "u"))
+    f.s.enterInitializationMode()
+    f.s.exitInitializationMode()
+    f.step(0.0, 0.01)
+    assert f.real("n.p")[0] == pytest.approx(50e5, rel=1e-9)
+    c2 = circuit_from_dict({"name": "x", "components": {**{k: dict(v) for k, v in {
+        "s": {"type": "pressure_source", "p": "s", "pressure": "100 bar"}, "t": {"type": "tank", "p": "t"},
+        "o": {"type": "orifice", "a": "s", "b": "n", "area": "1 mm2"},
+        "o2": {"type": "orifice", "a": "n", "b": "t", "area": "1 mm2"},
+        "v": {"type": "volume", "p": "n", "volume": "2 l"}}.items()}}}, "test.toml")
+    c1 = circuit_from_dict({"name": "x", "components": {**{k: dict(v) for k, v in {
+        "s": {"type": "pressure_source", "p": "s", "pressure": "100 bar"}, "t": {"type": "tank", "p": "t"},
+        "o": {"type": "orifice", "a": "s", "b": "n", "area": "1 mm2"},
+        "o2": {"type": "orifice", "a": "n", "b": "t", "area": "1 mm2"},
+        "v": {"type": "volume", "p": "n", "volume": "1 l"}}.items()}}}, "test.toml")
+    g1 = read_model_description(str(export_circuit_fmu(c1, tmp_path / "a.fmu"))).guid
+    g2 = read_model_description(str(export_circuit_fmu(c2, tmp_path / "b.fmu"))).guid
+    assert g1 != g2

@@ -145,12 +145,12 @@ def test_the_builtin_ferreira2004_circuit_is_the_parameter_set():
 def test_a_pump_and_accumulator_supply_sags_and_recovers_under_the_servo_loop():
     """examples/circuits/servo_supply: the P loop moves the piston 120 mm and back; the supply leaves the
     relief's pressure while the valve draws more than the pump gives, the accumulator giving oil, and comes back
-    within 0.5 bar once the piston holds; the piston follows its reference within 2 mm at the holds."""
+    within 1.5 kPa once the piston holds; the piston follows its reference within 0.6 mm at the holds."""
     cs = load_circuit_scenario(CIRCUITS_DIR / "servo_supply" / "scenario.toml")
     r = simulate_circuit(cs.circuit, cs.duration, loop=cs.loop)
     t, ps, x = r.column("t"), r.column("supply.p"), r.column("cyl.x")
     assert ps[0] > 74e5 and ps[t < 1.5].min() < 60e5                  # (measured: 74.5 -> 57.7 bar)
-    assert abs(ps[-1] - ps[0]) < 0.5e5
+    assert abs(ps[-1] - ps[0]) < 1.5e3                                 # (measured: 522 Pa)
     assert r.column("accumulator.v_oil")[t < 1.5].min() < r.column("accumulator.v_oil")[0] - 5e-5
     for t_hold, x_ref in ((2.8, 0.15), (5.8, 0.03)):
-        assert abs(x[np.searchsorted(t, t_hold)] - x_ref) < 2e-3
+        assert abs(x[np.searchsorted(t, t_hold)] - x_ref) < 6e-4        # (measured: 0.16, 0.20 mm)

@@ -53,21 +53,21 @@ def test_the_reference_of_a_cylinder_against_its_end_stop_and_relief_closed_form
     assert compare_to_reference(hybrid, ref).worst_position < 3 * penetration    # (measured: 4.9 um)
 
 
-@pytest.mark.parametrize("name, position, pressure, speed", [
+@pytest.mark.parametrize("name, position, pressure, speed, largest", [
     # measured at 0.5 ms: two_cylinders 1.0e-7 m, 2.1e-5, 1.3e-4; pump_relief_accumulator -, 4.7e-7, -;
     # motor_speed (closed loop) 3.9e-8 m (its spool), 1.0e-4, 5.7e-5; counterbalance_hose_burst 2.6e-6 m,
-    # 1.7e-4, 4.9e-4
-    ("two_cylinders", 3e-7, 6e-5, 4e-4),
-    ("pump_relief_accumulator", 0.0, 1.5e-6, 0.0),
-    ("motor_speed", 1.2e-7, 3e-4, 1.7e-4),
-    ("counterbalance_hose_burst", 8e-6, 5e-4, 1.5e-3),
+    # 1.7e-4, 4.9e-4; largest stable steps 4.6, 7.7, 3.8, 1.2 ms
+    ("two_cylinders", 3e-7, 6e-5, 4e-4, 4.5e-3),
+    ("pump_relief_accumulator", 0.0, 1.5e-6, 0.0, 7.6e-3),
+    ("motor_speed", 1.2e-7, 3e-4, 1.7e-4, 3.8e-3),
+    ("counterbalance_hose_burst", 8e-6, 5e-4, 1.5e-3, 1.2e-3),
     # the paper's rig and its servo valve and LuGre cylinder on a pump supply (closed loops): 5.0e-6 m,
-    # 1.0e-3, 2.6e-3; 6.0e-6 m, 8.3e-4, 9.8e-4
-    ("ferreira2004", 1.5e-5, 3e-3, 8e-3),
-    ("servo_supply", 1.8e-5, 2.5e-3, 3e-3),
+    # 1.0e-3, 2.6e-3, 3.1 ms; 6.0e-6 m, 8.3e-4, 9.8e-4, 3.0 ms
+    ("ferreira2004", 1.5e-5, 3e-3, 8e-3, 3.0e-3),
+    ("servo_supply", 1.8e-5, 2.5e-3, 3e-3, 2.9e-3),
 ])
 def test_each_example_at_half_a_millisecond_against_its_reference_and_its_largest_step(name, position, pressure,
-                                                                                       speed):
+                                                                                       speed, largest):
     """The issue's "must hold": RK3 at 0.5 ms within 0.1 mm RMS in every position, 3 % of the highest pressure in
     every pressure, 2 % in every speed of the circuit's continuous reference; the largest stable step >= 1 ms.
     The limits here are about 3x what the code achieves."""
@@ -79,7 +79,7 @@ def test_each_example_at_half_a_millisecond_against_its_reference_and_its_larges
     assert acc["worst_pressure_relative"] <= LIMIT_PRESSURE and acc["worst_speed_relative"] <= LIMIT_SPEED
     assert acc["worst_position_m"] <= position and acc["worst_pressure_relative"] <= pressure
     assert acc["worst_speed_relative"] <= speed
-    assert ms["max_stable_step"] >= 1e-3              # (measured: 4.6, 7.7, 3.8, 1.2, 3.1, 3.0 ms)
+    assert ms["max_stable_step"] >= max(1e-3, 0.8 * largest)       # the issue's 1 ms, and near what it was
     assert ms["first_unstable_step"] / ms["max_stable_step"] <= 1.05
     failed = [tr for tr in ms["trials"] if not tr["stable"]]
     assert failed and all(tr["step"] > ms["max_stable_step"] for tr in failed)
@@ -132,6 +132,26 @@ def test_a_scenario_names_its_circuit_and_sets_its_values(tmp_path):
         with pytest.raises(InputError, match=message) as e:
             load_circuit_scenario(f)
         assert e.value.key == key, (old, e.value.key)
+    f.write_text(loop)
+    with pytest.raises(InputError, match="closed loop's command") as e:
+        load_circuit_scenario(f, sets={"valve.command": 0.5})
+    assert e.value.key == "valve.command"
+    f.write_text(loop.replace("[controller]", "duration = 1e-5\n[controller]"))
+    with pytest.raises(InputError, match="at least one step") as e:
+        load_circuit_scenario(f)
+    assert e.value.key == "duration"
+    f.write_text(loop.replace('kp = 0.008', 'kp = 0.008\nu_min = -2.0'))
+    with pytest.raises(InputError, match=r"valve.command's range \[-1, 1\]"):
+        load_circuit_scenario(f)
+    f.write_text(loop.replace('kp = 0.008', 'kp = -0.008'))
+    with pytest.raises(InputError, match="reverse-acting loops are not there yet"):
+        load_circuit_scenario(f)
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "circuit.toml").write_text((CIRCUITS_DIR / "motor_speed" / "circuit.toml").read_text())
+    sub = tmp_path / "sub" / "s.toml"
+    sub.write_text('circuit = "circuit.toml"\n')              # not beside it: the folder above does not count
+    with pytest.raises(InputError, match="no circuit 'circuit.toml'"):
+        load_circuit_scenario(sub)
     f.write_text('circuit = "two_cylinders"\nparams = "ferreira2004"\n')
     with pytest.raises(InputError, match="unknown key") as e:
         load_circuit_scenario(f)
@@ -220,3 +240,37 @@ def test_the_counterbalance_valve_holds_the_load_when_the_hose_bursts():
     assert res.column("cb.mode")[-1] == 0                                # closed
     intact = simulate_circuit(cs.circuit, cs.duration, inputs={"burst.opening": 0.0})
     assert intact.column("cyl.x")[np.searchsorted(t, 2.5)] > x[-1] + 0.04   # without the burst it kept lifting
+
+
+def test_a_loop_measures_under_the_command_it_applied_and_stays_in_the_commands_range(tmp_path):
+    """A P loop on a signal its command moves directly (an orifice's flow on its opening): at each step the
+    controller reads the flow under the opening it applied the step before (at step 0: the one the run starts
+    with), so the logged command is kp*(reference - the logged flow of the step before); an opening asked
+    beyond [0, 1] stays in the orifice's range (u_min/u_max default to the command parameter's)."""
+    from hydrohil.circuits.circuit import circuit_from_dict
+    from hydrohil.circuits.run import Loop, simulate_circuit
+    from hydrohil.control import PControllerCfg
+    c = circuit_from_dict({"fluid": FLUID, "components": {
+        "s": {"type": "pressure_source", "p": "s", "pressure": "100 bar"}, "t": {"type": "tank", "p": "t"},
+        "load": {"type": "orifice", "a": "s", "b": "t", "area": "2 mm2"}},
+        "inputs": {"load.opening": 0.1}}, "test.toml")
+    kp, ref = 1000.0, 2e-4                                   # per m3/s; 12 l/min
+    loop = Loop(PControllerCfg(type="p", kp=kp), "load.q", "load.opening", (np.array([0.0]), np.array([ref])),
+                limits=(0.0, 1.0))
+    r = simulate_circuit(c, 0.01, loop=loop)
+    q, u = r.column("load.q"), r.column("load.opening")
+    assert u[0] == pytest.approx(kp * (ref - q0()), rel=1e-12)            # measured under the start's 0.1
+    assert np.array_equal(u[1:-1], kp * (ref - q[:-2]))                     # under the opening applied before
+    # (the last row: the state after the last step, under the last command applied)
+    assert u[-1] == pytest.approx(kp * ref / (1 + kp * q0() / 0.1), rel=1e-9)   # the loop's fixed point
+    big = Loop(PControllerCfg(type="p", kp=1e5), "load.q", "load.opening", (np.array([0.0]), np.array([1.0])),
+               limits=(0.0, 1.0))
+    assert simulate_circuit(c, 0.01, loop=big).column("load.opening").max() == 1.0
+    neg = Loop(PControllerCfg(type="p", kp=1e5), "load.q", "load.opening", (np.array([0.0]), np.array([-1.0])),
+               limits=(0.0, 1.0))
+    assert simulate_circuit(c, 0.01, loop=neg).column("load.opening").min() == 0.0    # never below its range
+
+
+def q0():
+    """The orifice's flow at its start opening 0.1 (the textbook law, 100 bar)."""
+    return 0.61 * 2e-6 * 0.1 * math.sqrt(2 * 100e5 / 860.0)

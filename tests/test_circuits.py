@@ -462,7 +462,8 @@ def test_counterbalance_valve_holds_the_load_and_lowers_it_under_pilot():
     up = circuit({"src": {"type": "pressure_source", "p": "v", "pressure": 100e5},
                   "pilot": {"type": "pressure_source", "p": "x", "pressure": p_x},
                   "cb": {"type": "counterbalance_valve", "valve": "v", "load": "a", "pilot": "x", "set_pressure": p_set,
-                         "rated_flow": "10 l/min", "rated_excess": "20 bar", "check_rated_flow": "20 l/min",
+                         "rated_flow": "10 l/min", "rated_drop": "10 bar", "rated_excess": "20 bar",
+                         "check_rated_flow": "20 l/min",
                          "check_rated_pressure": "5 bar"},
                   "vol": {"type": "volume", "p": "a", "volume": "1 l"}}, initial={"a": 99.5e5})
     r = simulate_circuit(up, 0.5)

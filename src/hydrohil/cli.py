@@ -412,6 +412,8 @@ def circuit_linear(circuit: str, sets: Optional[dict] = None, out: Optional[Path
     (:func:`hydrohil.circuits.linear.linearise_circuit`); written to ``out`` (.json or .npz) when given."""
     from hydrohil.circuits.linear import linearise_circuit
     from hydrohil.circuits.scenario import circuit_scenario
+    if out is not None and Path(out).suffix not in (".json", ".npz"):
+        raise InputError(f"a .json or .npz file, got {Path(out).name}", source="--out", key=str(out))
     cs = circuit_scenario(circuit=circuit, sets=sets)
     lin = linearise_circuit(cs.circuit, h=cs.step)
     if out is not None:
@@ -498,8 +500,11 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", help="FMU file to writ
         path = export_fmu(out, params, fmi, step, circuit, scenario, _parse_sets(sets))
     except HydrohilError as exc:
         fail(exc)
+    from fmpy import read_model_description
+    md = read_model_description(str(path))
     what = f"circuit {circuit or scenario}" if circuit or scenario else f"parameter set {params}"
-    typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation of {what}, internal step {step or 5e-4:g} s)")
+    typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation of {what}, internal step "
+               f"{md.defaultExperiment.stepSize} s)")
 
 
 def export_c(out: Path, params: str = "ferreira2004", step: float = 5e-4, duration: float = 10.0,
@@ -552,7 +557,7 @@ def _parse_sets(items: list[str]) -> dict:
         try:
             out[key.strip()] = tomllib.loads(f"v = {val.strip()}")["v"]
         except tomllib.TOMLDecodeError:
-            if not re.match(r"^[-+]?[0-9.]+(e[-+]?[0-9]+)?\s*[A-Za-z%°][\w/.^%°]*$", val.strip()):
+            if not re.match(r"^[-+]?[0-9.]+([eE][-+]?[0-9]+)?\s*[A-Za-z%°(][\w/.^%°()³²]*$", val.strip()):
                 raise InputError(f"not a TOML value nor a number with its unit: {val!r}", source="--set",
                                  key=key) from None
             out[key.strip()] = val.strip()        # "300 kg", "150bar": a value with its unit (circuits)

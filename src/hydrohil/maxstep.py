@@ -161,8 +161,11 @@ def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol
     circuit's continuous reference (at the scenario's step) within tol_x in every position and tol_p in every
     pressure. Also the accuracy at the scenario's step (the README's table)."""
     from hydrohil.circuits.accuracy import compare_to_reference
-    from hydrohil.circuits.run import simulate_circuit
-    from hydrohil.errors import SimulationDiverged
+    from hydrohil.circuits.run import METHODS, simulate_circuit
+    from hydrohil.errors import InputError, SimulationDiverged
+    if solver not in METHODS:
+        raise InputError(f"a fixed-step method to search the step of: one of {', '.join(METHODS)}, got {solver!r}",
+                         key="--solver")
     c, h_out = cs.circuit, cs.step
     ref = simulate_circuit(c, cs.duration, h=h_out, method="reference", rest=cs.rest, loop=cs.loop)
     at_step = compare_to_reference(simulate_circuit(c, cs.duration, h=h_out, method=solver, rest=cs.rest,
@@ -175,7 +178,8 @@ def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol
         try:
             with warnings.catch_warnings():          # (a candidate's own rest may be off: judged by its run)
                 warnings.simplefilter("ignore")
-                run = simulate_circuit(c, cs.duration, h=h, method=solver, rest=cs.rest, loop=cs.loop)
+                run = simulate_circuit(c, cs.duration, h=h, method=solver, rest=cs.rest, loop=cs.loop,
+                                       every=max(1, int(round(h_out / h))))     # (a row per reference sample)
         except SimulationDiverged:
             r = {"stable": False, "reason": "diverged"}
         else:
@@ -193,9 +197,10 @@ def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol
             progress(h, r)
         return r["stable"]
 
-    lo, hi = largest_stable(test, h0=h_out, rel_tol=rel_tol, h_max=h_max)
+    lo, hi = largest_stable(test, h0=h_out, rel_tol=rel_tol, h_min=h_out / 1000, h_max=h_max)
     return {"max_stable_step": lo, "first_unstable_step": hi, "model": "hybrid", "solver": solver,
             "scenario": cs.source, "circuit": c.name, "duration": cs.duration, "tol_x_m": tol_x, "tol_p_pa": tol_p,
             "criteria": "finite, pressures <= 1.5x the reference's highest, RMS error vs the circuit's continuous "
-                        "reference (LSODA) <= tol_x in every position and tol_p in every pressure",
+                        "reference (LSODA) <= tol_x in every position and tol_p in every pressure (speeds: see "
+                        "accuracy_at_step); searched down to 1/1000 of the scenario's step",
             "accuracy_at_step": {"step": h_out, **at_step.as_dict()}, "trials": trials}

@@ -283,8 +283,8 @@ static int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, cons
 
 /* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it); a row every `every`
  * steps from step 0 (the state before the step). Closed loop (ctl not NULL, the core's controller law,
- * control.c): at each step k the controller reads log column `meas` of the state at t_k and sets input `cmd`
- * of step k (written into u) for the reference ref[k] (slope dref[k]). Returns 0, or 1 when the state went
+ * control.c): at each step k the controller reads log column `meas` of the state at t_k (under the command
+ * of step k-1) and sets input `cmd` of step k (written into u) for the reference ref[k] (slope dref[k]). Returns 0, or 1 when the state went
  * non-finite (rows so far written, *rows set). */
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
@@ -295,7 +295,9 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
     int64_t step, row = 0;
     for (step = 0; step <= n; step++) {{
         double *uk = u + (step < n ? step : n - 1 > 0 ? n - 1 : 0) * NU;
-        if (ctl && step < n) {{
+        if (ctl && step < n) {{   /* the controller measures under the command last applied (step 0: as set) */
+            if (step > 0)
+                uk[cmd] = uk[cmd - NU];
             log_row((double)step * h, y, m, uk, P, seen);
             uk[cmd] = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state, ref[step],
                                            dref[step], seen[meas], 0.0, 0.0);

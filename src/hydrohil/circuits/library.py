@@ -260,7 +260,7 @@ def _emit_servo_valve(c):
                 initial={"x": f"hh_clamp({u}, -1.0, 1.0)", "v": "0.0"},
                 mode_update=f"hc_spool_project(&{x}, &{v}, {c.par('lv')}); "
                             f"{c.mode} = hc_spool_region({x}, {v}, {u}, {spool});",
-                reference={"v": f"hc_servo_spool_accel_free({x}, {v}, {u}, {spool})"},
+                reference={"x": v, "v": f"hc_servo_spool_accel_free({x}, {v}, {u}, {spool})"},
                 outputs={"x": (x, "-"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}})
 
 
@@ -443,7 +443,7 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "rated_flow": Param("m3/s", 0.0, 1.0, "flow of the main stage fully open at its rated drop",
                                        lo_strict=True),
                    "rated_drop": Param("Pa", 0.0, 1e9, "pressure drop load -> valve port at the rated flow, fully "
-                                       "open", 10e5, lo_strict=True),
+                                       "open (the catalogue's flow curve)", lo_strict=True),
                    "rated_excess": Param("Pa", 0.0, 1e9, "excess of p_load - p_valve + r*p_pilot over p_set that "
                                          "opens the main stage fully", lo_strict=True),
                    "check_cracking": Param("Pa", 0.0, 1e8, "check's cracking pressure difference", 2e5,

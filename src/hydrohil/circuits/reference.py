@@ -21,10 +21,11 @@ def reference_atol(units: list[str]) -> np.ndarray:
 
 def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h: float, n: int, every: int, *,
                             rtol: float = RTOL, progress=None, stats: dict | None = None,
-                            control=None) -> np.ndarray:
+                            control=None, applied=None) -> np.ndarray:
     """The reference's log rows (NLOG columns, the hybrid run's) at steps 0, every, 2*every, .. n from ``y0``
     under the inputs ``u`` (a row per step, held over it). ``control(k, row)``: a sampled controller that sets
-    u[k] from the log row of the state at step k (each step is then an interval of its own). Raises
+    u[k] from the log row of the state at step k (each step is then an interval of its own; ``applied(k)``
+    first puts the command last applied into u[k], the one that row is computed with). Raises
     stiff.ReferenceSolverFailed."""
     ffi, lib, lay = cc.ffi, cc.lib, cc.layout
     stats = {} if stats is None else stats
@@ -45,7 +46,7 @@ def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h:
     log = np.zeros((len(rows), len(lay.log_columns)))
     # segments of constant input: [k0, k1) steps
     if control is not None:
-        return _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, log, progress)
+        return _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, applied, log, progress)
     change = [0] + [k for k in range(1, n) if np.any(u[k] != u[k - 1])] + [n]
     y = np.array(y0, dtype=float)
     r = 0
@@ -74,7 +75,7 @@ def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h:
     return log
 
 
-def _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, log, progress):
+def _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, applied, log, progress):
     """Step by step: the row of the state at t_k, the controller's command, the interval [t_k, t_k+1]."""
     ffi, lib = cc.ffi, cc.lib
     nlog = log.shape[1]
@@ -82,6 +83,8 @@ def _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, 
     y = np.array(y0, dtype=float)
     for k in range(n + 1):
         uk = u[min(k, len(u) - 1)]
+        if k < n and applied is not None:
+            applied(k)
         lib.hc_reference_row(Pb, ffi.from_buffer("double[]", np.ascontiguousarray(y)),
                              ffi.from_buffer("double[]", uk), k * h, ffi.from_buffer("double[]", row))
         if k < n:

@@ -196,11 +196,13 @@ class Loop:
     reference: tuple                    # (times, values): held from each time, or linear between them
     controller: object = None           # the law at the run's step (set by simulate_circuit)
     linear: bool = False                # the reference interpolated linearly (else held)
+    limits: tuple = (-1.0, 1.0)         # the command's range: [u_min, u_max] within its parameter's range
 
     def start(self, h: float) -> None:
         """A fresh controller sampled at h (no integrator or filter state from another run)."""
         from hydrohil.control import BuiltinController
         self.controller = BuiltinController(self.cfg, None, h)
+        self.controller.c.u_min, self.controller.c.u_max = self.limits   # (the law's clamp: in its range)
 
     def at(self, t: np.ndarray, h: float) -> np.ndarray:
         if self.linear:
@@ -243,7 +245,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     if loop is not None:
         _check_loop(c, lay, loop)
         loop.start(h)
-    y, m, _ = _start(c, cc, P, u, h, "rk3" if method == "reference" else method, rest, loop)
+    y, m, u0 = _start(c, cc, P, u, h, "rk3" if method == "reference" else method, rest, loop)
+    if loop is not None:                  # what the valve was held at: the command the controller's first
+        u[0, lay.inputs.index(loop.command)] = u0[lay.inputs.index(loop.command)]   # measurement is made with
     if method == "reference":
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
         return _with_drives(c, res, u, every, loop)
@@ -398,10 +402,14 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
 
         def control(k, row):
             u[k, cmd] = loop.controller.update(ref[k], dref[k], row[meas])
+
+        def applied(k):                    # the row the controller reads: under the command last applied
+            if k > 0:
+                u[k, cmd] = u[k - 1, cmd]
     t0 = time.perf_counter()
     try:
         log = solve_circuit_reference(cc, P, y[:len(lay.states)], u, h, n, every, progress=progress, stats=stats,
-                                      control=control)
+                                      control=control, applied=applied if loop is not None else None)
     except ReferenceSolverFailed as exc:
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         state = exc.y if exc.y is not None else y

@@ -19,7 +19,7 @@ values on top of the circuit's, and drives of its signals in place of the circui
     measure = "motor.w"               # the signal it reads (a log column)
     command = "valve.command"         # the input it drives (one of the circuit's [inputs])
     kp = 0.002                        # gains in the command's unit per the measured signal's SI unit
-    ki = 0.02
+    ki = 0.02                         # (u_min, u_max: the command's limits, default its parameter's range)
     [reference]                       # the measured signal's reference, held from each t, with units
     t = [0, 0.5, 3]
     value = ["0 rpm", "600 rpm", "300 rpm"]
@@ -73,16 +73,16 @@ def is_circuit_scenario(path: str | Path) -> bool:
 
 def circuit_file(name: str, base: Path, source: str = "") -> Path:
     """The file of a circuit named in a scenario: a path relative to the scenario's folder, or a built-in."""
-    for p in (base / name, Path(name)):
-        if p.is_file():
-            return p
-        if p.is_dir() and (p / "circuit.toml").is_file():
-            return p / "circuit.toml"
+    p = base / name                       # (an absolute name stays itself)
+    if p.is_file():
+        return p.resolve()
+    if p.is_dir() and (p / "circuit.toml").is_file():
+        return (p / "circuit.toml").resolve()
     builtin = CIRCUITS_DIR / name / "circuit.toml"
     if builtin.is_file():
         return builtin
     names = sorted(d.name for d in CIRCUITS_DIR.iterdir() if (d / "circuit.toml").is_file())
-    raise InputError(f"no circuit {name!r}: not a file next to the scenario nor a built-in circuit (built-in: "
+    raise InputError(f"no circuit {name!r}: not a file (relative to {base}) nor a built-in circuit (built-in: "
                      f"{', '.join(names)})", source=source or str(base), key="circuit")
 
 
@@ -143,10 +143,17 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
     dur = duration if duration is not None else data.get("duration", default_duration(c))
     if not (isinstance(dur, (int, float)) and 0 < dur <= 1e5):
         raise InputError(f"a duration in (0, 1e5] s, got {dur!r}", source=source, key="duration")
+    if dur < h:
+        raise InputError(f"a run of at least one step: duration {dur:g} s < step {h:g} s", source=source,
+                         key="duration")
     rest = data.get("rest", True)
     if not isinstance(rest, bool):
         raise InputError(f"true or false, got {rest!r}", source=source, key="rest")
     loop = _loop(data, c, source)
+    if loop is not None and loop.command in given:
+        raise InputError(f"{loop.command} is the closed loop's command (its controller drives it): a value set "
+                         "for it would be overridden", source=source if loop.command in data.get("set", {}) else
+                         "--set", key=loop.command)
     return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
                            given, loop)
 
@@ -171,6 +178,7 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
         if not isinstance(table.get(key), str):
             raise InputError("the signal's name, component.variable", source=source, key=f"controller.{key}")
     measure, command = table.pop("measure"), table.pop("command")
+    limits = {k: table.pop(k) for k in ("u_min", "u_max") if k in table}     # (the command's unit, not ū)
     if table.get("type") not in LOOP_TYPES:
         raise InputError(f"a circuit's loop runs the core's laws: type one of {', '.join(LOOP_TYPES)}, got "
                          f"{table.get('type')!r}", source=source, key="controller.type")
@@ -179,7 +187,9 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     except ValidationError as exc:
         e = exc.errors()[0]
         loc = ".".join(str(x) for x in e["loc"]) or "type"
-        raise InputError(e["msg"], source=source, key=f"controller.{loc}") from None
+        hint = (" (a larger command must raise the measured signal: reverse-acting loops are not there yet)"
+                if loc in ("kp", "ki") and "greater than" in e["msg"] else "")
+        raise InputError(e["msg"] + hint, source=source, key=f"controller.{loc}") from None
     lay = compile_circuit(c).layout
     units = {"t": "s", **{f"{n}.p": "Pa" for n in c.nodes}, **dict(lay.outputs)}
     if measure not in units or measure == "t":
@@ -189,6 +199,15 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
         raise InputError(f"not an input of circuit {c.name!r} (inputs: {', '.join(c.inputs) or 'none'}; a "
                          "circuit's [inputs] names the signals it lets be driven)", source=source,
                          key="controller.command")
+    prm = c.components[command.split(".")[0]].type.params[command.split(".")[1]]
+    try:
+        lo = to_si(limits.get("u_min", prm.lo), prm.unit)
+        hi = to_si(limits.get("u_max", prm.hi), prm.unit)
+    except ValueError as exc:
+        raise InputError(str(exc), source=source, key="controller.u_min/u_max") from None
+    if not prm.lo <= lo < hi <= prm.hi:
+        raise InputError(f"the command's limits must lie in {command}'s range [{prm.lo:g}, {prm.hi:g}] {prm.unit} "
+                         f"with u_min < u_max, got [{lo:g}, {hi:g}]", source=source, key="controller.u_min")
     ref = data["reference"]
     t, v = ref.get("t"), ref.get("value")
     if set(ref) - {"t", "value", "interpolation"} or not isinstance(t, list) or not isinstance(v, list) \
@@ -206,7 +225,7 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
                          key="reference") from None
     if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
         raise InputError("times start at 0 and increase", source=source, key="reference.t")
-    return Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear")
+    return Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi))
 
 
 def _apply(raw: dict, key: str, value, source: str) -> None:

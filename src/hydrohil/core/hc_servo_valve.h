@@ -5,8 +5,9 @@
 #include "core.h"
 
 /* ---- pseudo-sections (eq 3): k1*x + k2 + sqrt(k3*x^2 + k4*x + k5), floored at zero [(l/min)/sqrt(bar)];
- * x the normalised spool position in [-1, 1] (P->B and A->T open with +x: As2(x), A1t(x); P->A and B->T with
- * -x: As1 = section(-x), A2t = section(-x) of the other coefficients). */
+ * x the normalised spool position in [-1, 1]: As2 = section(x) (P->B) and A1t = section(x, kt) (A->T),
+ * As1 = section(-x) (P->A) and A2t = section(-x, kt) (B->T); with the paper's k1 < 0 a section grows as its
+ * argument falls, so +x opens P->A and B->T (the piston extends) and -x opens P->B and A->T. */
 HH_INLINE double hc_section(double x, double k1, double k2, double k3, double k4, double k5)
 {
     return hh_max(k1 * x + k2 + sqrt(hh_max(k3 * x * x + k4 * x + k5, 0.0)), 0.0);

@@ -61,20 +61,18 @@ int plant_set_real(plant *pl, unsigned vr, double v)
 
 /* The initial state: the circuit's state at rest as exported (under the inputs' start values); inputs set
  * before initialisation to other values: the node pressures marched to their rest under them (the components'
- * states held, REST_S simulated seconds at most; without the exporter's final root polish). */
+ * states held and the nodes given in [initial] too, REST_S simulated seconds at most; without the exporter's
+ * final root polish). */
 int plant_prepare(plant *pl)
 {
-    int64_t held[CIRCUIT_NY];
     int i, differ = 0;
     for (i = 0; i < CIRCUIT_NINPUTS; i++)
         differ |= pl->v.u[i] != CIRCUIT_U0[i];
     memcpy(pl->v.y, CIRCUIT_Y0, sizeof pl->v.y);
     memcpy(pl->v.m, CIRCUIT_M0, sizeof pl->v.m);
-    if (pl->v.inputs_set && differ) {
-        for (i = 0; i < CIRCUIT_NY; i++)
-            held[i] = 0;
+    if (pl->v.inputs_set && differ) {    /* the nodes given in [initial] keep theirs (CIRCUIT_HELD) */
         hc_init(pl->v.P, pl->v.u, pl->v.y, pl->v.m);
-        if (hc_rest(pl->v.P, pl->v.u, pl->v.y, pl->v.m, held, CIRCUIT_METHOD, CIRCUIT_STEP,
+        if (hc_rest(pl->v.P, pl->v.u, pl->v.y, pl->v.m, CIRCUIT_HELD, CIRCUIT_METHOD, CIRCUIT_STEP,
                     (int64_t)(REST_S / CIRCUIT_STEP), REST_TOL) < 0)
             plant_logf(pl, PLANT_WARNING, "the node pressures did not settle in %g s under the inputs set: the run "
                        "starts from where they are", REST_S);
