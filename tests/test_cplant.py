@@ -184,8 +184,9 @@ def test_lockstep_c_plant_equals_python_plant_bit_for_bit(tmp_path):
     assert list(tp["verdict"]["criteria"]) == list(tc["verdict"]["criteria"]) == [k for k, _ in shape.VERDICT_CRITERIA]
     for key in ("steps", "packets_lost", "late_commands", "commands_delivered", "watchdog_trips"):
         assert tp[key] == tc[key], key
-    for t in (tp, tc):      # + the HELLO, + the controller's BYE when it arrives before the plant has ended
-        assert t["packets_rx"] - t["commands_delivered"] in (1, 2), t
+    for t in (tp, tc):      # + the HELLO, + the controller's BYE when it arrives before the plant has ended, + a
+        # HELLO repeated every 0.2 s until the plant answers (hil/controller.py: on a loaded machine, a few)
+        assert 1 <= t["packets_rx"] - t["commands_delivered"] <= 5, t
 
 
 FAULT_EXAMPLES = sorted((EXAMPLES / "faults").glob("*.toml"))
