@@ -463,9 +463,9 @@ def circuits_table(res: dict) -> str:
     for name, r in res["circuits"].items():
         lines.append(f"| `{name}` | {r['ns_per_step']:.0f} ns | {r['realtime_factor']:.0f} | "
                      f"{_f(r['max_stable_step_s'] and r['max_stable_step_s'] * 1e3)} ms | "
-                     f"{_f(r.get('positions') and r['worst_position_m'] * 1e6, '{:.2g} µm')} | "
+                     f"{_f(r['worst_position_m'] * 1e6 if r.get('positions') else None, '{:.2g} µm')} | "
                      f"{r['worst_pressure_relative'] * 100:.2g} % | "
-                     f"{_f(r.get('speeds') and r['worst_speed_relative'] * 100, '{:.2g} %')} |")
+                     f"{_f(r['worst_speed_relative'] * 100 if r.get('speeds') else None, '{:.2g} %')} |")
     lines.append("")
     lines.append("Limits (every example): position ≤ 0.1 mm, pressure ≤ 3 %, speed ≤ 2 % RMS; largest stable step "
                  "≥ 1 ms.")
