@@ -154,3 +154,34 @@ def test_a_pump_and_accumulator_supply_sags_and_recovers_under_the_servo_loop():
     assert r.column("accumulator.v_oil")[t < 1.5].min() < r.column("accumulator.v_oil")[0] - 5e-5
     for t_hold, x_ref in ((2.8, 0.15), (5.8, 0.03)):
         assert abs(x[np.searchsorted(t, t_hold)] - x_ref) < 6e-4        # (measured: 0.16, 0.20 mm)
+
+
+def test_a_lugre_motor_slides_at_the_stribeck_speed_breaks_away_and_sticks_when_reversed():
+    """SPEC §12.3's motor friction: between two pressure sources, a 10 cm3/rev motor under a constant torque
+    eta*D*dp/(2 pi) = 8 N.m turns at the w where it equals fc + (fs - fc)*exp(-(w/vs)^2) + kv*w (root finding
+    here); under a rising torque it leaves stick when it reaches fs (within the bristles' travel of a step);
+    turned back, it sticks where its speed crosses zero."""
+    D, eta, fc, fs, vs, kv = 10e-6, 1.0, 3.0, 5.0, 1.0, 1.0
+    fr = {"sigma0": 1e4, "sigma1": 2.0, "fc_pos": fc, "fs_pos": fs, "vs_pos": vs, "kv_pos": kv, "fc_neg": fc,
+          "fs_neg": fs, "vs_neg": vs, "kv_neg": kv}
+
+    def rig(a_pressure, **extra):
+        return circuit_from_dict({"components": {
+            "a": {"type": "pressure_source", "p": "a", **({} if a_pressure is None else {"pressure": a_pressure})},
+            "b": {"type": "pressure_source", "p": "b", **({} if a_pressure is None else {"pressure": 0.0})},
+            "m": {"type": "lugre_motor", "a": "a", "b": "b", "displacement": D, "efficiency": eta, "inertia": 0.01,
+                  **fr}}, **extra}, "test.toml")
+    dp = 8.0 * 2 * math.pi / (eta * D)
+    r = simulate_circuit(rig(dp), 3.0, rest=False)
+    w = brentq(lambda w: fc + (fs - fc) * math.exp(-(w / vs) ** 2) + kv * w - 8.0, 1e-6, 1e4, xtol=1e-14)
+    assert r.column("m.w")[-1] == pytest.approx(w, rel=1.5e-14) and r.column("m.mode")[-1] == 1   # (4e-15)
+    rate = 10.0 * 2 * math.pi / (eta * D)                              # 10 N.m per second
+    t_tab = list(np.arange(0, 2.0, 1e-3))
+    ramp = rig(None, inputs={"a.pressure": {"t": t_tab, "value": [rate * min(t, 2.0 - t) for t in t_tab]},
+                             "b.pressure": {"t": t_tab, "value": [2 * rate * max(t - 1.0, 0.0) for t in t_tab]}})
+    r = simulate_circuit(ramp, 2.0, rest=False)
+    t, mode, wr = r.column("t"), r.column("m.mode"), r.column("m.w")
+    t_break = t[np.argmax(mode == 1)]
+    assert t_break == pytest.approx(fs / 10.0, abs=2e-3) and np.all(mode[t < t_break] == 0)
+    back = np.nonzero((t > 1.0) & (mode == 0))[0]                      # stuck again once turned back
+    assert back.size and abs(wr[back[0]]) == 0.0 and wr[back[0] - 1] > 0.0

@@ -236,6 +236,8 @@ def _drive(drive, prm, source: str, where: str):
 
 
 def _cross_check(ctype: ComponentType, v: dict) -> str | None:
+    if ctype.name == "lugre_motor" and (v["fs_pos"] < v["fc_pos"] or v["fs_neg"] < v["fc_neg"]):
+        return "a breakaway torque fs_* is at least its Coulomb torque fc_*"
     if ctype.name == "lugre_cylinder":
         areas, sizes = [v[k] == v[k] for k in ("area_a", "area_b")], [v[k] == v[k] for k in ("bore", "rod")]
         if not (all(areas) and not any(sizes)) and not (all(sizes) and not any(areas)):

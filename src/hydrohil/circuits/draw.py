@@ -27,6 +27,7 @@ STYLE = {
     "cylinder": ("box3d", "cylinder", {"style": "filled", "fillcolor": "#e2fde8"}),
     "double_rod_cylinder": ("box3d", "double-rod cylinder", {"style": "filled", "fillcolor": "#e2fde8"}),
     "lugre_cylinder": ("box3d", "cylinder, LuGre seals", {"style": "filled", "fillcolor": "#e2fde8"}),
+    "lugre_motor": ("circle", "▽ motor, LuGre", {"style": "filled", "fillcolor": "#e2fde8"}),
 }
 VALVES = {"valve_43": ("⇉", "⊥ ⊤", "⇆"), "valve_63": ("⇉", "⇢ P→T", "⇆"), "servo_valve": ("⇉", "⊥ ⊤", "⇆")}
 INTO = {"inlet", "a", "P", "p", "pilot", "valve"}        # ports the flow usually enters a component by
@@ -55,7 +56,7 @@ def _figures(comp) -> list[str]:
         out.append(f"{v['diameter'] * 1e3:g} mm × {v['length']:g} m")
     if t == "volume":
         out.append(f"{v['volume'] * 1e3:g} l")
-    if t == "motor":
+    if t in ("motor", "lugre_motor"):
         out.append(f"{v['displacement'] * 1e6:g} cm³/rev")
     if t in ("cylinder", "double_rod_cylinder"):
         out.append(f"{v['bore'] * 1e3:g}/{v['rod'] * 1e3:g} × {v['stroke'] * 1e3:g} mm, {v['mass']:g} kg")

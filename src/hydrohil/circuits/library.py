@@ -303,12 +303,37 @@ def _emit_lugre_cylinder(c):
     return e
 
 
+def _emit_lugre_motor(c):
+    """A hydraulic motor with LuGre friction (SPEC §12.3: the Stribeck form of eq 25 with stick and slip)."""
+    w, z = c.x("w"), c.x("z")
+    dp = f"({c.p('a')} - {c.p('b')})"
+    fr = ", ".join(c.par(k) for k in ("sigma0", "sigma1", "fc_pos", "fs_pos", "vs_pos", "kv_pos", "fc_neg",
+                                      "fs_neg", "vs_neg", "kv_neg"))
+    static = ", ".join(c.par(k) for k in ("fc_pos", "fs_pos", "vs_pos", "fc_neg", "fs_neg", "vs_neg"))
+    torque = f"hc_motor_torque({c.par('displacement')}, {c.par('efficiency')}, {dp})"
+    drive = f"({torque} - {c.par('damping')} * {w} - {c.par('load_torque')})"     # the net torque but friction
+    ff = f"hc_lc_friction((int){c.mode}, {w}, {z}, {fr})"
+    q = f"hc_motor_flow({c.par('displacement')}, {w}, {c.par('leakage')}, {dp})"
+    g = f"hc_stribeck({w}, {static})"
+    kv = f"({w} >= 0.0 ? {c.par('kv_pos')} : {c.par('kv_neg')})"
+    dz = f"({w} - {c.par('sigma0')} * fabs({w}) * {z} / {g})"
+    return Emit(pre=[("drive", drive)], flows=[("a", "b", q)],
+                derivatives={"w": f"({c.v('drive')} - {ff}) / {c.par('inertia')}",
+                             "z": f"({c.mode} == HC_LC_STICK ? {w} : 0.0)"},
+                initial={"w": c.par("speed0"), "z": "0.0"},
+                mode_update=f"{c.mode} = hc_lc_friction_mode((int){c.mode}, &{w}, &{z}, {c.par('sigma0')}, "
+                            f"{c.par('fs_pos')}, {c.par('fs_neg')});",
+                reference={"z": dz, "w": f"({c.v('drive')} - ({c.par('sigma0')} * {z} + {c.par('sigma1')} * {dz} + "
+                                         f"{kv} * {w})) / {c.par('inertia')}"},
+                outputs={"w": (w, "rad/s"), "q": (q, "m3/s"), "torque": (torque, "N.m"), "friction": (ff, "N.m")})
+
+
 _EMIT = {"tank": _emit_tank, "pressure_source": _emit_tank, "pump": _emit_pump,
          "relief_valve": lambda c: _emit_valve(c, "p", "t"), "check_valve": lambda c: _emit_valve(c, "a", "b"),
          "orifice": _emit_orifice, "accumulator": _emit_accumulator, "hose": _emit_hose, "volume": _emit_volume,
          "motor": _emit_motor, "cylinder": _emit_cylinder, "double_rod_cylinder": _emit_cylinder,
          "valve_43": _emit_valve43, "valve_63": _emit_valve43, "counterbalance_valve": _emit_counterbalance,
-         "servo_valve": _emit_servo_valve, "lugre_cylinder": _emit_lugre_cylinder}
+         "servo_valve": _emit_servo_valve, "lugre_cylinder": _emit_lugre_cylinder, "lugre_motor": _emit_lugre_motor}
 _PORT_VOLUME = {"hose": lambda v, port: 0.5 * v["volume"], "volume": lambda v, port: v["volume"],
                 "cylinder": lambda v, port: (v["dead_volume_a"] + v["area_a"] * v["x0"] if port == "a" else
                                              v["dead_volume_b"] + v["area_b"] * (v["stroke"] - v["x0"]))}
@@ -511,6 +536,23 @@ TYPES["lugre_cylinder"] = ComponentType(
      "x0": Param("m", 0.0, 20.0, "initial position", 0.0)},
     modes=("stick", "slip_pos", "slip_neg", "at_retract", "at_extend"), inputs=("force",),
     states=(("x", "m"), ("v", "m/s"), ("z", "m")), derived=(*_CYLINDER_DERIVED,))
+
+TYPES["lugre_motor"] = ComponentType(
+    "lugre_motor", "hydraulic motor with its inertia and LuGre friction (SPEC §12.3: the Stribeck form of eq 25 "
+    "with stick and slip modes): q = D*w/(2 pi) + Cl*dp, torque eta*D*dp/(2 pi)", ("a", "b"),
+    {**{k: TYPES["motor"].params[k] for k in ("displacement", "leakage", "efficiency", "inertia", "damping",
+                                               "load_torque", "speed0")},
+     "sigma0": Param("N.m/rad", 0.0, 1e12, "bristle stiffness", lo_strict=True),
+     "sigma1": Param("N.m.s/rad", 0.0, 1e9, "bristle damping", 0.0),
+     "fc_pos": Param("N.m", 0.0, 1e7, "Coulomb torque, turning forward"),
+     "fs_pos": Param("N.m", 0.0, 1e7, "breakaway torque, turning forward", lo_strict=True),
+     "vs_pos": Param("rad/s", 0.0, 1e4, "Stribeck speed, forward", lo_strict=True),
+     "kv_pos": Param("N.m.s/rad", 0.0, 1e8, "viscous friction of the seals, forward", 0.0),
+     "fc_neg": Param("N.m", 0.0, 1e7, "Coulomb torque, backward (magnitude)"),
+     "fs_neg": Param("N.m", 0.0, 1e7, "breakaway torque, backward (magnitude)", lo_strict=True),
+     "vs_neg": Param("rad/s", 0.0, 1e4, "Stribeck speed, backward", lo_strict=True),
+     "kv_neg": Param("N.m.s/rad", 0.0, 1e8, "viscous friction of the seals, backward", 0.0)},
+    modes=("stick", "slip_pos", "slip_neg"), inputs=("load_torque",), states=(("w", "rad/s"), ("z", "rad")))
 
 FLUID = {"density": Param("kg/m3", 500.0, 2000.0, "density", 860.0),
          "bulk_modulus": Param("Pa", 1e7, 1e11, "effective bulk modulus (constant)", 1.4e9),

@@ -34,6 +34,28 @@ HH_INLINE double hc_lc_friction(int mode, double v, double z, double sigma0, dou
     return sigma0 * z + (sigma1 + (v >= 0.0 ? kv_p : kv_n)) * v;
 }
 
+/* the friction's statechart after a step, in a free mode (stick, slip_pos, slip_neg): breakaway at
+ * sigma0*z = fs, stick again where the speed reverses (v = 0, the bristles at the breakaway's deflection);
+ * v, z in place. A linear (lugre_cylinder) or rotary (lugre_motor) motion alike. */
+HH_INLINE int hc_lc_friction_mode(int mode, double *v, double *z, double sigma0, double fs_p, double fs_n)
+{
+    double d;
+    if (mode == HC_LC_STICK) {           /* breakaway */
+        if (fs_p - sigma0 * *z < 0.0)
+            return HC_LC_SLIP_POS;
+        if (fs_n + sigma0 * *z < 0.0)
+            return HC_LC_SLIP_NEG;
+        return mode;
+    }
+    if ((mode == HC_LC_SLIP_POS && *v < 0.0) || (mode == HC_LC_SLIP_NEG && *v > 0.0)) {   /* speed reverses */
+        d = mode == HC_LC_SLIP_POS ? 1.0 : -1.0;
+        *v = 0.0;
+        *z = d * (d > 0 ? fs_p : fs_n) / sigma0;
+        return HC_LC_STICK;
+    }
+    return mode;
+}
+
 /* the statechart after a step: x, v, z in place, f the net force on the piston without friction [N] */
 HH_INLINE int hc_lc_mode(int mode, double *x, double *v, double *z, double f, double stroke, double sigma0,
                          double fc_p, double fs_p, double vs_p, double fc_n, double fs_n, double vs_n)
@@ -57,20 +79,7 @@ HH_INLINE int hc_lc_mode(int mode, double *x, double *v, double *z, double f, do
         *v = 0.0;
         return mode;
     }
-    if (mode == HC_LC_STICK) {           /* breakaway */
-        if (fs_p - sigma0 * *z < 0.0)
-            return HC_LC_SLIP_POS;
-        if (fs_n + sigma0 * *z < 0.0)
-            return HC_LC_SLIP_NEG;
-        return mode;
-    }
-    if ((mode == HC_LC_SLIP_POS && *v < 0.0) || (mode == HC_LC_SLIP_NEG && *v > 0.0)) {   /* speed reverses */
-        d = mode == HC_LC_SLIP_POS ? 1.0 : -1.0;
-        *v = 0.0;
-        *z = d * (d > 0 ? fs_p : fs_n) / sigma0;
-        return HC_LC_STICK;
-    }
-    return mode;
+    return hc_lc_friction_mode(mode, v, z, sigma0, fs_p, fs_n);
 }
 
 #endif
