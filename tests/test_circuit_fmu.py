@@ -3,6 +3,7 @@ and stepped from Python as an importer does (inputs set, outputs read, doStep) i
 same circuit bit for bit (the same generated C, the same flags); a closed loop's plant starts where the loop's
 run starts; its state round-trips; bad calls get a status and a message."""
 
+import math
 import subprocess
 import sys
 
@@ -80,8 +81,9 @@ def test_a_closed_loop_plant_starts_where_the_loop_starts_and_its_state_round_tr
     x_ref = ref.column("cyl.x.reference")
     saved = {}
 
-    def control(k, fmu):
-        fmu.set(**{"valve.command": p_control(50.0, x_ref[k], fmu.real("cyl.x")[0])})
+    def control(k, fmu):                  # the scenario's P law on the 1 um encoder's counts, as its loop reads
+        x = fmu.real("cyl.x")[0]
+        fmu.set(**{"valve.command": p_control(50.0, x_ref[k], math.floor(x / 1e-6 + 0.5) * 1e-6)})
         if k == 2000:
             saved["state"] = fmu.s.getFMUState()
     names, rows = drive(f, cs.circuit, np.zeros((n, 1)), n, h, on_step=control)

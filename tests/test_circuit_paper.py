@@ -108,13 +108,14 @@ def _p_cfg(kp):
 
 @pytest.mark.filterwarnings("ignore:.*lies outside the stroke")     # (end_stops_p_control's own, meant)
 @pytest.mark.parametrize("experiment, x_rms, p_rms", [
-    ("fig11_p_control.toml", 1e-6, 6e3),        # measured: 0.28 um, 1.1e3 / 2.0e3 Pa
-    ("end_stops_p_control.toml", 1e-6, 4.5e4),  # measured: 0.25 um, 1.4e4 / 4.2e3 Pa
+    ("fig11_p_control.toml", 7e-7, 6e3),        # measured: 0.22 um, 1.1e3 / 2.0e3 Pa
+    ("end_stops_p_control.toml", 5e-7, 4.5e4),  # measured: 0.16 um, 1.4e4 / 4.1e3 Pa
 ])
 def test_the_papers_rig_as_a_circuit_follows_the_core(experiment, x_rms, p_rms):
     """The built-in experiments on the core's hand-written model and on the circuit of the same parameters,
-    both without the valve's input delay (the core's loop delays the command; the circuit's does not yet): the
-    piston within 1 um RMS and the chambers within 0.06 / 0.45 bar RMS. (Not the same bits: the core locates
+    both without the valve's input delay (the core's loop delays the command; the circuit's does not yet), both
+    reading the piston through a 1 um encoder (the circuit loop's sensor: the P law on its counts, checked): the
+    piston within 0.7 / 0.5 um RMS and the chambers within 0.06 / 0.45 bar RMS. (Not the same bits: the core locates
     the friction's and the stops' events inside its step and slows a stiff chamber's relaxation; the circuit
     switches at the step's end. In stick-slip limit cycles, Fig 12's holds, the two part ways: 0.16 mm RMS.)"""
     from conftest import EXAMPLES
@@ -124,8 +125,13 @@ def test_the_papers_rig_as_a_circuit_follows_the_core(experiment, x_rms, p_rms):
     s = sc.scenario
     core = run_scenario(sc)
     t = np.arange(s.n_steps() + 1) * s.solver.step
-    loop = Loop(s.controller, "cyl.x", "valve.command", (t, s.references()[0]), linear=True)
+    loop = Loop(s.controller, "cyl.x", "valve.command", (t, s.references()[0]), linear=True,
+                sensor=(sc.params.sensors.encoder_resolution, -1e300, 1e300))      # the core's encoder
     r = simulate_circuit(paper_circuit(sc.params, s.initial.xp), s.duration, h=s.solver.step, loop=loop)
+    x_meas, u = r.column("cyl.x.sensed"), r.column("valve.command")
+    assert np.array_equal(x_meas, np.floor(r.column("cyl.x") / 1e-6 + 0.5) * 1e-6)  # 1 um counts
+    kp = s.controller.kp
+    assert np.array_equal(u[:-1], np.clip(kp * (r.column("cyl.x.reference") - x_meas), -1, 1)[:-1])
     rms = lambda a, b: float(np.sqrt(np.mean((core.column(a) - r.column(b)) ** 2)))  # noqa: E731
     assert rms("xp", "cyl.x") < x_rms
     assert rms("p1", "cap.p") < p_rms and rms("p2", "rod.p") < p_rms

@@ -143,6 +143,13 @@ def test_a_scenario_names_its_circuit_and_sets_its_values(tmp_path):
     f.write_text(loop.replace('kp = 0.008', 'kp = 0.008\nu_min = -2.0'))
     with pytest.raises(InputError, match=r"valve.command's range \[-1, 1\]"):
         load_circuit_scenario(f)
+    f.write_text(loop.replace('kp = 0.008', 'kp = 0.008\nsensor_resolution = "10 rpm"\nsensor_max = "700 rpm"'))
+    sensed = load_circuit_scenario(f).loop.sensor
+    assert sensed == pytest.approx((10 * 2 * math.pi / 60, -1e300, 700 * 2 * math.pi / 60), rel=1e-15)
+    f.write_text(loop.replace('kp = 0.008', 'kp = 0.008\nsensor_resolution = "1 bar"'))
+    with pytest.raises(InputError, match="the sensor of motor.w") as e:
+        load_circuit_scenario(f)
+    assert e.value.key == "controller.sensor_*"
     f.write_text(loop.replace('kp = 0.008', 'kp = -0.008'))
     with pytest.raises(InputError, match="reverse-acting loops are not there yet"):
         load_circuit_scenario(f)

@@ -111,6 +111,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
 #include "components.h"
 #include "rk.c"
 #include "control.c"
+#include "sensors.c"
 
 enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nout, 1)}, NLOG = {len(cols)},
        NNODES = {len(c.state_nodes)} }};   /* y: the NNODES node pressures, then the components' states */
@@ -262,6 +263,17 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
     return -1;
 }}
 
+/* What the loop's sensor reports of a signal x: to the nearest multiple of its quantum sensor[0] (0: ideal; the
+ * encoder's rounding, sensors.c) within its range [sensor[1], sensor[2]]. NULL: x itself. */
+double hc_sensed(double x, const double *sensor)
+{{
+    double v;
+    if (!sensor)
+        return x;
+    v = sensor[0] > 0.0 ? encoder_counts(x, sensor[0]) * sensor[0] : x;
+    return v < sensor[1] ? sensor[1] : v > sensor[2] ? sensor[2] : v;
+}}
+
 /* One step of h with tableau tab under the inputs u: the state marched (node pressures floored), the modes
  * updated after it. Returns 0, or 1 when the state went non-finite. */
 static int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, const double *u, const double *P)
@@ -284,11 +296,12 @@ static int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, cons
 /* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it); a row every `every`
  * steps from step 0 (the state before the step). Closed loop (ctl not NULL, the core's controller law,
  * control.c): at each step k the controller reads log column `meas` of the state at t_k (under the command
- * of step k-1) and sets input `cmd` of step k (written into u) for the reference ref[k] (slope dref[k]). Returns 0, or 1 when the state went
+ * of step k-1; through the sensor, hc_sensed) and sets input `cmd` of step k (written into u) for the reference
+ * ref[k] (slope dref[k]). Returns 0, or 1 when the state went
  * non-finite (rows so far written, *rows set). */
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
-           const double *dref, int64_t meas, int64_t cmd)
+           const double *dref, int64_t meas, int64_t cmd, const double *sensor)
 {{
     const hh_tableau *tab = &HH_TABLEAUS[method];
     double seen[NLOG];
@@ -300,7 +313,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                 uk[cmd] = uk[cmd - NU];
             log_row((double)step * h, y, m, uk, P, seen);
             uk[cmd] = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state, ref[step],
-                                           dref[step], seen[meas], 0.0, 0.0);
+                                           dref[step], hc_sensed(seen[meas], sensor), 0.0, 0.0);
         }}
         if (step % every == 0)
             log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);

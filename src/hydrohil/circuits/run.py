@@ -197,6 +197,7 @@ class Loop:
     controller: object = None           # the law at the run's step (set by simulate_circuit)
     linear: bool = False                # the reference interpolated linearly (else held)
     limits: tuple = (-1.0, 1.0)         # the command's range: [u_min, u_max] within its parameter's range
+    sensor: tuple | None = None         # (quantum, lo, hi) of what the controller reads; None: the signal itself
 
     def start(self, h: float) -> None:
         """A fresh controller sampled at h (no integrator or filter state from another run)."""
@@ -254,7 +255,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h) if loop is not None else
-           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0))
+           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL))
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
@@ -359,10 +360,12 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float):
     from hydrohil.core import ffi as core_ffi
     ffi = cc.ffi
     ref, dref = loop.table(n, h)
-    loop._keep = (ref, dref)                                     # alive while hc_run reads them
     addr = lambda p: ffi.cast("void *", int(core_ffi.cast("uintptr_t", p)))  # noqa: E731
+    sensor = ffi.new("double[3]", list(loop.sensor)) if loop.sensor is not None else ffi.NULL
+    loop._keep = (ref, dref, sensor)                             # alive while hc_run reads them
     return (addr(loop.controller.c), addr(loop.controller.state), ffi.from_buffer("double[]", ref),
-            ffi.from_buffer("double[]", dref), lay.log_columns.index(loop.measure), cc.layout.inputs.index(loop.command))
+            ffi.from_buffer("double[]", dref), lay.log_columns.index(loop.measure), cc.layout.inputs.index(loop.command),
+            sensor)
 
 
 def _with_drives(c: Circuit, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
@@ -376,6 +379,12 @@ def _with_drives(c: Circuit, res: CircuitResult, u: np.ndarray, every: int, loop
     if loop is not None:
         res.columns[f"{loop.measure}.reference"] = loop.at(res.columns["t"], res.h)
         res.units[f"{loop.measure}.reference"] = res.units.get(loop.measure, "-")
+        if loop.sensor is not None:          # what the controller read (through the sensor: the C's hc_sensed)
+            cc = compile_circuit(c)
+            sensor = cc.ffi.new("double[3]", list(loop.sensor))
+            res.columns[f"{loop.measure}.sensed"] = np.array([cc.lib.hc_sensed(float(x), sensor)
+                                                              for x in res.columns[loop.measure]])
+            res.units[f"{loop.measure}.sensed"] = res.units.get(loop.measure, "-")
     return res
 
 
@@ -400,8 +409,10 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         ref, dref = loop.table(n, h)
         meas, cmd = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
 
+        sensor = cc.ffi.new("double[3]", list(loop.sensor)) if loop.sensor is not None else cc.ffi.NULL
+
         def control(k, row):
-            u[k, cmd] = loop.controller.update(ref[k], dref[k], row[meas])
+            u[k, cmd] = loop.controller.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor))
 
         def applied(k):                    # the row the controller reads: under the command last applied
             if k > 0:

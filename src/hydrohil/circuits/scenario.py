@@ -19,7 +19,8 @@ values on top of the circuit's, and drives of its signals in place of the circui
     measure = "motor.w"               # the signal it reads (a log column)
     command = "valve.command"         # the input it drives (one of the circuit's [inputs])
     kp = 0.002                        # gains in the command's unit per the measured signal's SI unit
-    ki = 0.02                         # (u_min, u_max: the command's limits, default its parameter's range)
+    ki = 0.02                         # (u_min, u_max: the command's limits, default its parameter's range;
+                                      # sensor_resolution, sensor_min, sensor_max: what the controller reads)
     [reference]                       # the measured signal's reference, held from each t, with units
     t = [0, 0.5, 3]
     value = ["0 rpm", "600 rpm", "300 rpm"]
@@ -179,6 +180,7 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
             raise InputError("the signal's name, component.variable", source=source, key=f"controller.{key}")
     measure, command = table.pop("measure"), table.pop("command")
     limits = {k: table.pop(k) for k in ("u_min", "u_max") if k in table}     # (the command's unit, not ū)
+    sensor_keys = {k: table.pop(k) for k in ("sensor_resolution", "sensor_min", "sensor_max") if k in table}
     if table.get("type") not in LOOP_TYPES:
         raise InputError(f"a circuit's loop runs the core's laws: type one of {', '.join(LOOP_TYPES)}, got "
                          f"{table.get('type')!r}", source=source, key="controller.type")
@@ -208,6 +210,18 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     if not prm.lo <= lo < hi <= prm.hi:
         raise InputError(f"the command's limits must lie in {command}'s range [{prm.lo:g}, {prm.hi:g}] {prm.unit} "
                          f"with u_min < u_max, got [{lo:g}, {hi:g}]", source=source, key="controller.u_min")
+    sensor = None
+    if sensor_keys:                        # the measurement as the rig's sensor gives it (SPEC §10)
+        unit = units[measure]
+        try:
+            sensor = tuple(to_si(sensor_keys.get(k, d), unit) for k, d in (
+                ("sensor_resolution", 0.0), ("sensor_min", -1e300), ("sensor_max", 1e300)))
+        except ValueError as exc:
+            raise InputError(f"{exc} (the sensor of {measure} [{unit}])", source=source,
+                             key="controller.sensor_*") from None
+        if not (sensor[0] >= 0 and sensor[1] < sensor[2]):
+            raise InputError(f"a resolution >= 0 and sensor_min < sensor_max, got {sensor}", source=source,
+                             key="controller.sensor_resolution")
     ref = data["reference"]
     t, v = ref.get("t"), ref.get("value")
     if set(ref) - {"t", "value", "interpolation"} or not isinstance(t, list) or not isinstance(v, list) \
@@ -225,7 +239,8 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
                          key="reference") from None
     if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
         raise InputError("times start at 0 and increase", source=source, key="reference.t")
-    return Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi))
+    return Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi),
+                sensor=sensor)
 
 
 def _apply(raw: dict, key: str, value, source: str) -> None:
