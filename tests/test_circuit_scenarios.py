@@ -176,7 +176,8 @@ def test_simulate_and_maxstep_on_a_circuit_scenario_as_a_user_types_them(tmp_pat
         out = tmp_path / solver
         r = cli("simulate", scen, "--out", out, "--solver", solver, "--set", "cyl1.mass=300 kg")
         assert r.returncode == 0, r.stderr
-        assert f"with {solver} on circuit two_cylinders" in r.stdout
+        said = "of the continuous reference (LSODA)" if solver == "reference" else "with rk3"
+        assert f"{said} on circuit two_cylinders" in r.stdout
         with open(out / "log.csv") as fh:
             rows = list(csv.reader(fh))
         head = rows[0]

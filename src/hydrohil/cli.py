@@ -142,7 +142,9 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
     except HydrohilError as exc:
         fail(exc)
     if "circuit" in s:
-        typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']} on circuit {s['circuit']}: wall "
+        how = (f"samples every {s['step']:g} s of the continuous reference (LSODA)" if s["solver"] == "reference"
+               else f"steps of {s['step']:g} s with {s['solver']}")
+        typer.echo(f"{s['steps']} {how} on circuit {s['circuit']}: wall "
                    f"{s['wall_time_s']:.3f} s, real-time factor {s['realtime_factor']:.0f}; wrote {out}/log.csv, "
                    f"summary.json" + (", plot.png" if plot else ""))
         return
@@ -454,9 +456,10 @@ def circuit_linear_cmd(circuit: str = typer.Argument(..., help="built-in name (e
                        f"damping {m['damping']:.3f}")
         elif "time_constant_s" in m:
             typer.echo(f"  time constant {m['time_constant_s']:.4g} s (eigenvalue {m['eigenvalue'][0]:.4g} 1/s)")
+        elif abs(m["eigenvalue"][0]) < 1e-9 * max(abs(e) for e in lin.eigenvalues):
+            typer.echo("  an integrator (eigenvalue 0): a position the circuit does not pull back")
         else:
-            typer.echo(f"  not decaying: eigenvalue {m['eigenvalue'][0]:.4g} 1/s (an integrator, or growing "
-                       f"e-fold in {m['growth_time_s']:.4g} s)")
+            typer.echo(f"  growing: eigenvalue {m['eigenvalue'][0]:.4g} 1/s (e-fold in {m['growth_time_s']:.4g} s)")
     if out is not None:
         typer.echo(f"wrote {out}")
 
@@ -502,7 +505,7 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", help="FMU file to writ
         fail(exc)
     from fmpy import read_model_description
     md = read_model_description(str(path))
-    what = f"circuit {circuit or scenario}" if circuit or scenario else f"parameter set {params}"
+    what = (f"circuit {md.description.split(chr(39))[1]}" if circuit or scenario else f"parameter set {params}")
     typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation of {what}, internal step "
                f"{md.defaultExperiment.stepSize} s)")
 

@@ -42,7 +42,8 @@ UNITS = {"t": "s", "u": "-", "xs": "-", "p1": "Pa", "p2": "Pa", "xp": "m", "vp":
          "faults": "-", "x_meas": "m", "p1_meas": "Pa", "p2_meas": "Pa", "ps_meas": "Pa", "x_ref": "m", "error": "m",
          "p_max": "Pa"}
 When = Union[float, str]
-DISPLAY = {"m": (1e3, "mm"), "Pa": (1e-5, "bar"), "m/s": (1e3, "mm/s")}     # how people read these units
+DISPLAY = {"m": (1e3, "mm"), "Pa": (1e-5, "bar"), "m/s": (1e3, "mm/s"), "rad/s": (30 / np.pi, "rpm"),
+           "m3/s": (6e4, "l/min")}                                            # how people read these units
 
 
 def unit_of(signal: str, units: dict | None = None) -> str:
