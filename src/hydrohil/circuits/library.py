@@ -358,6 +358,24 @@ def _cylinder_params(rod: str) -> dict[str, Param]:
             "x0": Param("m", 0.0, 20.0, "initial position", 0.0)}
 
 
+def _valve_params(extra: dict | None = None) -> dict[str, Param]:
+    """A proportional valve's parameters by geometry (the 4/3 valve; ``extra``: an open centre's, before the
+    spool's dynamics)."""
+    return {"command": Param("-", -1.0, 1.0, "spool command u (or the signal NAME.command)", 0.0),
+            "x_max": Param("m", 0.0, 0.05, "spool stroke", lo_strict=True),
+            "area_gradient": Param("m", 0.0, 1.0, "opening per spool travel, w = pi*d*fraction", lo_strict=True),
+            "discharge_coefficient": Param("-", 0.0, 1.0, "Cq", 0.67, lo_strict=True),
+            "lap_pa": Param("m", -0.01, 0.01, "overlap of P->A (< 0: underlap)", 0.0),
+            "lap_at": Param("m", -0.01, 0.01, "overlap of A->T", 0.0),
+            "lap_pb": Param("m", -0.01, 0.01, "overlap of P->B", 0.0),
+            "lap_bt": Param("m", -0.01, 0.01, "overlap of B->T", 0.0),
+            "leakage_opening": Param("m", 0.0, 0.001, "opening of a closed edge (its leakage)", 1e-7),
+            "transition_pressure": Param("Pa", 0.0, 1e7, "laminar transition", 1e5, lo_strict=True),
+            **(extra or {}),
+            "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", lo_strict=True),
+            "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.7, lo_strict=True)}
+
+
 _STOPS = ("free", "at_retract", "at_extend")
 _PISTON = (("x", "m"), ("v", "m/s"))
 _CYLINDER_DERIVED = (("area_a", "m2"), ("area_b", "m2"), ("weight", "N"))
@@ -425,39 +443,13 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                   ("a", "b"), _cylinder_params("rod diameter (both sides)"), modes=_STOPS, inputs=("force",),
                   states=_PISTON, derived=_CYLINDER_DERIVED),
     ComponentType("valve_43", "4/3 proportional valve by geometry: spool lag (wn, xi), an opening per edge",
-                  ("P", "T", "A", "B"),
-                  {"command": Param("-", -1.0, 1.0, "spool command u (or the signal NAME.command)", 0.0),
-                   "x_max": Param("m", 0.0, 0.05, "spool stroke", lo_strict=True),
-                   "area_gradient": Param("m", 0.0, 1.0, "opening per spool travel, w = pi*d*fraction",
-                                          lo_strict=True),
-                   "discharge_coefficient": Param("-", 0.0, 1.0, "Cq", 0.67, lo_strict=True),
-                   "lap_pa": Param("m", -0.01, 0.01, "overlap of P->A (< 0: underlap)", 0.0),
-                   "lap_at": Param("m", -0.01, 0.01, "overlap of A->T", 0.0),
-                   "lap_pb": Param("m", -0.01, 0.01, "overlap of P->B", 0.0),
-                   "lap_bt": Param("m", -0.01, 0.01, "overlap of B->T", 0.0),
-                   "leakage_opening": Param("m", 0.0, 0.001, "opening of a closed edge (its leakage)", 1e-7),
-                   "transition_pressure": Param("Pa", 0.0, 1e7, "laminar transition", 1e5, lo_strict=True),
-                   "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", lo_strict=True),
-                   "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.7, lo_strict=True)},
-                  inputs=("command",), states=(("x", "m"), ("v", "m/s")), derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),
+                  ("P", "T", "A", "B"), _valve_params(), inputs=("command",), states=(("x", "m"), ("v", "m/s")),
+                  derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),
     ComponentType("valve_63", "open-centre 6/3 valve (mobile hydraulics): the 4/3 valve plus a P -> T centre path "
                   "open at x = 0, closed at |x| >= centre_travel",
                   ("P", "T", "A", "B"),
-                  {"command": Param("-", -1.0, 1.0, "spool command u (or the signal NAME.command)", 0.0),
-                   "x_max": Param("m", 0.0, 0.05, "spool stroke", lo_strict=True),
-                   "area_gradient": Param("m", 0.0, 1.0, "opening per spool travel, w = pi*d*fraction",
-                                          lo_strict=True),
-                   "discharge_coefficient": Param("-", 0.0, 1.0, "Cq", 0.67, lo_strict=True),
-                   "lap_pa": Param("m", -0.01, 0.01, "overlap of P->A (< 0: underlap)", 0.0),
-                   "lap_at": Param("m", -0.01, 0.01, "overlap of A->T", 0.0),
-                   "lap_pb": Param("m", -0.01, 0.01, "overlap of P->B", 0.0),
-                   "lap_bt": Param("m", -0.01, 0.01, "overlap of B->T", 0.0),
-                   "leakage_opening": Param("m", 0.0, 0.001, "opening of a closed edge (its leakage)", 1e-7),
-                   "transition_pressure": Param("Pa", 0.0, 1e7, "laminar transition", 1e5, lo_strict=True),
-                   "centre_travel": Param("m", 0.0, 0.05, "spool travel that closes the centre path",
-                                          lo_strict=True),
-                   "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", lo_strict=True),
-                   "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.7, lo_strict=True)},
+                  _valve_params({"centre_travel": Param("m", 0.0, 0.05, "spool travel that closes the centre path",
+                                                        lo_strict=True)}),
                   inputs=("command",), states=(("x", "m"), ("v", "m/s")), derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),
     ComponentType("counterbalance_valve", "counterbalance valve: free flow into the load through a check; out of "
                   "it a main stage (an orifice) opened by p_load - p_valve + r*p_pilot beyond p_set",

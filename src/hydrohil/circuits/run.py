@@ -251,7 +251,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         u[0, lay.inputs.index(loop.command)] = u0[lay.inputs.index(loop.command)]   # measurement is made with
     if method == "reference":
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
-        return _with_drives(c, res, u, every, loop)
+        return _with_drives(c, cc, res, u, every, loop)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h) if loop is not None else
@@ -272,7 +272,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     res.units = _units(c, lay)
     if rest and len(log):
         _warn_unbalanced(c, res)
-    return _with_drives(c, res, u, every, loop)
+    return _with_drives(c, cc, res, u, every, loop)
 
 
 def start_state(c: Circuit, *, h: float = 5e-4, method: str = "rk3", inputs: dict | None = None, rest: bool = True,
@@ -368,7 +368,7 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float):
             sensor)
 
 
-def _with_drives(c: Circuit, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
+def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
     """The run's inputs as columns (``valve.command``: what drove each step; closed loop: what the controller
     sent) and the loop's reference (``<measure>.reference``)."""
     rows = len(res.columns["t"])
@@ -380,7 +380,6 @@ def _with_drives(c: Circuit, res: CircuitResult, u: np.ndarray, every: int, loop
         res.columns[f"{loop.measure}.reference"] = loop.at(res.columns["t"], res.h)
         res.units[f"{loop.measure}.reference"] = res.units.get(loop.measure, "-")
         if loop.sensor is not None:          # what the controller read (through the sensor: the C's hc_sensed)
-            cc = compile_circuit(c)
             sensor = cc.ffi.new("double[3]", list(loop.sensor))
             res.columns[f"{loop.measure}.sensed"] = np.array([cc.lib.hc_sensed(float(x), sensor)
                                                               for x in res.columns[loop.measure]])
