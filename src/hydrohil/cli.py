@@ -682,7 +682,8 @@ def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True
 
 
 @app.command("hil")
-def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML (optional [hil] table)"),
+def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML (optional [hil] table), or a "
+                                            "circuit scenario (open or closed loop)"),
             out: Path = typer.Option(Path("hydrohil-hil"), "--out", help="output folder"),
             lockstep: bool = typer.Option(False, help="deterministic lock-step exchange, as fast as possible"),
             plant: str = typer.Option("python", "--plant", help="python: `hydrohil plant`; c: the standalone C "
@@ -693,7 +694,8 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
                                            "the scenario's [overrides], e.g. --set load.mass=120"),
             panel: bool = typer.Option(False, "--panel", help="serve the live panel while it runs (URL printed)"),
             panel_port: int = typer.Option(8050, "--panel-port", help="HTTP port of the panel (0: any free)")):
-    """Real-time HIL run: plant and controller as separate processes over UDP, then the report.
+    """Real-time HIL run: plant and controller as separate processes over UDP, then the report. A scenario
+    naming its circuit runs that circuit (its signals and inputs over the link, README: Circuits).
 
     Ends with the verdict: VALID, or INVALID with the reasons (exit 3; [hil] max_late_commands,
     max_overruns, max_stall, max_watchdog_trips). Exit 4 when a process got no answer, 130 on Ctrl-C.
@@ -705,9 +707,10 @@ def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML
         r = hil(scenario, out, lockstep, plant=plant, params=params, sets=_parse_sets(sets), panel=panel,
                 panel_port=panel_port)
         t, c = r.timing, r.comparison
+        vs = c["text"] if "text" in c else f"HIL vs offline xp RMS {c['xp_rms_mm']:.4f} mm"    # (a circuit: its own)
         typer.echo(f"{t['steps']} steps ({t['mode']}): jitter p99 {_us(t['jitter_us_p99'])}, overruns "
                    f"{_n(t['overruns'])}, rtt p99 {_us(t['rtt_us_p99'])}, late commands {t['late_commands']}, "
-                   f"watchdog trips {t['watchdog_trips']}; HIL vs offline xp RMS {c['xp_rms_mm']:.4f} mm; "
+                   f"watchdog trips {t['watchdog_trips']}; {vs}; "
                    f"wrote {out}/plant_log.csv, controller_log.csv, timing.json, report.png")
         typer.echo(summary_line(t))
         if not r.verdict["valid"]:

@@ -234,6 +234,44 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
             banner=top)
 
 
+def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, title: str = "",
+                     verdict: dict | None = None) -> None:
+    """HIL report of a circuit: the loop's measured signal (or, open loop, the circuit's largest moving
+    position or speed) with its reference, HIL and offline; HIL − offline; every pressure that moves (HIL solid,
+    offline dotted); step jitter; the watchdog. ``offline``: a :class:`hydrohil.circuits.run.CircuitResult`."""
+    from hydrohil.circuits.units import display
+    t = np.asarray(hil["t"])
+    cols, units = offline.columns, offline.units
+    n = min(len(t), len(cols["t"]))
+    if measure is None:        # open loop: the signal that moves most among positions and speeds
+        moving = [s for s in units if units[s] in ("m", "rad/s") and s in hil and np.ptp(cols[s][:n]) > 0]
+        measure = max(moving, key=lambda s: np.ptp(cols[s]) * display(units[s])[0]) if moving else None
+    fig, ax, top = _stack([3, 1.6, 3, 2, 0.45], (10, 12), banner=0.5 if verdict is not None else 0.0)
+    lockstep = not np.any(np.asarray(hil["jitter_us"], float) > 0)
+    if top is not None:
+        _verdict_banner(top, verdict, "lock-step" if lockstep else "real-time")
+    if measure is not None:
+        k, du = display(units.get(measure, "-"))
+        if f"{measure}.reference" in cols:
+            ax[0].plot(cols["t"][:n], cols[f"{measure}.reference"][:n] * k, "k--", lw=1, label="reference")
+        ax[0].plot(t, np.asarray(hil[measure]) * k, lw=1.5, label="HIL (lock-step plant)" if lockstep else
+                   "HIL (real-time plant)")
+        ax[0].plot(cols["t"][:n], cols[measure][:n] * k, ":", lw=1.5, label="offline simulation")
+        d = (np.asarray(hil[measure])[:n] - cols[measure][:n]) * k
+        rms = float(np.sqrt(np.mean(d ** 2))) if n else float("nan")
+        ax[1].plot(t[:n], d, lw=1, color="tab:red", label=f"HIL − offline\n(RMS {rms:.3g} {du})")
+        ylab0, ylab1 = f"{measure} [{du}]", f"HIL − offline\n[{du}]"
+    else:
+        ylab0 = ylab1 = ""
+    for i, s in enumerate(x for x in units if units[x] == "Pa" and x in hil and np.ptp(cols[x]) > 0):
+        ax[2].plot(cols["t"][:n], cols[s][:n] / 1e5, ":", lw=1.5, color=f"C{i % 10}")
+        ax[2].plot(t, np.asarray(hil[s]) / 1e5, lw=1, color=f"C{i % 10}", label=s)
+    _jitter_panel(ax[3], t, hil["jitter_us"])
+    _watchdog_strip(ax[4], t, hil["watchdog"])
+    _finish(fig, path, ax[:4], (ylab0, ylab1, "pressure [bar]\n(HIL solid,\noffline dotted)", "jitter [µs]"),
+            title, banner=top)
+
+
 def plot_compare(path: Path, runs, *, title: str = "") -> None:
     """Runs overlaid (``runs``: :class:`hydrohil.compare.Run`): position and reference, position error,
     piston velocity, valve command, chamber pressures (P1 solid, P2 dashed); per run its metrics in the

@@ -269,7 +269,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         raise SimulationDiverged(k * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
                                  "a state is not finite")
-    res.units = _units(c, lay)
+    res.units = signal_units(c, lay)
     if rest and len(log):
         _warn_unbalanced(c, res)
     return _with_drives(c, cc, res, u, every, loop)
@@ -393,7 +393,8 @@ def input_unit(c: Circuit, sig: str) -> str:
     return c.components[comp].type.params[key].unit
 
 
-def _units(c: Circuit, lay) -> dict[str, str]:
+def signal_units(c: Circuit, lay) -> dict[str, str]:
+    """The SI unit of every log column of a circuit (its signals)."""
     return {"t": "s", **{f"{nd}.p": "Pa" for nd in c.nodes}, **dict(lay.outputs), **{md: "-" for md in lay.modes}}
 
 
@@ -425,7 +426,7 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         state = exc.y if exc.y is not None else y
         raise SimulationDiverged(exc.t, modes, {s: float(state[i]) for i, s in enumerate(lay.states)},
                                  str(exc)) from None
-    return CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, _units(c, lay),
+    return CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, signal_units(c, lay),
                          lay.mode_names, h, "reference", time.perf_counter() - t0, stats,
                          lay.states[len(c.state_nodes):])
 

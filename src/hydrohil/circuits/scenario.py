@@ -25,6 +25,8 @@ values on top of the circuit's, and drives of its signals in place of the circui
     t = [0, 0.5, 3]
     value = ["0 rpm", "600 rpm", "300 rpm"]
     interpolation = "hold"            # or "linear" between the points (its slope goes to p_ff's kff)
+    [hil]                             # optional: real-time settings of `hydrohil hil` (as a paper scenario's)
+    watchdog_timeout = 0.05
 
 ``--set component.key=value`` on the command line applies on top of ``[set]``; setting a signal replaces its
 drive by that constant.
@@ -41,7 +43,7 @@ from hydrohil.circuits.circuit import CIRCUITS_DIR, Circuit, circuit_from_dict
 from hydrohil.circuits.run import SOLVERS, Loop
 from hydrohil.errors import InputError
 
-KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "controller", "reference"}
+KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "controller", "reference", "hil"}
 LOOP_TYPES = ("p", "pi", "pid", "p_ff")
 SOLVER_KEYS = {"method", "step", "output_every"}
 
@@ -58,6 +60,7 @@ class CircuitScenario:
     description: str = ""
     sets: dict = field(default_factory=dict)       # "component.key" -> value as given (scenario [set] + --set)
     loop: Loop | None = None                       # closed loop ([controller] + [reference])
+    hil: dict = field(default_factory=dict)        # [hil] as given (checked by hydrohil.hil.circuit)
 
     @property
     def n_steps(self) -> int:
@@ -128,7 +131,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
         raise InputError(f"a fixed step in [1e-7, 0.1] s, got {h!r}", source=source, key="solver.step")
     if not (isinstance(every, int) and every >= 1):
         raise InputError(f"an integer >= 1, got {every!r}", source=source, key="solver.output_every")
-    for key in ("set", "inputs"):
+    for key in ("set", "inputs", "hil"):
         if not isinstance(data.get(key, {}), dict):
             raise InputError("a table of \"component.key\" = value", source=source, key=key)
     raw = copy.deepcopy(raw)
@@ -156,7 +159,20 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
                          "for it would be overridden", source=source if loop.command in data.get("set", {}) else
                          "--set", key=loop.command)
     return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
-                           given, loop)
+                           given, loop, dict(data.get("hil", {})))
+
+
+def write_circuit_scenario(path: str | Path, dest: str | Path, *, sets: dict) -> Path:
+    """The scenario ``path`` with ``sets`` added to its [set], written to ``dest`` with its circuit's file named
+    absolutely: what a run folder records, and what its processes read."""
+    import tomli_w
+    path, dest = Path(path), Path(dest)
+    data = tomllib.loads(path.read_text())
+    data["circuit"] = str(circuit_file(data["circuit"], path.parent, str(path)))
+    data.setdefault("set", {}).update(sets)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    dest.write_text(f"# {path.name} as run (hydrohil: --set applied)\n" + tomli_w.dumps(data))
+    return dest
 
 
 def _loop(data: dict, c: Circuit, source: str) -> Loop | None:

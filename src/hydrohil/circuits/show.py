@@ -52,7 +52,16 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3") -> dict:
             "states": [{"name": s, "unit": u} for s, u in zip(lay.states, lay.state_units)],
             "modes": [{"name": m, "values": list(lay.mode_names[m])} for m in lay.modes],
             "inputs": [{"name": n, "unit": input_unit(c, n), "drive": _drive_text(d)} for n, d in c.inputs.items()],
-            "signals": signals}
+            "signals": signals, "link": _link(c)}
+
+
+def _link(c: Circuit) -> dict:
+    """The circuit over the HIL link (docs/protocol.md): SIGNALS' values and INPUTS' values in order, layout."""
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.link import layout_id, wire_lists
+    signals, inputs = wire_lists(c, compile_circuit(c).layout)
+    return {"layout": layout_id(signals, inputs), "signals": [{"name": n, "unit": u} for n, u in signals],
+            "inputs": [{"name": n, "unit": u} for n, u in inputs]}
 
 
 def _num(v):
@@ -90,7 +99,11 @@ def text(d: dict) -> str:
     out += ["", "states: " + ", ".join(f"{s['name']} [{s['unit']}]" for s in d["states"]),
             "modes: " + (", ".join(f"{m['name']} ({'|'.join(m['values'])})" for m in d["modes"]) or "none"),
             "inputs: " + (", ".join(f"{i['name']} [{i['unit']}] = {i['drive']}" for i in d["inputs"]) or "none"),
-            "signals: " + ", ".join(f"{s['name']} [{s['unit']}]" for s in d["signals"])]
+            "signals: " + ", ".join(f"{s['name']} [{s['unit']}]" for s in d["signals"]),
+            f"HIL link (docs/protocol.md): layout {d['link']['layout']}, SIGNALS carry "
+            f"{len(d['link']['signals'])} values (the signals above from {d['link']['signals'][0]['name']} to "
+            f"{d['link']['signals'][-1]['name']}), INPUTS {len(d['link']['inputs'])} "
+            f"({', '.join(i['name'] for i in d['link']['inputs']) or 'none'})"]
     return "\n".join(out) + "\n"
 
 

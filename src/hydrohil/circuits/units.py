@@ -60,3 +60,14 @@ def _finite(v: float, value) -> float:
     if not math.isfinite(v):
         raise ValueError(f"not a finite number: {value!r}")
     return v
+
+
+# how a signal in an SI unit is shown to a person (figures, reports): (factor from SI, display unit)
+DISPLAY: dict[str, tuple[float, str]] = {"Pa": (1e-5, "bar"), "m": (1e3, "mm"), "m/s": (1e3, "mm/s"),
+                                         "rad/s": (60.0 / (2.0 * math.pi), "rpm"), "m3/s": (6e4, "l/min"),
+                                         "m3": (1e3, "l")}
+
+
+def display(unit: str) -> tuple[float, str]:
+    """(factor, unit) to show a value in ``unit`` (SI) as an engineer reads it; the unit itself when unlisted."""
+    return DISPLAY.get(unit, (1.0, unit))

@@ -27,7 +27,8 @@ def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (na
                                                        "scenario's, else 10; 0: until stopped)"),
               log: Optional[Path] = typer.Option(None, help="folder for plant_log.csv and timing.json"),
               lockstep: bool = typer.Option(False, help="advance one step per command, as fast as possible"),
-              scenario: Optional[Path] = typer.Option(None, help="take params/step/duration/initial/[hil] from it"),
+              scenario: Optional[Path] = typer.Option(None, help="take params/step/duration/initial/[hil] from it "
+                                                      "(a scenario naming its circuit: serve that circuit)"),
               allow_remote: bool = typer.Option(False, help="allow binding a non-loopback address"),
               cpu: Optional[int] = typer.Option(None, help="pin the plant to this CPU"),
               peer: Optional[str] = typer.Option(None, help="accept commands only from this HOST:PORT "
@@ -38,16 +39,23 @@ def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (na
                                                   "from it (loopback)"),
               rows: bool = typer.Option(True, help="write plant_log.csv of the whole run (--no-rows: a panel "
                                         "session, recordings only)")):
-    """Serve the virtual rig over UDP (protocol: docs/protocol.md), locked to the wall clock.
+    """Serve the virtual rig, or a scenario's circuit, over UDP (protocol: docs/protocol.md), locked to the wall
+    clock.
 
     Ends with the run's verdict (VALID / INVALID and why) on stdout; exit 3 when INVALID, 4 when no
     controller spoke, 130/143 when stopped by SIGINT/SIGTERM (logs and timing.json are written in every case).
     """
+    from hydrohil.circuits.scenario import is_circuit_scenario
     from hydrohil.hil.plant import serve_plant
     from hydrohil.hil.verdict import raise_for_outcome, summary_line
     try:
-        t = serve_plant(params, bind, step, duration, log, lockstep, scenario, allow_remote, cpu, peer,
-                        connect_timeout, panel=panel, rows=rows)
+        if scenario is not None and is_circuit_scenario(scenario):      # any circuit (hil/circuit.py)
+            from hydrohil.hil.circuit import serve_circuit_plant
+            t = serve_circuit_plant(scenario, bind, duration, log, lockstep, allow_remote, cpu, peer, connect_timeout,
+                                    panel=panel, rows=rows)
+        else:
+            t = serve_plant(params, bind, step, duration, log, lockstep, scenario, allow_remote, cpu, peer,
+                            connect_timeout, panel=panel, rows=rows)
         typer.echo(json.dumps(t), err=True)
         typer.echo(f"verdict: {summary_line(t)}", err=False)
         raise_for_outcome(t, "plant run")
@@ -57,7 +65,8 @@ def plant_cmd(params: str = typer.Option("ferreira2004", help="parameter set (na
 
 @process_app.command("controller")
 def controller_cmd(connect: str = typer.Option("127.0.0.1:47000", help="plant HOST:PORT"),
-                   scenario: Optional[Path] = typer.Option(None, help="take Kp, reference and [hil] from it"),
+                   scenario: Optional[Path] = typer.Option(None, help="take Kp, reference and [hil] from it (a "
+                                                           "circuit scenario: its loop and drives)"),
                    kp: float = typer.Option(50.0, help="P gain [1/m] on ū"),
                    reference: str = typer.Option("0:0.03,0.5:0.03,1.5:0.15,3:0.15,4:0.03,6:0.03",
                                                  help="trajectory t:x pairs [s:m], linear between points "

@@ -24,6 +24,7 @@ from hydrohil.control import BuiltinController, Measurement, call_controller, p_
 from hydrohil.errors import HydrohilError, InputError, LinkError
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.protocol import parse_address
+from hydrohil.circuits.scenario import is_circuit_scenario
 from hydrohil.models.sensors import count_size
 from hydrohil.simulation.outputs import CsvStream
 
@@ -131,7 +132,7 @@ class PlantClient:
             if msg is None:
                 self.bad += 1
                 continue
-            if isinstance(msg, pr.Sensor):
+            if isinstance(msg, (pr.Sensor, pr.Signals)):
                 self.last_arrival = time.perf_counter()
                 self.received += 1
                 if self.received == 1:
@@ -176,6 +177,20 @@ class PlantClient:
         hdr = answer.header if answer is not None else None
         pkt = pr.encode_command(self.seq, time.perf_counter_ns(), hdr.t_send_ns if hdr else 0,
                                 hdr.seq if hdr else 0, float(u) * self.scale, pr.CMD_STOP if stop else 0)
+        try:
+            self.sock.send(pkt)
+        except OSError:
+            pass
+
+
+    def send_inputs(self, layout: int, mask: int, values, answer: pr.Signals | None = None,
+                    stop: bool = False) -> None:
+        """Send a circuit's input values (SI; input i set when bit i of ``mask`` is), answering SIGNALS packet
+        ``answer``."""
+        self.seq += 1
+        hdr = answer.header if answer is not None else None
+        pkt = pr.encode_inputs(self.seq, time.perf_counter_ns(), hdr.t_send_ns if hdr else 0, hdr.seq if hdr else 0,
+                               layout, mask, [float(v) for v in values], pr.CMD_STOP if stop else 0)
         try:
             self.sock.send(pkt)
         except OSError:
@@ -230,6 +245,9 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
         pending.clear()
 
     def act(s: pr.Sensor) -> None:
+        if not isinstance(s, pr.Sensor):
+            raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} serves a circuit (SIGNALS "
+                            "packets), not the paper's rig: run the controller with that circuit's scenario")
         if pending:
             apply_pending(s.step)
         x = s.encoder_counts * res
@@ -320,7 +338,22 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
     addr = parse_address(connect, allow_remote=allow_remote)
     local_addr = parse_address(local, allow_remote=allow_remote) if local else None
     enc, scale, sample, spin, hil = 1e-6, 1.0, 5e-4, False, HilCfg()
-    if scenario is not None:
+    circuit = None
+    if scenario is not None and is_circuit_scenario(scenario):      # a circuit's loop and drives (hil/circuit.py)
+        from hydrohil.circuits.scenario import load_circuit_scenario
+        from hydrohil.hil.circuit import Drives, circuit_hil
+        circuit = load_circuit_scenario(scenario)
+        hil = circuit_hil(circuit)
+        drives = Drives(circuit)          # (compiled, its tables made: before the first packet)
+        mode, sample, cpu = "packet", circuit.step, hil.cpus()[1]
+        spin = hil.wait != "sleep" and (os.cpu_count() or 1) > 1
+        busy_poll = (hil.busy_poll or spin) if busy_poll is None else busy_poll
+        if cpu is not None:
+            try:
+                os.sched_setaffinity(0, {cpu})
+            except OSError:
+                pass
+    elif scenario is not None:
         from hydrohil.simulation.scenario import load_scenario
         sc = load_scenario(scenario)
         s = sc.scenario
@@ -369,11 +402,15 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
                          nap=not spin, bind=local_addr, should_stop=lambda: bool(stop),
                          on_connect=lambda s: ready(f"CONNECTED {addr[0]}:{addr[1]}", flush=True)) as client:
             try:
-                summary.update(run_position_controller(client, ctl, ref, encoder_resolution=enc, mode=mode,
-                                                sample_time=sample,
-                                                log_path=(log / "controller_log.csv") if log else None,
-                                                should_stop=lambda: bool(stop), side=side,
-                                                events_path=(log / "controller_events.jsonl") if log else None))
+                if circuit is not None:
+                    from hydrohil.hil.circuit import run_circuit_controller
+                    summary.update(run_circuit_controller(client, drives, should_stop=lambda: bool(stop),
+                                                          log_path=(log / "controller_log.csv") if log else None))
+                else:
+                    summary.update(run_position_controller(
+                        client, ctl, ref, encoder_resolution=enc, mode=mode, sample_time=sample,
+                        log_path=(log / "controller_log.csv") if log else None, should_stop=lambda: bool(stop),
+                        side=side, events_path=(log / "controller_events.jsonl") if log else None))
             except LinkError as exc:
                 summary.update(error=str(exc), commands_sent=client.seq, sensor_packets=client.received)
                 raise

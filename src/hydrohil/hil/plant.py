@@ -103,11 +103,12 @@ class PlantServer:
                  bind: tuple[str, int] = ("127.0.0.1", 0), lockstep: bool = False, hil: HilCfg | None = None,
                  initial: dict | None = None, peer: tuple[str, int] | None = None, cpu: int | None = None,
                  faults: list | None = None, log: Path | None = None, panel: tuple[str, int] | None = None,
-                 session: Path | None = None):
+                 session: Path | None = None, rig=None):
         self.params, self.h, self.lockstep = params, float(step), lockstep
         self.hil = hil or HilCfg()
         self.n = int(round(duration / self.h)) if duration > 0 else 1 << 62     # 0: until stopped
-        self.rig = VirtualRig(params, self.h, self.hil, faults, initial)
+        # the model behind the link (a circuit's: hydrohil.hil.circuit gives its own rig and packets)
+        self.rig = rig if rig is not None else VirtualRig(params, self.h, self.hil, faults, initial)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
         self.sock.bind(bind)
@@ -155,7 +156,7 @@ class PlantServer:
         if drops is not None:
             self.c.packets_dropped_kernel = drops
         msg = pr.decode(data)
-        if msg is None:
+        if msg is None or not self.accepts(msg):
             self.c.packets_bad += 1
             return
         if self.peer is None:
@@ -164,14 +165,14 @@ class PlantServer:
             self.c.packets_foreign += 1
             return
         self.c.packets_rx += 1
-        if isinstance(msg, pr.Command):
+        if isinstance(msg, (pr.Command, pr.Inputs)):
             if msg.header.seq <= self.cmd_seq:
                 self.c.packets_reordered += 1
                 return
             if self.cmd_seq >= 0 and msg.header.seq > self.cmd_seq + 1:
                 self.c.packets_lost += msg.header.seq - self.cmd_seq - 1
             self.cmd_seq, self.cmd_echo, self.cmd_t_arrival = msg.header.seq, msg.header.echo_seq, t_arr
-            self.cmd_u = msg.u / self.hil.command_scale
+            self.cmd_u = self.command_value(msg)
             self.cmd_new = True
             ts = self.sensor_t_send.pop(msg.header.echo_seq, None)
             if ts is not None:
@@ -181,6 +182,14 @@ class PlantServer:
                 self.stop_requested = True
         elif isinstance(msg, pr.Header) and msg.type == pr.T_BYE:
             self.stop_requested = True
+
+    def accepts(self, msg) -> bool:
+        """A packet this plant takes (the rig's: no circuit packet)."""
+        return not isinstance(msg, (pr.Signals, pr.Inputs))
+
+    def command_value(self, msg):
+        """What the rig's step takes of a command packet: ū."""
+        return msg.u / self.hil.command_scale
 
     def _drain(self) -> None:
         while True:
@@ -213,8 +222,14 @@ class PlantServer:
         r = self.rig.read()
         status |= r.status | (pr.ST_LOCKSTEP if self.lockstep else 0)
         t_send, t_send_wall = time.perf_counter_ns(), time.time_ns()
-        pkt = pr.encode_sensor(k, t_send, self.cmd_t_arrival or 0, max(self.cmd_seq, 0), r.t, k, r.encoder,
-                               r.p1, r.p2, r.ps, r.pt, status, r.travel, r.friction, r.spool)
+        self._transmit(k, pr.encode_sensor(k, t_send, self.cmd_t_arrival or 0, max(self.cmd_seq, 0), r.t, k,
+                                           r.encoder, r.p1, r.p2, r.ps, r.pt, status, r.travel, r.friction, r.spool),
+                       t_send, t_send_wall)
+        r.status = status
+        return r
+
+    def _transmit(self, k: int, pkt: bytes, t_send: int, t_send_wall: int) -> None:
+        """Send sensor packet k to the controller, its send time kept for the round trip of the answer."""
         self.sensor_t_send[k] = (t_send, t_send_wall)
         if len(self.sensor_t_send) > 64:
             self.sensor_t_send.pop(next(iter(self.sensor_t_send)))
@@ -223,8 +238,6 @@ class PlantServer:
                 self.sock.sendto(pkt, self.peer)
             except OSError:
                 pass
-        r.status = status
-        return r
 
     # -- one step ---------------------------------------------------------------------------------
     def _take_command(self, k: int) -> float | None:
@@ -508,9 +521,7 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
     events and applied commands go to ``log``); ``rows=False``: no ``plant_log.csv`` of the whole run (a panel
     session: recordings only). Returns the timing summary; :func:`hydrohil.hil.verdict.raise_for_outcome` maps
     it to an exit."""
-    stop: list[int] = []
-    for sig in (signal.SIGINT, signal.SIGTERM):      # first thing: a signal during start-up ends it cleanly too
-        signal.signal(sig, lambda signum, frame: stop.append(signum))
+    stop = early_stop()
     host_port = parse_address(bind, allow_remote=allow_remote)
     peer_addr = parse_address(peer, allow_remote=allow_remote) if peer else None
     initial, hil, faults = {}, HilCfg(), []
@@ -533,6 +544,21 @@ def serve_plant(params: str = "ferreira2004", bind: str = "127.0.0.1:47000", ste
                          initial=initial, cpu=cpu, faults=faults, peer=peer_addr,
                          log=(log / "plant_log.csv") if log is not None and rows else None,
                          panel=parse_address(panel) if panel else None, session=log)
+    return serve(server, log, ready, stop)
+
+
+def early_stop() -> list[int]:
+    """The first thing a plant process does: SIGINT/SIGTERM noted from now on (a signal during start-up ends
+    the run cleanly too: :func:`serve` stops at once). Returns the list the signals go to."""
+    stop: list[int] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, frame: stop.append(signum))
+    return stop
+
+
+def serve(server: PlantServer, log: Path | None, ready, stop: list[int]) -> dict:
+    """Run a plant server to its end: SIGINT/SIGTERM stop it (``stop``: those that came before), ``READY`` once
+    bound and ``PEER`` once the controller spoke; ``log/timing.json`` written whatever the end."""
     server.on_peer = lambda addr: ready(f"PEER {addr[0]}:{addr[1]}", flush=True)
 
     def _stop(signum, frame):

@@ -6,6 +6,11 @@ Every datagram = 32-byte header + payload + CRC-32 (zlib/IEEE, over everything b
     SENSOR  <d Q q d d d d I B B B x>   t_sim, step, encoder_counts, p1, p2, ps, pt, status, modes
     COMMAND <d I I>             u (command in the configured unit, ū by default), flags, reserved
     HELLO / BYE                 no payload
+    SIGNALS <d Q I I H H> + n·d  t_sim, step, status, layout, n, reserved, the circuit's n signal values
+    INPUTS  <I I I H H> + n·d    layout, flags, mask, n, reserved, the circuit's n input values
+
+SENSOR/COMMAND are the paper's rig; SIGNALS/INPUTS any circuit (``hydrohil.circuits``): their values in the
+order of the circuit's signal and input lists, whose names and SI units ``layout`` (CRC-32) fingerprints.
 
 A datagram that is too short/long for its type, has a wrong magic, version, type or CRC is *bad*:
 :func:`decode` returns None and the receiver counts it. Nothing here raises on network input.
@@ -17,22 +22,27 @@ import struct
 import zlib
 from typing import NamedTuple
 
+from hydrohil.circuits.link import layout_id  # noqa: F401  (the circuit packets' fingerprint)
 from hydrohil.core import shape
 from hydrohil.errors import InputError
 
 MAGIC = b"HHIL"
 VERSION = 1
-T_SENSOR, T_COMMAND, T_HELLO, T_BYE = 1, 2, 3, 4
+T_SENSOR, T_COMMAND, T_HELLO, T_BYE, T_SIGNALS, T_INPUTS = 1, 2, 3, 4, 5, 6
 
 HEADER = struct.Struct("<4sHHIqqI")          # 32 bytes
 SENSOR = struct.Struct("<dQqddddIBBBx")       # 64 bytes
 COMMAND = struct.Struct("<dII")               # 16 bytes
+SIGNALS = struct.Struct("<dQIIHH")           # 28 bytes, then n float64
+INPUTS = struct.Struct("<IIIHH")             # 16 bytes, then n float64
 CRC = struct.Struct("<I")
 SIZES = {T_SENSOR: HEADER.size + SENSOR.size + CRC.size,      # 100
          T_COMMAND: HEADER.size + COMMAND.size + CRC.size,    # 52
          T_HELLO: HEADER.size + CRC.size,                     # 36
          T_BYE: HEADER.size + CRC.size}
-MAX_DATAGRAM = 512
+MAX_DATAGRAM = 1472                          # a UDP payload in one 1500-byte Ethernet frame
+MAX_SIGNALS = (MAX_DATAGRAM - HEADER.size - SIGNALS.size - CRC.size) // 8     # 176 signals of a circuit
+MAX_INPUTS = 32                              # (the mask's bits)
 
 # status bits of a sensor packet (core/shape.py STATUS: each bit and its meaning)
 STATUS_BITS = {b.name: 1 << b.bit for b in shape.STATUS}
@@ -74,6 +84,26 @@ class Command(NamedTuple):
     flags: int
 
 
+class Signals(NamedTuple):
+    """A circuit plant's state as its sensors report it (the counterpart of :class:`Sensor`)."""
+    header: Header
+    t_sim: float
+    step: int
+    status: int
+    layout: int
+    values: tuple
+
+
+class Inputs(NamedTuple):
+    """A controller's values for a circuit's inputs: input i is set when bit i of ``mask`` is (the others keep
+    their drive from the scenario)."""
+    header: Header
+    layout: int
+    flags: int
+    mask: int
+    values: tuple
+
+
 def _seal(buf: bytearray) -> bytes:
     CRC.pack_into(buf, len(buf) - CRC.size, zlib.crc32(memoryview(buf)[:-CRC.size]))
     return bytes(buf)
@@ -99,6 +129,24 @@ def encode_command(seq, t_send_ns, echo_t_ns, echo_seq, u, flags=0) -> bytes:
     return _seal(buf)
 
 
+def encode_signals(seq, t_send_ns, echo_t_ns, echo_seq, t_sim, step, status, layout, values) -> bytes:
+    n = len(values)
+    buf = bytearray(HEADER.size + SIGNALS.size + 8 * n + CRC.size)
+    encode_header(buf, T_SIGNALS, seq, t_send_ns, echo_t_ns, echo_seq)
+    SIGNALS.pack_into(buf, HEADER.size, t_sim, step, status, layout, n, 0)
+    struct.pack_into(f"<{n}d", buf, HEADER.size + SIGNALS.size, *values)
+    return _seal(buf)
+
+
+def encode_inputs(seq, t_send_ns, echo_t_ns, echo_seq, layout, mask, values, flags=0) -> bytes:
+    n = len(values)
+    buf = bytearray(HEADER.size + INPUTS.size + 8 * n + CRC.size)
+    encode_header(buf, T_INPUTS, seq, t_send_ns, echo_t_ns, echo_seq)
+    INPUTS.pack_into(buf, HEADER.size, layout, flags, mask, n, 0)
+    struct.pack_into(f"<{n}d", buf, HEADER.size + INPUTS.size, *values)
+    return _seal(buf)
+
+
 def encode_simple(typ: int, seq: int, t_send_ns: int, echo_t_ns: int = 0, echo_seq: int = 0) -> bytes:
     """HELLO or BYE."""
     buf = bytearray(SIZES[typ])
@@ -113,11 +161,22 @@ def decode(data: bytes) -> Header | Sensor | Command | None:
     if n < HEADER.size + CRC.size or n > MAX_DATAGRAM:
         return None
     magic, version, typ, seq, t_send, echo_t, echo_seq = HEADER.unpack_from(data, 0)
-    if magic != MAGIC or version != VERSION or SIZES.get(typ) != n:
+    if magic != MAGIC or version != VERSION or _size(typ, data) != n:
         return None
     if CRC.unpack_from(data, n - CRC.size)[0] != zlib.crc32(memoryview(data)[:-CRC.size]):
         return None
     hdr = Header(typ, seq, t_send, echo_t, echo_seq)
+    if typ == T_SIGNALS:
+        t_sim, step, status, layout, count, _ = SIGNALS.unpack_from(data, HEADER.size)
+        return Signals(hdr, t_sim, step, status, layout, struct.unpack_from(f"<{count}d", data,
+                                                                            HEADER.size + SIGNALS.size))
+    if typ == T_INPUTS:
+        layout, flags, mask, count, _ = INPUTS.unpack_from(data, HEADER.size)
+        values = struct.unpack_from(f"<{count}d", data, HEADER.size + INPUTS.size)
+        if count > MAX_INPUTS or mask >> count or any(
+                (mask >> i) & 1 and (v != v or abs(v) == float("inf")) for i, v in enumerate(values)):
+            return None   # a set input that is not finite, or a bit beyond the values: bad packet
+        return Inputs(hdr, layout, flags, mask, values)
     if typ == T_SENSOR:
         return Sensor(hdr, *SENSOR.unpack_from(data, HEADER.size))
     if typ == T_COMMAND:
@@ -126,6 +185,15 @@ def decode(data: bytes) -> Header | Sensor | Command | None:
             return None   # NaN/inf command: bad packet
         return Command(hdr, u, flags)
     return hdr
+
+
+def _size(typ: int, data: bytes) -> int | None:
+    """The length a datagram of type ``typ`` must have (the circuit types: from their value count)."""
+    if typ == T_SIGNALS and len(data) >= HEADER.size + SIGNALS.size:
+        return HEADER.size + SIGNALS.size + 8 * SIGNALS.unpack_from(data, HEADER.size)[4] + CRC.size
+    if typ == T_INPUTS and len(data) >= HEADER.size + INPUTS.size:
+        return HEADER.size + INPUTS.size + 8 * INPUTS.unpack_from(data, HEADER.size)[3] + CRC.size
+    return SIZES.get(typ)
 
 
 def parse_address(text: str, *, allow_remote: bool = False) -> tuple[str, int]:

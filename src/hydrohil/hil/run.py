@@ -22,6 +22,8 @@ from typing import Callable, Protocol
 import numpy as np
 
 from hydrohil.errors import HydrohilError, InputError, Interrupted, LinkError
+from hydrohil.circuits.scenario import is_circuit_scenario
+from hydrohil.hil.circuit import circuit_hil, compare_circuit_offline
 from hydrohil.hil.processes import Child, free_udp_port, process_command
 from hydrohil.simulation.outputs import read_csv_columns
 from hydrohil.simulation.scenario import load_scenario
@@ -99,16 +101,21 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     Raises LinkError / HydrohilError when a process failed, Interrupted on Ctrl-C (after both processes
     finished their logs)."""
     scenario, out = Path(scenario), Path(out)
-    sc = load_scenario(scenario, params=params, sets=sets)     # validate before starting anything
-    if params is not None or sets:         # the run folder records what ran; both processes read it
-        from hydrohil.simulation.scenario import write_scenario
-        scenario = write_scenario(scenario, out / "scenario.toml", params=params, sets=sets)
-    if not sc.scenario.closed_loop:
-        raise InputError("hydrohil hil needs a closed-loop scenario ([controller] + [reference])",
-                         source=str(scenario))
-    hil_cfg = sc.scenario.hil
+    circuit = None
+    if is_circuit_scenario(scenario):      # any circuit: its signals and inputs over the link (hil/circuit.py)
+        circuit, scenario = _circuit_run(scenario, out, plant=plant, params=params, sets=sets, live=live)
+        hil_cfg, duration = circuit_hil(circuit), circuit.duration
+    else:
+        sc = load_scenario(scenario, params=params, sets=sets)     # validate before starting anything
+        if params is not None or sets:         # the run folder records what ran; both processes read it
+            from hydrohil.simulation.scenario import write_scenario
+            scenario = write_scenario(scenario, out / "scenario.toml", params=params, sets=sets)
+        if not sc.scenario.closed_loop:
+            raise InputError("hydrohil hil needs a closed-loop scenario ([controller] + [reference])",
+                             source=str(scenario))
+        hil_cfg, duration = sc.scenario.hil, sc.scenario.duration
     ctl_address = f"127.0.0.1:{free_udp_port()}" if controller is None else None
-    command = plant_command(sc, scenario, out, ctl_address, lockstep=lockstep, plant=plant)
+    command = plant_command(circuit or sc, scenario, out, ctl_address, lockstep=lockstep, plant=plant)
     out.mkdir(parents=True, exist_ok=True)
     view = side = None
     if live is not None:
@@ -122,11 +129,11 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     ctl = None
     try:
         address = plant.wait_line("READY ", READY_TIMEOUT_S)
-        ctl = Child(controller_args(controller, address, scenario, sc.scenario.duration, out)
+        ctl = Child(controller_args(controller, address, scenario, duration, out)
                     if controller is not None else
                     process_command("controller", "--scenario", scenario, "--connect", address, "--log", out, "--local",
                         ctl_address, *(side or [])), "controller")
-        _supervise(plant, ctl, sc.scenario.duration, hil_cfg, progress)
+        _supervise(plant, ctl, duration, hil_cfg, progress)
     except KeyboardInterrupt as exc:         # Ctrl-C (or SIGTERM, see terminal.interruptible)
         for p in (ctl, plant):
             if p is not None:
@@ -146,8 +153,33 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
                 f"{p.name} process failed (exit {p.returncode}): {p.stderr()[-2000:]}")
     timing = json.loads((out / "timing.json").read_text())
     ctl_summary = json.loads((out / "controller.json").read_text()) if controller is None else {"command": controller}
-    comparison = compare_offline(scenario, out, plot=plot, verdict=timing.get("verdict"), plant=timing.get("plant"))
+    if circuit is not None:
+        comparison = compare_circuit_offline(circuit, out, plot=plot, verdict=timing.get("verdict"),
+                                             plant=timing.get("plant"))
+    else:
+        comparison = compare_offline(scenario, out, plot=plot, verdict=timing.get("verdict"),
+                                     plant=timing.get("plant"))
     return HilResult(out, timing, ctl_summary, comparison)
+
+
+def _circuit_run(scenario: Path, out: Path, *, plant: str, params, sets, live):
+    """A circuit scenario checked for a HIL run (before anything starts) and the file both processes read: the
+    scenario itself, or with ``sets`` applied ``out/scenario.toml``."""
+    from hydrohil.circuits.scenario import load_circuit_scenario, write_circuit_scenario
+    if params is not None:
+        raise InputError("a circuit scenario has no parameter set: give its values with --set component.key=value",
+                         key="--params")
+    if plant != "python":
+        raise InputError("a circuit runs on the Python plant in this version (--plant python); the standalone C "
+                         "plant serves the paper's rig", key="--plant")
+    if live is not None:
+        raise InputError("the live panel shows the paper's rig; on a circuit it is not in this version",
+                         key="--panel")
+    cs = load_circuit_scenario(scenario, sets=sets)
+    if sets:
+        scenario = write_circuit_scenario(scenario, out / "scenario.toml", sets=sets)
+    circuit_hil(cs)
+    return cs, scenario
 
 
 def controller_args(template: str, address: str, scenario: Path, duration: float, out: Path) -> list[str]:

@@ -1,0 +1,24 @@
+"""What a circuit shows a controller over the HIL link (docs/protocol.md, SIGNALS and INPUTS packets): its
+signals (every log column but time, SI) and its inputs, in wire order, and the fingerprint of both that every
+packet carries (``layout``), so that both ends know they speak of the same circuit."""
+
+from __future__ import annotations
+
+import zlib
+
+from hydrohil.circuits.run import input_unit, signal_units
+
+
+def wire_lists(c, lay) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
+    """(name, SI unit) of a circuit's signals (its log columns but time) and of its inputs, in wire order
+    (``lay``: its :class:`hydrohil.circuits.generate.Layout`)."""
+    units = signal_units(c, lay)
+    return [(name, units[name]) for name in lay.log_columns[1:]], [(name, input_unit(c, name)) for name in lay.inputs]
+
+
+def layout_id(signals, inputs) -> int:
+    """CRC-32 (zlib) of the UTF-8 text ``signals:`` + one ``\\nname [unit]`` per signal + ``\\ninputs:`` + one
+    ``\\nname [unit]`` per input."""
+    text = "signals:" + "".join(f"\n{n} [{u}]" for n, u in signals) + "\ninputs:" + "".join(
+        f"\n{n} [{u}]" for n, u in inputs)
+    return zlib.crc32(text.encode())

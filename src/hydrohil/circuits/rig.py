@@ -1,0 +1,132 @@
+"""A circuit as a controller sees it, one step at a time: the plant side of a circuit's HIL run.
+
+The generated C's per-step interface (``hc_step``, ``hc_row``, ``hc_sensed``) under the inputs a controller
+sends: each step takes the scenario's drives (its ``[inputs]``, the circuit's defaults) and replaces those
+the controller has set (the latest value of each input it named); a loop's command starts at the command
+that holds its piston (:func:`hydrohil.circuits.run.start_state`), so a controller that answers every
+sensor packet gets exactly :func:`~hydrohil.circuits.run.simulate_circuit`'s run. What a controller reads:
+every log column of the state after the step, the loop's measured signal through its sensor.
+
+Inputs are saturated to their parameter's range. Watchdog: no command for more than ``watchdog_steps``
+steps -> every input back on its drive from the scenario (a valve's command: usually 0, the centre), left
+at the next command. A circuit has no injected faults (a hose burst is an input of its own), so every trip
+counts against the run (:mod:`hydrohil.hil.verdict`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hydrohil.circuits.build import compile_circuit
+from hydrohil.circuits.link import wire_lists
+from hydrohil.circuits.run import METHODS, input_table, start_state
+from hydrohil.errors import InputError, SimulationDiverged
+
+
+class CircuitRig:
+    """The circuit of a scenario (:class:`~hydrohil.circuits.scenario.CircuitScenario`) behind its inputs.
+    ``signals`` / ``inputs``: (name, SI unit) of what it reports and what it takes, in wire order."""
+
+    def __init__(self, cs, *, watchdog_steps: int = 100):
+        if cs.method == "reference":
+            raise InputError("a real-time plant steps the hybrid model: give a fixed-step method (rk3, ...), not "
+                             "the continuous reference", source=cs.source, key="solver.method")
+        c = self.circuit = cs.circuit
+        self.cs, self.h, self.n = cs, cs.step, cs.n_steps
+        cc = self.cc = compile_circuit(c)
+        lay = self.layout = cc.layout
+        self.signals, self.inputs = wire_lists(c, lay)
+        self.drives = input_table(c, self.n, self.h)              # the scenario's drive of each input per step
+        ranges = [c.components[s.split(".")[0]].type.params[s.split(".")[1]] for s in lay.inputs]
+        self.lo, self.hi = [float(p.lo) for p in ranges], [float(p.hi) for p in ranges]     # (saturation)
+        self.P = np.ascontiguousarray(lay.values())
+        self.method = METHODS.index(cs.method)
+        self.watchdog_steps = int(watchdog_steps)
+        self.loop = cs.loop
+        if self.loop is not None:
+            sensor = self.loop.sensor
+            self._sensor = cc.ffi.new("double[3]", list(sensor)) if sensor is not None else cc.ffi.NULL
+            self._meas = lay.log_columns.index(self.loop.measure)
+        self.y0, self.m0, self.u0 = start_state(c, h=self.h, method=cs.method, rest=cs.rest, loop=self.loop)
+        self.row = np.zeros(len(lay.log_columns))
+        self.fault_models: list = []                      # (none: the plant server's summary lists them)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the state at rest, no command received, no watchdog trip counted."""
+        ffi = self.cc.ffi
+        self.y, self.m = self.y0.copy(), self.m0.copy()
+        self.u = self.u0.copy()                         # the inputs of the last step (applied)
+        self._c = [ffi.from_buffer("double[]", self.P), ffi.from_buffer("double[]", self.y),
+                   ffi.from_buffer("int64_t[]", self.m), ffi.from_buffer("double[]", self.u),
+                   ffi.from_buffer("double[]", self.row)]          # (the C's views of them, made once)
+        self.cmd = self.u0.tolist()                     # the latest value of each input the controller set
+        self.set_inputs = set()                         # the inputs set by the controller so far
+        if self.loop is not None:                       # the loop's command: the one holding the piston until
+            self.set_inputs.add(self.layout.inputs.index(self.loop.command))    # the controller speaks
+        self.silent = 0
+        self.watchdog = False
+        self.watchdog_trips = self.commands_delivered = 0
+        self.saturated = False
+        self.k = 0
+        self._row(0.0)
+
+    @property
+    def watchdog_trips_unexplained(self) -> int:
+        return self.watchdog_trips
+
+    def warm_up(self) -> None:
+        """One step, then back to rest: the first step of a real-time run pays no page faults."""
+        self.step(0, None)
+        self.reset()
+
+    def _row(self, t: float) -> None:
+        P, y, m, u, row = self._c
+        self.cc.lib.hc_row(P, y, m, u, t, row)
+
+    def step(self, k: int, command: tuple[int, tuple] | None) -> np.ndarray:
+        """Advance step k -> k+1 with the inputs the controller sent for it ((mask, values); None: nothing new).
+        Returns the inputs that drove the step (SI)."""
+        if command is not None:
+            mask, values = command
+            for j in range(len(self.inputs)):
+                if mask >> j & 1:
+                    self.cmd[j] = values[j]
+                    self.set_inputs.add(j)
+            self.silent = 0
+            self.watchdog = False
+            self.commands_delivered += 1
+        else:
+            self.silent += 1
+            if self.silent > self.watchdog_steps and not self.watchdog:
+                self.watchdog = True
+                self.watchdog_trips += 1
+        u = self.u
+        u[:] = self.drives[min(k, len(self.drives) - 1)]
+        self.saturated = False
+        if not self.watchdog:
+            for j in self.set_inputs:
+                v = self.cmd[j]
+                lo, hi = self.lo[j], self.hi[j]
+                if v < lo or v > hi:
+                    v = lo if v < lo else hi
+                    self.saturated = True
+                u[j] = v
+        P, y, m, uc, _ = self._c
+        status = self.cc.lib.hc_step(P, y, m, uc, self.method, self.h)
+        self.k = k + 1
+        if status != 0:
+            lay = self.layout
+            modes = {name: lay.mode_names[name][int(self.m[i])] for i, name in enumerate(lay.modes)}
+            raise SimulationDiverged(self.k * self.h, modes, {s: float(self.y[i]) for i, s in enumerate(lay.states)},
+                                     "a state is not finite")
+        self._row(self.k * self.h)
+        return u
+
+    def read(self) -> list[float]:
+        """The signals of the current state as the controller reads them (the loop's measured one through its
+        sensor), in the order of ``signals``."""
+        values = self.row[1:].tolist()
+        if self.loop is not None:
+            values[self._meas - 1] = self.cc.lib.hc_sensed(float(self.row[self._meas]), self._sensor)
+        return values

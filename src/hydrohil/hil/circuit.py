@@ -1,0 +1,263 @@
+"""HIL of any circuit (a scenario naming its circuit, :mod:`hydrohil.circuits.scenario`): the plant server
+over the circuit's rig (:class:`hydrohil.circuits.rig.CircuitRig`), the controller loop, the offline check.
+
+The link is protocol v1's circuit packets (docs/protocol.md): the plant sends SIGNALS (every signal of the
+circuit, the loop's measured one through its sensor), the controller answers with INPUTS (a value per input it
+sets). Both carry the circuit's ``layout`` (:func:`hydrohil.hil.protocol.layout_id`), so a controller built for
+another circuit is told at once. The scenario's controller process runs its loop (the core's law, the same C
+as offline) and plays the scenario's drives of the other inputs over the link; an open-loop scenario is all
+drives. Lock-step, that is :func:`hydrohil.circuits.run.simulate_circuit`'s run bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from hydrohil.errors import InputError, LinkError
+from hydrohil.hil import protocol as pr
+from hydrohil.hil.plant import PlantServer, early_stop, serve
+from hydrohil.hil.protocol import parse_address
+from hydrohil.simulation.outputs import CsvStream
+
+# [hil] settings that mean something for the paper's rig only, and the values a circuit takes
+RIG_ONLY = {"command_delay": 0.0, "command_scale": 1.0, "safe_state": "centre"}
+# plant_log.csv of a circuit: these, then every signal (SI), then every input as applied
+LOG_HEAD = ("k", "t", "wall", "jitter_us", "compute_us", "cmd_seq", "cmd_age", "watchdog", "status")
+CONTROLLER_LOG_HEAD = ("seq", "t", "wall", "measured", "reference", "command", "status")
+
+
+def circuit_hil(cs):
+    """The scenario's ``[hil]`` settings (:class:`hydrohil.simulation.scenario.HilCfg`), checked: a circuit's
+    inputs are in their own SI units (no command scale), its safe state is its drives, it has no transport
+    delay of the paper's valve."""
+    from pydantic import ValidationError
+
+    from hydrohil.simulation.scenario import HilCfg
+    from hydrohil.parameters import format_validation_error
+    try:
+        hil = HilCfg.model_validate(cs.hil)
+    except ValidationError as exc:
+        key, msg = format_validation_error(exc, HilCfg)
+        raise InputError(msg, source=cs.source, key=f"hil.{key}") from None
+    for key, value in RIG_ONLY.items():
+        if getattr(hil, key) != value:
+            raise InputError(f"a setting of the paper's rig only; a circuit's inputs are in their SI units, its "
+                             f"watchdog puts them back on their drives, a delay is a component (expected {value!r})",
+                             source=cs.source, key=f"hil.{key}")
+    if hil.step is not None and hil.step != cs.step:
+        raise InputError(f"a circuit's plant steps at its [solver] step ({cs.step:g} s)", source=cs.source,
+                         key="hil.step")
+    return hil
+
+
+def make_rig(cs, hil):
+    from hydrohil.circuits.rig import CircuitRig
+    return CircuitRig(cs, watchdog_steps=max(int(round(hil.watchdog_timeout / cs.step)), 1))
+
+
+class CircuitPlantServer(PlantServer):
+    """:class:`~hydrohil.hil.plant.PlantServer` (clock, lock-step, watchdog, counters, verdict) serving a
+    circuit: SIGNALS out, INPUTS in, its own ``plant_log.csv`` columns."""
+
+    def __init__(self, cs, *, hil, duration: float, log: Path | None = None, **kw):
+        self.cs = cs
+        rig = make_rig(cs, hil)
+        if len(rig.signals) > pr.MAX_SIGNALS or len(rig.inputs) > pr.MAX_INPUTS:
+            raise InputError(f"a circuit's link carries at most {pr.MAX_SIGNALS} signals and {pr.MAX_INPUTS} inputs "
+                             f"(this one: {len(rig.signals)}, {len(rig.inputs)})", source=cs.source)
+        self.layout = pr.layout_id(rig.signals, rig.inputs)
+        self.columns = (*LOG_HEAD, *(n for n, _ in rig.signals), *(f"{n}.applied" for n, _ in rig.inputs))
+        super().__init__(None, step=cs.step, duration=duration, hil=hil, log=log, rig=rig, **kw)
+
+    def accepts(self, msg) -> bool:
+        if isinstance(msg, pr.Inputs):
+            return msg.layout == self.layout and len(msg.values) == len(self.rig.inputs)
+        return not isinstance(msg, (pr.Sensor, pr.Command, pr.Signals))
+
+    def command_value(self, msg):
+        return msg.mask, msg.values
+
+    def _send_sensor(self, k: int, status: int):
+        rig = self.rig
+        status |= ((pr.ST_LOCKSTEP if self.lockstep else 0) | (pr.ST_WATCHDOG if rig.watchdog else 0)
+                   | (pr.ST_SATURATED if rig.saturated else 0))
+        values = rig.read()
+        t_send, t_send_wall = time.perf_counter_ns(), time.time_ns()
+        self._transmit(k, pr.encode_signals(k, t_send, self.cmd_t_arrival or 0, max(self.cmd_seq, 0), rig.row[0], k,
+                                            status, self.layout, values), t_send, t_send_wall)
+        return status
+
+    def _log_row(self, k, status, wall, jitter_ns, compute_ns, u) -> None:
+        if self.log is None:
+            return
+        rig = self.rig
+        age = k - 1 - self.cmd_echo if self.cmd_seq >= 0 else -1
+        self.log.write((k, rig.row[0], wall, jitter_ns / 1e3, compute_ns / 1e3, self.cmd_seq, age, rig.watchdog,
+                        status, *rig.row[1:], *rig.u[:len(rig.inputs)]))
+
+    def open_log(self, path: Path) -> CsvStream:
+        return CsvStream(path, self.columns, ints={0, 5, 6, 7, 8})
+
+    def _timing(self, *args, **kw) -> dict:
+        res = super()._timing(*args, **kw)
+        res.update(circuit=self.cs.circuit.name, layout=self.layout, signals=len(self.rig.signals),
+                   inputs=len(self.rig.inputs))
+        return res
+
+
+def serve_circuit_plant(scenario: Path, bind: str = "127.0.0.1:47000", duration: float | None = None,
+                        log: Path | None = None, lockstep: bool = False, allow_remote: bool = False,
+                        cpu: int | None = None, peer: str | None = None, connect_timeout: float | None = None,
+                        ready=print, panel: str | None = None, rows: bool = True) -> dict:
+    """The plant process of a circuit scenario (``hydrohil plant --scenario`` on one naming its circuit): as
+    :func:`hydrohil.hil.plant.serve_plant`, the circuit behind the link. Returns the timing summary."""
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    stop = early_stop()
+    host_port = parse_address(bind, allow_remote=allow_remote)
+    peer_addr = parse_address(peer, allow_remote=allow_remote) if peer else None
+    cs = load_circuit_scenario(scenario)
+    if panel:
+        raise InputError("the live panel shows the paper's rig; on a circuit it is not in this version",
+                         source=cs.source, key="--panel")
+    hil = circuit_hil(cs)
+    if connect_timeout is not None:
+        hil = hil.model_copy(update={"connect_timeout": connect_timeout})
+    if log is not None:
+        log.mkdir(parents=True, exist_ok=True)
+    server = CircuitPlantServer(cs, hil=hil, duration=cs.duration if duration is None else duration, bind=host_port,
+                                lockstep=lockstep, peer=peer_addr, cpu=hil.cpus()[0] if cpu is None else cpu,
+                                log=(log / "plant_log.csv") if log is not None and rows else None)
+    return serve(server, log, ready, stop)
+
+
+class Drives:
+    """What the scenario's controller process sends for each sensor packet: every input's drive at that step,
+    the loop's command from the core's law on the measured signal (the same C as offline)."""
+
+    def __init__(self, cs):
+        self.cs = cs
+        from hydrohil.circuits.build import compile_circuit
+        from hydrohil.circuits.link import wire_lists
+        from hydrohil.circuits.run import input_table
+        c = cs.circuit
+        lay = compile_circuit(c).layout
+        signals, inputs = wire_lists(c, lay)
+        self.layout = pr.layout_id(signals, inputs)
+        self.n_inputs = len(inputs)
+        self.mask = (1 << self.n_inputs) - 1
+        self.n = cs.n_steps
+        self.drives = input_table(c, self.n, cs.step)
+        self.loop = cs.loop
+        if self.loop is not None:
+            self.loop.start(cs.step)
+            self.ref, self.dref = self.loop.table(self.n, cs.step)
+            self.meas = lay.log_columns.index(self.loop.measure) - 1
+            self.cmd = lay.inputs.index(self.loop.command)
+        self.measured = self.reference = float("nan")
+
+    def answer(self, s: pr.Signals) -> list[float]:
+        k = min(int(s.step), self.n)
+        values = self.drives[min(k, len(self.drives) - 1)][:self.n_inputs].tolist()
+        if self.loop is not None:
+            self.measured, self.reference = s.values[self.meas], float(self.ref[k])
+            values[self.cmd] = self.loop.controller.update(self.ref[k], self.dref[k], self.measured)
+        return values
+
+
+def run_circuit_controller(client, drives: Drives, *, log_path: Path | None = None, should_stop=lambda: False) -> dict:
+    """The scenario's controller over the link: one INPUTS packet answering each SIGNALS packet
+    (:class:`Drives`, made before the link opens). Raises LinkError when the plant serves another circuit (its
+    layout differs)."""
+    cs = drives.cs
+    log = CsvStream(log_path, CONTROLLER_LOG_HEAD, ints={0, 6}) if log_path is not None else None
+    t_start = time.perf_counter()
+    cmd = drives.cmd if drives.loop is not None else None
+    try:
+        for s in client.sensors():
+            if not isinstance(s, pr.Signals) or s.layout != drives.layout:
+                raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} serves another circuit "
+                                f"(layout {getattr(s, 'layout', 'of the paper rig')}, expected {drives.layout} of "
+                                f"{cs.circuit.name!r})")
+            values = drives.answer(s)
+            client.send_inputs(drives.layout, drives.mask, values, answer=s)
+            if log is not None:
+                log.write((s.header.seq, s.t_sim, time.perf_counter() - t_start, drives.measured, drives.reference,
+                           values[cmd] if cmd is not None else float("nan"), s.status))
+            if should_stop():
+                break
+    finally:
+        if log is not None:
+            log.close()
+    return {"circuit": cs.circuit.name, "layout": drives.layout, "commands_sent": client.seq,
+            "sensor_packets": client.received, "sensor_packets_bad": client.bad, "sensor_packets_lost": client.lost,
+            "stopped_by_signal": bool(should_stop())}
+
+
+def replay_inputs(cs, hil: dict) -> np.ndarray:
+    """The plant log's applied inputs (``<input>.applied``) replayed through the circuit from its state at rest:
+    the state columns they give, row by row (equal to the log's bit for bit when the plant stepped the model
+    correctly, however late its commands came)."""
+    from hydrohil.circuits.rig import CircuitRig
+    rig = CircuitRig(cs)
+    states = rig.layout.states
+    n = len(hil["t"]) - 1
+    out = np.zeros((n + 1, len(states)))
+    out[0] = [rig.row[rig.layout.log_columns.index(s)] for s in states]
+    idx = [rig.layout.log_columns.index(s) for s in states]
+    names = [n_ for n_, _ in rig.inputs]
+    for k in range(n):
+        u = [float(hil[f"{name}.applied"][k + 1]) for name in names]
+        rig.step(k, ((1 << len(names)) - 1, u))
+        out[k + 1] = rig.row[idx]
+    return out
+
+
+def compare_circuit_offline(cs, out: Path, *, plot: bool = True, verdict: dict | None = None,
+                            plant: str | None = None) -> dict:
+    """The scenario run offline (:func:`hydrohil.circuits.run.simulate_circuit`, every step) against the plant
+    log: per state and mode the largest difference, the loop's measured signal (RMS against offline and against
+    its reference); the replay of the applied inputs."""
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.circuits.units import display
+    from hydrohil.simulation.outputs import read_csv_columns
+    hil = read_csv_columns(out / "plant_log.csv")
+    res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, rest=cs.rest, loop=cs.loop)
+    n = min(len(hil["t"]), len(res.columns["t"]))
+    # the states (an output of an input, e.g. a burst's flow, is logged under the step's new input offline and
+    # under the input applied before it by the plant: at a change of input they differ by design)
+    from hydrohil.circuits.build import compile_circuit
+    lay = compile_circuit(cs.circuit).layout
+    states = [*lay.states, *lay.modes]
+    diff = {s: float(np.max(np.abs(hil[s][:n] - res.columns[s][:n]))) if n else 0.0 for s in states}
+    cmp = {"steps_compared": int(n), "max_abs_difference": diff,
+           "identical": bool(n and all(v == 0.0 for v in diff.values()))}
+    rms = lambda e: float(np.sqrt(np.mean(np.square(e)))) if len(e) else float("nan")    # noqa: E731
+    if cs.loop is not None:
+        m = cs.loop.measure
+        ref = res.columns[f"{m}.reference"][:n]
+        cmp.update(measure=m, unit=res.units.get(m, "-"), hil_vs_offline_rms=rms(hil[m][:n] - res.columns[m][:n]),
+                   hil_tracking_rms=rms(hil[m][:n] - ref), offline_tracking_rms=rms(res.columns[m][:n] - ref))
+        k, du = display(cmp["unit"])
+        cmp["text"] = ("HIL = offline bit for bit in every state and mode" if cmp["identical"] else
+                       f"HIL vs offline {m} RMS {cmp['hil_vs_offline_rms'] * k:.4g} {du}") + \
+            f"; tracking RMS {cmp['hil_tracking_rms'] * k:.4g} {du}"
+    else:
+        worst = max(diff, key=lambda s: diff[s] * display(res.units.get(s, "-"))[0]) if diff else None
+        cmp["text"] = "HIL = offline bit for bit in every state and mode" if cmp["identical"] or worst is None else \
+            f"HIL vs offline: largest difference {worst} {diff[worst] * display(res.units[worst])[0]:.4g} " \
+            f"{display(res.units[worst])[1]}"
+    if n > 1:
+        rep = replay_inputs(cs, hil)
+        logged = np.column_stack([hil[s] for s in lay.states])
+        cmp["replay_max_abs_difference"] = float(np.max(np.abs(rep - logged)))
+    (out / "comparison.json").write_text(json.dumps(cmp, indent=2) + "\n")
+    if plot:
+        from hydrohil.plotting import plot_circuit_hil
+        which = {"c": " (standalone C plant)", "python": " (Python plant)"}.get(plant or "", "")
+        plot_circuit_hil(out / "report.png", hil, res, cs.loop.measure if cs.loop is not None else None,
+                         title=f"{Path(cs.source).name} ({cs.circuit.name}): HIL{which} vs offline", verdict=verdict)
+    return cmp
