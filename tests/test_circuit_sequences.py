@@ -99,7 +99,8 @@ def test_a_bad_circuit_sequence_names_its_key(tmp_path, text, key, message):
 
 
 def test_what_a_circuit_run_cannot_judge_is_an_error_not_a_pass(tmp_path):
-    """A watchdog expectation (no watchdog offline), tracking on an open loop, lock-step mode: errors."""
+    """A watchdog expectation (no watchdog offline), tracking on an open loop: errors; a Python callable as a
+    circuit's controller: refused."""
     p = _write(tmp_path, '[[expect]]\ntype = "watchdog"\n')
     r = run_sequence(p, tmp_path / "w")
     assert r.status == "error" and "no watchdog" in r.outcomes[0].message
@@ -108,6 +109,54 @@ def test_what_a_circuit_run_cannot_judge_is_an_error_not_a_pass(tmp_path):
                          '[[expect]]\ntype = "tracking"\ntol = 0.001\n')
     r = run_sequence(open_loop, tmp_path / "o")
     assert r.status == "error" and "open loop" in r.outcomes[0].message
-    with pytest.raises(InputError, match="runs offline") as e:
-        run_sequence(load_sequence(open_loop), tmp_path / "l", mode="lockstep")
-    assert e.value.key == "mode"
+    with pytest.raises(InputError, match="external program") as e:
+        run_sequence(load_sequence(open_loop), tmp_path / "l", controller=lambda m: 0.0)
+    assert e.value.key == "controller"
+
+
+LOCKSTEP_SEQUENCE = '''
+[[actions]]
+name = "up"
+at = 0.2
+type = "step"
+value = "800 rpm"
+
+[[expect]]
+type = "step_response"
+after = "up"
+max_settling_time = 0.4
+max_overshoot_pct = 3.0
+
+[[expect]]
+type = "bounds"
+signal = "a.p"
+max = 1.65e7
+
+[[expect]]
+type = "watchdog"
+'''
+
+
+def test_lockstep_sequence_judges_as_offline_and_sees_the_watchdog(tmp_path):
+    """Lock-step, the plant process and the controller process: every expectation measures what offline
+    measures (the same run bit for bit), and a watchdog expectation can be judged (no trip)."""
+    p = _write(tmp_path, LOCKSTEP_SEQUENCE)
+    off = run_sequence(p, tmp_path / "off")
+    lock = run_sequence(p, tmp_path / "lock", mode="lockstep")
+    assert [o.status for o in lock.outcomes[:2]] == [o.status for o in off.outcomes[:2]]
+    assert [o.message for o in lock.outcomes[:2]] == [o.message for o in off.outcomes[:2]]
+    assert [o.measured for o in lock.outcomes[:2]] == [o.measured for o in off.outcomes[:2]]
+    assert off.outcomes[2].status == "error" and lock.outcomes[2].status == "pass"
+    assert lock.status == "pass" and "settling time 0.303 s" in lock.outcomes[0].message
+
+
+def test_real_time_circuit_sequence_is_judged_or_says_why_not(tmp_path):
+    """Real time: the same expectations on the plant's log, or, on a machine too busy to keep the clock, an
+    error naming the INVALID run (never a pass of an invalid run)."""
+    r = run_sequence(_write(tmp_path, LOCKSTEP_SEQUENCE), tmp_path / "rt", mode="realtime")
+    assert r.verdict is not None
+    if r.verdict["valid"]:
+        assert r.status == "pass" and r.outcomes[2].message == "0 watchdog trip(s)"
+    else:
+        assert r.status == "error" and "INVALID" in r.error
+    assert (tmp_path / "rt" / "plant_log.csv").is_file() and (tmp_path / "rt" / "result.json").is_file()

@@ -307,7 +307,7 @@ class Watchdog(_Expect):
         t0, t1 = self.window(s)
         if "watchdog" not in s:
             return Outcome(self.label(), self.type, "error", "no watchdog in this run (a circuit's offline loop has "
-                           "none)")
+                           "none: run it in lock-step or real time)")
         m = s.mask(t0, t1)
         on = s["watchdog"] != 0
         rise = np.zeros_like(on)
@@ -323,7 +323,8 @@ class Watchdog(_Expect):
                                self.max_trips, plot)
             return Outcome(self.label(), self.type, "pass", f"{trips} watchdog trip(s)", trips, self.max_trips, plot)
         w, t = on[m], s.t[m]
-        safe = w & ((np.abs(s["u"][m]) <= 1e-12) if s.safe_state == "centre" else True)
+        # (the rig's safe state: its valve centred; a circuit's: every input back on its drive, the watchdog says so)
+        safe = w & ((np.abs(s["u"][m]) <= 1e-12) if s.safe_state == "centre" and "u" in s else True)
         plot["window"] = (t0, t0 + self.safe_within)
         plot["view"] = (max(0.0, t0 - 0.05), min(t1, t0 + 4 * self.safe_within + 0.05))
         plot["deadline"] = t0 + self.safe_within

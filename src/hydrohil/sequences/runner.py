@@ -121,10 +121,7 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
                 cols["u"] = np.append(log["u"][1:], log["u"][-1])
             from hydrohil.models.sensors import count_size
             cols["x_meas"] = log["encoder"] * count_size(sc.params.sensors.encoder_resolution)
-            if mode == "realtime":
-                verdict = hil.verdict
-                if not verdict["valid"]:
-                    error = f"real-time run INVALID: {'; '.join(verdict['reasons'])}"
+            verdict, error = _verdict(hil, mode)
     except InputError:
         raise
     except HydrohilError as exc:
@@ -136,7 +133,22 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
         signals = signals_from_columns(cols, s.reference.sample(np.asarray(cols["t"], float))[0],
                                        seq.event_times(), **kw)
         outcomes = evaluate(seq.expectations, signals, preds)
-    if error is not None:              # a run that cannot be judged judges none of its expectations
+    return _judged(seq, out, mode, outcomes, error, wall, signals, verdict)
+
+
+def _verdict(hil, mode: str) -> tuple[dict | None, str | None]:
+    """A HIL run's verdict (real time only: lock-step has no clock to keep) and the error an INVALID one is."""
+    if mode != "realtime":
+        return None, None
+    v = hil.verdict
+    return v, None if v["valid"] else f"real-time run INVALID: {'; '.join(v['reasons'])}"
+
+
+def _judged(seq: LoadedSequence, out: Path, mode: str, outcomes: list[Outcome], error: str | None, wall: float,
+            signals, verdict: dict | None) -> SequenceResult:
+    """The sequence's result (``result.json`` written): a run that cannot be judged (``error``) judges none of
+    its expectations; else pass when every expectation passed."""
+    if error is not None:
         outcomes = [dataclasses.replace(o, status="error", message=f"not judged ({error}); measured: {o.message}")
                     for o in outcomes]
         status = "error"
@@ -150,36 +162,42 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
 
 
 def _run_circuit_sequence(seq: LoadedSequence, out: Path, mode: str, controller, predicates) -> SequenceResult:
-    """A circuit's sequence, offline: its compiled circuit scenario run with its loop (the generated C), its
-    signals every log column (``component.variable``) with, in closed loop, the loop's ``x_ref`` (its
-    reference), ``xp`` (its measured signal) and ``error``, in their SI units."""
+    """A circuit's sequence: its compiled circuit scenario run with its loop offline (the generated C) or as HIL
+    (:func:`hydrohil.hil.run.run_hil`, lock-step or real time; ``controller``: an external program's command
+    line), its signals every log column (``component.variable``) and every input as it drove each step, with,
+    in closed loop, the loop's ``x_ref`` (its reference), ``xp`` (its measured signal) and ``error``, in their
+    SI units."""
     import time
-    from hydrohil.circuits.run import simulate_circuit
     from hydrohil.circuits.scenario import load_circuit_scenario
-    from hydrohil.circuits.show import write_log
-    from hydrohil.errors import SimulationDiverged
     from hydrohil.sequences.expectations import Bounds, Reaction
-    if mode != "offline" or controller is not None:
-        raise InputError("a circuit's sequence runs offline with its scenario's controller (lock-step and real-time "
-                         "runs of circuits: not yet)", source=str(seq.source), key="mode")
-    cs = load_circuit_scenario(seq.compile(out / "scenario.toml"))
+    if callable(controller):
+        raise InputError("a circuit's sequence runs its scenario's controller, or an external program in lock-step "
+                         "or real time", source=str(seq.source), key="controller")
+    scen = seq.compile(out / "scenario.toml")
+    cs = load_circuit_scenario(scen)
     preds = _predicates(seq, predicates)
     t0 = time.perf_counter()
-    error, signals, outcomes = None, None, []
+    error, signals, outcomes, verdict = None, None, [], None
+    cols = units = None
     try:
-        res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
-                               loop=cs.loop)
-    except SimulationDiverged as exc:
-        error, res = f"{type(exc).__name__}: {exc}", None
-    if res is not None:
-        write_log(res, out / "log.csv")
+        if mode == "offline":
+            cols, units = _circuit_offline(cs, out)
+        else:
+            from hydrohil.hil.run import run_hil
+            hil = run_hil(scen, out, lockstep=mode == "lockstep", plot=False, controller=controller,
+                          ready=lambda *a, **k: None)
+            cols, units = _circuit_hil_columns(cs, out)
+            verdict, error = _verdict(hil, mode)
+    except InputError:
+        raise
+    except HydrohilError as exc:         # (a diverged run, a failed process)
+        error = f"{type(exc).__name__}: {exc}"
+    if cols is not None and len(cols["t"]):
         lp = cs.loop
-        cols = {k: np.asarray(v, float) for k, v in res.columns.items()}
-        units = dict(res.units)
         if lp is not None:                 # the loop's reference, measure and error under the rig's names
             cols["x_ref"], cols["xp"] = cols[f"{lp.measure}.reference"], cols[lp.measure]
             cols["error"] = cols["x_ref"] - cols["xp"]
-            units.update(dict.fromkeys(("x_ref", "xp", "error"), res.units.get(lp.measure, "")))
+            units.update(dict.fromkeys(("x_ref", "xp", "error"), units.get(lp.measure, "")))
         for i, e in enumerate(seq.expectations):
             sig = getattr(e, "signal", None) if isinstance(e, (Bounds, Reaction)) else None
             if sig is not None and sig not in cols:
@@ -188,16 +206,44 @@ def _run_circuit_sequence(seq: LoadedSequence, out: Path, mode: str, controller,
                                  source=str(seq.source), key=f"expect[{i}].signal")
         signals = Signals(cols, seq.event_times(), mode=mode, units=units)
         outcomes = evaluate(seq.expectations, signals, preds)
-    wall = time.perf_counter() - t0
-    if error is not None:
-        status = "error"
-    elif any(o.status == "error" for o in outcomes):
-        status = "error"
-    else:
-        status = "pass" if all(o.passed for o in outcomes) else "fail"
-    result = SequenceResult(seq.name, mode, status, outcomes, out, str(seq.source), error, wall, signals)
-    (out / "result.json").write_text(json.dumps(result.summary(), indent=2, default=float) + "\n")
-    return result
+    return _judged(seq, out, mode, outcomes, error, time.perf_counter() - t0, signals, verdict)
+
+
+def _circuit_offline(cs, out: Path) -> tuple[dict, dict]:
+    """A circuit scenario run offline (log.csv written): its columns and units."""
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.circuits.show import write_log
+    res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
+                           loop=cs.loop)
+    write_log(res, out / "log.csv")
+    return {k: np.asarray(v, float) for k, v in res.columns.items()}, dict(res.units)
+
+
+def _circuit_hil_columns(cs, out: Path) -> tuple[dict, dict]:
+    """A circuit's HIL plant log as the offline run's columns: every signal; each input as it drove the step
+    from each row (the plant logs at row k what drove step k-1 -> k); the loop's reference and what its sensor
+    read."""
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.link import wire_lists
+    from hydrohil.simulation.outputs import read_csv_columns
+    log = read_csv_columns(out / "plant_log.csv")
+    cc = compile_circuit(cs.circuit)
+    signals, inputs = wire_lists(cs.circuit, cc.layout)
+    cols = {"t": np.asarray(log["t"], float), **{n: np.asarray(log[n], float) for n, _ in signals},
+            "watchdog": np.asarray(log["watchdog"], float)}
+    units = {"t": "s", **dict(signals), **dict(inputs), "watchdog": "-"}
+    for name, _ in inputs:
+        applied = np.asarray(log[f"{name}.applied"], float)
+        cols[name] = np.append(applied[1:], applied[-1]) if len(applied) > 1 else applied
+    lp = cs.loop
+    if lp is not None:
+        cols[f"{lp.measure}.reference"] = lp.at(cols["t"], cs.step)
+        units[f"{lp.measure}.reference"] = units[lp.measure]
+        if lp.sensor is not None:
+            sensor = cc.ffi.new("double[3]", list(lp.sensor))
+            cols[f"{lp.measure}.sensed"] = np.array([cc.lib.hc_sensed(float(x), sensor) for x in cols[lp.measure]])
+            units[f"{lp.measure}.sensed"] = units[lp.measure]
+    return cols, units
 
 
 def run_suite(paths: list[str | Path], out: str | Path, *, mode: str = "offline", controller=None,
