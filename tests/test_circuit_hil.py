@@ -72,7 +72,7 @@ def test_malformed_circuit_packets_are_bad():
 
 def test_rig_watchdog_puts_inputs_back_on_their_drives_and_saturates():
     cs = load_circuit_scenario(MOTOR)
-    rig = CircuitRig(cs, watchdog_steps=3)
+    rig = CircuitRig(cs, watchdog_timeout=3 * cs.step)          # silent for more than 3 steps: safe state
     j = rig.layout.inputs.index("valve.command")
     held = rig.u0[j]                                             # the loop's command before the controller speaks
     assert rig.step(0, None)[j] == held and not rig.watchdog

@@ -151,7 +151,7 @@ def test_a_scenario_names_its_circuit_and_sets_its_values(tmp_path):
         load_circuit_scenario(f)
     assert e.value.key == "controller.sensor_*"
     f.write_text(loop.replace('kp = 0.008', 'kp = -0.008'))
-    with pytest.raises(InputError, match="reverse-acting loops are not there yet"):
+    with pytest.raises(InputError, match='says action = "reverse"'):
         load_circuit_scenario(f)
     (tmp_path / "sub").mkdir()
     (tmp_path / "circuit.toml").write_text((CIRCUITS_DIR / "motor_speed" / "circuit.toml").read_text())
@@ -282,3 +282,68 @@ def test_a_loop_measures_under_the_command_it_applied_and_stays_in_the_commands_
 def q0():
     """The orifice's flow at its start opening 0.1 (the textbook law, 100 bar)."""
     return 0.61 * 2e-6 * 0.1 * math.sqrt(2 * 100e5 / 860.0)
+
+
+BLEED = '''
+name = "bleed"
+[components.tank]
+type = "tank"
+p = "tank"
+[components.pump]
+type = "pump"
+inlet = "tank"
+outlet = "supply"
+displacement = "16 cm3/rev"
+speed = "1500 rpm"
+[components.relief]
+type = "relief_valve"
+p = "supply"
+t = "tank"
+cracking_pressure = "200 bar"
+rated_flow = "40 l/min"
+rated_pressure = "210 bar"
+[components.block]
+type = "volume"
+p = "supply"
+volume = "0.5 l"
+[components.bleed]
+type = "orifice"
+a = "supply"
+b = "tank"
+area = "6 mm2"
+[inputs]
+"bleed.opening" = 1.0
+'''
+
+
+def _bleed_scenario(tmp_path, action: str):
+    (tmp_path / "circuit.toml").write_text(BLEED)
+    p = tmp_path / f"{action}.toml"
+    p.write_text(f'circuit = "circuit.toml"\nduration = 1.5\n[controller]\ntype = "pi"\nmeasure = "supply.p"\n'
+                 f'command = "bleed.opening"\naction = "{action}"\nkp = 1e-7\nki = 2e-6\n'
+                 '[reference]\nt = [0, 0.5]\nvalue = ["100 bar", "150 bar"]\n')
+    return p
+
+
+def test_a_reverse_acting_loop_holds_a_pressure_by_bleeding(tmp_path):
+    """A pump into a node bled to tank through an orifice: a larger opening lowers the pressure, so the PI loop
+    is reverse-acting. It holds 150 bar with the opening the orifice law gives for the pump's flow,
+    Q/(Cd·A·√(2Δp/ρ)), computed here; the same gains acting directly run away; the HIL run (lock-step) and
+    the continuous reference apply the same law."""
+    cs = load_circuit_scenario(_bleed_scenario(tmp_path, "reverse"))
+    res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
+    q = 16e-6 * 25.0
+    opening = q / (0.61 * 6e-6 * math.sqrt(2 * 150e5 / 860.0))
+    assert res.columns["supply.p"][-1] == pytest.approx(150e5, rel=2e-8)
+    assert res.columns["bleed.opening"][-1] == pytest.approx(opening, rel=2e-8)
+    direct = load_circuit_scenario(_bleed_scenario(tmp_path, "direct"))
+    d = simulate_circuit(direct.circuit, direct.duration, h=direct.step, loop=direct.loop)
+    assert abs(d.columns["supply.p"][-1] - 150e5) > 10e5 and d.columns["bleed.opening"][-1] in (0.0, 1.0)
+    ref = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop, method="reference")
+    assert ref.columns["supply.p"][-1] == pytest.approx(150e5, rel=1e-6)
+    from hydrohil.hil.run import run_hil
+    r = run_hil(tmp_path / "reverse.toml", tmp_path / "hil", lockstep=True, plot=False, ready=lambda *a, **k: None)
+    assert r.comparison["identical"]
+    with pytest.raises(InputError, match="reverse") as e:
+        load_circuit_scenario(_bleed_scenario(tmp_path, "sideways"))
+    assert e.value.key == "controller.action"

@@ -297,11 +297,12 @@ static int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, cons
  * steps from step 0 (the state before the step). Closed loop (ctl not NULL, the core's controller law,
  * control.c): at each step k the controller reads log column `meas` of the state at t_k (under the command
  * of step k-1; through the sensor, hc_sensed) and sets input `cmd` of step k (written into u) for the reference
- * ref[k] (slope dref[k]). Returns 0, or 1 when the state went
+ * ref[k] (slope dref[k]); `sign` -1: a reverse-acting loop (the law on -ref, -dref and the signal's negative, so
+ * that a larger command lowers the signal; 1: direct, exact). Returns 0, or 1 when the state went
  * non-finite (rows so far written, *rows set). */
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
-           const double *dref, int64_t meas, int64_t cmd, const double *sensor)
+           const double *dref, int64_t meas, int64_t cmd, const double *sensor, double sign)
 {{
     const hh_tableau *tab = &HH_TABLEAUS[method];
     double seen[NLOG];
@@ -312,8 +313,9 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             if (step > 0)
                 uk[cmd] = uk[cmd - NU];
             log_row((double)step * h, y, m, uk, P, seen);
-            uk[cmd] = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state, ref[step],
-                                           dref[step], hc_sensed(seen[meas], sensor), 0.0, 0.0);
+            uk[cmd] = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
+                                           sign * ref[step], sign * dref[step], sign * hc_sensed(seen[meas], sensor),
+                                           0.0, 0.0);
         }}
         if (step % every == 0)
             log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);

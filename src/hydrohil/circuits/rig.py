@@ -7,10 +7,11 @@ that holds its piston (:func:`hydrohil.circuits.run.start_state`), so a controll
 sensor packet gets exactly :func:`~hydrohil.circuits.run.simulate_circuit`'s run. What a controller reads:
 every log column of the state after the step, the loop's measured signal through its sensor.
 
-Inputs are saturated to their parameter's range. Watchdog: no command for more than ``watchdog_steps``
-steps -> every input back on its drive from the scenario (a valve's command: usually 0, the centre), left
-at the next command. A circuit has no injected faults (a hose burst is an input of its own), so every trip
-counts against the run (:mod:`hydrohil.hil.verdict`).
+Inputs are saturated to their parameter's range. Watchdog (the core's, ``hh_watchdog_command`` of rig.c: the
+same rule as the paper's rig): no command for longer than ``watchdog_timeout`` -> every input back on its drive
+from the scenario (a valve's command: usually 0, the centre), left at the next command. A circuit has no
+injected faults (a hose burst is an input of its own), so every trip counts against the run
+(:mod:`hydrohil.hil.verdict`).
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ import numpy as np
 from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.link import wire_lists
 from hydrohil.circuits.run import METHODS, input_table, start_state
+from hydrohil.core import ffi as core_ffi
+from hydrohil.core import lib as core
 from hydrohil.errors import InputError, SimulationDiverged
 
 
@@ -27,7 +30,7 @@ class CircuitRig:
     """The circuit of a scenario (:class:`~hydrohil.circuits.scenario.CircuitScenario`) behind its inputs.
     ``signals`` / ``inputs``: (name, SI unit) of what it reports and what it takes, in wire order."""
 
-    def __init__(self, cs, *, watchdog_steps: int = 100):
+    def __init__(self, cs, *, watchdog_timeout: float = 0.05):
         if cs.method == "reference":
             raise InputError("a real-time plant steps the hybrid model: give a fixed-step method (rk3, ...), not "
                              "the continuous reference", source=cs.source, key="solver.method")
@@ -41,7 +44,7 @@ class CircuitRig:
         self.lo, self.hi = [float(p.lo) for p in ranges], [float(p.hi) for p in ranges]     # (saturation)
         self.P = np.ascontiguousarray(lay.values())
         self.method = METHODS.index(cs.method)
-        self.watchdog_steps = int(watchdog_steps)
+        self.watchdog_timeout = float(watchdog_timeout)
         self.loop = cs.loop
         if self.loop is not None:
             sensor = self.loop.sensor
@@ -64,16 +67,27 @@ class CircuitRig:
         self.set_inputs = set()                         # the inputs set by the controller so far
         if self.loop is not None:                       # the loop's command: the one holding the piston until
             self.set_inputs.add(self.layout.inputs.index(self.loop.command))    # the controller speaks
-        self.silent = 0
-        self.watchdog = False
-        self.watchdog_trips = self.commands_delivered = 0
+        self.link = core_ffi.new("hh_watchdog *")          # the command path's watchdog (counts from step 0)
+        core.hh_watchdog_init(self.link)
         self.saturated = False
         self.k = 0
         self._row(0.0)
 
     @property
+    def watchdog(self) -> bool:
+        return bool(self.link.active)
+
+    @property
+    def watchdog_trips(self) -> int:
+        return int(self.link.trips)
+
+    @property
     def watchdog_trips_unexplained(self) -> int:
-        return self.watchdog_trips
+        return int(self.link.trips_unexplained)
+
+    @property
+    def commands_delivered(self) -> int:
+        return int(self.link.delivered)
 
     def warm_up(self) -> None:
         """One step, then back to rest: the first step of a real-time run pays no page faults."""
@@ -93,14 +107,8 @@ class CircuitRig:
                 if mask >> j & 1:
                     self.cmd[j] = values[j]
                     self.set_inputs.add(j)
-            self.silent = 0
-            self.watchdog = False
-            self.commands_delivered += 1
-        else:
-            self.silent += 1
-            if self.silent > self.watchdog_steps and not self.watchdog:
-                self.watchdog = True
-                self.watchdog_trips += 1
+        core.hh_watchdog_command(self.link, k, command is not None, 0.0, self.h, self.watchdog_timeout, 0, 0.0,
+                                       0.0)            # (its state only: the inputs are this rig's)
         u = self.u
         u[:] = self.drives[min(k, len(self.drives) - 1)]
         self.saturated = False

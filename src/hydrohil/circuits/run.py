@@ -198,6 +198,13 @@ class Loop:
     linear: bool = False                # the reference interpolated linearly (else held)
     limits: tuple = (-1.0, 1.0)         # the command's range: [u_min, u_max] within its parameter's range
     sensor: tuple | None = None         # (quantum, lo, hi) of what the controller reads; None: the signal itself
+    sign: float = 1.0                   # -1: reverse-acting (a larger command lowers the signal)
+
+    def update(self, ref: float, dref: float, sensed: float) -> float:
+        """The law's command for the reference (and slope) and the signal as sensed, as the generated loop
+        computes it (hc_run: the law on sign·ref, sign·dref, sign·signal)."""
+        s = self.sign
+        return self.controller.update(s * ref, s * dref, s * sensed)
 
     def start(self, h: float) -> None:
         """A fresh controller sampled at h (no integrator or filter state from another run)."""
@@ -255,7 +262,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h) if loop is not None else
-           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL))
+           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, 1.0))
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
@@ -365,7 +372,7 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float):
     loop._keep = (ref, dref, sensor)                             # alive while hc_run reads them
     return (addr(loop.controller.c), addr(loop.controller.state), ffi.from_buffer("double[]", ref),
             ffi.from_buffer("double[]", dref), lay.log_columns.index(loop.measure), cc.layout.inputs.index(loop.command),
-            sensor)
+            sensor, float(loop.sign))
 
 
 def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
@@ -412,7 +419,7 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         sensor = cc.ffi.new("double[3]", list(loop.sensor)) if loop.sensor is not None else cc.ffi.NULL
 
         def control(k, row):
-            u[k, cmd] = loop.controller.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor))
+            u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor))
 
         def applied(k):                    # the row the controller reads: under the command last applied
             if k > 0:

@@ -20,7 +20,8 @@ values on top of the circuit's, and drives of its signals in place of the circui
     command = "valve.command"         # the input it drives (one of the circuit's [inputs])
     kp = 0.002                        # gains in the command's unit per the measured signal's SI unit
     ki = 0.02                         # (u_min, u_max: the command's limits, default its parameter's range;
-                                      # sensor_resolution, sensor_min, sensor_max: what the controller reads)
+                                      # sensor_resolution, sensor_min, sensor_max: what the controller reads;
+                                      # action = "reverse": a larger command lowers the signal)
     [reference]                       # the measured signal's reference, held from each t, with units
     t = [0, 0.5, 3]
     value = ["0 rpm", "600 rpm", "300 rpm"]
@@ -197,6 +198,10 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     measure, command = table.pop("measure"), table.pop("command")
     limits = {k: table.pop(k) for k in ("u_min", "u_max") if k in table}     # (the command's unit, not ū)
     sensor_keys = {k: table.pop(k) for k in ("sensor_resolution", "sensor_min", "sensor_max") if k in table}
+    action = table.pop("action", "direct")
+    if action not in ("direct", "reverse"):
+        raise InputError(f"\"direct\" (a larger command raises the measured signal) or \"reverse\" (lowers it), "
+                         f"got {action!r}", source=source, key="controller.action")
     if table.get("type") not in LOOP_TYPES:
         raise InputError(f"a circuit's loop runs the core's laws: type one of {', '.join(LOOP_TYPES)}, got "
                          f"{table.get('type')!r}", source=source, key="controller.type")
@@ -205,8 +210,8 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     except ValidationError as exc:
         e = exc.errors()[0]
         loc = ".".join(str(x) for x in e["loc"]) or "type"
-        hint = (" (a larger command must raise the measured signal: reverse-acting loops are not there yet)"
-                if loc in ("kp", "ki") and "greater than" in e["msg"] else "")
+        hint = (" (gains are positive; a loop where a larger command lowers the measured signal says action = "
+                "\"reverse\")" if loc in ("kp", "ki") and "greater than" in e["msg"] else "")
         raise InputError(e["msg"] + hint, source=source, key=f"controller.{loc}") from None
     lay = compile_circuit(c).layout
     units = {"t": "s", **{f"{n}.p": "Pa" for n in c.nodes}, **dict(lay.outputs)}
@@ -256,7 +261,7 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
         raise InputError("times start at 0 and increase", source=source, key="reference.t")
     return Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi),
-                sensor=sensor)
+                sensor=sensor, sign=-1.0 if action == "reverse" else 1.0)
 
 
 def _apply(raw: dict, key: str, value, source: str) -> None:

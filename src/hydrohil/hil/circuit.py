@@ -56,7 +56,7 @@ def circuit_hil(cs):
 
 def make_rig(cs, hil):
     from hydrohil.circuits.rig import CircuitRig
-    return CircuitRig(cs, watchdog_steps=max(int(round(hil.watchdog_timeout / cs.step)), 1))
+    return CircuitRig(cs, watchdog_timeout=hil.watchdog_timeout)
 
 
 class CircuitPlantServer(PlantServer):
@@ -164,7 +164,7 @@ class Drives:
         values = self.drives[min(k, len(self.drives) - 1)][:self.n_inputs].tolist()
         if self.loop is not None:
             self.measured, self.reference = s.values[self.meas], float(self.ref[k])
-            values[self.cmd] = self.loop.controller.update(self.ref[k], self.dref[k], self.measured)
+            values[self.cmd] = self.loop.update(self.ref[k], self.dref[k], self.measured)
         return values
 
 
