@@ -10,8 +10,10 @@ import sys
 import numpy as np
 import pytest
 
+from conftest import hh
 from hydrohil.circuits.circuit import circuit_from_dict, load_circuit
 from hydrohil.circuits.linear import linearise_circuit
+from hydrohil.circuits.run import simulate_circuit
 
 FLUID = {"density": 860.0, "bulk_modulus": 1.4e9, "viscosity": 46e-6}
 
@@ -75,3 +77,34 @@ def test_circuit_linear_as_a_user_types_it(tmp_path):
     assert "oscillation" in run("two_cylinders").stdout
     assert load_circuit("two_cylinders").initial          # (its [initial] holds the supply off its rest: said)
     assert "not an equilibrium: supply.p" in run("two_cylinders").stdout
+
+
+def test_a_loops_closed_poles_predict_its_step_response(tmp_path):
+    """A pump into a node bled through an orifice under a reverse-acting P loop on the pressure: linearised at
+    t = 1 s of its run (the loop holding the node at 148 bar, its P offset above the 50 bar reference), the
+    closed loop's pole (-152 1/s) predicts the decay of the simulated response to a 0.5 bar step of the
+    reference, measured here from the run itself (its log slope: -156.5 1/s; the law is sampled at 0.5 ms,
+    the model takes it continuous)."""
+    from test_circuit_scenarios import BLEED
+    (tmp_path / "circuit.toml").write_text(BLEED)
+    scen = tmp_path / "p.toml"
+    scen.write_text('circuit = "circuit.toml"\nduration = 1.2\n[controller]\ntype = "p"\nmeasure = "supply.p"\n'
+                    'command = "bleed.opening"\naction = "reverse"\nkp = 6e-8\n'
+                    '[reference]\nt = [0, 1.0]\nvalue = ["50 bar", "50.5 bar"]\n')
+    from hydrohil.circuits.linear import linearise_circuit, run_state
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    cs = load_circuit_scenario(scen)
+    lin = linearise_circuit(cs.circuit, h=cs.step, loop=cs.loop, state=run_state(cs, 0.999), at="t = 0.999 s")
+    assert not lin.moving()                                     # the loop holds: an equilibrium
+    (pole,) = [complex(*e) for e in lin.closed["eigenvalues"]]
+    assert pole.imag == 0 and pole.real < 0
+    open_pole = lin.eigenvalues[0].real
+    assert pole.real < 3 * open_pole                            # the loop makes it faster than the bleed alone
+    res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
+    t, p = res.columns["t"], res.columns["supply.p"]
+    final = p[-1]
+    after = (t > 1.0 + 2e-3) & (t < 1.0 + 4 / -pole.real)      # the exponential's first four time constants
+    slope = np.polyfit(t[after], np.log(np.abs(final - p[after])), 1)[0]
+    assert slope == pytest.approx(pole.real, rel=0.09)
+    r = hh("circuit", "linear", "--scenario", scen, "--at", "0.999")
+    assert r.returncode == 0 and "closed loop (p on supply.p -> bleed.opening" in r.stdout

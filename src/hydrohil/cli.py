@@ -409,57 +409,79 @@ def circuit_run(circuit: str = typer.Argument(..., help="built-in name (examples
     typer.echo(f"wrote {', '.join(str(f) for f in files)}")
 
 
-def circuit_linear(circuit: str, sets: Optional[dict] = None, out: Optional[Path] = None):
+def circuit_linear(circuit: Optional[str] = None, sets: Optional[dict] = None, out: Optional[Path] = None,
+                   scenario: Optional[Path] = None, at: Optional[float] = None):
     """A circuit (built-in name or file, ``sets`` on top) linearised at its state at rest
-    (:func:`hydrohil.circuits.linear.linearise_circuit`); written to ``out`` (.json or .npz) when given."""
-    from hydrohil.circuits.linear import linearise_circuit
+    (:func:`hydrohil.circuits.linear.linearise_circuit`); with ``scenario`` its inputs and loop (closed around
+    it), with ``at`` at the state of the scenario's run at that time; written to ``out`` (.json or .npz)."""
+    from hydrohil.circuits.linear import linearise_circuit, run_state
     from hydrohil.circuits.scenario import circuit_scenario
     if out is not None and Path(out).suffix not in (".json", ".npz"):
         raise InputError(f"a .json or .npz file, got {Path(out).name}", source="--out", key=str(out))
-    cs = circuit_scenario(circuit=circuit, sets=sets)
-    lin = linearise_circuit(cs.circuit, h=cs.step)
+    cs = circuit_scenario(circuit=circuit, scenario=scenario, sets=sets)
+    where = "at rest" if at is None else f"at t = {at:g} s of {Path(cs.source).name}"
+    state = run_state(cs, at) if at is not None else None
+    lin = linearise_circuit(cs.circuit, h=cs.step, loop=cs.loop, state=state, at=where)
     if out is not None:
         out = Path(out)
         if out.suffix == ".npz":
             import numpy as np
-            np.savez(out, A=lin.A, B=lin.B, x0=lin.x0, u0=lin.u0, states=lin.states, inputs=lin.inputs)
-        elif out.suffix == ".json":
-            out.write_text(json.dumps(lin.to_dict(), indent=2))
+            np.savez(out, A=lin.A, B=lin.B, x0=lin.x0, u0=lin.u0, states=lin.states, inputs=lin.inputs,
+                     **({"A_closed": np.array(lin.closed["A"])} if lin.closed and "A" in lin.closed else {}))
         else:
-            raise InputError(f"a .json or .npz file, got {out.name}", source="--out", key=str(out))
+            out.write_text(json.dumps(lin.to_dict(), indent=2))
     return lin
 
 
-@circuit_app.command("linear")
-def circuit_linear_cmd(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or "
-                                                     "circuit TOML"),
-                       sets: list[str] = typer.Option([], "--set", help="component.key=value (repeatable)"),
-                       as_json: bool = typer.Option(False, "--json", help="print JSON (A, B, the modes)"),
-                       out: Optional[Path] = typer.Option(None, "--out", help="write the model: .json or .npz")):
-    """The circuit linearised at its state at rest: A, B by central differences of its generated right-hand
-    side, its eigenvalues as time constants and as natural frequencies with their damping."""
-    try:
-        lin = circuit_linear(circuit, _parse_sets(sets), out)
-    except HydrohilError as exc:
-        fail(exc)
-    if as_json:
-        typer.echo(json.dumps(lin.to_dict(), indent=2))
-        return
-    typer.echo(f"{circuit}: {len(lin.states)} states ({', '.join(lin.states)}), inputs "
-               f"{', '.join(lin.inputs) or 'none'}; linearised where its runs start (at rest)")
-    if lin.moving():
-        typer.echo(f"  not an equilibrium: {', '.join(lin.moving())} move where it starts (an [initial] pressure "
-                   "or an unbalanced piston): the model is the tangent there")
-    for m in lin.modes():
+def _echo_modes(modes: list[dict], eigenvalues) -> None:
+    for m in modes:
         if "damping" in m:
             typer.echo(f"  oscillation {m['natural_frequency_rad_s']:.1f} rad/s ({m['frequency_hz']:.1f} Hz), "
                        f"damping {m['damping']:.3f}")
         elif "time_constant_s" in m:
             typer.echo(f"  time constant {m['time_constant_s']:.4g} s (eigenvalue {m['eigenvalue'][0]:.4g} 1/s)")
-        elif abs(m["eigenvalue"][0]) < 1e-9 * max(abs(e) for e in lin.eigenvalues):
+        elif abs(m["eigenvalue"][0]) < 1e-9 * max(abs(e) for e in eigenvalues):
             typer.echo("  an integrator (eigenvalue 0): a position the circuit does not pull back")
         else:
             typer.echo(f"  growing: eigenvalue {m['eigenvalue'][0]:.4g} 1/s (e-fold in {m['growth_time_s']:.4g} s)")
+
+
+@circuit_app.command("linear")
+def circuit_linear_cmd(circuit: Optional[str] = typer.Argument(None, help="built-in name (examples/circuits/NAME) or "
+                                                               "circuit TOML (or --scenario)"),
+                       scenario: Optional[Path] = typer.Option(None, "--scenario", help="a scenario naming its "
+                                                               "circuit: its inputs, [set] and loop (closed around "
+                                                               "the model)"),
+                       at: Optional[float] = typer.Option(None, "--at", help="linearise at the state of the "
+                                                          "scenario's run at this time [s] (default: at rest)"),
+                       sets: list[str] = typer.Option([], "--set", help="component.key=value (repeatable)"),
+                       as_json: bool = typer.Option(False, "--json", help="print JSON (A, B, the modes)"),
+                       out: Optional[Path] = typer.Option(None, "--out", help="write the model: .json or .npz")):
+    """The circuit linearised at its state at rest (or at --at of a scenario's run): A, B by central differences
+    of its generated right-hand side, its eigenvalues as time constants and as natural frequencies with their
+    damping; with a scenario's loop, the closed loop's poles (P and PI, the law taken continuous)."""
+    import numpy as np
+    try:
+        if at is not None and scenario is None:
+            raise InputError("--at is a time of a scenario's run: give --scenario", key="--at")
+        lin = circuit_linear(circuit, _parse_sets(sets), out, scenario, at)
+    except HydrohilError as exc:
+        fail(exc)
+    if as_json:
+        typer.echo(json.dumps(lin.to_dict(), indent=2))
+        return
+    typer.echo(f"{circuit or scenario}: {len(lin.states)} states ({', '.join(lin.states)}), inputs "
+               f"{', '.join(lin.inputs) or 'none'}; linearised {lin.at}")
+    if lin.moving():
+        typer.echo(f"  not an equilibrium: {', '.join(lin.moving())} move there (an [initial] pressure, an "
+                   "unbalanced piston, a run on its way): the model is the tangent there")
+    _echo_modes(lin.modes(), lin.eigenvalues)
+    cl = lin.closed
+    if cl is not None and "modes" in cl:
+        typer.echo(f"closed loop ({cl['law']} on {cl['measure']} -> {cl['command']}, the law taken continuous):")
+        _echo_modes(cl["modes"], np.array([complex(*e) for e in cl["eigenvalues"]]))
+    elif cl is not None:
+        typer.echo(f"closed loop: {cl['note']}")
     if out is not None:
         typer.echo(f"wrote {out}")
 

@@ -18,6 +18,29 @@ from hydrohil.circuits.run import input_unit, start_state
 STEP_BY_UNIT = {"Pa": 1.0, "m": 1e-9, "m/s": 1e-9, "rad/s": 1e-7, "-": 1e-9, "1/s": 1e-6}
 
 
+def describe_modes(eigenvalues) -> list[dict]:
+    """Each eigenvalue (a complex pair once): its time constant, or natural frequency and damping, or growth."""
+    out = []
+    for lam in eigenvalues:
+        if lam.imag < 0:
+            continue
+        w = abs(lam)
+        if lam.imag > 0:
+            out.append({"eigenvalue": [lam.real, lam.imag], "natural_frequency_rad_s": w,
+                        "frequency_hz": w / (2 * np.pi), "damping": -lam.real / w if w else 0.0})
+        elif lam.real < 0:
+            out.append({"eigenvalue": [lam.real, 0.0], "time_constant_s": -1.0 / lam.real})
+        else:
+            out.append({"eigenvalue": [lam.real, 0.0], "growth_time_s": 1.0 / lam.real if lam.real > 0 else
+                        float("inf")})
+    return out
+
+
+def sorted_eigenvalues(A: np.ndarray) -> np.ndarray:
+    ev = np.linalg.eigvals(A) if len(A) else np.zeros(0)
+    return ev[np.lexsort((ev.imag, ev.real))]
+
+
 @dataclass
 class CircuitLinear:
     states: list[str]
@@ -30,32 +53,22 @@ class CircuitLinear:
     u0: np.ndarray                     # the inputs there
     rate: np.ndarray                   # dx/dt there (0 at an equilibrium; not when [initial] holds a node off)
 
+    at: str = "at rest"                # where: "at rest" (where runs start) or "at t = ... s of <scenario>"
+    closed: dict | None = None         # the scenario's loop closed around it (closed_loop)
+
     @property
     def eigenvalues(self) -> np.ndarray:
-        ev = np.linalg.eigvals(self.A) if len(self.A) else np.zeros(0)
-        return ev[np.lexsort((ev.imag, ev.real))]
+        return sorted_eigenvalues(self.A)
 
     def modes(self) -> list[dict]:
         """Each eigenvalue (a complex pair once): its time constant or natural frequency and damping."""
-        out = []
-        for lam in self.eigenvalues:
-            if lam.imag < 0:
-                continue
-            w = abs(lam)
-            if lam.imag > 0:
-                out.append({"eigenvalue": [lam.real, lam.imag], "natural_frequency_rad_s": w,
-                            "frequency_hz": w / (2 * np.pi), "damping": -lam.real / w if w else 0.0})
-            elif lam.real < 0:
-                out.append({"eigenvalue": [lam.real, 0.0], "time_constant_s": -1.0 / lam.real})
-            else:
-                out.append({"eigenvalue": [lam.real, 0.0], "growth_time_s": 1.0 / lam.real if lam.real > 0 else
-                            float("inf")})
-        return out
+        return describe_modes(self.eigenvalues)
 
     def to_dict(self) -> dict:
         return {"states": self.states, "state_units": self.state_units, "inputs": self.inputs,
                 "input_units": self.input_units, "A": self.A.tolist(), "B": self.B.tolist(), "x0": self.x0.tolist(),
-                "u0": self.u0.tolist(), "rate": self.rate.tolist(), "moving": self.moving(), "modes": self.modes()}
+                "u0": self.u0.tolist(), "rate": self.rate.tolist(), "moving": self.moving(), "modes": self.modes(),
+                "at": self.at, "closed_loop": self.closed}
 
     def moving(self) -> list[str]:
         """The states not at rest where the model is linearised (a node's [initial] pressure, an unbalanced
@@ -64,13 +77,17 @@ class CircuitLinear:
         return [s for s, u, r in zip(self.states, self.state_units, self.rate) if abs(r) > scale.get(u, 1e-6)]
 
 
-def linearise_circuit(c: Circuit, *, h: float = 5e-4, inputs: dict | None = None) -> CircuitLinear:
-    """``c`` linearised where its runs start (at rest, SPEC §12.5; its [initial] pressures kept) under its inputs
-    at t = 0 (``inputs`` in place of its drive); ``rate`` and :meth:`CircuitLinear.moving` say whether that is
-    an equilibrium."""
+def linearise_circuit(c: Circuit, *, h: float = 5e-4, inputs: dict | None = None, loop=None,
+                      state: tuple | None = None, at: str = "at rest") -> CircuitLinear:
+    """``c`` linearised where its runs start (at rest, SPEC §12.5; its [initial] pressures kept; with ``loop``
+    the command that holds its piston) under its inputs at t = 0 (``inputs`` in place of its drive), or at
+    ``state`` = (y, m, u) (:func:`run_state`); ``rate`` and :meth:`CircuitLinear.moving` say whether that is an
+    equilibrium. With ``loop``: the loop closed around it too (:func:`closed_loop`)."""
     cc = compile_circuit(c)
     lay, ffi, lib = cc.layout, cc.ffi, cc.lib
-    y0, m0, u0 = start_state(c, h=h, inputs=inputs)
+    y0, m0, u0 = state if state is not None else start_state(c, h=h, inputs=inputs, loop=loop)
+    y0, m0, u0 = (np.ascontiguousarray(y0, float), np.ascontiguousarray(m0, np.int64),
+                  np.ascontiguousarray(u0, float))
     n, nu = len(lay.states), len(lay.inputs)
     P = np.ascontiguousarray(lay.values())
     dy = np.zeros(max(n, 1))
@@ -96,5 +113,72 @@ def linearise_circuit(c: Circuit, *, h: float = 5e-4, inputs: dict | None = None
         hi[j] += d
         lo[j] -= d
         B[:, j] = (f(y0, hi) - f(y0, lo)) / (2 * d)
-    return CircuitLinear(list(lay.states), list(lay.state_units), list(lay.inputs),
-                         [input_unit(c, s) for s in lay.inputs], A, B, y0[:n].copy(), u0[:nu].copy(), f(y0, u0))
+    lin = CircuitLinear(list(lay.states), list(lay.state_units), list(lay.inputs),
+                        [input_unit(c, s) for s in lay.inputs], A, B, y0[:n].copy(), u0[:nu].copy(), f(y0, u0), at)
+    if loop is not None:
+        lin.closed = closed_loop(lin, loop, c, y0, m0, u0)
+    return lin
+
+
+def run_state(cs, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The state (y, modes, inputs) of the scenario's run at time ``t`` (its step's row): an operating point
+    along the trajectory (a loop holding its reference, a motor at speed)."""
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.errors import InputError
+    if not 0 <= t <= cs.duration:
+        raise InputError(f"a time within the run, [0, {cs.duration:g}] s, got {t:g}", source=cs.source, key="--at")
+    res = simulate_circuit(cs.circuit, max(t, cs.step), h=cs.step, method="rk3" if cs.method == "reference" else
+                           cs.method, rest=cs.rest, loop=cs.loop)
+    lay = compile_circuit(cs.circuit).layout
+    k = int(round(t / cs.step))
+    y = np.array([res.columns[s][k] for s in lay.states] or [0.0])
+    m = np.array([res.columns[md][k] for md in lay.modes] or [0], dtype=np.int64)
+    u = np.array([res.columns[i][k] for i in lay.inputs] or [0.0])
+    return y, m, u
+
+
+def closed_loop(lin: CircuitLinear, loop, c: Circuit, y0, m0, u0) -> dict:
+    """The scenario's loop closed around the linearised circuit, the law taken continuous (its sampling at the
+    step, its one-step measurement delay and its sensor's resolution left out): with the measured signal
+    y = C·x + D·u (C, D by central differences of the generated log row) and g = 1/(1 + kp·D), a P law gives
+    A - g·kp·b·C; a PI law adds its integral xi' = ki·e: [[A - g·kp·b·C, g·b], [-ki·g·C, -ki·D·g]] (kp, ki
+    times -1 for a reverse-acting loop). Its eigenvalues: the loop's poles. PID's derivative and p_ff's
+    feed-forward are not modelled (P and PI only)."""
+    cc = compile_circuit(c)
+    lay, ffi, lib = cc.layout, cc.ffi, cc.lib
+    cfg = loop.cfg
+    if cfg.type not in ("p", "pi", "p_ff"):
+        return {"law": cfg.type, "note": "closed-loop poles for p, pi and p_ff only"}
+    P = np.ascontiguousarray(lay.values())
+    meas, j = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
+    row = np.zeros(len(lay.log_columns))
+
+    def g(y, u):
+        lib.hc_row(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", np.ascontiguousarray(y)),
+                   ffi.from_buffer("int64_t[]", m0), ffi.from_buffer("double[]", np.ascontiguousarray(u)), 0.0,
+                   ffi.from_buffer("double[]", row))
+        return row[meas]
+    n = len(lin.states)
+    C = np.zeros(n)
+    for i in range(n):
+        d = max(STEP_BY_UNIT.get(lin.state_units[i], 1e-9), 1e-6 * abs(y0[i]))
+        hi, lo = y0.copy(), y0.copy()
+        hi[i] += d
+        lo[i] -= d
+        C[i] = (g(hi, u0) - g(lo, u0)) / (2 * d)
+    du = max(1e-6 * max(abs(u0[j]), 1.0), 1e-9)
+    hi, lo = u0.copy(), u0.copy()
+    hi[j] += du
+    lo[j] -= du
+    D = (g(y0, hi) - g(y0, lo)) / (2 * du)
+    kp = loop.sign * cfg.kp
+    ki = loop.sign * getattr(cfg, "ki", 0.0) if cfg.type == "pi" else 0.0
+    b = lin.B[:, j]
+    gain = 1.0 / (1.0 + kp * D)
+    A = lin.A - gain * kp * np.outer(b, C)
+    if cfg.type == "pi":
+        A = np.block([[A, gain * b[:, None]], [-ki * gain * C[None, :], np.array([[-ki * D * gain]])]])
+    ev = sorted_eigenvalues(A)
+    return {"law": cfg.type, "measure": loop.measure, "command": loop.command, "C": C.tolist(), "D": float(D),
+            "A": A.tolist(), "eigenvalues": [[float(e.real), float(e.imag)] for e in ev],
+            "modes": describe_modes(ev)}
