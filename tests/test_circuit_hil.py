@@ -49,6 +49,25 @@ def test_signals_and_inputs_round_trip():
     assert len(pr.encode_signals(0, 0, 0, 0, 0.0, 0, 0, 1, [0.0] * pr.MAX_SIGNALS)) <= pr.MAX_DATAGRAM
 
 
+def test_circuit_packets_have_the_documented_bytes():
+    """docs/protocol.md's tables, field by field at their offsets, little-endian: what a controller in another
+    language writes and reads."""
+    import struct
+    le = lambda v, n: int(v).to_bytes(n, "little")               # noqa: E731
+    f64 = lambda v: struct.pack("<d", v)                         # noqa: E731
+    head = lambda typ, seq: b"HHIL" + le(1, 2) + le(typ, 2) + le(seq, 4) + le(11, 8) + le(22, 8) + le(33, 4)  # noqa
+    body = head(5, 7) + f64(0.0035) + le(7, 8) + le(pr.ST_WATCHDOG, 4) + le(0xA1B2C3D4, 4) + le(2, 2) + le(0, 2)
+    body += f64(1.5e7) + f64(-2.0)
+    assert [len(head(5, 7)), 32 + 28] == [32, 60]                 # values at offset 60
+    want = body + le(zlib.crc32(body), 4)
+    assert pr.encode_signals(7, 11, 22, 33, 0.0035, 7, pr.ST_WATCHDOG, 0xA1B2C3D4, [1.5e7, -2.0]) == want
+    body = head(6, 9) + le(0xA1B2C3D4, 4) + le(pr.CMD_STOP, 4) + le(0b10, 4) + le(2, 2) + le(0, 2)
+    body += f64(0.0) + f64(0.25)                                  # values at offset 48
+    want = body + le(zlib.crc32(body), 4)
+    assert pr.encode_inputs(9, 11, 22, 33, 0xA1B2C3D4, 0b10, [0.0, 0.25], pr.CMD_STOP) == want
+    assert pr.decode(want).values == (0.0, 0.25)
+
+
 def test_layout_is_the_documented_crc_of_names_and_units():
     text = "signals:\na.p [Pa]\nmotor.w [rad/s]\ninputs:\nvalve.command [-]"
     assert pr.layout_id([("a.p", "Pa"), ("motor.w", "rad/s")], [("valve.command", "-")]) == zlib.crc32(text.encode())
@@ -70,7 +89,7 @@ def test_malformed_circuit_packets_are_bad():
 
 # ---- the plant side -------------------------------------------------------------------------------
 
-def test_rig_watchdog_puts_inputs_back_on_their_drives_and_saturates():
+def test_rig_watchdog_safe_state_and_saturation():
     cs = load_circuit_scenario(MOTOR)
     rig = CircuitRig(cs, watchdog_timeout=3 * cs.step)          # silent for more than 3 steps: safe state
     j = rig.layout.inputs.index("valve.command")
@@ -206,3 +225,16 @@ def test_set_applies_to_the_run_and_its_offline_twin(tmp_path):
     assert not np.array_equal(a, b)                                      # the heavier motor is slower to start
     assert a[600] < b[600]                                               # (0.1 s after the step to 1000 rpm)
     assert base.comparison["identical"]
+
+
+def test_watchdog_centres_a_loop_command_whose_drive_is_not_zero():
+    # ferreira2004's circuit drives its valve at 0.15 from 0.2 s (its open-loop demo): the safe state is the
+    # valve centred, not that drive
+    cs = load_circuit_scenario(EXAMPLES / "circuits" / "ferreira2004" / "scenario.toml")
+    rig = CircuitRig(cs, watchdog_timeout=2 * cs.step)
+    j = rig.layout.inputs.index("valve.command")
+    k0 = int(0.3 / cs.step)
+    assert rig.drives[k0][j] == 0.15
+    rig.step(k0 - 1, (1 << j, [0.4]))
+    us = [rig.step(k, None)[j] for k in range(k0, k0 + 4)]
+    assert us[:2] == [0.4, 0.4] and us[2:] == [0.0, 0.0] and rig.watchdog and not rig.saturated

@@ -137,7 +137,7 @@ type = "watchdog"
 '''
 
 
-def test_lockstep_sequence_judges_as_offline_and_sees_the_watchdog(tmp_path):
+def test_lockstep_sequence_judges_as_offline_and_judges_its_watchdog(tmp_path):
     """Lock-step, the plant process and the controller process: every expectation measures what offline
     measures (the same run bit for bit), and a watchdog expectation can be judged (no trip)."""
     p = _write(tmp_path, LOCKSTEP_SEQUENCE)
@@ -160,3 +160,25 @@ def test_real_time_circuit_sequence_is_judged_or_says_why_not(tmp_path):
     else:
         assert r.status == "error" and "INVALID" in r.error
     assert (tmp_path / "rt" / "plant_log.csv").is_file() and (tmp_path / "rt" / "result.json").is_file()
+
+
+def test_a_failed_watchdog_expectation_on_an_open_circuit_has_its_figure(tmp_path):
+    """A circuit without a loop has no command "u": a watchdog trip fails the expectation and its figure shows
+    the watchdog alone (no crash); with a loop, the safe state is its command at 0."""
+    from types import SimpleNamespace
+
+    from hydrohil.sequences.expectations import Signals, Watchdog
+    from hydrohil.sequences.report import failure_figure
+    t = np.arange(0, 1.0, 5e-4)
+    wd = ((t > 0.4) & (t < 0.6)).astype(float)
+    s = Signals({"t": t, "watchdog": wd, "supply.p": 1e7 + 0 * t}, {}, mode="realtime", units={"t": "s"})
+    o = Watchdog(type="watchdog").evaluate(s)
+    assert o.status == "fail" and "1 watchdog trip" in o.message
+    png = failure_figure(SimpleNamespace(signals=s, name="open"), 0, o, tmp_path / "f.png")
+    assert png.stat().st_size > 10_000
+    u = np.where(wd > 0, 0.0, 0.3)
+    late = np.where((t > 0.4) & (t < 0.45), 0.3, u)           # centred 50 ms after the trip
+    for cmd, verdict in ((u, "pass"), (late, "fail")):
+        s = Signals({"t": t, "watchdog": wd, "u": cmd}, {}, mode="realtime", units={"t": "s", "u": "-"})
+        o = Watchdog(type="watchdog", after=0.4, safe_within=0.02).evaluate(s)
+        assert o.status == verdict, o.message

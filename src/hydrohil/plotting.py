@@ -235,21 +235,26 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
 
 
 def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, title: str = "",
-                     verdict: dict | None = None) -> None:
-    """HIL report of a circuit: the loop's measured signal (or, open loop, the circuit's largest moving
-    position or speed) with its reference, HIL and offline; HIL − offline; every pressure that moves (HIL solid,
-    offline dotted); step jitter; the watchdog. ``offline``: a :class:`hydrohil.circuits.run.CircuitResult`."""
+                     verdict: dict | None = None, inputs: list[str] = ()) -> None:
+    """HIL report of a circuit: the loop's measured signal (open loop: the circuit's position or speed that moves
+    most, else its pressure that does) with its reference, HIL and offline; HIL − offline; every pressure that
+    moves (HIL solid, offline dotted); the inputs as the plant applied them, late commands marked; in real time
+    the step jitter; the watchdog. ``offline``: a :class:`hydrohil.circuits.run.CircuitResult`."""
     from hydrohil.circuits.units import display
     t = np.asarray(hil["t"])
     cols, units = offline.columns, offline.units
     n = min(len(t), len(cols["t"]))
-    if measure is None:        # open loop: the signal that moves most among positions and speeds
-        moving = [s for s in units if units[s] in ("m", "rad/s") and s in hil and np.ptp(cols[s][:n]) > 0]
-        measure = max(moving, key=lambda s: np.ptp(cols[s]) * display(units[s])[0]) if moving else None
-    fig, ax, top = _stack([3, 1.6, 3, 2, 0.45], (10, 12), banner=0.5 if verdict is not None else 0.0)
+    if measure is None:        # open loop: the signal that moves most, a position or speed before a pressure
+        moving = [[s for s in units if units[s] in kinds and s in hil and np.ptp(cols[s][:n]) > 0]
+                  for kinds in (("m", "rad/s"), ("Pa",))]
+        pick = moving[0] or moving[1]
+        measure = max(pick, key=lambda s: np.ptp(cols[s][:n]) * display(units[s])[0]) if pick else None
     lockstep = not np.any(np.asarray(hil["jitter_us"], float) > 0)
+    heights = [3, 1.4, 3, 2] + ([] if lockstep else [2]) + [0.45]
+    fig, ax, top = _stack(heights, (10, 3 + 1.15 * sum(heights)), banner=0.5 if verdict is not None else 0.0)
     if top is not None:
         _verdict_banner(top, verdict, "lock-step" if lockstep else "real-time")
+    labels = []
     if measure is not None:
         k, du = display(units.get(measure, "-"))
         if f"{measure}.reference" in cols:
@@ -260,16 +265,27 @@ def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, tit
         d = (np.asarray(hil[measure])[:n] - cols[measure][:n]) * k
         rms = float(np.sqrt(np.mean(d ** 2))) if n else float("nan")
         ax[1].plot(t[:n], d, lw=1, color="tab:red", label=f"HIL − offline\n(RMS {rms:.3g} {du})")
-        ylab0, ylab1 = f"{measure} [{du}]", f"HIL − offline\n[{du}]"
+        labels += [f"{measure} [{du}]", f"HIL − offline\n[{du}]"]
     else:
-        ylab0 = ylab1 = ""
+        labels += ["", ""]
     for i, s in enumerate(x for x in units if units[x] == "Pa" and x in hil and np.ptp(cols[x]) > 0):
         ax[2].plot(cols["t"][:n], cols[s][:n] / 1e5, ":", lw=1.5, color=f"C{i % 10}")
         ax[2].plot(t, np.asarray(hil[s]) / 1e5, lw=1, color=f"C{i % 10}", label=s)
-    _jitter_panel(ax[3], t, hil["jitter_us"])
-    _watchdog_strip(ax[4], t, hil["watchdog"])
-    _finish(fig, path, ax[:4], (ylab0, ylab1, "pressure [bar]\n(HIL solid,\noffline dotted)", "jitter [µs]"),
-            title, banner=top)
+    labels.append("pressure [bar]\n(HIL solid,\noffline dotted)")
+    for i, name in enumerate(inputs):          # what drove each step (row k: the step into it)
+        k, du = display(units.get(name, "-"))
+        ax[3].step(t, np.asarray(hil[f"{name}.applied"], float) * k, where="pre", lw=1, color=f"C{i % 10}",
+                   label=f"{name} [{du}]")
+    late = np.asarray(hil.get("cmd_age", np.zeros(len(t))), float) > 0
+    if late.any():
+        ax[3].plot(t[late], np.zeros(int(late.sum())), "|", color="tab:red", ms=10,
+                   label=f"late command ({int(late.sum())} steps: the one before repeated)")
+    labels.append("inputs as\napplied")
+    if not lockstep:
+        _jitter_panel(ax[4], t, hil["jitter_us"])
+        labels.append("jitter [µs]")
+    _watchdog_strip(ax[-1], t, hil["watchdog"])
+    _finish(fig, path, ax[:len(labels)], tuple(labels), title, banner=top)
 
 
 def plot_compare(path: Path, runs, *, title: str = "") -> None:

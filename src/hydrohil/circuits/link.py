@@ -16,6 +16,13 @@ def wire_lists(c, lay) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
     return [(name, units[name]) for name in lay.log_columns[1:]], [(name, input_unit(c, name)) for name in lay.inputs]
 
 
+def circuit_link(c) -> tuple[list[tuple[str, str]], list[tuple[str, str]], int]:
+    """A circuit's signals and inputs in wire order and their layout (it compiles the circuit, or loads it)."""
+    from hydrohil.circuits.build import compile_circuit
+    signals, inputs = wire_lists(c, compile_circuit(c).layout)
+    return signals, inputs, layout_id(signals, inputs)
+
+
 def layout_id(signals, inputs) -> int:
     """CRC-32 (zlib) of the UTF-8 text ``signals:`` + one ``\\nname [unit]`` per signal + ``\\ninputs:`` + one
     ``\\nname [unit]`` per input."""

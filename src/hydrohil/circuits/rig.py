@@ -8,10 +8,11 @@ sensor packet gets exactly :func:`~hydrohil.circuits.run.simulate_circuit`'s run
 every log column of the state after the step, the loop's measured signal through its sensor.
 
 Inputs are saturated to their parameter's range. Watchdog (the core's, ``hh_watchdog_command`` of rig.c: the
-same rule as the paper's rig): no command for longer than ``watchdog_timeout`` -> every input back on its drive
-from the scenario (a valve's command: usually 0, the centre), left at the next command. A circuit has no
-injected faults (a hose burst is an input of its own), so every trip counts against the run
-(:mod:`hydrohil.hil.verdict`).
+same rule as the paper's rig): no command for longer than ``watchdog_timeout`` -> the safe state until the next
+command: every input the controller drives (a loop's command from the start) at 0, or the end of its range
+nearest to 0 (a valve centred, an orifice closed, a pump stopped: the rig's "centre"), the others on their
+drives from the scenario. A circuit has no injected faults (a hose burst is an input of its own), so every trip
+counts against the run (:mod:`hydrohil.hil.verdict`).
 """
 
 from __future__ import annotations
@@ -112,14 +113,13 @@ class CircuitRig:
         u = self.u
         u[:] = self.drives[min(k, len(self.drives) - 1)]
         self.saturated = False
-        if not self.watchdog:
-            for j in self.set_inputs:
-                v = self.cmd[j]
-                lo, hi = self.lo[j], self.hi[j]
-                if v < lo or v > hi:
-                    v = lo if v < lo else hi
-                    self.saturated = True
-                u[j] = v
+        for j in self.set_inputs:
+            v = self.cmd[j] if not self.watchdog else 0.0           # (the safe state: neutral)
+            lo, hi = self.lo[j], self.hi[j]
+            if v < lo or v > hi:
+                v = lo if v < lo else hi
+                self.saturated = not self.watchdog
+            u[j] = v
         P, y, m, uc, _ = self._c
         status = self.cc.lib.hc_step(P, y, m, uc, self.method, self.h)
         self.k = k + 1

@@ -57,10 +57,9 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3") -> dict:
 
 def _link(c: Circuit) -> dict:
     """The circuit over the HIL link (docs/protocol.md): SIGNALS' values and INPUTS' values in order, layout."""
-    from hydrohil.circuits.build import compile_circuit
-    from hydrohil.circuits.link import layout_id, wire_lists
-    signals, inputs = wire_lists(c, compile_circuit(c).layout)
-    return {"layout": layout_id(signals, inputs), "signals": [{"name": n, "unit": u} for n, u in signals],
+    from hydrohil.circuits.link import circuit_link
+    signals, inputs, layout = circuit_link(c)
+    return {"layout": layout, "signals": [{"name": n, "unit": u} for n, u in signals],
             "inputs": [{"name": n, "unit": u} for n, u in inputs]}
 
 

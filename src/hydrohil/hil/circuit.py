@@ -5,8 +5,9 @@ The link is protocol v1's circuit packets (docs/protocol.md): the plant sends SI
 circuit, the loop's measured one through its sensor), the controller answers with INPUTS (a value per input it
 sets). Both carry the circuit's ``layout`` (:func:`hydrohil.hil.protocol.layout_id`), so a controller built for
 another circuit is told at once. The scenario's controller process runs its loop (the core's law, the same C
-as offline) and plays the scenario's drives of the other inputs over the link; an open-loop scenario is all
-drives. Lock-step, that is :func:`hydrohil.circuits.run.simulate_circuit`'s run bit for bit.
+as offline) and sets the loop's command; the plant applies the scenario's drives of the other inputs itself (an
+open-loop scenario's controller only answers). Lock-step, that is
+:func:`hydrohil.circuits.run.simulate_circuit`'s run bit for bit.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from hydrohil.hil.protocol import parse_address
 from hydrohil.simulation.outputs import CsvStream
 
 # [hil] settings that mean something for the paper's rig only, and the values a circuit takes
-RIG_ONLY = {"command_delay": 0.0, "command_scale": 1.0, "safe_state": "centre"}
+RIG_ONLY = {"command_delay": 0.0, "command_scale": 1.0, "safe_state": "centre", "controller_mode": "packet"}
 # plant_log.csv of a circuit: these, then every signal (SI), then every input as applied
 LOG_HEAD = ("k", "t", "wall", "jitter_us", "compute_us", "cmd_seq", "cmd_age", "watchdog", "status")
 CONTROLLER_LOG_HEAD = ("seq", "t", "wall", "measured", "reference", "command", "status")
@@ -42,12 +43,15 @@ def circuit_hil(cs):
         hil = HilCfg.model_validate(cs.hil)
     except ValidationError as exc:
         key, msg = format_validation_error(exc, HilCfg)
-        raise InputError(msg, source=cs.source, key=f"hil.{key}") from None
+        raise InputError(msg, source=cs.source, key=f"hil.{key}" if key else "hil") from None
     for key, value in RIG_ONLY.items():
         if getattr(hil, key) != value:
             raise InputError(f"a setting of the paper's rig only; a circuit's inputs are in their SI units, its "
-                             f"watchdog puts them back on their drives, a delay is a component (expected {value!r})",
-                             source=cs.source, key=f"hil.{key}")
+                             f"watchdog sets the commanded ones to 0, a delay is a component, its controller answers "
+                             f"each packet (expected {value!r})", source=cs.source, key=f"hil.{key}")
+    if cs.method == "reference":
+        raise InputError("a real-time plant steps the hybrid model: give a fixed-step method (rk3, ...), not the "
+                         "continuous reference", source=cs.source, key="solver.method")
     if hil.step is not None and hil.step != cs.step:
         raise InputError(f"a circuit's plant steps at its [solver] step ({cs.step:g} s)", source=cs.source,
                          key="hil.step")
@@ -135,37 +139,33 @@ def serve_circuit_plant(scenario: Path, bind: str = "127.0.0.1:47000", duration:
 
 
 class Drives:
-    """What the scenario's controller process sends for each sensor packet: every input's drive at that step,
-    the loop's command from the core's law on the measured signal (the same C as offline)."""
+    """What the scenario's controller process sends for each sensor packet: the loop's command from the core's
+    law on the measured signal (the same C as offline), its bit alone in the mask (the plant applies the other
+    inputs' drives itself, on time); an open loop answers each packet with nothing set."""
 
     def __init__(self, cs):
-        self.cs = cs
         from hydrohil.circuits.build import compile_circuit
-        from hydrohil.circuits.link import wire_lists
-        from hydrohil.circuits.run import input_table
-        c = cs.circuit
-        lay = compile_circuit(c).layout
-        signals, inputs = wire_lists(c, lay)
-        self.layout = pr.layout_id(signals, inputs)
-        self.n_inputs = len(inputs)
-        self.mask = (1 << self.n_inputs) - 1
-        self.n = cs.n_steps
-        self.drives = input_table(c, self.n, cs.step)
-        self.loop = cs.loop
+        from hydrohil.circuits.link import circuit_link
+        self.cs = cs
+        lay = compile_circuit(cs.circuit).layout
+        signals, inputs, self.layout = circuit_link(cs.circuit)
+        self.n, self.loop = cs.n_steps, cs.loop
+        self.values = [0.0] * len(inputs)
+        self.mask = 0
         if self.loop is not None:
             self.loop.start(cs.step)
             self.ref, self.dref = self.loop.table(self.n, cs.step)
             self.meas = lay.log_columns.index(self.loop.measure) - 1
             self.cmd = lay.inputs.index(self.loop.command)
+            self.mask = 1 << self.cmd
         self.measured = self.reference = float("nan")
 
     def answer(self, s: pr.Signals) -> list[float]:
-        k = min(int(s.step), self.n)
-        values = self.drives[min(k, len(self.drives) - 1)][:self.n_inputs].tolist()
         if self.loop is not None:
+            k = min(int(s.step), self.n)
             self.measured, self.reference = s.values[self.meas], float(self.ref[k])
-            values[self.cmd] = self.loop.update(self.ref[k], self.dref[k], self.measured)
-        return values
+            self.values[self.cmd] = self.loop.update(self.ref[k], self.dref[k], self.measured)
+        return self.values
 
 
 def run_circuit_controller(client, drives: Drives, *, log_path: Path | None = None, should_stop=lambda: False) -> dict:
@@ -259,5 +259,6 @@ def compare_circuit_offline(cs, out: Path, *, plot: bool = True, verdict: dict |
         from hydrohil.plotting import plot_circuit_hil
         which = {"c": " (standalone C plant)", "python": " (Python plant)"}.get(plant or "", "")
         plot_circuit_hil(out / "report.png", hil, res, cs.loop.measure if cs.loop is not None else None,
-                         title=f"{Path(cs.source).name} ({cs.circuit.name}): HIL{which} vs offline", verdict=verdict)
+                         title=f"{Path(cs.source).name} ({cs.circuit.name}): HIL{which} vs offline", verdict=verdict,
+                         inputs=lay.inputs)
     return cmp

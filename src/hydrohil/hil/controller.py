@@ -314,6 +314,20 @@ def reference_table(text: str):
     return Table(t, x).at
 
 
+def _placement(hil, busy_poll: bool | None) -> tuple[bool, bool | None]:
+    """The controller process on its [hil] CPU (when one is set or chosen); whether it spins (never on a single
+    CPU) and busy-polls its socket."""
+    import os
+    cpu = hil.cpus()[1]
+    spin = hil.wait != "sleep" and (os.cpu_count() or 1) > 1
+    if cpu is not None:
+        try:
+            os.sched_setaffinity(0, {cpu})
+        except OSError:
+            pass
+    return spin, (hil.busy_poll or spin) if busy_poll is None else busy_poll
+
+
 def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
                    reference: str = "0:0.03,0.5:0.03,1.5:0.15,3:0.15,4:0.03,6:0.03", log: Path | None = None,
                    mode: str = "packet", allow_remote: bool = False, busy_poll: bool | None = None,
@@ -345,14 +359,8 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
         circuit = load_circuit_scenario(scenario)
         hil = circuit_hil(circuit)
         drives = Drives(circuit)          # (compiled, its tables made: before the first packet)
-        mode, sample, cpu = "packet", circuit.step, hil.cpus()[1]
-        spin = hil.wait != "sleep" and (os.cpu_count() or 1) > 1
-        busy_poll = (hil.busy_poll or spin) if busy_poll is None else busy_poll
-        if cpu is not None:
-            try:
-                os.sched_setaffinity(0, {cpu})
-            except OSError:
-                pass
+        mode, sample = "packet", circuit.step
+        spin, busy_poll = _placement(hil, busy_poll)
     elif scenario is not None:
         from hydrohil.simulation.scenario import load_scenario
         sc = load_scenario(scenario)
@@ -365,14 +373,7 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
         ctl = sc.make_controller(sample)
         enc = sc.params.sensors.encoder_resolution
         ref = s.reference.sampler().at
-        cpu = s.hil.cpus()[1]
-        spin = s.hil.wait != "sleep" and (os.cpu_count() or 1) > 1   # never spin on a single CPU
-        busy_poll = (s.hil.busy_poll or spin) if busy_poll is None else busy_poll
-        if cpu is not None:
-            try:
-                os.sched_setaffinity(0, {cpu})
-            except OSError:
-                pass
+        spin, busy_poll = _placement(hil, busy_poll)
     else:
         from hydrohil.control import PControllerCfg, make_controller
         from hydrohil.parameters import load_parameters

@@ -365,7 +365,8 @@ class PlantServer:
         while self.cmd_echo < k and not self.stop_requested:
             left = limit - time.perf_counter_ns()
             if left <= 0:
-                self.link_error = f"controller silent for {self.hil.link_timeout:g} s at step {k} (lock-step)"
+                bad = f"; {self.c.packets_bad} bad packets came" if self.c.packets_bad else ""
+                self.link_error = f"controller silent for {self.hil.link_timeout:g} s at step {k} (lock-step{bad})"
                 self.stop_requested = True
                 return
             r, _, _ = select.select([self.sock], [], [], left / 1e9)

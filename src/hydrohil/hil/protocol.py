@@ -18,6 +18,7 @@ A datagram that is too short/long for its type, has a wrong magic, version, type
 
 from __future__ import annotations
 
+import functools
 import struct
 import zlib
 from typing import NamedTuple
@@ -129,12 +130,18 @@ def encode_command(seq, t_send_ns, echo_t_ns, echo_seq, u, flags=0) -> bytes:
     return _seal(buf)
 
 
+@functools.lru_cache(maxsize=64)
+def _values(n: int) -> struct.Struct:
+    """n little-endian float64 (the circuit packets' values; made once per count)."""
+    return struct.Struct(f"<{n}d")
+
+
 def encode_signals(seq, t_send_ns, echo_t_ns, echo_seq, t_sim, step, status, layout, values) -> bytes:
     n = len(values)
     buf = bytearray(HEADER.size + SIGNALS.size + 8 * n + CRC.size)
     encode_header(buf, T_SIGNALS, seq, t_send_ns, echo_t_ns, echo_seq)
     SIGNALS.pack_into(buf, HEADER.size, t_sim, step, status, layout, n, 0)
-    struct.pack_into(f"<{n}d", buf, HEADER.size + SIGNALS.size, *values)
+    _values(n).pack_into(buf, HEADER.size + SIGNALS.size, *values)
     return _seal(buf)
 
 
@@ -143,7 +150,7 @@ def encode_inputs(seq, t_send_ns, echo_t_ns, echo_seq, layout, mask, values, fla
     buf = bytearray(HEADER.size + INPUTS.size + 8 * n + CRC.size)
     encode_header(buf, T_INPUTS, seq, t_send_ns, echo_t_ns, echo_seq)
     INPUTS.pack_into(buf, HEADER.size, layout, flags, mask, n, 0)
-    struct.pack_into(f"<{n}d", buf, HEADER.size + INPUTS.size, *values)
+    _values(n).pack_into(buf, HEADER.size + INPUTS.size, *values)
     return _seal(buf)
 
 
@@ -168,11 +175,10 @@ def decode(data: bytes) -> Header | Sensor | Command | None:
     hdr = Header(typ, seq, t_send, echo_t, echo_seq)
     if typ == T_SIGNALS:
         t_sim, step, status, layout, count, _ = SIGNALS.unpack_from(data, HEADER.size)
-        return Signals(hdr, t_sim, step, status, layout, struct.unpack_from(f"<{count}d", data,
-                                                                            HEADER.size + SIGNALS.size))
+        return Signals(hdr, t_sim, step, status, layout, _values(count).unpack_from(data, HEADER.size + SIGNALS.size))
     if typ == T_INPUTS:
         layout, flags, mask, count, _ = INPUTS.unpack_from(data, HEADER.size)
-        values = struct.unpack_from(f"<{count}d", data, HEADER.size + INPUTS.size)
+        values = _values(count).unpack_from(data, HEADER.size + INPUTS.size)
         if count > MAX_INPUTS or mask >> count or any(
                 (mask >> i) & 1 and (v != v or abs(v) == float("inf")) for i, v in enumerate(values)):
             return None   # a set input that is not finite, or a bit beyond the values: bad packet

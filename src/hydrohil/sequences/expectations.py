@@ -314,7 +314,7 @@ class Watchdog(_Expect):
         rise[1:] = on[1:] & ~on[:-1]                    # a trip: the watchdog switches on
         rises = np.nonzero(rise & m)[0]
         trips = len(rises)
-        plot = {"signal": "watchdog", "window": (t0, t1), "also": "u"}
+        plot = {"signal": "watchdog", "window": (t0, t1), "also": "u" if "u" in s else None}
         if self.safe_within is None:
             if trips > self.max_trips:
                 plot["violation"] = (float(s.t[rises[0]]), 1.0)
@@ -323,7 +323,7 @@ class Watchdog(_Expect):
                                self.max_trips, plot)
             return Outcome(self.label(), self.type, "pass", f"{trips} watchdog trip(s)", trips, self.max_trips, plot)
         w, t = on[m], s.t[m]
-        # (the rig's safe state: its valve centred; a circuit's: every input back on its drive, the watchdog says so)
+        # the safe state: the valve centred (a circuit's loop command at 0, its "u"; an open loop: the watchdog on)
         safe = w & ((np.abs(s["u"][m]) <= 1e-12) if s.safe_state == "centre" and "u" in s else True)
         plot["window"] = (t0, t0 + self.safe_within)
         plot["view"] = (max(0.0, t0 - 0.05), min(t1, t0 + 4 * self.safe_within + 0.05))

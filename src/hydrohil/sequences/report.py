@@ -82,7 +82,7 @@ def failure_figure(result, index: int, outcome: Outcome, path: Path) -> Path:
     ax.axvspan(t0, t1, color="0.9", zorder=0, label="judged window")
     if p.get("deadline") is not None:
         ax.axvline(p["deadline"], color="C3", lw=1.2, label=p.get("deadline_label", "deadline"))
-    if p.get("also"):
+    if p.get("also") and p["also"] in s:
         ax2 = ax.twinx()
         ax2.plot(t[m], s[p["also"]][m], color="C1", lw=0.8, alpha=0.8)
         ax2.set_ylabel(f"{p['also']} [-]", color="C1")

@@ -194,10 +194,11 @@ def _run_circuit_sequence(seq: LoadedSequence, out: Path, mode: str, controller,
         error = f"{type(exc).__name__}: {exc}"
     if cols is not None and len(cols["t"]):
         lp = cs.loop
-        if lp is not None:                 # the loop's reference, measure and error under the rig's names
+        if lp is not None:                 # the loop's reference, measure, error and command under the rig's names
             cols["x_ref"], cols["xp"] = cols[f"{lp.measure}.reference"], cols[lp.measure]
             cols["error"] = cols["x_ref"] - cols["xp"]
-            units.update(dict.fromkeys(("x_ref", "xp", "error"), units.get(lp.measure, "")))
+            cols["u"] = cols[lp.command]
+            units.update(dict.fromkeys(("x_ref", "xp", "error"), units.get(lp.measure, "")), u=units[lp.command])
         for i, e in enumerate(seq.expectations):
             sig = getattr(e, "signal", None) if isinstance(e, (Bounds, Reaction)) else None
             if sig is not None and sig not in cols:
@@ -224,11 +225,11 @@ def _circuit_hil_columns(cs, out: Path) -> tuple[dict, dict]:
     from each row (the plant logs at row k what drove step k-1 -> k); the loop's reference and what its sensor
     read."""
     from hydrohil.circuits.build import compile_circuit
-    from hydrohil.circuits.link import wire_lists
+    from hydrohil.circuits.link import circuit_link
     from hydrohil.simulation.outputs import read_csv_columns
     log = read_csv_columns(out / "plant_log.csv")
     cc = compile_circuit(cs.circuit)
-    signals, inputs = wire_lists(cs.circuit, cc.layout)
+    signals, inputs, _ = circuit_link(cs.circuit)
     cols = {"t": np.asarray(log["t"], float), **{n: np.asarray(log[n], float) for n, _ in signals},
             "watchdog": np.asarray(log["watchdog"], float)}
     units = {"t": "s", **dict(signals), **dict(inputs), "watchdog": "-"}

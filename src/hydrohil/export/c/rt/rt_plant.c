@@ -237,8 +237,11 @@ static void wait_lockstep(plant *pl, int64_t k)
         int64_t left = limit - mono_ns();
         struct pollfd fd = {pl->sock, POLLIN, 0};
         if (left <= 0) {
-            snprintf(pl->link_error, sizeof pl->link_error, "controller silent for %g s at step %lld (lock-step)",
-                     pl->o->hil[HIL_LINK_TIMEOUT], (long long)k);
+            char bad[64] = "";
+            if (pl->packets_bad)
+                snprintf(bad, sizeof bad, "; %lld bad packets came", (long long)pl->packets_bad);
+            snprintf(pl->link_error, sizeof pl->link_error, "controller silent for %g s at step %lld (lock-step%s)",
+                     pl->o->hil[HIL_LINK_TIMEOUT], (long long)k, bad);
             pl->stop_requested = 1;
             return;
         }
