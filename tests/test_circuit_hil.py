@@ -104,10 +104,16 @@ def test_rig_watchdog_safe_state_and_saturation():
     assert rig.read()[[n for n, _ in rig.signals].index("motor.w")] == rig.row[rig.layout.log_columns.index("motor.w")]
 
 
+PLANTS = ["python", "c"]
+
+
+@pytest.mark.parametrize("plant", PLANTS)
 @pytest.mark.parametrize("name", CIRCUITS)
-def test_lockstep_hil_equals_offline_bit_for_bit(tmp_path, name):
+def test_lockstep_hil_equals_offline_bit_for_bit(tmp_path, name, plant):
+    """Both plants, the Python one and the standalone C one built from the circuit's generated C."""
     scen = EXAMPLES / "circuits" / name / "scenario.toml"
-    r = run_hil(scen, tmp_path, lockstep=True, plot=False, ready=lambda *a, **k: None)
+    r = run_hil(scen, tmp_path, lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
+    assert r.timing["plant"] == plant and r.timing["circuit"] == name
     cs = load_circuit_scenario(scen)
     n = cs.n_steps
     assert r.timing["steps"] == n and r.verdict["valid"] and r.timing["packets_bad"] == 0
@@ -126,14 +132,15 @@ def test_lockstep_hil_equals_offline_bit_for_bit(tmp_path, name):
         assert np.array_equal(log[f"{cs.loop.command}.applied"][1:], res.columns[cs.loop.command][:n])
 
 
-def test_real_time_circuit_run_is_judged_and_replays_exactly(tmp_path):
+@pytest.mark.parametrize("plant", PLANTS)
+def test_real_time_circuit_run_is_judged_and_replays_exactly(tmp_path, plant):
     # what any machine can promise: every step served and logged, a verdict (exit 3 when INVALID on a busy
     # machine), the plant's applied inputs give its logged states bit for bit. Timing figures: benchmarks.
     scen = short(tmp_path, "motor_speed", 1.0)
-    r = hh("hil", scen, "--out", tmp_path / "out")
+    r = hh("hil", scen, "--out", tmp_path / "out", "--plant", plant)
     t = json.loads((tmp_path / "out" / "timing.json").read_text())
     assert r.returncode == (0 if t["verdict"]["valid"] else 3), r.stderr
-    assert t["mode"] == "realtime" and t["steps"] == 2000 and t["circuit"] == "motor_speed"
+    assert t["mode"] == "realtime" and t["steps"] == 2000 and t["circuit"] == "motor_speed" and t["plant"] == plant
     assert t["packets_bad"] == t["packets_foreign"] == 0 and t["signals"] == 18 and t["inputs"] == 2
     log = read_csv_columns(tmp_path / "out" / "plant_log.csv")
     assert np.array_equal(log["k"], np.arange(2001))
@@ -143,9 +150,13 @@ def test_real_time_circuit_run_is_judged_and_replays_exactly(tmp_path):
     assert ("VALID" if t["verdict"]["valid"] else "INVALID") in r.stdout + r.stderr
 
 
-def start_plant(tmp_path, scen, *args):
-    p = Child(process_command("plant", "--scenario", scen, "--bind", "127.0.0.1:0", "--log", tmp_path, *args),
-              "plant")
+def start_plant(tmp_path, scen, *args, plant="python"):
+    if plant == "c":
+        from hydrohil.export.cplant import cached_circuit_plant
+        cmd = [cached_circuit_plant(load_circuit_scenario(scen)), "--bind", "127.0.0.1:0", "--log", tmp_path, *args]
+    else:
+        cmd = process_command("plant", "--scenario", scen, "--bind", "127.0.0.1:0", "--log", tmp_path, *args)
+    p = Child(cmd, f"{plant} plant")
     host, port = p.wait_line("READY ", 120).split(":")
     return p, (host, int(port))
 
@@ -183,9 +194,10 @@ def test_a_controller_of_ones_own_over_the_documented_packets(tmp_path):
     assert np.all(log["motor.load_torque.applied"] == 0.0)               # an input it did not set: its drive
 
 
-def test_a_controller_for_another_circuit_is_refused(tmp_path):
+@pytest.mark.parametrize("kind", PLANTS)
+def test_a_controller_for_another_circuit_is_refused(tmp_path, kind):
     scen = short(tmp_path, "motor_speed", 0.2)
-    plant, addr = start_plant(tmp_path, scen, "--lockstep", "--connect-timeout", "60")
+    plant, addr = start_plant(tmp_path, scen, "--lockstep", "--connect-timeout", "60", plant=kind)
     with PlantClient(addr, timeout=30.0) as client:
         s = next(client.sensors())
         for _ in range(3):
@@ -196,7 +208,7 @@ def test_a_controller_for_another_circuit_is_refused(tmp_path):
     t = json.loads((tmp_path / "timing.json").read_text())
     assert t["packets_bad"] == 6 and t["commands_delivered"] <= 1
     # the paper's controller against a circuit plant: a clear link error, not a crash
-    plant, addr = start_plant(tmp_path / "b", scen, "--lockstep")
+    plant, addr = start_plant(tmp_path / "b", scen, "--lockstep", plant=kind)
     ctl = Child(process_command("controller", "--connect", f"{addr[0]}:{addr[1]}", "--link-timeout", "30"),
                 "controller")
     ctl.wait(120)
@@ -208,8 +220,10 @@ def test_circuit_hil_errors_name_what_cannot_run(tmp_path):
     scen = short(tmp_path, "motor_speed", 0.2, "[hil]\ncommand_scale = 10\n")
     r = hh("hil", scen, "--out", tmp_path / "o")
     assert r.returncode == 2 and "hil.command_scale" in r.stderr and not (tmp_path / "o" / "plant_log.csv").exists()
-    r = hh("hil", MOTOR, "--out", tmp_path / "o", "--plant", "c")
+    r = hh("hil", MOTOR, "--out", tmp_path / "o", "--plant", "fpga")
     assert r.returncode == 2 and "--plant" in r.stderr
+    r = hh("hil", MOTOR, "--out", tmp_path / "o", "--panel")
+    assert r.returncode == 2 and "--panel" in r.stderr
     with pytest.raises(InputError, match="hil.watchdog_timeout"):
         run_hil(short(tmp_path, "motor_speed", 0.2, "[hil]\nwatchdog_timeout = -1\n"), tmp_path / "o")
 
@@ -238,3 +252,34 @@ def test_watchdog_centres_a_loop_command_whose_drive_is_not_zero():
     rig.step(k0 - 1, (1 << j, [0.4]))
     us = [rig.step(k, None)[j] for k in range(k0, k0 + 4)]
     assert us[:2] == [0.4, 0.4] and us[2:] == [0.0, 0.0] and rig.watchdog and not rig.saturated
+
+
+def test_the_c_plant_logs_what_the_python_plant_logs(tmp_path):
+    """Lock-step, the same scenario: every column of plant_log.csv the same text in both plants but the step's
+    compute time (measured)."""
+    import csv
+    logs = {}
+    for plant in PLANTS:
+        run_hil(MOTOR, tmp_path / plant, lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
+        logs[plant] = list(csv.reader(open(tmp_path / plant / "plant_log.csv")))
+    py, c = logs["python"], logs["c"]
+    assert py[0] == c[0] and len(py) == len(c) == 9002
+    skip = py[0].index("compute_us")
+    for a, b in zip(py, c):
+        assert a[:skip] + a[skip + 1:] == b[:skip] + b[skip + 1:]
+    timing = {p: json.loads((tmp_path / p / "timing.json").read_text()) for p in PLANTS}
+    assert set(timing["c"]) == set(timing["python"])                       # the same keys
+
+
+def test_the_c_plant_of_a_circuit_refuses_the_rigs_options(tmp_path):
+    from hydrohil.export.cplant import cached_circuit_plant
+    import subprocess
+    exe = cached_circuit_plant(load_circuit_scenario(MOTOR))
+    for args in (["--set", "load.mass=1"], ["--fault", "hose_burst:start=1"], ["--initial", "xp=0.1"],
+                 ["--step", "0.001"]):
+        r = subprocess.run([exe, *args, "--duration", "0.01", "--connect-timeout", "0.1"], capture_output=True,
+                           text=True, timeout=60)
+        assert r.returncode == 2 and ("not for a circuit's plant" in r.stderr or "export's step" in r.stderr), args
+    r = hh("export", "c", "--scenario", MOTOR, "--out", tmp_path / "x", "--no-make")
+    assert r.returncode == 0 and (tmp_path / "x" / "circuit.c").is_file() and (tmp_path / "x" / "rt_circuit.c").is_file()
+    assert "MODEL_CORE = circuit.c" in (tmp_path / "x" / "model.mk").read_text()

@@ -33,8 +33,8 @@ def test_export_and_make_with_the_users_compiler(tmp_path):
     out = tmp_path / "plant"
     r = hh("export", "c", "--out", out, "--no-make", "--params", "ferreira2004")
     assert r.returncode == 0, r.stderr
-    for f in ("Makefile", "rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report.c", "rt_side.c", "protocol.c",
-              "latency.c", "hh_core.c", "rig.c", "hh_params.h", "plant_config.h"):
+    for f in ("Makefile", "model.mk", "rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report.c", "rt_rig.c",
+              "rt_side.c", "protocol.c", "latency.c", "hh_core.c", "rig.c", "hh_params.h", "plant_config.h"):
         assert (out / f).is_file(), f
     assert not (out / "hydrohil_plant").exists()
     # make honours CC (what `make CC=aarch64-linux-gnu-gcc` relies on): a wrapper records its calls
@@ -52,12 +52,12 @@ def test_export_and_make_with_the_users_compiler(tmp_path):
     cc1, calls1 = compiler("my-cc")
     make(cc1)
     lines = calls1.read_text().splitlines()
-    assert len(lines) == 9 and any("-ffp-contract=off" in c and "hh_core.c" in c for c in lines)   # 8 objects + link
+    assert len(lines) == 10 and any("-ffp-contract=off" in c and "hh_core.c" in c for c in lines)   # 9 objects + link
     make(cc1)
-    assert len(calls1.read_text().splitlines()) == 9                 # up to date: nothing rebuilt
+    assert len(calls1.read_text().splitlines()) == 10                # up to date: nothing rebuilt
     cc2, calls2 = compiler("cross-cc")
     make(cc2)                                                        # another compiler: everything rebuilt with it
-    assert len(calls2.read_text().splitlines()) == 9
+    assert len(calls2.read_text().splitlines()) == 10
     exe = out / "hydrohil_plant"
     lst = subprocess.run([exe, "--list"], capture_output=True, text=True)
     assert lst.returncode == 0 and "load.mass" in lst.stdout and "watchdog_timeout" in lst.stdout

@@ -533,13 +533,22 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", help="FMU file to writ
 
 
 def export_c(out: Path, params: str = "ferreira2004", step: float = 5e-4, duration: float = 10.0,
-             scenario: Optional[Path] = None, make: bool = True) -> Path:
+             scenario: Optional[Path] = None, make: bool = True, circuit: Optional[str] = None,
+             sets: Optional[dict] = None) -> Path:
     """Write the standalone real-time C plant (sources + Makefile) into the folder ``out`` and, with
     ``make``, build it there; returns the folder. ``scenario``: take the parameters, step, duration,
-    initial state and [hil] settings from it."""
-    from hydrohil.export.cplant import build, export_c as write, scenario_options
+    initial state and [hil] settings from it; a scenario naming its circuit, or ``circuit`` (a built-in name
+    or file, its default drive): that circuit's plant (``sets``: component.key=value on top)."""
+    from hydrohil.export.cplant import build, export_c as write, export_circuit_c, scenario_options
     from hydrohil.parameters import load_parameters
-    if scenario is not None:
+    from hydrohil.circuits.scenario import circuit_scenario, is_circuit_scenario
+    if circuit is not None or (scenario is not None and is_circuit_scenario(scenario)):
+        cs = circuit_scenario(circuit=circuit, scenario=scenario, sets=sets)
+        folder = export_circuit_c(cs, out)
+    elif sets:
+        raise InputError("--set is a circuit's (component.key=value): the paper's rig takes --params or a scenario's "
+                         "[overrides]", key="--set")
+    elif scenario is not None:
         from hydrohil.simulation.scenario import load_scenario
         sc = load_scenario(scenario)
         folder = write(sc.params, out, **scenario_options(sc.scenario), label=scenario.name)
@@ -557,10 +566,14 @@ def export_c_cmd(out: Path = typer.Option(..., "--out", help="folder to write th
                  duration: float = typer.Option(10.0, "--duration", help="default simulated time to serve [s]"),
                  scenario: Optional[Path] = typer.Option(None, "--scenario", help="take parameters, step, duration, "
                                                          "initial state and [hil] settings from a scenario"),
-                 make: bool = typer.Option(True, "--make/--no-make", help="build it here with make (CC honoured)")):
-    """Standalone real-time C plant (no Python on the target): sources + Makefile; see the README."""
+                 make: bool = typer.Option(True, "--make/--no-make", help="build it here with make (CC honoured)"),
+                 circuit: Optional[str] = typer.Option(None, "--circuit", help="a circuit (built-in name or TOML): "
+                                                       "its plant, with its default drive"),
+                 sets: list[str] = typer.Option([], "--set", help="a circuit's component.key=value (repeatable)")):
+    """Standalone real-time C plant (no Python on the target): sources + Makefile; see the README. A circuit
+    (--circuit, or a scenario naming one): its generated C behind the same plant (protocol: SIGNALS/INPUTS)."""
     try:
-        folder = export_c(out, params, step, duration, scenario, make)
+        folder = export_c(out, params, step, duration, scenario, make, circuit, _parse_sets(sets))
     except HydrohilError as exc:
         fail(exc)
     typer.echo(f"wrote {folder} (C sources, Makefile" + (f"; built {folder / 'hydrohil_plant'})" if make else

@@ -111,6 +111,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
 #include "components.h"
 #include "rk.c"
 #include "control.c"
+#include "watchdog.c"
 #include "sensors.c"
 
 enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nout, 1)}, NLOG = {len(cols)},

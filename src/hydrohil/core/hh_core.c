@@ -9,6 +9,7 @@
 #include "rest.c"
 #include "sensors.c"
 #include "control.c"
+#include "watchdog.c"
 #include "delay.c"
 #include "loop.c"
 #include "rig.c"

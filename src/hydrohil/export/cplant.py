@@ -30,8 +30,11 @@ from hydrohil.parameters import Parameters
 
 HERE = Path(__file__).resolve().parent
 RT = HERE / "c" / "rt"
-RT_SOURCES = ("rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report.c", "rt_side.c", "protocol.c", "protocol.h",
+RT_SOURCES = ("rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report.c", "protocol.c", "protocol.h",
               "latency.c", "latency.h", "Makefile")
+RIG_SOURCES = ("rt_rig.c", "rt_side.c")          # what the plant serves: the paper's rig ...
+CIRCUIT_SOURCES = ("rt_circuit.c",)             # ... or a circuit (with its generated circuit.c)
+RIG_MODEL_MK = "MODEL_CORE = hh_core.c\nMODEL_SOURCES = rt_rig.c rt_side.c\n"
 EXECUTABLE = "hydrohil_plant"
 # [hil] settings the plant reads (the others are the controller's, or the plant's own options: step, cpu)
 PLANT_HIL_KEYS = ("command_scale", "watchdog_timeout", "safe_state", "hold_kp", "wait", "seed", "connect_timeout",
@@ -173,9 +176,8 @@ def scenario_options(s) -> dict:
     return {"step": s.plant_step, "duration": s.duration, "hil": s.hil, "initial": s.initial.model_dump()}
 
 
-def export_c(params: Parameters, out: str | Path, *, step: float = 5e-4, duration: float = 10.0, hil=None,
-             initial: dict | None = None, label: str = "custom") -> Path:
-    """Write the standalone plant's sources and Makefile into the folder ``out``; returns it."""
+def _prepare(out: str | Path, step: float, duration: float) -> Path:
+    """The export folder with the core's sources and the plant's own (what every plant shares)."""
     from hydrohil.core.build import core_sources, write_headers
     if not 1e-6 < step <= 0.01:
         raise InputError(f"must be > 1e-06 and <= 0.01 s, got {step}", key="step")
@@ -190,9 +192,100 @@ def export_c(params: Parameters, out: str | Path, *, step: float = 5e-4, duratio
         _copy(src, out / src.name)
     for name in RT_SOURCES:
         _copy(RT / name, out / name)
+    return out
+
+
+def export_c(params: Parameters, out: str | Path, *, step: float = 5e-4, duration: float = 10.0, hil=None,
+             initial: dict | None = None, label: str = "custom") -> Path:
+    """Write the standalone plant's sources and Makefile into the folder ``out``; returns it."""
+    out = _prepare(out, step, duration)
+    for name in RIG_SOURCES:
+        _copy(RT / name, out / name)
+    _write(out / "model.mk", RIG_MODEL_MK)
     _write(out / "plant_config.h", plant_config_h(params, step=step, duration=duration, hil=hil, initial=initial,
                                                            label=label))
     return out
+
+
+def export_circuit_c(cs, out: str | Path) -> Path:
+    """Write the standalone plant of a circuit scenario (:class:`hydrohil.circuits.scenario.CircuitScenario`) into
+    ``out``: the circuit's generated C (``circuit.c``, the file ``simulate`` compiles), its export
+    (``circuit_plant.h``: parameters, state at rest, drives, names, layout), ``rt_circuit.c`` behind the same
+    plant loop as the paper's rig's; returns the folder."""
+    from hydrohil.circuits.generate import generate
+    from hydrohil.parameters import load_parameters
+    from hydrohil.simulation.scenario import circuit_hil
+    hil = circuit_hil(cs)
+    out = _prepare(out, cs.step, cs.duration)
+    for name in CIRCUIT_SOURCES:
+        _copy(RT / name, out / name)
+    _write(out / "model.mk", "MODEL_CORE = circuit.c\nMODEL_SOURCES = rt_circuit.c\n")
+    source, _ = generate(cs.circuit)
+    _write(out / "circuit.c", source)
+    _write(out / "circuit_plant.h", circuit_plant_h(cs))
+    config = plant_config_h(load_parameters("ferreira2004"), step=cs.step, duration=cs.duration, hil=hil,
+                            label=f"circuit {cs.circuit.name}")
+    _write(out / "plant_config.h", config.replace("#define PLANT_CONFIG_H\n", "#define PLANT_CONFIG_H\n"
+                                                  "#define PLANT_CIRCUIT 1   /* a circuit's plant: rt_circuit.c */\n", 1))
+    return out
+
+
+def circuit_plant_h(cs) -> str:
+    """``circuit_plant.h``: a circuit scenario's export for rt_circuit.c: sizes, parameters, the state at rest and
+    the inputs it starts with (a loop's: the command that holds its piston), each input's range and its drive
+    as the steps where it changes, the loop's measured signal and sensor, the names, the wire layout and the
+    plant_log.csv columns."""
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.link import circuit_link
+    from hydrohil.circuits.run import METHODS, input_table, start_state
+    c, lay = cs.circuit, compile_circuit(cs.circuit).layout
+    signals, inputs, layout = circuit_link(c)
+    y0, m0, u0 = start_state(c, h=cs.step, method=cs.method, rest=cs.rest, loop=cs.loop)
+    drives = input_table(c, cs.n_steps, cs.step)
+    changes = [(k, j, float(drives[k, j])) for k in range(1, len(drives)) for j in range(len(inputs))
+               if drives[k, j] != drives[k - 1, j]]
+    prm = [c.components[n.split(".")[0]].type.params[n.split(".")[1]] for n, _ in inputs]
+    loop = cs.loop
+    words, first = [], []
+    for md in lay.modes:
+        first.append(len(words))
+        words += list(lay.mode_names[md])
+    plog = ["k", "t", "wall", "jitter_us", "compute_us", "cmd_seq", "cmd_age", "watchdog", "status",
+            *(n for n, _ in signals), *(f"{n}.applied" for n, _ in inputs)]
+    kinds = ["PLOG_INT" if i in (0, 5, 6, 7, 8) else "PLOG_REAL" for i in range(len(plog))]
+    q = lambda text: _str(str(text))                                       # noqa: E731
+    arr = lambda ctype, name, items, fmt=_c: [                             # noqa: E731
+        f"static const {ctype} {name}[{max(len(items), 1)}] = {{" + ", ".join(fmt(v) for v in (items or [0])) + "};"]
+    lines = [f"/* circuit_plant.h: GENERATED by `hydrohil export c` (hydrohil {__version__}) from {cs.source}: do not "
+             "edit; export again. */", "#ifndef CIRCUIT_PLANT_H", "#define CIRCUIT_PLANT_H", "#include <stdint.h>", "",
+             f"#define CIRCUIT_NAME {q(c.name)}", f"#define CIRCUIT_METHOD {METHODS.index(cs.method)}",
+             f"#define CIRCUIT_STEP {_c(cs.step)}", f"#define CIRCUIT_LAYOUT {layout}U",
+             f"enum {{ CIRCUIT_NP = {len(lay.params)}, CIRCUIT_NY = {max(len(lay.states), 1)}, "
+             f"CIRCUIT_NM = {max(len(lay.modes), 1)}, CIRCUIT_NU = {max(len(inputs), 1)}, "
+             f"CIRCUIT_NLOG = {len(lay.log_columns)}, CIRCUIT_NSIGNALS = {len(signals)}, "
+             f"CIRCUIT_NINPUTS = {len(inputs)}, CIRCUIT_NSTATES = {len(lay.states)}, CIRCUIT_NMODES = {len(lay.modes)}, "
+             f"CIRCUIT_NDRIVES = {len(changes)}, LOG_HEAD = 9 }};",
+             f"#define CIRCUIT_LOOP_COMMAND {lay.inputs.index(loop.command) if loop is not None else -1}",
+             f"#define CIRCUIT_MEASURE {lay.log_columns.index(loop.measure) if loop is not None else -1}",
+             f"#define CIRCUIT_HAS_SENSOR {int(loop is not None and loop.sensor is not None)}", ""]
+    lines += arr("double", "CIRCUIT_P", list(lay.values()))
+    lines += arr("double", "CIRCUIT_Y0", list(y0[:max(len(lay.states), 1)]))
+    lines += arr("int64_t", "CIRCUIT_M0", list(m0[:max(len(lay.modes), 1)]), lambda v: str(int(v)))
+    lines += arr("double", "CIRCUIT_U0", list(u0[:max(len(inputs), 1)]))
+    lines += arr("double", "CIRCUIT_DRIVE0", list(drives[0][:max(len(inputs), 1)]))
+    lines += arr("int64_t", "CIRCUIT_DRIVE_STEP", [k for k, _, _ in changes], str)
+    lines += arr("int", "CIRCUIT_DRIVE_INPUT", [j for _, j, _ in changes], str)
+    lines += arr("double", "CIRCUIT_DRIVE_VALUE", [v for _, _, v in changes])
+    lines += arr("double", "CIRCUIT_LO", [p.lo for p in prm])
+    lines += arr("double", "CIRCUIT_HI", [p.hi for p in prm])
+    lines += arr("double", "CIRCUIT_SENSOR", list(loop.sensor) if loop is not None and loop.sensor else [0.0, 0.0, 0.0])
+    lines += arr("char *const", "CIRCUIT_STATE_NAMES", list(lay.states), q)
+    lines += arr("char *const", "CIRCUIT_MODE_NAMES", list(lay.modes), q)
+    lines += arr("char *const", "CIRCUIT_MODE_WORDS", words, q)
+    lines += arr("int", "CIRCUIT_MODE_FIRST", first, str)
+    lines += arr("char *const", "CIRCUIT_PLOG_NAMES", plog, q)
+    lines += arr("int", "CIRCUIT_PLOG_KINDS", kinds, str)
+    return "\n".join(lines + ["", "#endif", ""])
 
 
 def _copy(src: Path, dst: Path) -> None:
@@ -234,13 +327,25 @@ def cached_plant(params: Parameters, *, step: float, duration: float, hil=None, 
                  label: str = "custom") -> Path:
     """The executable of this configuration, exported and built once into the cache (keyed by the hash of
     all its sources: a changed core, plant or parameter set builds anew)."""
+    return _cached(lambda tmp: export_c(params, tmp, step=step, duration=duration, hil=hil, initial=initial,
+                                        label=label))
+
+
+def cached_circuit_plant(cs) -> Path:
+    """The standalone plant of a circuit scenario (:func:`export_circuit_c`), built once into the cache."""
+    return _cached(lambda tmp: export_circuit_c(cs, tmp))
+
+
+def _cached(export) -> Path:
+    """``export(folder)`` into a temporary folder, keyed by the hash of every file it wrote and the compiler:
+    built once into the cache, its executable returned."""
     import tempfile
     from hydrohil.core.build import c_compiler
     cc = c_compiler()                 # this machine's compiler, default flags: the cache never holds a cross build
     env = {k: v for k, v in os.environ.items() if k not in ("CC", "CFLAGS", "CPPFLAGS", "LDFLAGS", "LDLIBS")}
     target = subprocess.run([cc, "-dumpmachine"], capture_output=True, text=True).stdout.strip()
     with tempfile.TemporaryDirectory() as tmp:
-        export_c(params, tmp, step=step, duration=duration, hil=hil, initial=initial, label=label)
+        export(tmp)
         digest = hashlib.sha256(f"{cc}|{target}\0".encode())
         for f in sorted(Path(tmp).iterdir()):
             digest.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")

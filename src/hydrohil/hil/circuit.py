@@ -23,39 +23,11 @@ from hydrohil.hil import protocol as pr
 from hydrohil.hil.plant import PlantServer, early_stop, serve
 from hydrohil.hil.protocol import parse_address
 from hydrohil.simulation.outputs import CsvStream
+from hydrohil.simulation.scenario import circuit_hil
 
-# [hil] settings that mean something for the paper's rig only, and the values a circuit takes
-RIG_ONLY = {"command_delay": 0.0, "command_scale": 1.0, "safe_state": "centre", "controller_mode": "packet"}
 # plant_log.csv of a circuit: these, then every signal (SI), then every input as applied
 LOG_HEAD = ("k", "t", "wall", "jitter_us", "compute_us", "cmd_seq", "cmd_age", "watchdog", "status")
 CONTROLLER_LOG_HEAD = ("seq", "t", "wall", "measured", "reference", "command", "status")
-
-
-def circuit_hil(cs):
-    """The scenario's ``[hil]`` settings (:class:`hydrohil.simulation.scenario.HilCfg`), checked: a circuit's
-    inputs are in their own SI units (no command scale), its safe state is its drives, it has no transport
-    delay of the paper's valve."""
-    from pydantic import ValidationError
-
-    from hydrohil.simulation.scenario import HilCfg
-    from hydrohil.parameters import format_validation_error
-    try:
-        hil = HilCfg.model_validate(cs.hil)
-    except ValidationError as exc:
-        key, msg = format_validation_error(exc, HilCfg)
-        raise InputError(msg, source=cs.source, key=f"hil.{key}" if key else "hil") from None
-    for key, value in RIG_ONLY.items():
-        if getattr(hil, key) != value:
-            raise InputError(f"a setting of the paper's rig only; a circuit's inputs are in their SI units, its "
-                             f"watchdog sets the commanded ones to 0, a delay is a component, its controller answers "
-                             f"each packet (expected {value!r})", source=cs.source, key=f"hil.{key}")
-    if cs.method == "reference":
-        raise InputError("a real-time plant steps the hybrid model: give a fixed-step method (rk3, ...), not the "
-                         "continuous reference", source=cs.source, key="solver.method")
-    if hil.step is not None and hil.step != cs.step:
-        raise InputError(f"a circuit's plant steps at its [solver] step ({cs.step:g} s)", source=cs.source,
-                         key="hil.step")
-    return hil
 
 
 def make_rig(cs, hil):

@@ -355,7 +355,8 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
     circuit = None
     if scenario is not None and is_circuit_scenario(scenario):      # a circuit's loop and drives (hil/circuit.py)
         from hydrohil.circuits.scenario import load_circuit_scenario
-        from hydrohil.hil.circuit import Drives, circuit_hil
+        from hydrohil.hil.circuit import Drives
+        from hydrohil.simulation.scenario import circuit_hil
         circuit = load_circuit_scenario(scenario)
         hil = circuit_hil(circuit)
         drives = Drives(circuit)          # (compiled, its tables made: before the first packet)

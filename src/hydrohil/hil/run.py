@@ -23,7 +23,8 @@ import numpy as np
 
 from hydrohil.errors import HydrohilError, InputError, Interrupted, LinkError
 from hydrohil.circuits.scenario import is_circuit_scenario
-from hydrohil.hil.circuit import circuit_hil, compare_circuit_offline
+from hydrohil.hil.circuit import compare_circuit_offline
+from hydrohil.simulation.scenario import circuit_hil
 from hydrohil.hil.processes import Child, free_udp_port, process_command
 from hydrohil.simulation.outputs import read_csv_columns
 from hydrohil.simulation.scenario import load_scenario
@@ -74,6 +75,10 @@ def plant_command(sc, scenario: Path, out: Path, peer: str | None, *, lockstep: 
         return process_command("plant", "--scenario", scenario, *tail)
     if plant != "c":
         raise InputError(f"--plant must be one of {', '.join(PLANTS)}, got {plant!r}", key="plant")
+    if hasattr(sc, "circuit"):        # a circuit scenario: its own standalone plant (rt_circuit.c)
+        from hydrohil.export.cplant import cached_circuit_plant
+        cpu = circuit_hil(sc).cpus()[0]
+        return [cached_circuit_plant(sc), *tail, *(["--cpu", cpu] if cpu is not None else [])]
     from hydrohil.export.cplant import fault_options
     s = sc.scenario
     exe = c_plant_executable(sc, scenario)
@@ -169,9 +174,6 @@ def _circuit_run(scenario: Path, out: Path, *, plant: str, params, sets, live):
     if params is not None:
         raise InputError("a circuit scenario has no parameter set: give its values with --set component.key=value",
                          key="--params")
-    if plant != "python":
-        raise InputError("a circuit runs on the Python plant in this version (--plant python); the standalone C "
-                         "plant serves the paper's rig", key="--plant")
     if live is not None:
         raise InputError("the live panel shows the paper's rig; on a circuit it is not in this version",
                          key="--panel")

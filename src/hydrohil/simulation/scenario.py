@@ -365,3 +365,30 @@ def load_scenario(path: str | Path, *, solver: str | None = None, step: float | 
     if sc.reference is not None:
         _warn_reference_beyond_stroke(sc.reference, L, path)
     return LoadedScenario(scenario=sc, params=params, source=str(path))
+
+
+# [hil] settings that mean something for the paper's rig only, and the values a circuit takes
+RIG_ONLY = {"command_delay": 0.0, "command_scale": 1.0, "safe_state": "centre", "controller_mode": "packet"}
+
+
+def circuit_hil(cs):
+    """A circuit scenario's ``[hil]`` settings (:class:`HilCfg`), checked: a circuit's inputs are in their own SI
+    units (no command scale), its safe state sets the commanded inputs to 0, it has no transport delay of the
+    paper's valve, its controller answers each packet, its plant steps at the scenario's fixed step."""
+    try:
+        hil = HilCfg.model_validate(cs.hil)
+    except ValidationError as exc:
+        key, msg = format_validation_error(exc, HilCfg)
+        raise InputError(msg, source=cs.source, key=f"hil.{key}" if key else "hil") from None
+    for key, value in RIG_ONLY.items():
+        if getattr(hil, key) != value:
+            raise InputError(f"a setting of the paper's rig only; a circuit's inputs are in their SI units, its "
+                             f"watchdog sets the commanded ones to 0, a delay is a component, its controller answers "
+                             f"each packet (expected {value!r})", source=cs.source, key=f"hil.{key}")
+    if cs.method == "reference":
+        raise InputError("a real-time plant steps the hybrid model: give a fixed-step method (rk3, ...), not the "
+                         "continuous reference", source=cs.source, key="solver.method")
+    if hil.step is not None and hil.step != cs.step:
+        raise InputError(f"a circuit's plant steps at its [solver] step ({cs.step:g} s)", source=cs.source,
+                         key="hil.step")
+    return hil

@@ -114,9 +114,34 @@ size_t hhil_encode_simple(uint8_t *b, const hhil_header *h)
     return seal(b, HHIL_SIMPLE_LEN);
 }
 
-static size_t length_of(uint16_t type)
+size_t hhil_encode_signals(uint8_t *b, const hhil_header *h, double t_sim, uint64_t step, uint32_t status,
+                           uint32_t layout, const double *values, int n)
+{
+    hhil_header hh = *h;
+    int i;
+    hh.type = HHIL_SIGNALS;
+    put_header(b, &hh);
+    put_f64(b + 32, t_sim);
+    put_u64(b + 40, step);
+    put_u32(b + 48, status);
+    put_u32(b + 52, layout);
+    put_u16(b + 56, (uint16_t)n);
+    put_u16(b + 58, 0);
+    for (i = 0; i < n; i++)
+        put_f64(b + 60 + 8 * i, values[i]);
+    return seal(b, (size_t)(HHIL_HEADER_LEN + HHIL_SIGNALS_FIXED + 8 * n + 4));
+}
+
+/* The length a datagram of its type must have (a circuit packet's from its count); 0: no such type. */
+static size_t length_of(uint16_t type, const uint8_t *b, size_t n)
 {
     switch (type) {
+    case HHIL_SIGNALS:
+        return n >= HHIL_HEADER_LEN + HHIL_SIGNALS_FIXED ? HHIL_HEADER_LEN + HHIL_SIGNALS_FIXED + 8 * (size_t)get_u16(b + 56) + 4
+                                                        : 0;
+    case HHIL_INPUTS:
+        return n >= HHIL_HEADER_LEN + HHIL_INPUTS_FIXED ? HHIL_HEADER_LEN + HHIL_INPUTS_FIXED + 8 * (size_t)get_u16(b + 44) + 4
+                                                       : 0;
     case HHIL_SENSOR: return HHIL_SENSOR_LEN;
     case HHIL_COMMAND: return HHIL_COMMAND_LEN;
     case HHIL_HELLO:
@@ -133,7 +158,7 @@ int hhil_decode(const uint8_t *b, size_t n, hhil_message *msg)
     if (memcmp(b, "HHIL", 4) != 0 || get_u16(b + 4) != HHIL_VERSION)
         return 0;
     h->type = get_u16(b + 6);
-    if (length_of(h->type) != n || get_u32(b + n - 4) != hhil_crc32(b, n - 4))
+    if (length_of(h->type, b, n) != n || get_u32(b + n - 4) != hhil_crc32(b, n - 4))
         return 0;
     h->seq = get_u32(b + 8);
     h->t_send_ns = (int64_t)get_u64(b + 12);
@@ -157,6 +182,20 @@ int hhil_decode(const uint8_t *b, size_t n, hhil_message *msg)
         msg->command.flags = get_u32(b + 40);
         if (!isfinite(msg->command.u))
             return 0;              /* NaN/Inf command: a bad packet */
+    } else if (h->type == HHIL_INPUTS) {
+        hhil_inputs *in = &msg->inputs;
+        int i;
+        in->layout = get_u32(b + 32);
+        in->flags = get_u32(b + 36);
+        in->mask = get_u32(b + 40);
+        in->n = get_u16(b + 44);
+        if (in->n > HHIL_MAX_INPUTS || (in->n < 32 && (in->mask >> in->n) != 0))
+            return 0;              /* more values than a mask can name, or a bit beyond them */
+        for (i = 0; i < in->n; i++) {
+            in->values[i] = get_f64(b + 48 + 8 * i);
+            if ((in->mask >> i & 1U) && !isfinite(in->values[i]))
+                return 0;          /* a set input that is not finite */
+        }
     }
     return 1;
 }

@@ -35,21 +35,35 @@ void fmt_double(char *buf, size_t size, double v)
     snprintf(buf, size, "%.17g", v);
 }
 
+const char *fmt_g6(char *buf, double v)
+{
+    if (isnan(v))
+        return "nan";
+    if (isinf(v))
+        return v > 0 ? "inf" : "-inf";
+    snprintf(buf, 32, "%.6g", v);
+    return buf;
+}
+
 /* ---- the log writer: a ring of rows filled by the step loop, formatted by a thread --------------- */
 
 
 #define LOG_TEXT (1 << 20)          /* formatted rows handed to the OS as whole lines */
 
-size_t log_format_row(char *t, const double *r)
+const log_columns RIG_LOG_COLUMNS = {HH_NPLOG, PLANT_LOG_NAMES, PLANT_LOG_KINDS};
+
+size_t log_format_row(char *t, const double *r) { return format_row(&RIG_LOG_COLUMNS, t, r); }
+
+size_t format_row(const log_columns *cols, char *t, const double *r)
 {
     char v[40];
     size_t n = 0;
     int j;
-    for (j = 0; j < HH_NPLOG; j++) {
+    for (j = 0; j < cols->n; j++) {
         const char *word = NULL;
         if (j)
             t[n++] = ',';
-        switch (PLANT_LOG_KINDS[j]) {     /* how core/shape.py says the column is written */
+        switch (cols->kinds[j]) {         /* how core/shape.py (or the circuit's export) says it is written */
         case PLOG_MODE_TRAVEL: word = TRAVEL_NAMES[(int)r[j] % HH_N_TRAVEL]; break;
         case PLOG_MODE_FRICTION: word = FRICTION_NAMES[(int)r[j] % HH_N_FRICTION]; break;
         case PLOG_MODE_SPOOL: word = SPOOL_NAMES[(int)r[j] % HH_N_SPOOL]; break;
@@ -99,7 +113,7 @@ static void *log_thread(void *arg)
         while (tail != head) {
             if (w->text_len + 2048 > LOG_TEXT)
                 flush_text(w);
-            w->text_len += log_format_row(w->text + w->text_len, w->rows[tail % LOG_RING]);
+            w->text_len += format_row(w->cols, w->text + w->text_len, w->rows + (size_t)(tail % LOG_RING) * w->cols->n);
             tail++;
             since_flush++;
             __atomic_store_n(&w->tail, tail, __ATOMIC_RELEASE);
@@ -133,18 +147,21 @@ int start_writer_thread(pthread_t *thread, void *(*run)(void *), void *arg)
     return rc;
 }
 
-void log_header(FILE *fh)
+static void header(const log_columns *cols, FILE *fh)
 {
     int j;
-    for (j = 0; j < HH_NPLOG; j++)
-        fprintf(fh, "%s%s", j ? "," : "", PLANT_LOG_NAMES[j]);
+    for (j = 0; j < cols->n; j++)
+        fprintf(fh, "%s%s", j ? "," : "", cols->names[j]);
     fputc('\n', fh);
 }
 
-int log_open(log_writer *w, const char *dir, char *err, size_t size)
+void log_header(FILE *fh) { header(&RIG_LOG_COLUMNS, fh); }
+
+int log_open(log_writer *w, const log_columns *cols, const char *dir, char *err, size_t size)
 {
     char path[4096];
     memset(w, 0, sizeof *w);
+    w->cols = cols;
     if (!dir)
         return 0;
     snprintf(path, sizeof path, "%s/plant_log.csv", dir);
@@ -153,7 +170,7 @@ int log_open(log_writer *w, const char *dir, char *err, size_t size)
         snprintf(err, size, "cannot write %s: %s", path, strerror(errno));
         return -1;
     }
-    w->rows = calloc(LOG_RING, sizeof *w->rows);
+    w->rows = calloc((size_t)LOG_RING * (size_t)cols->n, sizeof *w->rows);
     w->text = malloc(LOG_TEXT);
     if (!w->rows || !w->text) {
         snprintf(err, size, "out of memory for the log ring");
@@ -163,7 +180,7 @@ int log_open(log_writer *w, const char *dir, char *err, size_t size)
         w->fh = NULL;
         return -1;
     }
-    log_header(w->fh);
+    header(cols, w->fh);
     fflush(w->fh);              /* the header by stdio; the rows by write(2) on the same descriptor */
     {
         if (start_writer_thread(&w->thread, log_thread, w) != 0) {
@@ -188,7 +205,7 @@ void log_push(log_writer *w, const double *row)
         w->dropped++;               /* the writer fell 8 s behind: lose a row, never a step */
         return;
     }
-    memcpy(w->rows[head % LOG_RING], row, sizeof(double) * HH_NPLOG);
+    memcpy(w->rows + (size_t)(head % LOG_RING) * w->cols->n, row, sizeof(double) * (size_t)w->cols->n);
     __atomic_store_n(&w->head, head + 1U, __ATOMIC_RELEASE);
 }
 

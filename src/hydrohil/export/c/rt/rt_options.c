@@ -64,6 +64,7 @@ static void parse_address(const char *opt, const char *text, int allow_remote, s
     snprintf(copy, 128, "%s", text);
 }
 
+#ifndef PLANT_CIRCUIT
 static int param_index(const char *key)
 {
     int i;
@@ -72,6 +73,7 @@ static int param_index(const char *key)
             return i;
     return -1;
 }
+#endif
 
 /* option value `word` of a "a|b|c" list: its index, or -1 */
 static int option_index(const char *options, const char *word)
@@ -118,6 +120,7 @@ static const char *split_assignment(const char *opt, const char *assignment, cha
     return eq;
 }
 
+#ifndef PLANT_CIRCUIT
 static void set_parameter(options *o, const char *assignment)
 {
     char key[128];
@@ -135,6 +138,8 @@ static void set_parameter(options *o, const char *assignment)
                   PLANT_OPTIONS[i] ? " or one of " : "", PLANT_OPTIONS[i] ? PLANT_OPTIONS[i] : "");
     o->p[i] = v;
 }
+
+#endif
 
 static void set_hil(options *o, const char *assignment)
 {
@@ -172,6 +177,7 @@ static void set_hil(options *o, const char *assignment)
     o->hil[i] = v;
 }
 
+#ifndef PLANT_CIRCUIT
 static void set_initial(options *o, const char *assignment)
 {
     static const char *const keys[4] = {"xp", "xs", "p1", "p2"};
@@ -185,6 +191,8 @@ static void set_initial(options *o, const char *assignment)
     if (!parse_number(eq + 1, &o->initial[i]))
         die_usage("--initial %s: not a number", assignment);
 }
+
+#endif
 
 /* A fault TYPE:key=value,... (a [[faults]] entry; FAULT_KINDS: the schema's fields) into *f, its end [s] (NaN: none)
  * into *end. Returns 0, or -1 with the reason in err (the --fault option and the panel's fault_on share it). */
@@ -328,6 +336,7 @@ size_t fault_json(const hh_fault *f, char *buf, size_t size)
     return n;
 }
 
+#ifndef PLANT_CIRCUIT
 /* One --fault TYPE:key=value,... (exit 2 with the reason when it is not a valid fault) */
 static void set_fault(options *o, const char *text)
 {
@@ -339,7 +348,11 @@ static void set_fault(options *o, const char *text)
     o->nfault++;
 }
 
-static void list_settings(const options *o)
+#endif
+
+#ifndef PLANT_CIRCUIT
+/* --list: the parameter set's values with their units and ranges */
+static void list_parameters(const options *o)
 {
     char v[40];
     int i;
@@ -361,17 +374,12 @@ static void list_settings(const options *o)
             printf("  %s %g .. %g %s", s->lo_strict ? "(" : "[", s->lo, s->hi, s->hi_strict ? ")" : "]");
         printf("\n");
     }
-    printf("[hil] settings (--hil KEY=VALUE):\n");
-    for (i = 0; i < HIL_N; i++) {
-        const plant_setting *s = &HIL_SETTINGS[i];
-        if (s->kind == SET_ENUM) {
-            option_word(s->options, (int)o->hil[i], v, sizeof v);
-            printf("  %-24s %-12s one of %s: %s\n", s->key, v, s->options, s->description);
-        }
-        else
-            printf("  %-24s %-12g [%s] %s%g .. %g%s: %s\n", s->key, o->hil[i], s->unit, s->lo_strict ? "(" : "[", s->lo,
-                   s->hi, s->hi_strict ? ")" : "]", s->description);
-    }
+}
+
+/* --list: the initial state and the faults --fault takes */
+static void list_initial_and_faults(const options *o)
+{
+    int i;
     printf("initial state (--initial KEY=VALUE): xp %g m, xs %g, p1 %g Pa, p2 %g Pa (nan: at rest: the spool offset "
            "that holds the piston, the pressures balancing the chambers' flows)\n",
            o->initial[0], o->initial[1], o->initial[2], o->initial[3]);
@@ -389,6 +397,33 @@ static void list_settings(const options *o)
         }
         printf("\n");
     }
+}
+#endif
+
+static void list_settings(const options *o)
+{
+    char v[40];
+    int i;
+#ifdef PLANT_CIRCUIT
+    printf("%s: its parameters and state at rest are the export's (hydrohil circuit show lists them)\n",
+           PLANT_DESCRIPTION);
+#else
+    list_parameters(o);
+#endif
+    printf("[hil] settings (--hil KEY=VALUE):\n");
+    for (i = 0; i < HIL_N; i++) {
+        const plant_setting *s = &HIL_SETTINGS[i];
+        if (s->kind == SET_ENUM) {
+            option_word(s->options, (int)o->hil[i], v, sizeof v);
+            printf("  %-24s %-12s one of %s: %s\n", s->key, v, s->options, s->description);
+        }
+        else
+            printf("  %-24s %-12g [%s] %s%g .. %g%s: %s\n", s->key, o->hil[i], s->unit, s->lo_strict ? "(" : "[", s->lo,
+                   s->hi, s->hi_strict ? ")" : "]", s->description);
+    }
+#ifndef PLANT_CIRCUIT
+    list_initial_and_faults(o);
+#endif
 }
 
 static void usage(void)
@@ -467,11 +502,18 @@ void parse_options(int argc, char **argv, options *o)
                 die_usage("--cpu %s: a CPU number >= 0", optarg);
             o->cpu = (int)v;
             break;
+#ifdef PLANT_CIRCUIT             /* a circuit's plant: its parameters and state at rest are the export's */
+        case O_SET: case O_INITIAL: case O_FAULT: case O_PANEL:
+            die_usage("--%s: not for a circuit's plant (its values are exported: hydrohil export c --scenario ... "
+                      "--set component.key=value; faults and the live panel are the paper's rig's)",
+                      c == O_SET ? "set" : c == O_INITIAL ? "initial" : c == O_FAULT ? "fault" : "panel");
+#else
         case O_SET: set_parameter(o, optarg); break;
-        case O_HIL: set_hil(o, optarg); break;
         case O_INITIAL: set_initial(o, optarg); break;
         case O_FAULT: set_fault(o, optarg); break;
         case O_PANEL: panel_text = optarg; break;
+#endif
+        case O_HIL: set_hil(o, optarg); break;
         case O_NO_ROWS: o->no_rows = 1; break;
         case O_CONNECT:
             snprintf(buf, sizeof buf, "connect_timeout=%s", optarg);
@@ -486,16 +528,22 @@ void parse_options(int argc, char **argv, options *o)
         die_usage("unexpected argument %s", argv[optind]);
     if (nearbyint(o->duration / o->step) >= 2147483647.0)    /* sequence numbers are u32 on the wire */
         die_usage("--duration %g with --step %g: at most 2^31 - 1 steps per run", o->duration, o->step);
+#ifndef PLANT_CIRCUIT
     if (hh_params_check(o->p, msg, sizeof msg) >= 0)
         die_usage("%s", msg);
+#else
+    (void)msg;
+#endif
     if (list) {
         list_settings(o);
         exit(0);
     }
+#ifndef PLANT_CIRCUIT
     if (!(o->initial[0] >= 0.0 && o->initial[0] <= o->p[HH_CYLINDER_STROKE]) ||
         !(isnan(o->initial[1]) || (o->initial[1] >= -1.0 && o->initial[1] <= 1.0)))
         die_usage("--initial: need 0 <= xp <= cylinder.stroke (%g m) and -1 <= xs <= 1 (or nan), got xp %g, xs %g",
                   o->p[HH_CYLINDER_STROKE], o->initial[0], o->initial[1]);
+#endif
     parse_address("--bind", bind_text, o->allow_remote, &o->bind, o->bind_text);
     if (peer_text) {
         parse_address("--peer", peer_text, o->allow_remote, &o->peer, o->peer_text);

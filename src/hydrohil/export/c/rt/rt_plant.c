@@ -16,8 +16,9 @@
  * Exit codes as hydrohil's: 0 VALID, 3 INVALID (logs and verdict complete), 4 no controller / link lost,
  * 1 the model diverged, 2 bad arguments, 130 / 143 stopped by SIGINT / SIGTERM (logs written).
  *
- * This file: the plant's loop and main. The command line is rt_options.c, plant_log.csv rt_log.c,
- * timing.json and the verdict rt_report.c (rt_plant.h: what they share).
+ * This file: the plant's loop and main, whatever it serves: the paper's rig (rt_rig.c) or a circuit generated
+ * from its description (rt_circuit.c), behind the model_* functions of rt_plant.h. The command line is
+ * rt_options.c, plant_log.csv rt_log.c, timing.json and the verdict rt_report.c (rt_plant.h: what they share).
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
@@ -54,49 +55,19 @@ static void on_signal(int sig) { g_signal = sig; }
 /* ---- the plant ---------------------------------------------------------------------------------- */
 
 
-/* The sensors' readings (the core's rig step, as the Python plant's) and the status bits of the wire. */
-static void read_sensors(plant *pl, reading *r)
-{
-    hh_rig_sense(&pl->rig, r);
-    r->status |= pl->o->lockstep ? HH_ST_LOCKSTEP : 0;
-}
-
 static void send_to_peer(plant *pl, const uint8_t *buf, size_t n)
 {
     if (pl->has_peer)
         sendto(pl->sock, buf, n, 0, (const struct sockaddr *)&pl->peer, sizeof pl->peer);
 }
 
-static void send_sensor(plant *pl, int64_t k, uint32_t status, reading *r)
+void transmit(plant *pl, int64_t k, const uint8_t *buf, size_t n, int64_t t_mono)
 {
-    uint8_t buf[HHIL_SENSOR_LEN];
-    hhil_header h;
-    hhil_sensor s;
-    sent_stamp *st;
-    read_sensors(pl, r);
-    r->status |= status;
-    h.type = HHIL_SENSOR;
-    h.seq = (uint32_t)k;
-    h.t_send_ns = mono_ns();
-    h.echo_t_ns = pl->cmd_t_arrival;
-    h.echo_seq = (uint32_t)(pl->cmd_seq > 0 ? pl->cmd_seq : 0);
-    s.t_sim = pl->sim.out[HH_OUT_T];
-    s.step = (uint64_t)k;
-    s.encoder_counts = r->encoder;
-    s.p1 = r->p[HH_PRESSURE_P1];
-    s.p2 = r->p[HH_PRESSURE_P2];
-    s.ps = r->p[HH_PRESSURE_PS];
-    s.pt = r->p[HH_PRESSURE_PT];
-    s.status = r->status;
-    s.travel_mode = (uint8_t)pl->sim.m[HH_M_TRAVEL];
-    s.friction_mode = (uint8_t)pl->sim.m[HH_M_FRICTION];
-    s.spool_mode = (uint8_t)pl->sim.m[HH_M_SPOOL];
-    hhil_encode_sensor(buf, &h, &s);
-    st = &pl->sent[k % SENT_RING];
+    sent_stamp *st = &pl->sent[k % SENT_RING];
     st->k = k;
-    st->t_mono = h.t_send_ns;
+    st->t_mono = t_mono;
     st->t_wall = wall_ns();
-    send_to_peer(pl, buf, sizeof buf);
+    send_to_peer(pl, buf, n);
 }
 
 static int same_address(const struct sockaddr_in *a, const struct sockaddr_in *b)
@@ -108,7 +79,7 @@ static void receive(plant *pl, const uint8_t *data, size_t n, const struct socka
                     int64_t t_kernel)
 {
     hhil_message msg;
-    if (!hhil_decode(data, n, &msg)) {
+    if (!hhil_decode(data, n, &msg) || !model_accepts(pl, &msg)) {
         pl->packets_bad++;
         return;
     }
@@ -120,7 +91,7 @@ static void receive(plant *pl, const uint8_t *data, size_t n, const struct socka
         return;
     }
     pl->packets_rx++;
-    if (msg.header.type == HHIL_COMMAND) {
+    if (msg.header.type == HHIL_COMMAND || msg.header.type == HHIL_INPUTS) {
         int64_t seq = msg.header.seq;
         sent_stamp *st;
         if (seq <= pl->cmd_seq) {
@@ -132,7 +103,7 @@ static void receive(plant *pl, const uint8_t *data, size_t n, const struct socka
         pl->cmd_seq = seq;
         pl->cmd_echo = msg.header.echo_seq;
         pl->cmd_t_arrival = t_arr;
-        pl->cmd_u = msg.command.u / pl->o->hil[HIL_COMMAND_SCALE];
+        model_take(pl, &msg);
         pl->cmd_new = 1;
         st = &pl->sent[msg.header.echo_seq % SENT_RING];
         if (st->k == (int64_t)msg.header.echo_seq) {
@@ -140,7 +111,7 @@ static void receive(plant *pl, const uint8_t *data, size_t n, const struct socka
             latency_add(&pl->rtt, t_kernel >= 0 ? t_kernel - st->t_wall : t_arr - st->t_mono);
             st->k = -1;
         }
-        if (msg.command.flags & HHIL_CMD_STOP)
+        if ((msg.header.type == HHIL_COMMAND ? msg.command.flags : msg.inputs.flags) & HHIL_CMD_STOP)
             pl->stop_requested = 1;
     } else if (msg.header.type == HHIL_BYE) {
         pl->stop_requested = 1;
@@ -275,49 +246,13 @@ static int wait_for_controller(plant *pl)
 /* What step k uses: the command that arrived for it (1, *u) or none (0). Counts a late command. */
 static int take_command(plant *pl, int64_t k, double *u)
 {
-    if (pl->cmd_echo < k && !pl->rig.link.active)
+    if (pl->cmd_echo < k && !pl->link->active)
         pl->late_commands++;
     if (!pl->cmd_new)
         return 0;
     pl->cmd_new = 0;
     *u = pl->cmd_u;
     return 1;
-}
-
-static void log_row(plant *pl, int64_t k, const reading *r, double wall, int64_t jitter_ns, int64_t compute_ns,
-                    double u)
-{
-    double *row = pl->row;
-    const double *out = pl->sim.out;
-    if (!pl->log.fh && !pl->side.rec.active)
-        return;
-    row[HH_PLOG_K] = (double)k;
-    row[HH_PLOG_T] = out[HH_OUT_T];
-    row[HH_PLOG_WALL] = wall;
-    row[HH_PLOG_JITTER_US] = (double)jitter_ns / 1e3;
-    row[HH_PLOG_COMPUTE_US] = (double)compute_ns / 1e3;
-    row[HH_PLOG_U] = u;
-    row[HH_PLOG_CMD_SEQ] = (double)pl->cmd_seq;
-    row[HH_PLOG_CMD_AGE] = pl->cmd_seq >= 0 ? (double)(k - 1 - pl->cmd_echo) : -1.0;
-    row[HH_PLOG_WATCHDOG] = pl->rig.link.active;
-    row[HH_PLOG_XS] = out[HH_OUT_Y + HH_XS];
-    row[HH_PLOG_P1] = out[HH_OUT_Y + HH_P1];
-    row[HH_PLOG_P2] = out[HH_OUT_Y + HH_P2];
-    row[HH_PLOG_XP] = out[HH_OUT_Y + HH_XP];
-    row[HH_PLOG_VP] = out[HH_OUT_Y + HH_VP];
-    row[HH_PLOG_FF] = out[HH_OUT_FF];
-    row[HH_PLOG_TRAVEL_MODE] = out[HH_OUT_TRAVEL];
-    row[HH_PLOG_FRICTION_MODE] = out[HH_OUT_FRICTION];
-    row[HH_PLOG_SPOOL_MODE] = out[HH_OUT_SPOOL];
-    row[HH_PLOG_ENCODER] = (double)r->encoder;
-    row[HH_PLOG_P1_MEAS] = r->p[HH_PRESSURE_P1];
-    row[HH_PLOG_P2_MEAS] = r->p[HH_PRESSURE_P2];
-    row[HH_PLOG_PS_MEAS] = r->p[HH_PRESSURE_PS];
-    row[HH_PLOG_FAULTS] = (double)r->faults;
-    row[HH_PLOG_STATUS] = (double)r->status;
-    log_push(&pl->log, row);
-    if (pl->side.rec.active)       /* a recording of the live panel: its rows, its own histograms */
-        side_record_row(pl, row, jitter_ns, compute_ns);
 }
 
 /* The name Python gives an OS error (the Python plant reports "not permitted (PermissionError)"). */
@@ -397,40 +332,10 @@ static int open_socket(plant *pl)
 
 static int plant_init(plant *pl, options *o)
 {
-    double alpha, res = o->p[HH_SENSORS_ENCODER_RESOLUTION];
-    int n;
     memset(pl, 0, sizeof *pl);
     pl->o = o;
-    hh_params_derive(o->p);
-    n = hh_delay_steps(o->p[HH_SPOOL_DELAY], o->step, &alpha);
-    pl->delay_buf = calloc((size_t)n + 2, sizeof(double));
-    if (!pl->delay_buf) {
-        fprintf(stderr, "error: out of memory for a delay line of %d steps\n", n);
+    if (model_init(pl) < 0)
         return -1;
-    }
-    hh_sim_init(&pl->sim, o->p, HH_MODEL_HYBRID, HH_RK3, o->step, pl->delay_buf, n, alpha);
-    {   /* the rig: its watchdog counts from step 0, the faults of step 0 apply (as the Python plant's) */
-        int64_t cap = 0;
-        int i;
-        for (i = 0; i < o->nfault + o->has_panel; i++)    /* (the panel may switch a network_delay on) */
-            if ((i == o->nfault || o->faults[i].type == HH_FAULT_NETWORK_DELAY) && !pl->fifo) {   /* up to 1 s */
-                cap = (int64_t)ceil(1.0 / o->step) + 2;
-                pl->fifo = malloc(sizeof(double) * (size_t)cap);
-                if (!pl->fifo) {
-                    fprintf(stderr, "error: out of memory for a network delay of %lld steps\n", (long long)cap);
-                    return -1;
-                }
-            }
-        hh_rig_init(&pl->rig, &pl->sim, hh_count_size(res), (uint64_t)o->hil[HIL_SEED], o->hil[HIL_WATCHDOG_TIMEOUT],
-                    o->hil[HIL_SAFE_STATE] == HIL_SAFE_STATE_HOLD, o->hil[HIL_HOLD_KP], pl->fifo, cap);
-        for (i = 0; i < o->nfault; i++) {
-            hh_fault f = o->faults[i];
-            f.k_start = (int64_t)ceil(f.start / o->step - 1e-9);      /* as Python's math.ceil (faults.k_range) */
-            f.k_end = isnan(o->fault_end[i]) ? HH_NEVER : (int64_t)ceil(o->fault_end[i] / o->step - 1e-9);
-            hh_rig_add(&pl->rig, &f);
-        }
-        hh_rig_begin(&pl->rig, 0);
-    }
     pl->n = o->duration > 0 ? (int64_t)nearbyint(o->duration / o->step)   /* half to even, as Python's round() */
                             : INT32_MAX - 1;                          /* 0: until stopped (u32 sequence numbers) */
     pl->h_ns = (int64_t)nearbyint(o->step * 1e9);
@@ -443,42 +348,6 @@ static int plant_init(plant *pl, options *o)
             pl->sent[i].k = -1;
     }
     return 0;
-}
-
-/* The model at its initial state (plant time 0), of the fault-free parameters (the rig's base: a fault active
- * at step 0 hits a rig at rest); the rig's watchdog, faults and noise go on (as the Python plant's). */
-void plant_reset(plant *pl)
-{
-    const double *x = pl->o->initial;
-    if (hh_initial_state(pl->rig.base, x[0], x[1], 0.0, x[2], x[3], 0.0, pl->sim.y, pl->sim.m) != 0
-        && pl->sim.m[HH_M_TRAVEL] == HH_FREE && (isnan(x[2]) || isnan(x[3])))
-        fprintf(stderr, "warning: no spool position holds the piston at rest (the load is more than the cylinder "
-                        "gives at %g bar): the spool starts centred and the load moves the piston\n", pl->rig.base[HH_SUPPLY_PS] / 1e5);
-    hh_sim_reset(&pl->sim);
-}
-
-/* %.6g as Python formats it ("nan", "inf", "-inf"; glibc would write "-nan") */
-static const char *g6(char *buf, double v)
-{
-    if (isnan(v))
-        return "nan";
-    if (isinf(v))
-        return v > 0 ? "inf" : "-inf";
-    snprintf(buf, 32, "%.6g", v);
-    return buf;
-}
-
-static void describe_divergence(plant *pl)
-{
-    const double *y = pl->sim.y;
-    const int64_t *m = pl->sim.m;
-    char b[HH_NY][32];
-    snprintf(pl->fault, sizeof pl->fault,
-             "simulation diverged at t = %.6f s (non-finite or unphysical state); modes: travel=%s, friction=%s, "
-             "spool=%s; state: xs=%s, vs=%s, p1=%s, p2=%s, xp=%s, vp=%s, z=%s", pl->sim.out[HH_OUT_T],
-             TRAVEL_NAMES[m[HH_M_TRAVEL] % HH_N_TRAVEL], FRICTION_NAMES[m[HH_M_FRICTION] % HH_N_FRICTION],
-             SPOOL_NAMES[m[HH_M_SPOOL] % HH_N_SPOOL], g6(b[0], y[HH_XS]), g6(b[1], y[HH_VS]),
-             g6(b[2], y[HH_P1]), g6(b[3], y[HH_P2]), g6(b[4], y[HH_XP]), g6(b[5], y[HH_VP]), g6(b[6], y[HH_Z]));
 }
 
 int make_dirs(const char *dir)
@@ -506,7 +375,6 @@ int main(int argc, char **argv)
     static plant pl;
     static char reasons[8][REASON_SIZE];
     struct sigaction sa;
-    reading r;
     int64_t t0, t_end, last_start, k, k_done = 0, drift_ns;
     uint32_t status_extra = 0;
     int nreasons, code;
@@ -532,7 +400,7 @@ int main(int argc, char **argv)
     }
     if (plant_init(&pl, &o) < 0)
         return 2;
-    if (log_open(&pl.log, o.no_rows ? NULL : o.log_dir, path, sizeof path) < 0) {
+    if (log_open(&pl.log, model_log_columns(), o.no_rows ? NULL : o.log_dir, path, sizeof path) < 0) {
         fprintf(stderr, "error: %s\n", path);
         return 2;
     }
@@ -542,10 +410,7 @@ int main(int argc, char **argv)
         pl.peer = o.peer;
         pl.has_peer = 1;
     }
-    /* warm up: one step pages in the code and data a step touches; then the initial state */
-    plant_reset(&pl);
-    hh_sim_step(&pl.sim, 0.0);
-    plant_reset(&pl);
+    model_warm_up(&pl);            /* the first step of the run pays no page faults */
     if (open_socket(&pl) < 0)
         return 2;
     realtime_setup(&pl);               /* after the writer thread started: it keeps the normal policy */
@@ -566,8 +431,8 @@ int main(int argc, char **argv)
         t0 = mono_ns() + 2 * pl.h_ns;
         last_start = t0;
         pl.t0 = t0;
-        send_sensor(&pl, 0, 0, &r);
-        log_row(&pl, 0, &r, 0.0, 0, 0, 0.0);
+        model_send_sensor(&pl, 0, 0);
+        model_log_row(&pl, 0, 0.0, 0, 0, 0.0);
         side_apply_queued(&pl);         /* steering that came while waiting for the controller: at boundary 0 */
         for (k = 0; k < pl.n; k++) {
             int64_t start, late, end;
@@ -588,18 +453,17 @@ int main(int argc, char **argv)
             }
             check_signal(&pl);
             arrived = take_command(&pl, k, &u);
-            if (hh_rig_step(&pl.rig, k, arrived, u, &u) != HH_OK) {
-                describe_divergence(&pl);
-                send_sensor(&pl, k + 1, HH_ST_FAULT | HH_ST_FINAL, &r);
+            if (model_step(&pl, k, arrived, &u) != 0) {
+                model_send_sensor(&pl, k + 1, HH_ST_FAULT | HH_ST_FINAL);
                 break;
             }
-            send_sensor(&pl, k + 1, status_extra | ((k + 1 == pl.n || pl.stop_requested) ? HH_ST_FINAL : 0), &r);
+            model_send_sensor(&pl, k + 1, status_extra | ((k + 1 == pl.n || pl.stop_requested) ? HH_ST_FINAL : 0));
             end = mono_ns();
             latency_add(&pl.jitter, late);
             latency_add(&pl.compute, end - start);
             k_done = k + 1;
-            log_row(&pl, k + 1, &r, o.lockstep ? 0.0 : (double)(start - t0) / 1e9, late, end - start, u);
-            side_row(&pl, k + 1, &r, late, end - start, u);
+            model_log_row(&pl, k + 1, o.lockstep ? 0.0 : (double)(start - t0) / 1e9, late, end - start, u);
+            side_row(&pl, k + 1, &pl.reading, late, end - start, u);
             if (pl.stop_requested)
                 break;
         }
@@ -646,7 +510,6 @@ int main(int argc, char **argv)
     fflush(stdout);
     code = pl.link_error[0] ? 4 : pl.fault[0] ? 1 : pl.stop_signal ? 128 + pl.stop_signal : nreasons ? 3 : 0;
     close(pl.sock);
-    free(pl.delay_buf);
-    free(pl.fifo);
+    model_free(&pl);
     return code;
 }

@@ -68,9 +68,17 @@ int fault_from_spec(const char *text, hh_fault *f, double *end, char *err, size_
 size_t fault_json(const hh_fault *f, char *buf, size_t size);
 
 /* ---- plant_log.csv (rt_log.c) ----------------------------------------------------------------- */
+typedef struct {                 /* the columns of a plant_log.csv: names, and how each is written (PLOG_*) */
+    int n;
+    const char *const *names;
+    const int *kinds;
+} log_columns;
+extern const log_columns RIG_LOG_COLUMNS;   /* the paper's rig's (core/shape.py PLANT_LOG) */
+
 typedef struct {
     FILE *fh;
-    double (*rows)[HH_NPLOG];
+    const log_columns *cols;
+    double *rows;               /* LOG_RING rows of cols->n */
     volatile uint32_t head;     /* rows written by the step loop (only it writes head; wraps, LOG_RING | 2^32) */
     volatile uint32_t tail;     /* rows formatted by the writer (only it writes tail) */
     volatile int done;
@@ -83,13 +91,16 @@ typedef struct {
 
 /* Shortest text that reads back to the same double (as Python's repr); "nan" / "inf" / "-inf". */
 void fmt_double(char *buf, size_t size, double v);
+/* %.6g as Python formats it ("nan", "inf", "-inf"; glibc would write "-nan") into buf (32 bytes); returns it. */
+const char *fmt_g6(char *buf, double v);
 /* One plant-log row as CSV text (modes as names, counters as integers, floats exact) at t; its length. */
-size_t log_format_row(char *t, const double *row);
-void log_header(FILE *fh);                         /* the CSV header line of plant_log.csv */
+size_t format_row(const log_columns *cols, char *t, const double *row);
+size_t log_format_row(char *t, const double *row);   /* the rig's (its panel recordings) */
+void log_header(FILE *fh);                         /* the CSV header line of the rig's plant_log.csv */
 /* A writer thread that leaves SIGINT/SIGTERM to the step loop; pthread_create's result. */
 int start_writer_thread(pthread_t *thread, void *(*run)(void *), void *arg);
-/* DIR/plant_log.csv with its header, its writer thread started: 0, or -1 with the reason in err */
-int log_open(log_writer *w, const char *dir, char *err, size_t size);
+/* DIR/plant_log.csv of these columns with its header, its writer thread started: 0, or -1 with the reason */
+int log_open(log_writer *w, const log_columns *cols, const char *dir, char *err, size_t size);
 void log_push(log_writer *w, const double *row);   /* never blocks: a row without room is counted, dropped */
 void log_close(log_writer *w);                     /* the writer drains the ring, the file is closed */
 
@@ -169,6 +180,8 @@ typedef struct {
 } side_channel;
 
 /* ---- the plant (rt_plant.c) ------------------------------------------------------------------- */
+typedef hh_rig_reading reading;
+
 typedef struct {
     int64_t k;
     int64_t t_mono, t_wall;
@@ -176,6 +189,8 @@ typedef struct {
 
 typedef struct {
     options *o;
+    hh_watchdog *link;          /* the model's command-path watchdog (the rig's, or a circuit's) */
+    reading reading;            /* the rig's last sensor readings (for its log row and the panel) */
     hh_sim sim;
     double *delay_buf;
     hh_rig rig;                 /* the core's rig step: command path, watchdog, faults, sensing */
@@ -207,11 +222,29 @@ typedef struct {
     int os_cpu_granted, timer_slack, memory_locked;
 } plant;
 
-typedef hh_rig_reading reading;
 
 int make_dirs(const char *dir);                 /* mkdir -p: 0, or -1 (errno set) (rt_plant.c) */
-/* The model at its initial state (plant time 0) of the rig's fault-free parameters (rt_plant.c). */
+/* Send sensor packet k (n bytes) to the controller, its send time (t_mono) kept for the round trip (rt_plant.c). */
+void transmit(plant *pl, int64_t k, const uint8_t *buf, size_t n, int64_t t_mono);
+/* The rig at its initial state (plant time 0) of its fault-free parameters (rt_rig.c). */
 void plant_reset(plant *pl);
+
+/* ---- what the plant serves: the paper's rig (rt_rig.c) or a circuit (rt_circuit.c), one of them linked ---- */
+int model_init(plant *pl);                      /* after the options: 0, or -1 with the message printed */
+void model_reset(plant *pl);                    /* the state a run starts from, plant time 0 */
+void model_warm_up(plant *pl);                  /* one step (its pages touched), then model_reset */
+int model_accepts(const plant *pl, const hhil_message *msg);    /* a packet it takes: 1 (0: counted bad) */
+void model_take(plant *pl, const hhil_message *msg);           /* a COMMAND / INPUTS for the next step */
+void model_send_sensor(plant *pl, int64_t k, uint32_t status); /* SENSOR / SIGNALS of the state now, sent */
+/* Step k -> k+1 with the command that arrived for it (`arrived`, the rig's *u); *u: the rig's applied command.
+ * 0, or -1 with pl->fault describing the divergence (time, modes, state). */
+int model_step(plant *pl, int64_t k, int arrived, double *u);
+void model_log_row(plant *pl, int64_t k, double wall, int64_t jitter_ns, int64_t compute_ns, double u);
+/* Its own members of timing.json, each written as ,\n  "key": value ("faults_injected", a circuit's name, ...). */
+void model_timing(const plant *pl, FILE *fh);
+void json_string_value(FILE *fh, const char *s);   /* a JSON string, escaped (rt_report.c) */
+void model_free(plant *pl);
+const log_columns *model_log_columns(void);     /* its plant_log.csv's columns */
 /* The run's counters now (rt_report.c). */
 run_counts counts_now(const plant *pl);
 

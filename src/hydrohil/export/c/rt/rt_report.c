@@ -16,7 +16,7 @@ static void json_key(json_out *j, const char *key)
     j->first = 0;
 }
 
-static void json_string_value(FILE *fh, const char *s)
+void json_string_value(FILE *fh, const char *s)
 {
     fputc('"', fh);
     for (; *s; s++) {
@@ -78,9 +78,9 @@ run_counts counts_now(const plant *pl)
     c.late_commands = pl->late_commands;
     c.packets_dropped_kernel = pl->packets_dropped_kernel;
     c.overruns = pl->overruns;
-    c.watchdog_trips = pl->rig.link.trips;
-    c.watchdog_trips_unexplained = pl->rig.link.trips_unexplained;
-    c.commands_delivered = pl->rig.link.delivered;
+    c.watchdog_trips = pl->link->trips;
+    c.watchdog_trips_unexplained = pl->link->trips_unexplained;
+    c.commands_delivered = pl->link->delivered;
     return c;
 }
 
@@ -163,14 +163,7 @@ static int timing(plant *pl, const recording *win, int64_t steps, int64_t t0, in
     json_int(&j, "watchdog_trips", c.watchdog_trips);
     json_int(&j, "watchdog_trips_unexplained", c.watchdog_trips_unexplained);
     json_int(&j, "commands_delivered", c.commands_delivered);
-    json_key(&j, "faults_injected");      /* the fault of each slot: scheduled, or switched on from the panel */
-    fputc('[', fh);
-    for (i = 0; i < pl->rig.nfault; i++) {
-        if (i)
-            fputs(", ", fh);
-        json_string_value(fh, hh_fault_type_name(pl->rig.fault[i].type));
-    }
-    fputc(']', fh);
+    model_timing(pl, fh);                 /* the model's own keys (faults_injected, a circuit's name, ...) */
     json_num(&j, "simulated_s", (double)steps * o->step);
     json_num(&j, "wall_s", (double)(t_end - t0) / 1e9);
     json_num(&j, "drift_ms", lock || win ? na : (double)drift_ns / 1e6);

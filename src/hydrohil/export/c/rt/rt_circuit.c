@@ -1,0 +1,219 @@
+/* rt_circuit.c: a circuit generated from its description behind the standalone plant (rt_plant.h, "what the
+ * plant serves"): the generated C's step (circuit.c: hc_step, hc_row, hc_sensed), the core's watchdog
+ * (watchdog.c), the SIGNALS / INPUTS packets of protocol v1 (docs/protocol.md) and its plant_log.csv row. The
+ * rules are the Python plant's (src/hydrohil/circuits/rig.py, CircuitRig): each step takes the scenario's
+ * drives and replaces the inputs the controller has set by their latest values (a loop's command from the
+ * start: the one that holds its piston), saturated to their ranges; the watchdog's safe state sets the
+ * commanded inputs to 0 (the end of their range nearest to it). The export's values (circuit_plant.h) are
+ * fixed: no --set, --initial, --fault or --panel. */
+#define _GNU_SOURCE
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "rt_plant.h"
+#include "circuit_plant.h"
+
+/* the generated circuit's per-step interface (circuit.c) */
+int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
+void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row);
+double hc_sensed(double x, const double *sensor);
+
+static struct {
+    double P[CIRCUIT_NP], y[CIRCUIT_NY], u[CIRCUIT_NU], row[CIRCUIT_NLOG];
+    int64_t m[CIRCUIT_NM];
+    double cmd[CIRCUIT_NU];           /* the latest value of each input the controller set */
+    uint32_t set;                     /* bit j: input j set by the controller (the loop's command from the start) */
+    uint32_t pending_mask;            /* the latest INPUTS, for the next step */
+    double pending[CIRCUIT_NU];
+    double drive[CIRCUIT_NU];         /* the scenario's drive of each input at the current step */
+    int drive_next;                   /* the next change of CIRCUIT_DRIVE_* */
+    int saturated;
+    uint32_t status;                  /* of the last sensor packet (logged) */
+    hh_watchdog link;
+    double logrow[LOG_HEAD + CIRCUIT_NSIGNALS + CIRCUIT_NINPUTS];
+} C;
+
+static const log_columns COLUMNS = {LOG_HEAD + CIRCUIT_NSIGNALS + CIRCUIT_NINPUTS, CIRCUIT_PLOG_NAMES,
+                                    CIRCUIT_PLOG_KINDS};
+
+const log_columns *model_log_columns(void) { return &COLUMNS; }
+
+static void row_now(double t) { hc_row(C.P, C.y, C.m, C.u, t, C.row); }
+
+int model_init(plant *pl)
+{
+    if (pl->o->step != CIRCUIT_STEP) {
+        fprintf(stderr, "error: a circuit's plant steps at its export's step (%g s), got %g s\n", CIRCUIT_STEP,
+                pl->o->step);
+        return -1;
+    }
+    pl->link = &C.link;
+    model_reset(pl);
+    return 0;
+}
+
+void model_reset(plant *pl)
+{
+    (void)pl;
+    memcpy(C.P, CIRCUIT_P, sizeof C.P);
+    memcpy(C.y, CIRCUIT_Y0, sizeof C.y);
+    memcpy(C.m, CIRCUIT_M0, sizeof C.m);
+    memcpy(C.u, CIRCUIT_U0, sizeof C.u);
+    memcpy(C.cmd, CIRCUIT_U0, sizeof C.cmd);
+    memcpy(C.drive, CIRCUIT_DRIVE0, sizeof C.drive);
+    C.drive_next = 0;
+    C.set = CIRCUIT_LOOP_COMMAND >= 0 ? 1U << CIRCUIT_LOOP_COMMAND : 0U;
+    C.pending_mask = 0;
+    C.saturated = 0;
+    C.status = 0;
+    hh_watchdog_init(&C.link);
+    row_now(0.0);
+}
+
+void model_warm_up(plant *pl)
+{
+    int arrived = 0;
+    double u = 0.0;
+    model_step(pl, 0, arrived, &u);
+    model_reset(pl);
+}
+
+int model_accepts(const plant *pl, const hhil_message *msg)
+{
+    (void)pl;
+    switch (msg->header.type) {
+    case HHIL_INPUTS: return msg->inputs.layout == CIRCUIT_LAYOUT && msg->inputs.n == CIRCUIT_NINPUTS;
+    case HHIL_SENSOR:
+    case HHIL_COMMAND:
+    case HHIL_SIGNALS: return 0;      /* the paper's rig's packets, or a plant's */
+    default: return 1;                /* HELLO, BYE */
+    }
+}
+
+void model_take(plant *pl, const hhil_message *msg)
+{
+    (void)pl;
+    C.pending_mask = msg->inputs.mask;
+    memcpy(C.pending, msg->inputs.values, sizeof(double) * CIRCUIT_NINPUTS);
+}
+
+
+static void describe_divergence(plant *pl, double t)
+{
+    size_t n = (size_t)snprintf(pl->fault, sizeof pl->fault, "simulation diverged at t = %.6f s (a state is not "
+                                "finite); modes: ", t);
+    char b[32];
+    int i;
+    for (i = 0; i < CIRCUIT_NMODES && n < sizeof pl->fault; i++)
+        n += (size_t)snprintf(pl->fault + n, sizeof pl->fault - n, "%s%s=%s", i ? ", " : "", CIRCUIT_MODE_NAMES[i],
+                              CIRCUIT_MODE_WORDS[CIRCUIT_MODE_FIRST[i] + (int)C.m[i]]);
+    if (n < sizeof pl->fault)
+        n += (size_t)snprintf(pl->fault + n, sizeof pl->fault - n, "; state: ");
+    for (i = 0; i < CIRCUIT_NSTATES && n < sizeof pl->fault; i++)
+        n += (size_t)snprintf(pl->fault + n, sizeof pl->fault - n, "%s%s=%s", i ? ", " : "", CIRCUIT_STATE_NAMES[i],
+                              fmt_g6(b, C.y[i]));
+}
+
+int model_step(plant *pl, int64_t k, int arrived, double *u)
+{
+    int j;
+    (void)u;
+    if (arrived) {
+        for (j = 0; j < CIRCUIT_NINPUTS; j++)
+            if (C.pending_mask >> j & 1U)
+                C.cmd[j] = C.pending[j];
+        C.set |= C.pending_mask;
+    }
+    hh_watchdog_command(&C.link, k, arrived, 0.0, CIRCUIT_STEP, pl->o->hil[HIL_WATCHDOG_TIMEOUT], 0, 0.0, 0.0);
+    while (C.drive_next < CIRCUIT_NDRIVES && CIRCUIT_DRIVE_STEP[C.drive_next] <= k) {   /* the drives at step k */
+        C.drive[CIRCUIT_DRIVE_INPUT[C.drive_next]] = CIRCUIT_DRIVE_VALUE[C.drive_next];
+        C.drive_next++;
+    }
+    memcpy(C.u, C.drive, sizeof C.u);
+    C.saturated = 0;
+    for (j = 0; j < CIRCUIT_NINPUTS; j++) {
+        double v;
+        if (!(C.set >> j & 1U))
+            continue;
+        v = C.link.active ? 0.0 : C.cmd[j];           /* the safe state: neutral */
+        if (v < CIRCUIT_LO[j] || v > CIRCUIT_HI[j]) {
+            v = v < CIRCUIT_LO[j] ? CIRCUIT_LO[j] : CIRCUIT_HI[j];
+            C.saturated = !C.link.active;
+        }
+        C.u[j] = v;
+    }
+    if (hc_step(C.P, C.y, C.m, C.u, CIRCUIT_METHOD, CIRCUIT_STEP) != 0) {
+        describe_divergence(pl, (double)(k + 1) * CIRCUIT_STEP);
+        return -1;
+    }
+    row_now((double)(k + 1) * CIRCUIT_STEP);
+    return 0;
+}
+
+void model_send_sensor(plant *pl, int64_t k, uint32_t status)
+{
+    uint8_t buf[HHIL_HEADER_LEN + HHIL_SIGNALS_FIXED + 8 * CIRCUIT_NSIGNALS + 4];
+    double values[CIRCUIT_NSIGNALS];
+    hhil_header h;
+    size_t n;
+    memcpy(values, C.row + 1, sizeof values);
+    if (CIRCUIT_MEASURE > 0)                        /* the loop's signal through its sensor */
+        values[CIRCUIT_MEASURE - 1] = hc_sensed(C.row[CIRCUIT_MEASURE], CIRCUIT_HAS_SENSOR ? CIRCUIT_SENSOR : NULL);
+    status |= (pl->o->lockstep ? HH_ST_LOCKSTEP : 0U) | (C.link.active ? HH_ST_WATCHDOG : 0U) |
+              (C.saturated ? HH_ST_SATURATED : 0U);
+    C.status = status;
+    h.type = HHIL_SIGNALS;
+    h.seq = (uint32_t)k;
+    h.t_send_ns = mono_ns();
+    h.echo_t_ns = pl->cmd_t_arrival;
+    h.echo_seq = (uint32_t)(pl->cmd_seq > 0 ? pl->cmd_seq : 0);
+    n = hhil_encode_signals(buf, &h, C.row[0], (uint64_t)k, status, CIRCUIT_LAYOUT, values, CIRCUIT_NSIGNALS);
+    transmit(pl, k, buf, n, h.t_send_ns);
+}
+
+void model_log_row(plant *pl, int64_t k, double wall, int64_t jitter_ns, int64_t compute_ns, double u)
+{
+    double *r = C.logrow;
+    (void)u;
+    if (!pl->log.fh)
+        return;
+    r[0] = (double)k;
+    r[1] = C.row[0];
+    r[2] = wall;
+    r[3] = (double)jitter_ns / 1e3;
+    r[4] = (double)compute_ns / 1e3;
+    r[5] = (double)pl->cmd_seq;
+    r[6] = pl->cmd_seq >= 0 ? (double)(k - 1 - pl->cmd_echo) : -1.0;
+    r[7] = C.link.active;
+    r[8] = (double)C.status;
+    memcpy(r + LOG_HEAD, C.row + 1, sizeof(double) * CIRCUIT_NSIGNALS);
+    memcpy(r + LOG_HEAD + CIRCUIT_NSIGNALS, C.u, sizeof(double) * CIRCUIT_NINPUTS);
+    log_push(&pl->log, r);
+}
+
+void model_timing(const plant *pl, FILE *fh)
+{
+    (void)pl;
+    fputs(",\n  \"faults_injected\": [],\n  \"circuit\": ", fh);
+    json_string_value(fh, CIRCUIT_NAME);
+    fprintf(fh, ",\n  \"layout\": %lu,\n  \"signals\": %d,\n  \"inputs\": %d", (unsigned long)CIRCUIT_LAYOUT,
+            CIRCUIT_NSIGNALS, CIRCUIT_NINPUTS);
+}
+
+void model_free(plant *pl) { (void)pl; }
+
+/* ---- the live panel is the paper's rig's: nothing to serve (--panel is refused) ---------------------- */
+int side_open(plant *pl) { (void)pl; return 0; }
+void side_record_row(plant *pl, const double *row, int64_t jitter_ns, int64_t compute_ns)
+{
+    (void)pl; (void)row; (void)jitter_ns; (void)compute_ns;
+}
+int side_fd(const plant *pl) { (void)pl; return -1; }
+void side_poll_waiting(plant *pl) { (void)pl; }
+void side_apply_queued(plant *pl) { (void)pl; }
+void side_row(plant *pl, int64_t k, const reading *r, int64_t late_ns, int64_t compute_ns, double u)
+{
+    (void)pl; (void)k; (void)r; (void)late_ns; (void)compute_ns; (void)u;
+}
+void side_close(plant *pl, int64_t k_done) { (void)pl; (void)k_done; }
