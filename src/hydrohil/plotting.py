@@ -235,11 +235,12 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
 
 
 def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, title: str = "",
-                     verdict: dict | None = None, inputs: list[str] = ()) -> None:
+                     verdict: dict | None = None, inputs: list[str] = (), commanded: bool = True) -> None:
     """HIL report of a circuit: the loop's measured signal (open loop: the circuit's position or speed that moves
     most, else its pressure that does) with its reference, HIL and offline; HIL − offline; every pressure that
     moves (HIL solid, offline dotted); the inputs as the plant applied them, late commands marked; in real time
-    the step jitter; the watchdog. ``offline``: a :class:`hydrohil.circuits.run.CircuitResult`."""
+    the step jitter; the watchdog. ``offline``: a :class:`hydrohil.circuits.run.CircuitResult`; ``commanded``:
+    the controller sets an input (late commands matter; an open loop's controller only answers)."""
     from hydrohil.circuits.units import display
     t = np.asarray(hil["t"])
     cols, units = offline.columns, offline.units
@@ -276,7 +277,7 @@ def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, tit
         k, du = display(units.get(name, "-"))
         ax[3].step(t, np.asarray(hil[f"{name}.applied"], float) * k, where="pre", lw=1, color=f"C{i % 10}",
                    label=f"{name} [{du}]")
-    late = np.asarray(hil.get("cmd_age", np.zeros(len(t))), float) > 0
+    late = (np.asarray(hil.get("cmd_age", np.zeros(len(t))), float) > 0) & commanded
     if late.any():
         ax[3].plot(t[late], np.zeros(int(late.sum())), "|", color="tab:red", ms=10,
                    label=f"late command ({int(late.sum())} steps: the one before repeated)")

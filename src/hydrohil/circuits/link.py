@@ -16,6 +16,16 @@ def wire_lists(c, lay) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
     return [(name, units[name]) for name in lay.log_columns[1:]], [(name, input_unit(c, name)) for name in lay.inputs]
 
 
+# a circuit plant's plant_log.csv (both plants): these columns, then every signal (SI), then every input as applied
+PLANT_LOG_HEAD = ("k", "t", "wall", "jitter_us", "compute_us", "cmd_seq", "cmd_age", "watchdog", "status")
+PLANT_LOG_INTS = ("k", "cmd_seq", "cmd_age", "watchdog", "status")
+
+
+def plant_log_columns(signals, inputs) -> list[str]:
+    """The columns of a circuit plant's plant_log.csv."""
+    return [*PLANT_LOG_HEAD, *(n for n, _ in signals), *(f"{n}.applied" for n, _ in inputs)]
+
+
 def circuit_link(c) -> tuple[list[tuple[str, str]], list[tuple[str, str]], int]:
     """A circuit's signals and inputs in wire order and their layout (it compiles the circuit, or loads it)."""
     from hydrohil.circuits.build import compile_circuit

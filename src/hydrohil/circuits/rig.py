@@ -53,6 +53,7 @@ class CircuitRig:
             self._meas = lay.log_columns.index(self.loop.measure)
         self.y0, self.m0, self.u0 = start_state(c, h=self.h, method=cs.method, rest=cs.rest, loop=self.loop)
         self.row = np.zeros(len(lay.log_columns))
+        self._t = lay.log_columns.index("t")
         self.fault_models: list = []                      # (none: the plant server's summary lists them)
         self.reset()
 
@@ -130,6 +131,11 @@ class CircuitRig:
                                      "a state is not finite")
         self._row(self.k * self.h)
         return u
+
+    @property
+    def t(self) -> float:
+        """The plant time of the current state (its log row's time column)."""
+        return float(self.row[self._t])
 
     def read(self) -> list[float]:
         """The signals of the current state as the controller reads them (the loop's measured one through its

@@ -236,7 +236,7 @@ def circuit_plant_h(cs) -> str:
     as the steps where it changes, the loop's measured signal and sensor, the names, the wire layout and the
     plant_log.csv columns."""
     from hydrohil.circuits.build import compile_circuit
-    from hydrohil.circuits.link import circuit_link
+    from hydrohil.circuits.link import PLANT_LOG_HEAD, PLANT_LOG_INTS, circuit_link, plant_log_columns
     from hydrohil.circuits.run import METHODS, input_table, start_state
     c, lay = cs.circuit, compile_circuit(cs.circuit).layout
     signals, inputs, layout = circuit_link(c)
@@ -250,9 +250,8 @@ def circuit_plant_h(cs) -> str:
     for md in lay.modes:
         first.append(len(words))
         words += list(lay.mode_names[md])
-    plog = ["k", "t", "wall", "jitter_us", "compute_us", "cmd_seq", "cmd_age", "watchdog", "status",
-            *(n for n, _ in signals), *(f"{n}.applied" for n, _ in inputs)]
-    kinds = ["PLOG_INT" if i in (0, 5, 6, 7, 8) else "PLOG_REAL" for i in range(len(plog))]
+    plog = plant_log_columns(signals, inputs)
+    kinds = ["PLOG_INT" if name in PLANT_LOG_INTS else "PLOG_REAL" for name in plog]
     q = lambda text: _str(str(text))                                       # noqa: E731
     arr = lambda ctype, name, items, fmt=_c: [                             # noqa: E731
         f"static const {ctype} {name}[{max(len(items), 1)}] = {{" + ", ".join(fmt(v) for v in (items or [0])) + "};"]
@@ -264,10 +263,13 @@ def circuit_plant_h(cs) -> str:
              f"CIRCUIT_NM = {max(len(lay.modes), 1)}, CIRCUIT_NU = {max(len(inputs), 1)}, "
              f"CIRCUIT_NLOG = {len(lay.log_columns)}, CIRCUIT_NSIGNALS = {len(signals)}, "
              f"CIRCUIT_NINPUTS = {len(inputs)}, CIRCUIT_NSTATES = {len(lay.states)}, CIRCUIT_NMODES = {len(lay.modes)}, "
-             f"CIRCUIT_NDRIVES = {len(changes)}, LOG_HEAD = 9 }};",
+             f"CIRCUIT_NDRIVES = {len(changes)}, LOG_HEAD = {len(PLANT_LOG_HEAD)} }};",
+             "enum { " + ", ".join(f"CPLOG_{c.upper()}" for c in PLANT_LOG_HEAD) + " };   /* plant_log.csv's first columns */",
              f"#define CIRCUIT_LOOP_COMMAND {lay.inputs.index(loop.command) if loop is not None else -1}",
              f"#define CIRCUIT_MEASURE {lay.log_columns.index(loop.measure) if loop is not None else -1}",
-             f"#define CIRCUIT_HAS_SENSOR {int(loop is not None and loop.sensor is not None)}", ""]
+             f"#define CIRCUIT_HAS_SENSOR {int(loop is not None and loop.sensor is not None)}",
+             f"#define CIRCUIT_LOG_T {lay.log_columns.index('t')}   /* the log row's time: first, the signals after it */",
+             ""]
     lines += arr("double", "CIRCUIT_P", list(lay.values()))
     lines += arr("double", "CIRCUIT_Y0", list(y0[:max(len(lay.states), 1)]))
     lines += arr("int64_t", "CIRCUIT_M0", list(m0[:max(len(lay.modes), 1)]), lambda v: str(int(v)))

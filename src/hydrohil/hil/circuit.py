@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hydrohil.circuits.link import PLANT_LOG_INTS, plant_log_columns
 from hydrohil.errors import InputError, LinkError
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.plant import PlantServer, early_stop, serve
@@ -25,8 +26,6 @@ from hydrohil.hil.protocol import parse_address
 from hydrohil.simulation.outputs import CsvStream
 from hydrohil.simulation.scenario import circuit_hil
 
-# plant_log.csv of a circuit: these, then every signal (SI), then every input as applied
-LOG_HEAD = ("k", "t", "wall", "jitter_us", "compute_us", "cmd_seq", "cmd_age", "watchdog", "status")
 CONTROLLER_LOG_HEAD = ("seq", "t", "wall", "measured", "reference", "command", "status")
 
 
@@ -46,7 +45,7 @@ class CircuitPlantServer(PlantServer):
             raise InputError(f"a circuit's link carries at most {pr.MAX_SIGNALS} signals and {pr.MAX_INPUTS} inputs "
                              f"(this one: {len(rig.signals)}, {len(rig.inputs)})", source=cs.source)
         self.layout = pr.layout_id(rig.signals, rig.inputs)
-        self.columns = (*LOG_HEAD, *(n for n, _ in rig.signals), *(f"{n}.applied" for n, _ in rig.inputs))
+        self.columns = plant_log_columns(rig.signals, rig.inputs)
         super().__init__(None, step=cs.step, duration=duration, hil=hil, log=log, rig=rig, **kw)
 
     def accepts(self, msg) -> bool:
@@ -63,7 +62,7 @@ class CircuitPlantServer(PlantServer):
                    | (pr.ST_SATURATED if rig.saturated else 0))
         values = rig.read()
         t_send, t_send_wall = time.perf_counter_ns(), time.time_ns()
-        self._transmit(k, pr.encode_signals(k, t_send, self.cmd_t_arrival or 0, max(self.cmd_seq, 0), rig.row[0], k,
+        self._transmit(k, pr.encode_signals(k, t_send, self.cmd_t_arrival or 0, max(self.cmd_seq, 0), rig.t, k,
                                             status, self.layout, values), t_send, t_send_wall)
         return status
 
@@ -72,11 +71,11 @@ class CircuitPlantServer(PlantServer):
             return
         rig = self.rig
         age = k - 1 - self.cmd_echo if self.cmd_seq >= 0 else -1
-        self.log.write((k, rig.row[0], wall, jitter_ns / 1e3, compute_ns / 1e3, self.cmd_seq, age, rig.watchdog,
+        self.log.write((k, rig.t, wall, jitter_ns / 1e3, compute_ns / 1e3, self.cmd_seq, age, rig.watchdog,
                         status, *rig.row[1:], *rig.u[:len(rig.inputs)]))
 
     def open_log(self, path: Path) -> CsvStream:
-        return CsvStream(path, self.columns, ints={0, 5, 6, 7, 8})
+        return CsvStream(path, self.columns, ints={self.columns.index(c) for c in PLANT_LOG_INTS})
 
     def _timing(self, *args, **kw) -> dict:
         res = super()._timing(*args, **kw)
@@ -177,15 +176,15 @@ def replay_inputs(cs, hil: dict) -> np.ndarray:
     rig = CircuitRig(cs)
     states = rig.layout.states
     n = len(hil["t"]) - 1
-    out = np.zeros((n + 1, len(states)))
-    out[0] = [rig.row[rig.layout.log_columns.index(s)] for s in states]
+    replayed = np.zeros((n + 1, len(states)))
     idx = [rig.layout.log_columns.index(s) for s in states]
+    replayed[0] = rig.row[idx]
     names = [n_ for n_, _ in rig.inputs]
     for k in range(n):
         u = [float(hil[f"{name}.applied"][k + 1]) for name in names]
         rig.step(k, ((1 << len(names)) - 1, u))
-        out[k + 1] = rig.row[idx]
-    return out
+        replayed[k + 1] = rig.row[idx]
+    return replayed
 
 
 def compare_circuit_offline(cs, out: Path, *, plot: bool = True, verdict: dict | None = None,
@@ -232,5 +231,5 @@ def compare_circuit_offline(cs, out: Path, *, plot: bool = True, verdict: dict |
         which = {"c": " (standalone C plant)", "python": " (Python plant)"}.get(plant or "", "")
         plot_circuit_hil(out / "report.png", hil, res, cs.loop.measure if cs.loop is not None else None,
                          title=f"{Path(cs.source).name} ({cs.circuit.name}): HIL{which} vs offline", verdict=verdict,
-                         inputs=lay.inputs)
+                         inputs=lay.inputs, commanded=cs.loop is not None)
     return cmp

@@ -157,7 +157,7 @@ void model_send_sensor(plant *pl, int64_t k, uint32_t status)
     double values[CIRCUIT_NSIGNALS];
     hhil_header h;
     size_t n;
-    memcpy(values, C.row + 1, sizeof values);
+    memcpy(values, C.row + CIRCUIT_LOG_T + 1, sizeof values);   /* the signals: every column after time */
     if (CIRCUIT_MEASURE > 0)                        /* the loop's signal through its sensor */
         values[CIRCUIT_MEASURE - 1] = hc_sensed(C.row[CIRCUIT_MEASURE], CIRCUIT_HAS_SENSOR ? CIRCUIT_SENSOR : NULL);
     status |= (pl->o->lockstep ? HH_ST_LOCKSTEP : 0U) | (C.link.active ? HH_ST_WATCHDOG : 0U) |
@@ -168,7 +168,7 @@ void model_send_sensor(plant *pl, int64_t k, uint32_t status)
     h.t_send_ns = mono_ns();
     h.echo_t_ns = pl->cmd_t_arrival;
     h.echo_seq = (uint32_t)(pl->cmd_seq > 0 ? pl->cmd_seq : 0);
-    n = hhil_encode_signals(buf, &h, C.row[0], (uint64_t)k, status, CIRCUIT_LAYOUT, values, CIRCUIT_NSIGNALS);
+    n = hhil_encode_signals(buf, &h, C.row[CIRCUIT_LOG_T], (uint64_t)k, status, CIRCUIT_LAYOUT, values, CIRCUIT_NSIGNALS);
     transmit(pl, k, buf, n, h.t_send_ns);
 }
 
@@ -178,16 +178,16 @@ void model_log_row(plant *pl, int64_t k, double wall, int64_t jitter_ns, int64_t
     (void)u;
     if (!pl->log.fh)
         return;
-    r[0] = (double)k;
-    r[1] = C.row[0];
-    r[2] = wall;
-    r[3] = (double)jitter_ns / 1e3;
-    r[4] = (double)compute_ns / 1e3;
-    r[5] = (double)pl->cmd_seq;
-    r[6] = pl->cmd_seq >= 0 ? (double)(k - 1 - pl->cmd_echo) : -1.0;
-    r[7] = C.link.active;
-    r[8] = (double)C.status;
-    memcpy(r + LOG_HEAD, C.row + 1, sizeof(double) * CIRCUIT_NSIGNALS);
+    r[CPLOG_K] = (double)k;
+    r[CPLOG_T] = C.row[CIRCUIT_LOG_T];
+    r[CPLOG_WALL] = wall;
+    r[CPLOG_JITTER_US] = (double)jitter_ns / 1e3;
+    r[CPLOG_COMPUTE_US] = (double)compute_ns / 1e3;
+    r[CPLOG_CMD_SEQ] = (double)pl->cmd_seq;
+    r[CPLOG_CMD_AGE] = pl->cmd_seq >= 0 ? (double)(k - 1 - pl->cmd_echo) : -1.0;
+    r[CPLOG_WATCHDOG] = C.link.active;
+    r[CPLOG_STATUS] = (double)C.status;
+    memcpy(r + LOG_HEAD, C.row + CIRCUIT_LOG_T + 1, sizeof(double) * CIRCUIT_NSIGNALS);
     memcpy(r + LOG_HEAD + CIRCUIT_NSIGNALS, C.u, sizeof(double) * CIRCUIT_NINPUTS);
     log_push(&pl->log, r);
 }
