@@ -9,7 +9,7 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from hydrohil.circuits.circuit import circuit_from_dict, load_circuit
+from hydrohil.circuits.circuit import CIRCUITS_DIR, circuit_from_dict, load_circuit
 from hydrohil.circuits.run import node_stiffness, simulate_circuit
 from hydrohil.circuits.units import to_si
 from hydrohil.errors import InputError, InputWarning
@@ -170,7 +170,6 @@ def test_pump_catalogue_form():
 def test_a_circuit_error_names_the_file_the_component_and_the_key(change, where, message):
     import copy
     import tomllib
-    from hydrohil.circuits.circuit import CIRCUITS_DIR
     data = tomllib.loads((CIRCUITS_DIR / "pump_relief_accumulator" / "circuit.toml").read_text())
     data = copy.deepcopy(data)
     for comp, kv in change.items():
@@ -238,6 +237,12 @@ def test_circuit_show_and_run_as_a_user_types_them(tmp_path):
     assert units["supply.p"] == "Pa" and units["relief.q"] == "m3/s" and units["accumulator.v_oil"] == "m3"
     assert [n["name"] for n in d["nodes"]] == ["tank", "supply", "load_port"]
     assert all(n["lambda_h"] < n["stability_limit"] for n in d["nodes"] if "lambda_h" in n)
+    # a closed loop's circuit: alone, its open-loop drive moves the piston off rest (a warning says so); with its
+    # scenario, the loop holds it from the start
+    r = hh("circuit", "show", "ferreira2004")
+    assert r.returncode == 0 and "is not held at rest" in r.stderr
+    r = hh("circuit", "show", "--scenario", CIRCUITS_DIR / "ferreira2004" / "scenario.toml")
+    assert r.returncode == 0 and "is not held" not in r.stderr and "over a run of the scenario" in r.stdout
     out = tmp_path / "run"
     r = hh("circuit", "run", "pump_relief_accumulator", "--out", out)         # default: the drive's end + 2 s
     assert r.returncode == 0, r.stderr

@@ -361,17 +361,24 @@ app.add_typer(circuit_app, name="circuit")
 
 
 @circuit_app.command("show")
-def circuit_show(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or circuit TOML"),
+def circuit_show(circuit: Optional[str] = typer.Argument(None, help="built-in name (examples/circuits/NAME) or "
+                                                         "circuit TOML (or --scenario)"),
+                 scenario: Optional[Path] = typer.Option(None, "--scenario", help="a scenario naming its circuit: "
+                                                         "its [set], drives and loop (the stiffness over its run)"),
                  as_json: bool = typer.Option(False, "--json", help="print JSON"),
                  step: float = typer.Option(5e-4, "--step", help="fixed step [s] the stiffness is judged at"),
                  method: str = typer.Option("rk3", "--method", help="euler, heun, rk3 or rk4")):
     """Components with their parameters (SI, as written, derived), nodes (fixed, or a pressure state with its
     volume, initial pressure, stiffness at the step and the method's treatment), states, modes, inputs and
-    signals with units. --json: the same as data (signals as {name, unit})."""
-    from hydrohil.circuits.circuit import load_circuit
+    signals with units. --json: the same as data (signals as {name, unit}). With --scenario: the circuit as the
+    scenario sets it, the stiffness over the scenario's run (a closed loop's piston starts held)."""
+    from hydrohil.circuits.scenario import circuit_scenario
     from hydrohil.circuits.show import describe, text
     try:
-        d = describe(load_circuit(circuit), h=step, method=method)
+        if circuit is None and scenario is None:
+            raise InputError("give a circuit (a built-in name or a circuit TOML) or --scenario FILE", key="circuit")
+        cs = circuit_scenario(circuit=circuit, scenario=scenario)
+        d = describe(cs.circuit, h=step, method=method, scenario=cs if scenario is not None else None)
     except HydrohilError as exc:
         fail(exc)
     typer.echo(json.dumps(d, indent=2) if as_json else text(d), nl=as_json)

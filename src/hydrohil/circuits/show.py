@@ -21,9 +21,15 @@ def default_duration(c: Circuit) -> float:
     return max(2.0, last + 2.0)
 
 
-def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3") -> dict:
-    """The circuit as data (``circuit show --json``); the nodes' stiffness from a run of its default drive."""
-    res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20)
+def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None) -> dict:
+    """The circuit as data (``circuit show --json``); the nodes' stiffness from a run of its default drive, or of
+    ``scenario`` (a :class:`hydrohil.circuits.scenario.CircuitScenario` of ``c``: its drives, duration and loop,
+    a held piston starting held)."""
+    if scenario is not None:
+        res = simulate_circuit(c, scenario.duration, h=h, method=method, every=20, rest=scenario.rest,
+                               loop=scenario.loop)
+    else:
+        res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20)
     stiff = {s.node: s for s in node_stiffness(c, res)}
     lay = Layout(c)
     comps = []
@@ -48,6 +54,7 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3") -> dict:
         nodes.append(d)
     signals = [{"name": n, "unit": res.units[n]} for n in res.columns]
     return {"name": c.name, "source": c.source, "step_s": h, "method": method,
+            "stiffness_run": "the default drive" if scenario is None else f"the scenario {scenario.source}",
             "fluid": [{"key": k, "value": v} for k, v in c.fluid.items()], "components": comps, "nodes": nodes,
             "states": [{"name": s, "unit": u} for s, u in zip(lay.states, lay.state_units)],
             "modes": [{"name": m, "values": list(lay.mode_names[m])} for m in lay.modes],
@@ -88,7 +95,7 @@ def text(d: dict) -> str:
             out.append(f"    {p['key']:<24} {value:>12} {p['unit']:<10} {p['description']}{given}{sig}")
         for x in comp["derived"]:
             out.append(f"    {x['key']:<24} {x['value']:>12.6g} {x['unit']:<10} derived")
-    out += ["", f"nodes (stiffness over a run of the default drive, {d['method']} at {d['step_s'] * 1e3:g} ms):"]
+    out += ["", f"nodes (stiffness over a run of {d['stiffness_run']}, {d['method']} at {d['step_s'] * 1e3:g} ms):"]
     for n in d["nodes"]:
         if "fixed_by" in n:
             out.append(f"  {n['name']:<14} fixed at {n['pressure_pa'] / 1e5:g} bar by {n['fixed_by']}")
