@@ -108,3 +108,27 @@ def test_a_loops_closed_poles_predict_its_step_response(tmp_path):
     assert slope == pytest.approx(pole.real, rel=0.09)
     r = hh("circuit", "linear", "--scenario", scen, "--at", "0.999")
     assert r.returncode == 0 and "closed loop (p on supply.p -> bleed.opening" in r.stdout
+
+
+def test_a_pid_loops_poles_are_the_pi_loops_and_its_filters_when_kd_vanishes(tmp_path):
+    """The PID law's closed-loop matrix (states x, the integral, the filtered derivative) against the PI
+    law's: with kd -> 0 its poles are the PI loop's and the derivative filter's -1/tf; with kd > 0 one more pole
+    moves, none at the filter's."""
+    from test_circuit_scenarios import BLEED
+    from hydrohil.circuits.linear import run_state
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    (tmp_path / "circuit.toml").write_text(BLEED)
+
+    def poles(kind, extra):
+        scen = tmp_path / f"{kind}.toml"
+        scen.write_text('circuit = "circuit.toml"\nduration = 1.0\n[controller]\n'
+                        f'type = "{kind}"\nmeasure = "supply.p"\ncommand = "bleed.opening"\naction = "reverse"\n'
+                        f'kp = 6e-8\nki = 1e-6\n{extra}[reference]\nt = [0]\nvalue = ["50 bar"]\n')
+        cs = load_circuit_scenario(scen)
+        lin = linearise_circuit(cs.circuit, h=cs.step, loop=cs.loop, state=run_state(cs, 0.9))
+        return np.array([complex(*e) for e in lin.closed["eigenvalues"]])
+    pi = poles("pi", "")
+    vanishing = poles("pid", "kd = 1e-30\ntf = 0.002\n")
+    assert np.allclose(np.sort_complex(vanishing), np.sort_complex(np.append(pi, -1 / 0.002)), rtol=1e-9)
+    with_d = poles("pid", "kd = 1e-9\ntf = 0.002\n")
+    assert len(with_d) == 3 and np.all(with_d.real < 0) and np.min(np.abs(with_d + 500.0)) > 1.0

@@ -142,13 +142,15 @@ def closed_loop(lin: CircuitLinear, loop, c: Circuit, y0, m0, u0) -> dict:
     step, its one-step measurement delay and its sensor's resolution left out): with the measured signal
     y = C·x + D·u (C, D by central differences of the generated log row) and g = 1/(1 + kp·D), a P law gives
     A - g·kp·b·C; a PI law adds its integral xi' = ki·e: [[A - g·kp·b·C, g·b], [-ki·g·C, -ki·D·g]] (kp, ki
-    times -1 for a reverse-acting loop). Its eigenvalues: the loop's poles. PID's derivative and p_ff's
-    feed-forward are not modelled (P and PI only)."""
+    times -1 for a reverse-acting loop). A PID law's derivative acts on the measured signal through its filter,
+    tf·v' + v = y' (the sampled law's filter taken continuous): with D = 0, states [x, xi, v] and
+    u = -kp·C·x + xi - kd·v. Its eigenvalues: the loop's poles. p_ff's feed-forward acts on the reference only
+    (the poles are P's)."""
     cc = compile_circuit(c)
     lay, ffi, lib = cc.layout, cc.ffi, cc.lib
     cfg = loop.cfg
-    if cfg.type not in ("p", "pi", "p_ff"):
-        return {"law": cfg.type, "note": "closed-loop poles for p, pi and p_ff only"}
+    if cfg.type not in ("p", "pi", "pid", "p_ff"):
+        return {"law": cfg.type, "note": f"no closed-loop poles for a {cfg.type} law"}
     P = np.ascontiguousarray(lay.values())
     meas, j = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
     row = np.zeros(len(lay.log_columns))
@@ -172,12 +174,27 @@ def closed_loop(lin: CircuitLinear, loop, c: Circuit, y0, m0, u0) -> dict:
     lo[j] -= du
     D = (g(y0, hi) - g(y0, lo)) / (2 * du)
     kp = loop.sign * cfg.kp
-    ki = loop.sign * getattr(cfg, "ki", 0.0) if cfg.type == "pi" else 0.0
+    ki = loop.sign * getattr(cfg, "ki", 0.0) if cfg.type in ("pi", "pid") else 0.0
     b = lin.B[:, j]
-    gain = 1.0 / (1.0 + kp * D)
-    A = lin.A - gain * kp * np.outer(b, C)
-    if cfg.type == "pi":
-        A = np.block([[A, gain * b[:, None]], [-ki * gain * C[None, :], np.array([[-ki * D * gain]])]])
+    if cfg.type == "pid":
+        if D != 0.0:
+            return {"law": cfg.type, "note": "a PID law on a signal its command moves directly (D != 0): no "
+                    "closed-loop poles in this version"}
+        kd, tf = loop.sign * cfg.kd, cfg.tf
+        Acl = lin.A - kp * np.outer(b, C)
+        if tf > 0:                      # [x, xi, v]: v' = (C·x' - v)/tf
+            top = np.hstack([Acl, b[:, None], -kd * b[:, None]])
+            cx = C @ top
+            A = np.vstack([top, np.hstack([-ki * C, [0.0, 0.0]]), (cx - np.eye(n + 2)[n + 1]) / tf])
+        else:                           # v = C·x' exactly: u (1 + kd·C·b) = -(kp·C + kd·C·A)·x + xi
+            gd = 1.0 / (1.0 + kd * (C @ b))
+            K = gd * (kp * C + kd * (C @ lin.A))
+            A = np.block([[lin.A - np.outer(b, K), gd * b[:, None]], [-ki * C[None, :], np.zeros((1, 1))]])
+    else:
+        gain = 1.0 / (1.0 + kp * D)
+        A = lin.A - gain * kp * np.outer(b, C)
+        if cfg.type == "pi":
+            A = np.block([[A, gain * b[:, None]], [-ki * gain * C[None, :], np.array([[-ki * D * gain]])]])
     ev = sorted_eigenvalues(A)
     return {"law": cfg.type, "measure": loop.measure, "command": loop.command, "C": C.tolist(), "D": float(D),
             "A": A.tolist(), "eigenvalues": [[float(e.real), float(e.imag)] for e in ev],
