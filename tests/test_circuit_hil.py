@@ -114,6 +114,7 @@ def test_lockstep_hil_equals_offline_bit_for_bit(tmp_path, name, plant):
     scen = EXAMPLES / "circuits" / name / "scenario.toml"
     r = run_hil(scen, tmp_path, lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
     assert r.timing["plant"] == plant and r.timing["circuit"] == name
+    assert r.timing["stopped_early"] is False                 # (the controller's BYE after the last step: no stop)
     cs = load_circuit_scenario(scen)
     n = cs.n_steps
     assert r.timing["steps"] == n and r.verdict["valid"] and r.timing["packets_bad"] == 0
@@ -276,10 +277,31 @@ def test_the_c_plant_of_a_circuit_refuses_the_rigs_options(tmp_path):
     import subprocess
     exe = cached_circuit_plant(load_circuit_scenario(MOTOR))
     for args in (["--set", "load.mass=1"], ["--fault", "hose_burst:start=1"], ["--initial", "xp=0.1"],
-                 ["--step", "0.001"]):
+                 ["--step", "0.001"], ["--hil", "command_scale=10"], ["--hil", "safe_state=hold"]):
         r = subprocess.run([exe, *args, "--duration", "0.01", "--connect-timeout", "0.1"], capture_output=True,
                            text=True, timeout=60)
-        assert r.returncode == 2 and ("not for a circuit's plant" in r.stderr or "export's step" in r.stderr), args
+        assert r.returncode == 2 and ("not for a circuit's plant" in r.stderr or "export's step" in r.stderr or
+                                      "the paper's rig's" in r.stderr), args
+    usage = subprocess.run([exe, "--help"], capture_output=True, text=True).stdout
+    assert "circuit motor_speed" in usage and "--fault" not in usage and "--set" not in usage.split("export")[0]
     r = hh("export", "c", "--scenario", MOTOR, "--out", tmp_path / "x", "--no-make")
     assert r.returncode == 0 and (tmp_path / "x" / "circuit.c").is_file() and (tmp_path / "x" / "rt_circuit.c").is_file()
     assert "MODEL_CORE = circuit.c" in (tmp_path / "x" / "model.mk").read_text()
+
+
+@pytest.mark.parametrize("plant", PLANTS)
+def test_lockstep_hil_with_a_noisy_sensor_equals_offline(tmp_path, plant):
+    """The loop's sensor noise drawn by the plant (one sample per sensor packet, from the scenario's seed) is the
+    offline run's: the controller reads the same values, the run is the same bit for bit."""
+    src = EXAMPLES / "circuits" / "ferreira2004"
+    text = (src / "scenario.toml").read_text().replace('circuit = "circuit.toml"', f'circuit = "{src / "circuit.toml"}"')
+    f = tmp_path / "noisy.toml"
+    f.write_text(text.replace("duration = 6.0", "duration = 2.0").replace(
+        'sensor_resolution = "1 um"', 'sensor_resolution = "1 um"\nsensor_noise = "10 um"\nsensor_seed = 11'))
+    r = run_hil(f, tmp_path / "out", lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
+    assert r.comparison["identical"]
+    cs = load_circuit_scenario(f)
+    res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
+    ctl = read_csv_columns(tmp_path / "out" / "controller_log.csv")
+    assert np.array_equal(ctl["measured"][:-1], res.columns["cyl.x.sensed"][:-1])
+    assert np.std(ctl["measured"][:-1] - res.columns["cyl.x"][:-1]) > 5e-6          # noisy indeed

@@ -480,8 +480,10 @@ def circuit_linear_cmd(circuit: Optional[str] = typer.Argument(None, help="built
     typer.echo(f"{circuit or scenario}: {len(lin.states)} states ({', '.join(lin.states)}), inputs "
                f"{', '.join(lin.inputs) or 'none'}; linearised {lin.at}")
     if lin.moving():
-        typer.echo(f"  not an equilibrium: {', '.join(lin.moving())} move there (an [initial] pressure, an "
-                   "unbalanced piston, a run on its way): the model is the tangent there")
+        rates = {st: (r, u) for st, u, r in zip(lin.states, lin.state_units, lin.rate)}
+        moving = ", ".join(f"{st} {rates[st][0]:.3g} {rates[st][1]}/s" for st in lin.moving())
+        typer.echo(f"  not an equilibrium: {moving} (an [initial] pressure, an unbalanced load, a run on its way, a "
+                   "sampled loop's dither): the model is the tangent there")
     _echo_modes(lin.modes(), lin.eigenvalues)
     cl = lin.closed
     if cl is not None and "modes" in cl:

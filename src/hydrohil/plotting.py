@@ -265,7 +265,8 @@ def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, tit
         ax[0].plot(cols["t"][:n], cols[measure][:n] * k, ":", lw=1.5, label="offline simulation")
         d = (np.asarray(hil[measure])[:n] - cols[measure][:n]) * k
         rms = float(np.sqrt(np.mean(d ** 2))) if n else float("nan")
-        ax[1].plot(t[:n], d, lw=1, color="tab:red", label=f"HIL − offline\n(RMS {rms:.3g} {du})")
+        ax[1].plot(t[:n], d, lw=1, color="tab:red", label="HIL − offline\n" + (
+            "(0 at every step:\nbit for bit)" if n and not np.any(d) else f"(RMS {rms:.3g} {du})"))
         labels += [f"{measure} [{du}]", f"HIL − offline\n[{du}]"]
     else:
         labels += ["", ""]

@@ -44,7 +44,7 @@ def _figures(comp) -> list[str]:
         if v["speed"] == v["speed"]:
             out.append(f"{v['speed'] * 60:g} rpm")
     if t in ("relief_valve", "check_valve"):
-        out.append(f"{v['cracking_pressure'] / 1e5:g} bar, {v['rated_flow'] * 6e4:g} l/min at {v['rated_pressure'] / 1e5:g}")
+        out.append(f"{v['cracking_pressure'] / 1e5:g} bar, {v['rated_flow'] * 6e4:g} l/min at {v['rated_pressure'] / 1e5:g} bar")
     if t == "counterbalance_valve":
         out.append(f"set {v['set_pressure'] / 1e5:.4g} bar, pilot {v['pilot_ratio']:g}:1, "
                    f"{v['rated_flow'] * 6e4:g} l/min at {v['rated_drop'] / 1e5:g} bar")

@@ -113,6 +113,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
 #include "control.c"
 #include "watchdog.c"
 #include "sensors.c"
+#include "rng.c"
 
 enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nout, 1)}, NLOG = {len(cols)},
        NNODES = {len(c.state_nodes)} }};   /* y: the NNODES node pressures, then the components' states */
@@ -264,14 +265,20 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
     return -1;
 }}
 
-/* What the loop's sensor reports of a signal x: to the nearest multiple of its quantum sensor[0] (0: ideal; the
- * encoder's rounding, sensors.c) within its range [sensor[1], sensor[2]]. NULL: x itself. */
-double hc_sensed(double x, const double *sensor)
+/* What the loop's sensor reports of a signal x (SPEC §10): x plus white noise of standard deviation sensor[3]
+ * (one normal sample of the generator rng per reading; 0 or rng NULL: none), to the nearest multiple of its
+ * quantum sensor[0] (0: ideal; the encoder's rounding, sensors.c), within its range [sensor[1], sensor[2]].
+ * sensor NULL: x itself. */
+double hc_sensed(double x, const double *sensor, void *rng)
 {{
-    double v;
+    double v = x, z;
     if (!sensor)
         return x;
-    v = sensor[0] > 0.0 ? encoder_counts(x, sensor[0]) * sensor[0] : x;
+    if (sensor[3] > 0.0 && rng) {{
+        hh_rng_normals((hh_rng *)rng, 1, &z);
+        v = x + sensor[3] * z;
+    }}
+    v = sensor[0] > 0.0 ? encoder_counts(v, sensor[0]) * sensor[0] : v;
     return v < sensor[1] ? sensor[1] : v > sensor[2] ? sensor[2] : v;
 }}
 
@@ -298,12 +305,12 @@ static int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, cons
  * steps from step 0 (the state before the step). Closed loop (ctl not NULL, the core's controller law,
  * control.c): at each step k the controller reads log column `meas` of the state at t_k (under the command
  * of step k-1; through the sensor, hc_sensed) and sets input `cmd` of step k (written into u) for the reference
- * ref[k] (slope dref[k]); `sign` -1: a reverse-acting loop (the law on -ref, -dref and the signal's negative, so
+ * ref[k] (slope dref[k]); rng: its sensor's noise generator (hc_sensed); `sign` -1: a reverse-acting loop (the law on -ref, -dref and the signal's negative, so
  * that a larger command lowers the signal; 1: direct, exact). Returns 0, or 1 when the state went
  * non-finite (rows so far written, *rows set). */
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
-           const double *dref, int64_t meas, int64_t cmd, const double *sensor, double sign)
+           const double *dref, int64_t meas, int64_t cmd, const double *sensor, void *rng, double sign)
 {{
     const hh_tableau *tab = &HH_TABLEAUS[method];
     double seen[NLOG];
@@ -315,7 +322,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                 uk[cmd] = uk[cmd - NU];
             log_row((double)step * h, y, m, uk, P, seen);
             uk[cmd] = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
-                                           sign * ref[step], sign * dref[step], sign * hc_sensed(seen[meas], sensor),
+                                           sign * ref[step], sign * dref[step], sign * hc_sensed(seen[meas], sensor, rng),
                                            0.0, 0.0);
         }}
         if (step % every == 0)

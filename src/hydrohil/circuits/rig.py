@@ -21,7 +21,7 @@ import numpy as np
 
 from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.link import wire_lists
-from hydrohil.circuits.run import METHODS, input_table, start_state
+from hydrohil.circuits.run import METHODS, input_table, new_rng, start_state
 from hydrohil.core import ffi as core_ffi
 from hydrohil.core import lib as core
 from hydrohil.errors import InputError, SimulationDiverged
@@ -48,8 +48,6 @@ class CircuitRig:
         self.watchdog_timeout = float(watchdog_timeout)
         self.loop = cs.loop
         if self.loop is not None:
-            sensor = self.loop.sensor
-            self._sensor = cc.ffi.new("double[3]", list(sensor)) if sensor is not None else cc.ffi.NULL
             self._meas = lay.log_columns.index(self.loop.measure)
         self.y0, self.m0, self.u0 = start_state(c, h=self.h, method=cs.method, rest=cs.rest, loop=self.loop)
         self.row = np.zeros(len(lay.log_columns))
@@ -61,6 +59,9 @@ class CircuitRig:
         """Back to the state at rest, no command received, no watchdog trip counted."""
         ffi = self.cc.ffi
         self.y, self.m = self.y0.copy(), self.m0.copy()
+        if self.loop is not None:                       # its sensor's noise from its seed again
+            self.loop.rng = new_rng(self.loop.seed)
+            self._sensor = self.loop.sensor_args(self.cc)
         self.u = self.u0.copy()                         # the inputs of the last step (applied)
         self._c = [ffi.from_buffer("double[]", self.P), ffi.from_buffer("double[]", self.y),
                    ffi.from_buffer("int64_t[]", self.m), ffi.from_buffer("double[]", self.u),
@@ -142,5 +143,5 @@ class CircuitRig:
         sensor), in the order of ``signals``."""
         values = self.row[1:].tolist()
         if self.loop is not None:
-            values[self._meas - 1] = self.cc.lib.hc_sensed(float(self.row[self._meas]), self._sensor)
+            values[self._meas - self._t - 1] = self.cc.lib.hc_sensed(float(self.row[self._meas]), *self._sensor)
         return values

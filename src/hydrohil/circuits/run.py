@@ -197,8 +197,13 @@ class Loop:
     controller: object = None           # the law at the run's step (set by simulate_circuit)
     linear: bool = False                # the reference interpolated linearly (else held)
     limits: tuple = (-1.0, 1.0)         # the command's range: [u_min, u_max] within its parameter's range
-    sensor: tuple | None = None         # (quantum, lo, hi) of what the controller reads; None: the signal itself
+    sensor: tuple | None = None         # (quantum, lo, hi, noise) of what the controller reads; None: the signal
     sign: float = 1.0                   # -1: reverse-acting (a larger command lowers the signal)
+    seed: int = 0                       # of the sensor's noise (one normal sample per reading)
+
+    def __post_init__(self):
+        if self.sensor is not None and len(self.sensor) == 3:     # (quantum, lo, hi): a noiseless sensor
+            self.sensor = (*self.sensor, 0.0)
 
     def update(self, ref: float, dref: float, sensed: float) -> float:
         """The law's command for the reference (and slope) and the signal as sensed, as the generated loop
@@ -207,10 +212,22 @@ class Loop:
         return self.controller.update(s * ref, s * dref, s * sensed)
 
     def start(self, h: float) -> None:
-        """A fresh controller sampled at h (no integrator or filter state from another run)."""
+        """A fresh controller sampled at h (no integrator or filter state from another run) and its sensor's
+        noise generator from its seed."""
         from hydrohil.control import BuiltinController
         self.controller = BuiltinController(self.cfg, None, h)
         self.controller.c.u_min, self.controller.c.u_max = self.limits   # (the law's clamp: in its range)
+        self.rng = new_rng(self.seed)
+
+    def sensor_args(self, cc):
+        """(sensor, rng) as the generated C's hc_sensed / hc_run take them (NULL: an ideal reading)."""
+        ffi = cc.ffi
+        if self.sensor is None:
+            return ffi.NULL, ffi.NULL
+        from hydrohil.core import ffi as core_ffi
+        buf = ffi.new("double[4]", list(self.sensor))
+        self._sensor_buf = buf                           # (alive while the C reads it)
+        return buf, ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng)))
 
     def at(self, t: np.ndarray, h: float) -> np.ndarray:
         if self.linear:
@@ -262,7 +279,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h) if loop is not None else
-           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, 1.0))
+           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0))
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
@@ -368,11 +385,11 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float):
     ffi = cc.ffi
     ref, dref = loop.table(n, h)
     addr = lambda p: ffi.cast("void *", int(core_ffi.cast("uintptr_t", p)))  # noqa: E731
-    sensor = ffi.new("double[3]", list(loop.sensor)) if loop.sensor is not None else ffi.NULL
+    sensor, rng = loop.sensor_args(cc)
     loop._keep = (ref, dref, sensor)                             # alive while hc_run reads them
     return (addr(loop.controller.c), addr(loop.controller.state), ffi.from_buffer("double[]", ref),
             ffi.from_buffer("double[]", dref), lay.log_columns.index(loop.measure), cc.layout.inputs.index(loop.command),
-            sensor, float(loop.sign))
+            sensor, rng, float(loop.sign))
 
 
 def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
@@ -387,11 +404,36 @@ def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, 
         res.columns[f"{loop.measure}.reference"] = loop.at(res.columns["t"], res.h)
         res.units[f"{loop.measure}.reference"] = res.units.get(loop.measure, "-")
         if loop.sensor is not None:          # what the controller read (through the sensor: the C's hc_sensed)
-            sensor = cc.ffi.new("double[3]", list(loop.sensor))
-            res.columns[f"{loop.measure}.sensed"] = np.array([cc.lib.hc_sensed(float(x), sensor)
-                                                              for x in res.columns[loop.measure]])
+            res.columns[f"{loop.measure}.sensed"] = sensed_column(cc, loop, res.columns[loop.measure], every)
             res.units[f"{loop.measure}.sensed"] = res.units.get(loop.measure, "-")
     return res
+
+
+def new_rng(seed: int):
+    """A noise generator (the core's hh_rng, rng.c) seeded with ``seed``."""
+    from hydrohil.core import ffi as core_ffi, lib as core
+    rng = core_ffi.new("hh_rng *")
+    core.hh_rng_seed(rng, int(seed))
+    return rng
+
+
+def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
+    """What the loop's sensor read of the signal ``x`` logged every ``every`` steps: the readings the controller
+    got, its noise drawn again from the seed, one sample per step in order (the samples of the steps between
+    rows drawn and left)."""
+    from hydrohil.core import lib as core
+    fresh = Loop(loop.cfg, loop.measure, loop.command, loop.reference, sensor=loop.sensor, seed=loop.seed)
+    fresh.rng = new_rng(loop.seed)
+    sensor, rng = fresh.sensor_args(cc)
+    noisy = loop.sensor[3] > 0.0
+    skip = cc.ffi.new("double[1]")
+    out = np.empty(len(x))
+    for i, v in enumerate(x):
+        out[i] = cc.lib.hc_sensed(float(v), sensor, rng)
+        if noisy and i + 1 < len(x):
+            for _ in range(every - 1):
+                core.hh_rng_normals(fresh.rng, 1, skip)
+    return out
 
 
 def input_unit(c: Circuit, sig: str) -> str:
@@ -416,10 +458,10 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         ref, dref = loop.table(n, h)
         meas, cmd = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
 
-        sensor = cc.ffi.new("double[3]", list(loop.sensor)) if loop.sensor is not None else cc.ffi.NULL
+        sensor, rng = loop.sensor_args(cc)
 
         def control(k, row):
-            u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor))
+            u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng))
 
         def applied(k):                    # the row the controller reads: under the command last applied
             if k > 0:

@@ -20,7 +20,8 @@ values on top of the circuit's, and drives of its signals in place of the circui
     command = "valve.command"         # the input it drives (one of the circuit's [inputs])
     kp = 0.002                        # gains in the command's unit per the measured signal's SI unit
     ki = 0.02                         # (u_min, u_max: the command's limits, default its parameter's range;
-                                      # sensor_resolution, sensor_min, sensor_max: what the controller reads;
+                                      # sensor_resolution, sensor_min, sensor_max, sensor_noise (its standard
+                                      # deviation; sensor_seed): what the controller reads;
                                       # action = "reverse": a larger command lowers the signal)
     [reference]                       # the measured signal's reference, held from each t, with units
     t = [0, 0.5, 3]
@@ -197,7 +198,11 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
             raise InputError("the signal's name, component.variable", source=source, key=f"controller.{key}")
     measure, command = table.pop("measure"), table.pop("command")
     limits = {k: table.pop(k) for k in ("u_min", "u_max") if k in table}     # (the command's unit, not ū)
-    sensor_keys = {k: table.pop(k) for k in ("sensor_resolution", "sensor_min", "sensor_max") if k in table}
+    sensor_keys = {k: table.pop(k) for k in ("sensor_resolution", "sensor_min", "sensor_max", "sensor_noise")
+                   if k in table}
+    seed = table.pop("sensor_seed", 0)
+    if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2 ** 63):
+        raise InputError(f"a whole number >= 0, got {seed!r}", source=source, key="controller.sensor_seed")
     action = table.pop("action", "direct")
     if action not in ("direct", "reverse"):
         raise InputError(f"\"direct\" (a larger command raises the measured signal) or \"reverse\" (lowers it), "
@@ -236,13 +241,13 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
         unit = units[measure]
         try:
             sensor = tuple(to_si(sensor_keys.get(k, d), unit) for k, d in (
-                ("sensor_resolution", 0.0), ("sensor_min", -1e300), ("sensor_max", 1e300)))
+                ("sensor_resolution", 0.0), ("sensor_min", -1e300), ("sensor_max", 1e300), ("sensor_noise", 0.0)))
         except ValueError as exc:
             raise InputError(f"{exc} (the sensor of {measure} [{unit}])", source=source,
                              key="controller.sensor_*") from None
-        if not (sensor[0] >= 0 and sensor[1] < sensor[2]):
-            raise InputError(f"a resolution >= 0 and sensor_min < sensor_max, got {sensor}", source=source,
-                             key="controller.sensor_resolution")
+        if not (sensor[0] >= 0 and sensor[1] < sensor[2] and sensor[3] >= 0):
+            raise InputError(f"a resolution >= 0, sensor_min < sensor_max and a noise >= 0 (its standard deviation), "
+                             f"got {sensor}", source=source, key="controller.sensor_resolution")
     ref = data["reference"]
     t, v = ref.get("t"), ref.get("value")
     if set(ref) - {"t", "value", "interpolation"} or not isinstance(t, list) or not isinstance(v, list) \
@@ -261,7 +266,7 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
         raise InputError("times start at 0 and increase", source=source, key="reference.t")
     return Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi),
-                sensor=sensor, sign=-1.0 if action == "reverse" else 1.0)
+                sensor=sensor, sign=-1.0 if action == "reverse" else 1.0, seed=seed)
 
 
 def _apply(raw: dict, key: str, value, source: str) -> None:

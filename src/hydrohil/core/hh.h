@@ -158,7 +158,7 @@ typedef struct {
  * hh_rig_step_applied, the command path skipped). log_from: rows of the steps before it are not written (a
  * replay that keeps the end of a long run); 0 in every other run. */
 enum { HH_DRIVE_OPEN, HH_DRIVE_CLOSED, HH_DRIVE_APPLIED };
-typedef struct { uint64_t s[4]; } hh_rng;         /* xoshiro256** state (rig.c) */
+typedef struct { uint64_t s[4]; } hh_rng;         /* xoshiro256** state (rng.c) */
 typedef struct hh_rig hh_rig;                     /* the rig step (rig.c, below) */
 typedef struct hh_rig_reading hh_rig_reading;
 typedef double (*hh_command_fn)(void *ctx, int64_t k, double t, double v, double dv, const hh_rig_reading *r);

@@ -8,6 +8,7 @@
 #include "reference.c"
 #include "rest.c"
 #include "sensors.c"
+#include "rng.c"
 #include "control.c"
 #include "watchdog.c"
 #include "delay.c"

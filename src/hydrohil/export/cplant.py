@@ -225,6 +225,7 @@ def export_circuit_c(cs, out: str | Path) -> Path:
     _write(out / "circuit_plant.h", circuit_plant_h(cs))
     config = plant_config_h(load_parameters("ferreira2004"), step=cs.step, duration=cs.duration, hil=hil,
                             label=f"circuit {cs.circuit.name}")
+    config = config.replace(f"parameter set circuit {cs.circuit.name}", f"circuit {cs.circuit.name}")
     _write(out / "plant_config.h", config.replace("#define PLANT_CONFIG_H\n", "#define PLANT_CONFIG_H\n"
                                                   "#define PLANT_CIRCUIT 1   /* a circuit's plant: rt_circuit.c */\n", 1))
     return out
@@ -268,6 +269,7 @@ def circuit_plant_h(cs) -> str:
              f"#define CIRCUIT_LOOP_COMMAND {lay.inputs.index(loop.command) if loop is not None else -1}",
              f"#define CIRCUIT_MEASURE {lay.log_columns.index(loop.measure) if loop is not None else -1}",
              f"#define CIRCUIT_HAS_SENSOR {int(loop is not None and loop.sensor is not None)}",
+             f"#define CIRCUIT_SENSOR_SEED {loop.seed if loop is not None else 0}ULL",
              f"#define CIRCUIT_LOG_T {lay.log_columns.index('t')}   /* the log row's time: first, the signals after it */",
              ""]
     lines += arr("double", "CIRCUIT_P", list(lay.values()))
@@ -280,7 +282,7 @@ def circuit_plant_h(cs) -> str:
     lines += arr("double", "CIRCUIT_DRIVE_VALUE", [v for _, _, v in changes])
     lines += arr("double", "CIRCUIT_LO", [p.lo for p in prm])
     lines += arr("double", "CIRCUIT_HI", [p.hi for p in prm])
-    lines += arr("double", "CIRCUIT_SENSOR", list(loop.sensor) if loop is not None and loop.sensor else [0.0, 0.0, 0.0])
+    lines += arr("double", "CIRCUIT_SENSOR", list(loop.sensor) if loop is not None and loop.sensor else [0.0] * 4)
     lines += arr("char *const", "CIRCUIT_STATE_NAMES", list(lay.states), q)
     lines += arr("char *const", "CIRCUIT_MODE_NAMES", list(lay.modes), q)
     lines += arr("char *const", "CIRCUIT_MODE_WORDS", words, q)

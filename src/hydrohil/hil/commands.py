@@ -82,7 +82,7 @@ def controller_cmd(connect: str = typer.Option("127.0.0.1:47000", help="plant HO
     """Run the reference P position controller against a plant server.
 
     Exit 4 when no plant answers within the link timeout (or it goes silent), 130/143 when stopped by
-    SIGINT/SIGTERM; controller_log.csv and controller.json are written in every case.
+    SIGINT/SIGTERM; with --log DIR, controller_log.csv and controller.json are written there in every case.
     """
     from hydrohil.errors import Interrupted
     from hydrohil.hil.controller import run_controller

@@ -482,7 +482,8 @@ class PlantServer:
             "simulated_s": sim_t, "wall_s": (t_end - t0) / 1e9,
             # wall clock at the last step's start minus its scheduled instant t0 + (steps-1)*h
             "drift_ms": drift_ns / 1e6 if not self.lockstep else None,
-            "fault": self.fault, "link_error": self.link_error, "stopped_early": self.stop_requested,
+            "fault": self.fault, "link_error": self.link_error,
+            "stopped_early": self.stop_requested and (window is not None or steps < self.n),   # (not a late BYE)
             "stop_signal": self.stop_signal,
             "statistics": "histograms, 1.2 % bins (bounded memory); max exact",
             **{f"os_{k}": v for k, v in rt.items()},

@@ -241,8 +241,8 @@ def _circuit_hil_columns(cs, out: Path) -> tuple[dict, dict]:
         cols[f"{lp.measure}.reference"] = lp.at(cols["t"], cs.step)
         units[f"{lp.measure}.reference"] = units[lp.measure]
         if lp.sensor is not None:
-            sensor = cc.ffi.new("double[3]", list(lp.sensor))
-            cols[f"{lp.measure}.sensed"] = np.array([cc.lib.hc_sensed(float(x), sensor) for x in cols[lp.measure]])
+            from hydrohil.circuits.run import sensed_column
+            cols[f"{lp.measure}.sensed"] = sensed_column(cc, lp, cols[lp.measure])
             units[f"{lp.measure}.sensed"] = units[lp.measure]
     return cols, units
 

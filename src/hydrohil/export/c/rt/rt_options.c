@@ -428,6 +428,27 @@ static void list_settings(const options *o)
 
 static void usage(void)
 {
+#ifdef PLANT_CIRCUIT
+    printf("usage: hydrohil_plant [options]\n"
+           "Serve %s over UDP, protocol v1's SIGNALS / INPUTS (docs/protocol.md), locked to the wall clock.\n\n"
+           "  --bind HOST:PORT      listen address (default 127.0.0.1:47000; port 0: any free port, see READY)\n"
+           "  --peer HOST:PORT      accept inputs only from this address (default: the first valid sender)\n"
+           "  --allow-remote        allow a non-loopback --bind / --peer\n"
+           "  --duration S          simulated time to serve [s] (default %g; 0: until stopped)\n"
+           "  --log DIR             write DIR/plant_log.csv (streamed) and DIR/timing.json\n"
+           "  --no-rows             no DIR/plant_log.csv of the whole run\n"
+           "  --lockstep            advance one step per INPUTS packet, as fast as possible (no clock)\n"
+           "  --cpu N               pin the plant to CPU N\n"
+           "  --hil KEY=VALUE       a [hil] setting (watchdog_timeout, wait, the verdict's limits, ...)\n"
+           "  --connect-timeout S   wait this long for the controller's first packet (= --hil connect_timeout=S)\n"
+           "  --list                print the [hil] settings, then exit\n\n"
+           "The circuit's parameters, state at rest, drives and step (%g s) are the export's: export again to change\n"
+           "them (hydrohil export c --scenario FILE [--set component.key=value]).\n"
+           "Prints READY host:port once bound, PEER host:port once the controller spoke, the verdict at the end.\n"
+           "Exit: 0 VALID, 3 INVALID, 4 no controller / link lost, 1 model diverged, 2 bad arguments, 130/143 signal.\n",
+           PLANT_DESCRIPTION, PLANT_DURATION_DEFAULT, PLANT_STEP_DEFAULT);
+    return;
+#endif
     printf("usage: hydrohil_plant [options]\n"
            "Serve the virtual rig (%s) over UDP, protocol v1 (docs/protocol.md), locked to the wall clock.\n\n"
            "  --bind HOST:PORT      listen address (default 127.0.0.1:47000; port 0: any free port, see READY)\n"
@@ -533,6 +554,9 @@ void parse_options(int argc, char **argv, options *o)
         die_usage("%s", msg);
 #else
     (void)msg;
+    if (o->hil[HIL_COMMAND_SCALE] != 1.0 || o->hil[HIL_SAFE_STATE] != HIL_SAFE_STATE_CENTRE)
+        die_usage("--hil command_scale / safe_state: the paper's rig's (a circuit's inputs are in their SI units; "
+                  "its watchdog sets the commanded inputs to 0)");
 #endif
     if (list) {
         list_settings(o);

@@ -169,7 +169,8 @@ static int timing(plant *pl, const recording *win, int64_t steps, int64_t t0, in
     json_num(&j, "drift_ms", lock || win ? na : (double)drift_ns / 1e6);
     json_str(&j, "fault", pl->fault);
     json_str(&j, "link_error", pl->link_error);
-    json_raw(&j, "stopped_early", pl->stop_requested ? "true" : "false");
+    /* (a controller's BYE after the last step is no early stop) */
+    json_raw(&j, "stopped_early", pl->stop_requested && (win || steps < pl->n) ? "true" : "false");
     if (pl->stop_signal)
         json_int(&j, "stop_signal", pl->stop_signal);
     else
