@@ -24,10 +24,11 @@ from hydrohil.circuits.link import wire_lists
 from hydrohil.circuits.run import METHODS, input_table, new_rng, start_state
 from hydrohil.core import ffi as core_ffi
 from hydrohil.core import lib as core
+from hydrohil.core.watchdog import WatchdogCounters
 from hydrohil.errors import InputError, SimulationDiverged
 
 
-class CircuitRig:
+class CircuitRig(WatchdogCounters):
     """The circuit of a scenario (:class:`~hydrohil.circuits.scenario.CircuitScenario`) behind its inputs.
     ``signals`` / ``inputs``: (name, SI unit) of what it reports and what it takes, in wire order."""
 
@@ -60,8 +61,8 @@ class CircuitRig:
         ffi = self.cc.ffi
         self.y, self.m = self.y0.copy(), self.m0.copy()
         if self.loop is not None:                       # its sensor's noise from its seed again
-            self.loop.rng = new_rng(self.loop.seed)
-            self._sensor = self.loop.sensor_args(self.cc)
+            self._rng = new_rng(self.loop.seed)
+            self._sensor = self.loop.sensor_args(self.cc, self._rng)
         self.u = self.u0.copy()                         # the inputs of the last step (applied)
         self._c = [ffi.from_buffer("double[]", self.P), ffi.from_buffer("double[]", self.y),
                    ffi.from_buffer("int64_t[]", self.m), ffi.from_buffer("double[]", self.u),
@@ -75,22 +76,6 @@ class CircuitRig:
         self.saturated = False
         self.k = 0
         self._row(0.0)
-
-    @property
-    def watchdog(self) -> bool:
-        return bool(self.link.active)
-
-    @property
-    def watchdog_trips(self) -> int:
-        return int(self.link.trips)
-
-    @property
-    def watchdog_trips_unexplained(self) -> int:
-        return int(self.link.trips_unexplained)
-
-    @property
-    def commands_delivered(self) -> int:
-        return int(self.link.delivered)
 
     def warm_up(self) -> None:
         """One step, then back to rest: the first step of a real-time run pays no page faults."""
@@ -138,10 +123,15 @@ class CircuitRig:
         """The plant time of the current state (its log row's time column)."""
         return float(self.row[self._t])
 
+    @property
+    def signal_row(self) -> np.ndarray:
+        """The signals of the current state (its log row after the time), in the order of ``signals``."""
+        return self.row[self._t + 1:]
+
     def read(self) -> list[float]:
         """The signals of the current state as the controller reads them (the loop's measured one through its
         sensor), in the order of ``signals``."""
-        values = self.row[1:].tolist()
+        values = self.signal_row.tolist()
         if self.loop is not None:
             values[self._meas - self._t - 1] = self.cc.lib.hc_sensed(float(self.row[self._meas]), *self._sensor)
         return values

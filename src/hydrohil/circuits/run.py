@@ -219,15 +219,16 @@ class Loop:
         self.controller.c.u_min, self.controller.c.u_max = self.limits   # (the law's clamp: in its range)
         self.rng = new_rng(self.seed)
 
-    def sensor_args(self, cc):
-        """(sensor, rng) as the generated C's hc_sensed / hc_run take them (NULL: an ideal reading)."""
+    def sensor_args(self, cc, rng=None):
+        """(sensor, rng) as the generated C's hc_sensed / hc_run take them (NULL: an ideal reading); ``rng``: a
+        generator of :func:`new_rng` in place of this loop's own."""
         ffi = cc.ffi
         if self.sensor is None:
             return ffi.NULL, ffi.NULL
         from hydrohil.core import ffi as core_ffi
         buf = ffi.new("double[4]", list(self.sensor))
         self._sensor_buf = buf                           # (alive while the C reads it)
-        return buf, ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng)))
+        return buf, ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng if rng is None else rng)))
 
     def at(self, t: np.ndarray, h: float) -> np.ndarray:
         if self.linear:
@@ -422,9 +423,8 @@ def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
     got, its noise drawn again from the seed, one sample per step in order (the samples of the steps between
     rows drawn and left)."""
     from hydrohil.core import lib as core
-    fresh = Loop(loop.cfg, loop.measure, loop.command, loop.reference, sensor=loop.sensor, seed=loop.seed)
-    fresh.rng = new_rng(loop.seed)
-    sensor, rng = fresh.sensor_args(cc)
+    generator = new_rng(loop.seed)
+    sensor, rng = loop.sensor_args(cc, generator)
     noisy = loop.sensor[3] > 0.0
     skip = cc.ffi.new("double[1]")
     out = np.empty(len(x))
@@ -432,7 +432,7 @@ def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
         out[i] = cc.lib.hc_sensed(float(v), sensor, rng)
         if noisy and i + 1 < len(x):
             for _ in range(every - 1):
-                core.hh_rng_normals(fresh.rng, 1, skip)
+                core.hh_rng_normals(generator, 1, skip)
     return out
 
 

@@ -72,7 +72,7 @@ class CircuitPlantServer(PlantServer):
         rig = self.rig
         age = k - 1 - self.cmd_echo if self.cmd_seq >= 0 else -1
         self.log.write((k, rig.t, wall, jitter_ns / 1e3, compute_ns / 1e3, self.cmd_seq, age, rig.watchdog,
-                        status, *rig.row[1:], *rig.u[:len(rig.inputs)]))
+                        status, *rig.signal_row, *rig.u[:len(rig.inputs)]))
 
     def open_log(self, path: Path) -> CsvStream:
         return CsvStream(path, self.columns, ints={self.columns.index(c) for c in PLANT_LOG_INTS})
@@ -126,7 +126,7 @@ class Drives:
         if self.loop is not None:
             self.loop.start(cs.step)
             self.ref, self.dref = self.loop.table(self.n, cs.step)
-            self.meas = lay.log_columns.index(self.loop.measure) - 1
+            self.meas = lay.log_columns.index(self.loop.measure) - lay.log_columns.index("t") - 1   # (in SIGNALS)
             self.cmd = lay.inputs.index(self.loop.command)
             self.mask = 1 << self.cmd
         self.measured = self.reference = float("nan")
@@ -179,10 +179,10 @@ def replay_inputs(cs, hil: dict) -> np.ndarray:
     replayed = np.zeros((n + 1, len(states)))
     idx = [rig.layout.log_columns.index(s) for s in states]
     replayed[0] = rig.row[idx]
-    names = [n_ for n_, _ in rig.inputs]
+    applied = np.column_stack([hil[f"{name}.applied"] for name, _ in rig.inputs] or [np.zeros(n + 1)])
+    every = (1 << len(rig.inputs)) - 1
     for k in range(n):
-        u = [float(hil[f"{name}.applied"][k + 1]) for name in names]
-        rig.step(k, ((1 << len(names)) - 1, u))
+        rig.step(k, (every, applied[k + 1].tolist()))
         replayed[k + 1] = rig.row[idx]
     return replayed
 

@@ -108,8 +108,8 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     scenario, out = Path(scenario), Path(out)
     circuit = None
     if is_circuit_scenario(scenario):      # any circuit: its signals and inputs over the link (hil/circuit.py)
-        circuit, scenario = _circuit_run(scenario, out, plant=plant, params=params, sets=sets, live=live)
-        hil_cfg, duration = circuit_hil(circuit), circuit.duration
+        circuit, scenario, hil_cfg = _circuit_run(scenario, out, params=params, sets=sets, live=live)
+        duration = circuit.duration
     else:
         sc = load_scenario(scenario, params=params, sets=sets)     # validate before starting anything
         if params is not None or sets:         # the run folder records what ran; both processes read it
@@ -167,9 +167,9 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     return HilResult(out, timing, ctl_summary, comparison)
 
 
-def _circuit_run(scenario: Path, out: Path, *, plant: str, params, sets, live):
-    """A circuit scenario checked for a HIL run (before anything starts) and the file both processes read: the
-    scenario itself, or with ``sets`` applied ``out/scenario.toml``."""
+def _circuit_run(scenario: Path, out: Path, *, params, sets, live):
+    """A circuit scenario checked for a HIL run (before anything starts or is written), the file both processes
+    read (the scenario itself, or with ``sets`` applied ``out/scenario.toml``) and its [hil] settings."""
     from hydrohil.circuits.scenario import load_circuit_scenario, write_circuit_scenario
     if params is not None:
         raise InputError("a circuit scenario has no parameter set: give its values with --set component.key=value",
@@ -178,10 +178,10 @@ def _circuit_run(scenario: Path, out: Path, *, plant: str, params, sets, live):
         raise InputError("the live panel shows the paper's rig; on a circuit it is not in this version",
                          key="--panel")
     cs = load_circuit_scenario(scenario, sets=sets)
+    hil = circuit_hil(cs)
     if sets:
         scenario = write_circuit_scenario(scenario, out / "scenario.toml", sets=sets)
-    circuit_hil(cs)
-    return cs, scenario
+    return cs, scenario, hil
 
 
 def controller_args(template: str, address: str, scenario: Path, duration: float, out: Path) -> list[str]:

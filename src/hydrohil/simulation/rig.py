@@ -23,6 +23,7 @@ import numpy as np
 
 from hydrohil.control import Measurement, call_controller, make_controller
 from hydrohil.core import dptr, ffi, lib, shape, view
+from hydrohil.core.watchdog import WatchdogCounters
 from hydrohil.models.sensors import count_size
 from hydrohil.parameters import Parameters
 from hydrohil.simulation.diagnostics import divergence_error
@@ -49,7 +50,7 @@ class Reading:
     faults: int            # bit i: fault i of the scenario active
 
 
-class VirtualRig:
+class VirtualRig(WatchdogCounters):
     """The hybrid plant behind the rig step of the C core (``hh_rig``, core/rig.c: command path, watchdog,
     the fault table, sensing): the same step the standalone C plant takes."""
 
@@ -119,22 +120,6 @@ class VirtualRig:
     def link(self):
         """The command path's watchdog (``hh_watchdog``: active, trips, delivered, ...)."""
         return self.c.link
-
-    @property
-    def watchdog(self) -> bool:
-        return bool(self.c.link.active)
-
-    @property
-    def watchdog_trips(self) -> int:
-        return int(self.c.link.trips)
-
-    @property
-    def watchdog_trips_unexplained(self) -> int:
-        return int(self.c.link.trips_unexplained)
-
-    @property
-    def commands_delivered(self) -> int:
-        return int(self.c.link.delivered)
 
     def warm_up(self) -> None:
         """Run one step and restore the initial state: pages in the code and data a step touches, so the
