@@ -33,18 +33,28 @@ class Param:
 @dataclass
 class Emit:
     """What one instance adds to the generated right-hand side: its local values first (``pre``: (name, C
-    expression), named ``c.v(name)``), flows (from port, to port, C expression; a port None: the flow leaves or
-    enters the circuit's nodes there, e.g. a piston's displacement), capacitance [m³/Pa] and volume [m³] (C
-    expressions) at a port's node, its states' derivatives (state -> C) and initial values (state -> C, may use
-    the inputs u), the update of its mode after a step (C statements, may clamp its states), its outputs
-    (name -> (C expression, SI unit)).
+    expression), named ``c.v(name)``), flows (from port, to port, C expression[, conductance, rate]; a port
+    None: the flow leaves or enters the circuit's nodes there, e.g. a piston's displacement; the conductance
+    d(q)/d(p_from - p_to) >= 0 and the rate d(q)/dt with the pressures held, its states moving at ``c.dx(state)``:
+    C expressions, None where they are 0, for the stiff-node treatment of hc_node.h), capacitance [m³/Pa] and
+    volume [m³] (C expressions) at a port's node, its states' derivatives (state -> C) and initial values
+    (state -> C, may use the inputs u), the update of its mode after a step (C statements, may clamp its
+    states), its states once the nodes settled at rest (``at_rest``: the bristles taking the load, SPEC §12.5),
+    its outputs (name -> (C expression, SI unit)).
+
 
     The continuous reference generated from the same description (SPEC §6, §12.4) has no memory of modes: a
     mode that is a function of the state (``mode_of_state``, a C expression; the hybrid model's update is then
     that assignment after each step) is evaluated at every call of the right-hand side; a mode that clamps
     states (end stops, spool ends) is replaced by ``reference`` derivatives (state -> C) with stiff
     spring-dampers, its mode staying 0. A component may set its ports' nodes' bulk modulus (``bulk_modulus``:
-    the paper's cylinder chambers follow eq 21); other nodes take the fluid's."""
+    the paper's cylinder chambers follow eq 21); other nodes take the fluid's.
+
+    A component whose modes switch at events declares them as data (``guards``: (name, C value >= 0 while its
+    mode holds, +INFINITY where the guard does not apply, C statements of its transition)): the generated
+    step locates the earliest crossing of all the circuit's guards inside the step and applies its transition
+    there (SPEC §6, as the core's hybrid.c); its ``mode_update`` then runs at the step's end as well (a
+    crossing left when the step's event budget is spent)."""
     pre: list = field(default_factory=list)
     flows: list = field(default_factory=list)
     capacitance: list = field(default_factory=list)
@@ -56,6 +66,8 @@ class Emit:
     mode_of_state: str | None = None
     reference: dict = field(default_factory=dict)
     bulk_modulus: list = field(default_factory=list)     # (port, C expression of its node's bulk modulus [Pa])
+    guards: list = field(default_factory=list)           # (name, C value, C transition)
+    at_rest: dict = field(default_factory=dict)          # state -> C: its value once the nodes settled at rest
 
 
 @dataclass(frozen=True)
@@ -143,20 +155,20 @@ def _emit_tank(c):
 def _emit_pump(c):
     q = f"hc_pump_flow({c.par('displacement')}, {c.par('speed')}, {c.par('leakage_conductance')}, " \
         f"{c.p('inlet')}, {c.p('outlet')})"
-    return Emit(flows=[("inlet", "outlet", q)], outputs={"q": (q, "m3/s")})
+    return Emit(flows=[("inlet", "outlet", q, c.par("leakage_conductance"))], outputs={"q": (q, "m3/s")})
 
 
 def _emit_valve(c, a, b):
     dp = f"({c.p(a)} - {c.p(b)})"
     q = f"hc_relief_flow((int){c.mode}, {c.par('flow_gain')}, {c.par('cracking_pressure')}, {dp})"
-    return Emit(flows=[(a, b, q)], outputs={"q": (q, "m3/s")},
+    return Emit(flows=[(a, b, q, f"({c.mode} == HC_OPEN ? {c.par('flow_gain')} : 0.0)")], outputs={"q": (q, "m3/s")},
                 mode_of_state=f"hc_relief_mode((int){c.mode}, {c.par('cracking_pressure')}, {dp})")
 
 
 def _emit_orifice(c):
-    q = f"hc_sqrt_law({c.par('flow_coefficient')} * {c.par('opening')}, {c.p('a')} - {c.p('b')}, " \
-        f"{c.par('transition_pressure')})"
-    return Emit(flows=[("a", "b", q)], outputs={"q": (q, "m3/s")})
+    args = f"{c.par('flow_coefficient')} * {c.par('opening')}, {c.p('a')} - {c.p('b')}, {c.par('transition_pressure')}"
+    q = f"hc_sqrt_law({args})"
+    return Emit(flows=[("a", "b", q, f"hc_sqrt_law_slope({args})")], outputs={"q": (q, "m3/s")})
 
 
 def _emit_accumulator(c):
@@ -167,10 +179,12 @@ def _emit_accumulator(c):
 
 
 def _emit_hose(c):
-    q = f"hc_hose_flow({c.par('diameter')}, {c.par('length')}, {c.fluid('density')}, {c.fluid('viscosity')}, " \
-        f"{c.p('a')} - {c.p('b')})"
+    args = f"{c.par('diameter')}, {c.par('length')}, {c.fluid('density')}, {c.fluid('viscosity')}, " \
+           f"{c.p('a')} - {c.p('b')}"
+    q = f"hc_hose_flow({args})"
     half = f"0.5 * {c.par('volume')}"
-    return Emit(flows=[("a", "b", q)], volume=[("a", half), ("b", half)], outputs={"q": (q, "m3/s")})
+    return Emit(flows=[("a", "b", q, f"hc_hose_slope({args})")], volume=[("a", half), ("b", half)],
+                outputs={"q": (q, "m3/s")})
 
 
 def _emit_volume(c):
@@ -181,7 +195,8 @@ def _emit_motor(c):
     dp = f"({c.p('a')} - {c.p('b')})"
     q = f"hc_motor_flow({c.par('displacement')}, {c.x('w')}, {c.par('leakage')}, {dp})"
     torque = f"hc_motor_torque({c.par('displacement')}, {c.par('efficiency')}, {dp})"
-    return Emit(pre=[("torque", torque)], flows=[("a", "b", q)],
+    return Emit(pre=[("torque", torque)],
+                flows=[("a", "b", q, c.par("leakage"), f"hc_motor_flow({c.par('displacement')}, {c.dx('w')}, 0.0, 0.0)")],
                 derivatives={"w": f"({c.v('torque')} - {c.par('damping')} * {c.x('w')} - {c.par('load_torque')}) / "
                                   f"{c.par('inertia')}"},
                 initial={"w": c.par("speed0")},
@@ -192,8 +207,13 @@ def _emit_cylinder(c):
     x, v = c.x("x"), c.x("v")
     force = (f"{c.p('a')} * {c.par('area_a')} - {c.p('b')} * {c.par('area_b')} - {c.par('damping')} * {v} - "
              f"{c.par('force')} - {c.par('spring')} * ({x} - {c.par('spring_x0')}) - {c.par('weight')}")
-    return Emit(pre=[("f", force)],
-                flows=[("a", None, f"{c.par('area_a')} * {v}"), (None, "b", f"{c.par('area_b')} * {v}")],
+    guards = [(name, f"hc_stop_guard({g}, (int){c.mode}, {x}, {force}, {c.par('stroke')})",
+               f"{c.mode} = hc_stop_reset({g}, &{x}, &{v}, {c.par('stroke')});")
+              for name, g in (("retract", "HC_STOP_G_RETRACT"), ("extend", "HC_STOP_G_EXTEND"),
+                              ("leave", "HC_STOP_G_LEAVE"))]
+    return Emit(pre=[("f", force)], guards=guards,
+                flows=[("a", None, f"{c.par('area_a')} * {v}", None, f"{c.par('area_a')} * {c.dx('v')}"),
+                       (None, "b", f"{c.par('area_b')} * {v}", None, f"{c.par('area_b')} * {c.dx('v')}")],
                 volume=[("a", f"({c.par('dead_volume_a')} + {c.par('area_a')} * {x})"),
                         ("b", f"({c.par('dead_volume_b')} + {c.par('area_b')} * ({c.par('stroke')} - {x}))")],
                 derivatives={"x": f"hc_stop_speed((int){c.mode}, {v})",
@@ -212,7 +232,10 @@ def _emit_counterbalance(c):
          f"{c.par('relief_coefficient')}, {c.par('set_pressure')}, {c.par('pilot_ratio')}, {c.par('rated_excess')}, "
          f"{c.par('transition_pressure')}, {pv}, {pl}, {px})")
     opening = f"hc_cb_opening({c.par('set_pressure')}, {c.par('pilot_ratio')}, {c.par('rated_excess')}, {pv}, {pl}, {px})"
-    return Emit(flows=[("valve", "load", q)], outputs={"q": (q, "m3/s"), "opening": (opening, "-")},
+    slope = (f"hc_cb_slope((int){c.mode}, {c.par('check_gain')}, {c.par('relief_coefficient')}, "
+             f"{c.par('set_pressure')}, {c.par('pilot_ratio')}, {c.par('rated_excess')}, "
+             f"{c.par('transition_pressure')}, {pv}, {pl}, {px})")
+    return Emit(flows=[("valve", "load", q, slope)], outputs={"q": (q, "m3/s"), "opening": (opening, "-")},
                 mode_of_state=f"hc_cb_mode({args}, {pv}, {pl}, {px})")
 
 
@@ -224,12 +247,21 @@ def _emit_valve43(c):
 
     def edge(sign, lap, a, b):
         return f"hc_sqrt_law({k} * hc_edge_opening({sign}{x}, {c.par(lap)}, {leak}), {a} - {b}, {dpt})"
+
+    def edge_flow(sign, lap, a, b):               # (its ports, flow, conductance, rate with the pressures held)
+        opening = f"hc_edge_opening({sign}{x}, {c.par(lap)}, {leak})"
+        rate = f"hc_edge_opening_rate({sign}1, {x}, {c.par(lap)}, {c.dx('x')})"
+        return (a, b, edge(sign, lap, c.p(a), c.p(b)), f"hc_sqrt_law_slope({k} * {opening}, {c.p(a)} - {c.p(b)}, {dpt})",
+                f"hc_sqrt_law({k} * {rate}, {c.p(a)} - {c.p(b)}, {dpt})")
     qs = {"PA": edge("", "lap_pa", P, A), "AT": edge("-", "lap_at", A, T), "PB": edge("-", "lap_pb", P, B),
           "BT": edge("", "lap_bt", B, T)}
-    flows = [("P", "A", qs["PA"]), ("A", "T", qs["AT"]), ("P", "B", qs["PB"]), ("B", "T", qs["BT"])]
+    flows = [edge_flow("", "lap_pa", "P", "A"), edge_flow("-", "lap_at", "A", "T"), edge_flow("-", "lap_pb", "P", "B"),
+             edge_flow("", "lap_bt", "B", "T")]
     if "centre_travel" in c.comp.type.params:      # the open centre of a 6/3 valve: P -> T around x = 0
-        qs["PT"] = f"hc_sqrt_law({k} * hc_centre_opening({x}, {c.par('centre_travel')}), {P} - {T}, {dpt})"
-        flows.append(("P", "T", qs["PT"]))
+        xc = c.par("centre_travel")
+        qs["PT"] = f"hc_sqrt_law({k} * hc_centre_opening({x}, {xc}), {P} - {T}, {dpt})"
+        flows.append(("P", "T", qs["PT"], f"hc_sqrt_law_slope({k} * hc_centre_opening({x}, {xc}), {P} - {T}, {dpt})",
+                      f"hc_sqrt_law({k} * hc_centre_opening_rate({x}, {xc}, {c.dx('x')}), {P} - {T}, {dpt})"))
     return Emit(flows=flows,
                 derivatives={"x": v, "v": f"hc_spool_accel({x}, {v}, {c.par('command')} * {c.par('x_max')}, "
                                           f"{c.par('wn')}, {c.par('xi')})"},
@@ -252,9 +284,15 @@ def _emit_servo_valve(c):
 
     def edge(sign, coeffs, a, b):
         return f"hc_sqrt_law(hc_section({sign}{xc}, {coeffs}) * HH_LPM_PER_SQRT_BAR, {a} - {b}, {dpt})"
+
+    def edge_flow(sign, coeffs, a, b):            # (its ports, flow, conductance, rate with the pressures held)
+        dp = f"{c.p(a)} - {c.p(b)}"
+        return (a, b, edge(sign, coeffs, c.p(a), c.p(b)), f"hc_servo_edge_slope({sign}1, {x}, {coeffs}, {dp}, {dpt})",
+                f"hc_servo_edge_rate({sign}1, {x}, {c.dx('x')}, {coeffs}, {dp}, {dpt})")
     qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T), "PB": edge("", k, P, B), "BT": edge("-", kt, B, T)}
     u = c.par("command")
-    return Emit(flows=[("P", "A", qs["PA"]), ("A", "T", qs["AT"]), ("P", "B", qs["PB"]), ("B", "T", qs["BT"])],
+    return Emit(flows=[edge_flow("-", k, "P", "A"), edge_flow("", kt, "A", "T"), edge_flow("", k, "P", "B"),
+                       edge_flow("-", kt, "B", "T")],
                 derivatives={"x": f"hc_servo_spool_speed({x}, {v})",
                              "v": f"hc_servo_spool_accel({x}, {v}, {u}, {spool})"},
                 initial={"x": f"hh_clamp({u}, -1.0, 1.0)", "v": "0.0"},
@@ -278,9 +316,15 @@ def _emit_lugre_cylinder(c):
     xin = f"hc_in_stroke({x}, {stroke})"
     kv = f"({v} >= 0.0 ? {c.par('kv_pos')} : {c.par('kv_neg')})"
     g = f"hc_stribeck({v}, {static})"
-    e = Emit(pre=[("f", f_ext), ("vp", vp)],
-             flows=[("a", None, f"{a1} * {c.v('vp')}"), (None, "b", f"{a2} * {c.v('vp')}"),
-                    ("a", "b", f"{c.par('leakage')} * ({c.p('a')} - {c.p('b')})")],
+    fs = f"{c.par('fs_pos')}, {c.par('fs_neg')}"
+    guards = [(name, f"hc_lc_guard({gid}, (int){c.mode}, {x}, {v}, {z}, {f_ext}, {stroke}, {c.par('sigma0')}, {fs})",
+               f"{c.mode} = hc_lc_reset({gid}, (int){c.mode}, &{x}, &{v}, &{z}, {stroke}, {c.par('sigma0')}, "
+               f"{static});") for name, gid in _LUGRE_GUARDS]
+    e = Emit(pre=[("f", f_ext), ("vp", vp)], guards=guards,
+             at_rest={"z": f"hc_lc_held_z((int){c.mode}, {f_ext}, {z}, {c.par('sigma0')}, {fs})"},
+             flows=[("a", None, f"{a1} * {c.v('vp')}", None, f"{a1} * {c.dx('v')}"),
+                    (None, "b", f"{a2} * {c.v('vp')}", None, f"{a2} * {c.dx('v')}"),
+                    ("a", "b", f"{c.par('leakage')} * ({c.p('a')} - {c.p('b')})", c.par("leakage"))],
              volume=[("a", f"({c.par('dead_volume_a')} + {a1} * {xin})"),
                      ("b", f"({c.par('dead_volume_b')} + {a2} * ({stroke} - {xin}))")],
              derivatives={"x": c.v("vp"),
@@ -303,7 +347,12 @@ def _emit_lugre_cylinder(c):
     return e
 
 
+_LUGRE_GUARDS = (("retract", "HC_LC_G_RETRACT"), ("extend", "HC_LC_G_EXTEND"), ("breakaway_pos", "HC_LC_G_BREAK_POS"),
+                 ("breakaway_neg", "HC_LC_G_BREAK_NEG"), ("reverse", "HC_LC_G_REVERSE"), ("leave", "HC_LC_G_LEAVE"))
+
+
 def _emit_lugre_motor(c):
+
     """A hydraulic motor with LuGre friction (SPEC §12.3: the Stribeck form of eq 25 with stick and slip)."""
     w, z = c.x("w"), c.x("z")
     dp = f"({c.p('a')} - {c.p('b')})"
@@ -317,7 +366,16 @@ def _emit_lugre_motor(c):
     g = f"hc_stribeck({w}, {static})"
     kv = f"({w} >= 0.0 ? {c.par('kv_pos')} : {c.par('kv_neg')})"
     dz = f"({w} - {c.par('sigma0')} * fabs({w}) * {z} / {g})"
-    return Emit(pre=[("drive", drive)], flows=[("a", "b", q)],
+    fs = f"{c.par('fs_pos')}, {c.par('fs_neg')}"
+    guards = [(name, f"hc_lc_guard({gid}, (int){c.mode}, 0.0, {w}, {z}, 0.0, INFINITY, {c.par('sigma0')}, {fs})",
+               f"{{ double angle = 0.0; {c.mode} = hc_lc_reset({gid}, (int){c.mode}, &angle, &{w}, &{z}, INFINITY, "
+               f"{c.par('sigma0')}, {static}); }}") for name, gid in _LUGRE_GUARDS[2:5]]
+    return Emit(pre=[("drive", drive)], guards=guards,
+                flows=[("a", "b", q, c.par("leakage"), f"hc_motor_flow({c.par('displacement')}, {c.dx('w')}, 0.0, 0.0)")],
+
+                at_rest={"z": f"({w} == 0.0 ? hc_lc_held_z((int){c.mode}, {drive}, {z}, {c.par('sigma0')}, {fs}) "
+                              f": {z})"},
+
                 derivatives={"w": f"({c.v('drive')} - {ff}) / {c.par('inertia')}",
                              "z": f"({c.mode} == HC_LC_STICK ? {w} : 0.0)"},
                 initial={"w": c.par("speed0"), "z": "0.0"},

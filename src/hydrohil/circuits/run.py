@@ -69,8 +69,9 @@ REST_TOL = 1e-13            # a pressure at rest moves less than this * (1 bar +
 def settle(c: Circuit, cc, P, u, y, m, h: float, method: str) -> None:
     """The node pressures at rest (SPEC §12.5) in place of their initial guesses: the components' states held,
     the pressures marched until the fast parts settle (a relief valve, an accumulator), then the flow balance of
-    every node solved (nodes fed by leakage alone take minutes to settle), the modes following their guards; a
-    node given in ``[initial]`` keeps its value. Pressures that do not settle (a pump with nowhere to go) are
+    every node solved (nodes fed by leakage alone take minutes to settle), the modes following their guards, then
+    the components' states at rest (a LuGre seal's bristles carry the net force, up to the breakaway: the core's
+    rest); a node given in ``[initial]`` keeps its value. Pressures that do not settle (a pump with nowhere to go) are
     an error naming the nodes."""
     from scipy.optimize import root
     ffi, lib = cc.ffi, cc.lib
@@ -104,6 +105,7 @@ def settle(c: Circuit, cc, P, u, y, m, h: float, method: str) -> None:
         open_nodes = _indeterminate(cc, buf, y, free)
         open_nodes = _force_balance(c, cc, buf, y, open_nodes)
         _warn_indeterminate(c, y, open_nodes)
+        lib.hc_hold(buf["P"], buf["u"], buf["y"], buf["m"])   # the bristles taking the load
     if not settled:
         moving = [c.state_nodes[i] for i in free]
         raise InputError(f"no state at rest: the pressures at {', '.join(moving)} do not settle (from "
@@ -487,23 +489,28 @@ class NodeStiffness:
     lam: float              # largest -d(dp/dt)/dp over the states sampled [1/s]
     lam_h: float
     limit: float            # the method's stability interval |lambda*h|
+    slowed_above: float     # the stiff-node form's lambda*h (hc_node.h): a stiffer relaxation is slowed to it
 
     @property
     def stable(self) -> bool:
+        """explicitly stable at its stiffest without the stiff-node form"""
         return self.lam_h < self.limit
 
     def treatment(self, method: str, h: float) -> str:
-        if self.stable:
+        if self.lam_h <= self.slowed_above:
             return f"explicit {method}: lambda*h = {self.lam_h:.3g} < {self.limit:g}"
-        return (f"too stiff for {method} at {h * 1e3:g} ms: lambda*h = {self.lam_h:.3g} > {self.limit:g} (give the "
-                f"node more volume, or make it one node with its neighbour; quasi-static nodes are not in this "
-                f"version)")
+        why = ("beyond the stability interval" if not self.stable else "inside the stability interval, "
+               "though it would ring")
+        return (f"stiff for {method} at {h * 1e3:g} ms: lambda*h up to {self.lam_h:.3g} ({why}, {self.limit:g}), "
+                f"its relaxation slowed to lambda*h = {self.slowed_above:g} where stiffer (the stiff-node form, "
+                f"hc_node.h): flows, equilibria and steady motion exact, a deviation from its quasi-static pressure "
+                f"decaying at {self.slowed_above / h:.4g} 1/s instead of up to {self.lam:.4g} 1/s")
 
 
 def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list[NodeStiffness]:
     """Each pressure node's stiffness (SPEC §12.4): lambda = -d(dp/dt)/dp by central differences of the
-    compiled right-hand side, the largest over ``samples`` states of the run ``res``, against the stability
-    interval of its method at its step."""
+    compiled right-hand side (without the stiff-node form), the largest over ``samples`` states of the run
+    ``res``, against the stability interval of its method at its step and the stiff-node form's lambda*h."""
     from hydrohil.core import lib as core
     cc = compile_circuit(c)
     lay, ffi = cc.layout, cc.ffi
@@ -527,5 +534,5 @@ def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list
                               ffi.from_buffer("int64_t[]", m), ffi.from_buffer("double[]", u),
                               ffi.from_buffer("double[]", out))
             lam[i] = max(lam[i], -(dy_hi[i] - dy_lo[i]) / (2 * d))
-    return [NodeStiffness(node, c.node_volume(node), float(lam[i]), float(lam[i] * res.h), float(limit))
-            for i, node in enumerate(c.state_nodes)]
+    return [NodeStiffness(node, c.node_volume(node), float(lam[i]), float(lam[i] * res.h), float(limit),
+                          float(cc.lib.hc_lambda_h_max())) for i, node in enumerate(c.state_nodes)]

@@ -32,7 +32,24 @@ HH_INLINE double hc_cb_flow(int mode, double k_c, double dp_cr, double k_o, doub
     return q;
 }
 
-HH_INLINE int hc_cb_mode(double dp_cr, double p_set, double r, double p_valve, double p_load, double p_pilot)
+/* d(hc_cb_flow)/d(p_valve - p_load): the check's gain, the main stage's orifice and its opening's growth */
+HH_INLINE double hc_cb_slope(int mode, double k_c, double k_o, double p_set, double r, double dp_open, double dp_t,
+                             double p_valve, double p_load, double p_pilot)
+{
+    double g = 0.0, dp = p_load - p_valve, s;
+    if (mode == HC_CB_CHECK || mode == HC_CB_BOTH)
+        g += k_c;
+    if ((mode == HC_CB_RELIEF || mode == HC_CB_BOTH) && dp > 0.0) {
+        s = hc_cb_opening(p_set, r, dp_open, p_valve, p_load, p_pilot);
+        g += hc_sqrt_law_slope(k_o * s, dp, dp_t);
+        if (s > 0.0 && s < 1.0)
+            g += k_o / dp_open * hc_sqrt_law(1.0, dp, dp_t);
+    }
+    return g;
+}
+
+HH_INLINE int hc_cb_mode(
+double dp_cr, double p_set, double r, double p_valve, double p_load, double p_pilot)
 {
     int check = p_valve - p_load > dp_cr, relief = p_load - p_valve + r * p_pilot > p_set;
     return check ? (relief ? HC_CB_BOTH : HC_CB_CHECK) : (relief ? HC_CB_RELIEF : HC_CB_CLOSED);

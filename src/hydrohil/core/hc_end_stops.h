@@ -34,6 +34,30 @@ HH_INLINE int hc_stop_mode(int mode, double *x, double *v, double stroke, double
     return HC_FREE;
 }
 
+/* Its events as data (hc_lugre_cylinder.h's guards for the paper's cylinder): in the free mode the piston
+ * reaching an end (x >= 0, stroke - x >= 0), at a stop the net force pulling it off (-f at the retract end,
+ * f at the extend end); +inf where a guard does not apply. */
+enum { HC_STOP_G_RETRACT, HC_STOP_G_EXTEND, HC_STOP_G_LEAVE };
+
+HH_INLINE double hc_stop_guard(int g, int mode, double x, double f, double stroke)
+{
+    if (mode == HC_FREE)
+        return g == HC_STOP_G_RETRACT ? x : g == HC_STOP_G_EXTEND ? stroke - x : INFINITY;
+    if (g != HC_STOP_G_LEAVE)
+        return INFINITY;
+    return mode == HC_AT_RETRACT ? -f : f;
+}
+
+/* the transition of guard g: x, v in place; returns the new mode */
+HH_INLINE int hc_stop_reset(int g, double *x, double *v, double stroke)
+{
+    if (g == HC_STOP_G_LEAVE)
+        return HC_FREE;
+    *x = g == HC_STOP_G_RETRACT ? 0.0 : stroke;
+    *v = 0.0;
+    return g == HC_STOP_G_RETRACT ? HC_AT_RETRACT : HC_AT_EXTEND;
+}
+
 /* The continuous reference's end stops (SPEC §6, for any linear actuator): no modes; past an end a stiff
  * unilateral spring-damper of natural frequency HC_REF_STOP_WN per unit mass, critically damped, pushes the
  * piston back (it pushes, never pulls). Returns the force [N] along +x on a mass m at (x, v). */

@@ -23,4 +23,12 @@ HH_INLINE double hc_hose_flow(double d, double len, double rho, double nu, doubl
     return dp < 0.0 ? -q_lam : q_lam;
 }
 
+/* d(hc_hose_flow)/d(dp): 1/R where laminar, q/(1.75*|dp|) where turbulent (q ~ |dp|^(1/1.75)) */
+HH_INLINE double hc_hose_slope(double d, double len, double rho, double nu, double dp)
+{
+    double r = hc_hose_resistance(d, len, rho, nu), q = fabs(hc_hose_flow(d, len, rho, nu, dp));
+    return q < fabs(dp) / r ? q / (1.75 * fabs(dp)) : 1.0 / r;
+}
+
+
 #endif

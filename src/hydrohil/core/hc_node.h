@@ -9,4 +9,20 @@ HH_INLINE double hc_node_rate(double q_in, double volume, double beta, double c_
     return q_in / (volume / beta + c_extra);
 }
 
+/* ---- a stiff node (the core's stiff chambers, hybrid.h, for any node): its pressure relaxes towards its
+ * quasi-static value Pq (where its flows balance) at lambda = g/C, g = -d(q_in)/dp the conductance of the
+ * flows at it. Where lambda*h exceeds HC_LAMBDA_H_MAX at a step's start (1.5, the core's default: inside
+ * every tableau's real-axis stability interval), only that relaxation is slowed to lambda*h = HC_LAMBDA_H_MAX
+ * (factor c < 1) while Pq moves as it physically does: dp/dt = c*q_in/C + (1 - c)/g * dq_in/dt|p held (the
+ * flows' rate with the pressures held: spools and pistons moving). sc[0] = c, sc[1] = (1 - c)/g (0: not
+ * stiff). */
+#define HC_LAMBDA_H_MAX 1.5
+HH_INLINE void hc_stiff_node(double g, double volume, double beta, double c_extra, double h, double *sc)
+{
+    double l = g / (volume / beta + c_extra) * h, c = l > HC_LAMBDA_H_MAX ? HC_LAMBDA_H_MAX / l : 1.0;
+    sc[0] = c;
+    sc[1] = c < 1.0 ? (1.0 - c) / g : 0.0;
+}
+
+
 #endif

@@ -3,6 +3,7 @@
 #ifndef HC_SERVO_VALVE_H
 #define HC_SERVO_VALVE_H
 #include "core.h"
+#include "hc_sqrt_law.h"
 
 /* ---- pseudo-sections (eq 3): k1*x + k2 + sqrt(k3*x^2 + k4*x + k5), floored at zero [(l/min)/sqrt(bar)];
  * x the normalised spool position in [-1, 1]: As2 = section(x) (P->B) and A1t = section(x, kt) (A->T),
@@ -12,6 +13,37 @@ HH_INLINE double hc_section(double x, double k1, double k2, double k3, double k4
 {
     return hh_max(k1 * x + k2 + sqrt(hh_max(k3 * x * x + k4 * x + k5, 0.0)), 0.0);
 }
+
+/* d(hc_section)/dx (0 where the section is floored at zero) */
+HH_INLINE double hc_section_slope(double x, double k1, double k2, double k3, double k4, double k5)
+{
+    double q = k3 * x * x + k4 * x + k5;
+    double r = q > 0.0 ? sqrt(q) : 0.0;
+    if (k1 * x + k2 + r <= 0.0)
+        return 0.0;
+    return r > 0.0 ? k1 + (2.0 * k3 * x + k4) / (2.0 * r) : k1;
+}
+
+/* The flow of an edge of section s(+-x) [(l/min)/sqrt(bar)] under dp (eq 3 with the laminar transition),
+ * its conductance d(q)/d(dp) and its rate d(q)/dt with the pressures held, the spool at x (clamped to [-1, 1]:
+ * no change beyond) moving at dx [1/s]; sign +1: s(x), -1: s(-x) */
+HH_INLINE double hc_servo_edge_slope(int sign, double x, double k1, double k2, double k3, double k4, double k5,
+                                     double dp, double dp_t)
+{
+    double xc = hh_clamp(x, -1.0, 1.0);
+    return hc_sqrt_law_slope(hc_section(sign * xc, k1, k2, k3, k4, k5) * HH_LPM_PER_SQRT_BAR, dp, dp_t);
+}
+
+HH_INLINE double hc_servo_edge_rate(int sign, double x, double dx, double k1, double k2, double k3, double k4,
+                                    double k5, double dp, double dp_t)
+{
+    double ds;
+    if (x >= 1.0 || x <= -1.0)
+        return 0.0;
+    ds = sign * hc_section_slope(sign * x, k1, k2, k3, k4, k5);
+    return hc_sqrt_law(ds * HH_LPM_PER_SQRT_BAR, dp, dp_t) * dx;
+}
+
 
 /* ---- the spool (SPEC §3.1, eq 1, Fig 3): a 2nd-order lag (wn, xi) of the normalised command ud with its
  * acceleration clamp +-la and its velocity limit +-lv (a limited integrator: no wind-up beyond it); (dxs,

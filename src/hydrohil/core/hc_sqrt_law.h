@@ -16,4 +16,15 @@ HH_INLINE double hc_sqrt_law(double k, double dp, double dp_t)
     return k * sqrt(dp_t) * r * (1.25 - 0.25 * r * r);
 }
 
+/* d(hc_sqrt_law)/d(dp) [m^3/s/Pa] (>= 0): the conductance of the law at dp */
+HH_INLINE double hc_sqrt_law_slope(double k, double dp, double dp_t)
+{
+    double a = fabs(dp), r;
+    if (a >= dp_t)
+        return 0.5 * k / sqrt(a);
+    r = dp / dp_t;
+    return k / sqrt(dp_t) * (1.25 - 0.75 * r * r);
+}
+
+
 #endif

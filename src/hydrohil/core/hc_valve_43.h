@@ -17,6 +17,14 @@ HH_INLINE double hc_spool_accel(double x, double v, double x_ref, double wn, dou
 /* the open-centre bypass P -> T of a 6/3 valve: fully open at x = 0, closed at |x| >= x_c */
 HH_INLINE double hc_centre_opening(double x, double x_c) { return x_c > fabs(x) ? x_c - fabs(x) : 0.0; }
 
+/* the rates of the openings [m/s] with the spool moving at dx (an edge's opening of +-x: sign +-1) */
+HH_INLINE double hc_edge_opening_rate(int sign, double x, double lap, double dx) { return sign * x > lap ? sign * dx : 0.0; }
+HH_INLINE double hc_centre_opening_rate(double x, double x_c, double dx)
+{
+    return x_c > fabs(x) ? (x > 0.0 ? -dx : x < 0.0 ? dx : 0.0) : 0.0;
+}
+
+
 /* the spool clamped at +-x_max after a step (plastic: v = 0 at the end) */
 HH_INLINE void hc_spool_clamp(double *x, double *v, double x_max)
 {

@@ -19,15 +19,8 @@ HH_INLINE hh_sections pseudo_sections(double x, const double *p)
     return s;
 }
 
-/* d/dx of one section (0 where it is floored at zero). */
-HH_INLINE double section_slope(double x, const double *k)
-{
-    double q = k[2] * x * x + k[3] * x + k[4];
-    double r = q > 0.0 ? sqrt(q) : 0.0;
-    if (k[0] * x + k[1] + r <= 0.0)
-        return 0.0;
-    return r > 0.0 ? k[0] + (2.0 * k[2] * x + k[3]) / (2.0 * r) : k[0];
-}
+/* d/dx of one section (0 where it is floored at zero; hc_servo_valve.h). */
+HH_INLINE double section_slope(double x, const double *k) { return hc_section_slope(x, k[0], k[1], k[2], k[3], k[4]); }
 
 /* (dAs1/dx, dAs2/dx, dA1t/dx, dA2t/dx) of eq 3; 0 beyond the clamp at |x| = 1 (wear is constant). */
 HH_INLINE hh_sections pseudo_section_slopes(double x, const double *p)
@@ -54,11 +47,7 @@ HH_INLINE double orifice_flow(double area, double dp, double dp_t)
 /* d(orifice_flow)/d(dp) [m^3/s/Pa] (>= 0). */
 HH_INLINE double orifice_slope(double area, double dp, double dp_t)
 {
-    double k = area * HH_LPM_PER_SQRT_BAR, a = fabs(dp), r;
-    if (a >= dp_t)
-        return 0.5 * k / sqrt(a);
-    r = dp / dp_t;
-    return k / sqrt(dp_t) * (1.25 - 0.75 * r * r);
+    return hc_sqrt_law_slope(area * HH_LPM_PER_SQRT_BAR, dp, dp_t);     /* the library's (components.h) */
 }
 
 /* (dxs/dt, dvs/dt) of the limited second-order spool (SPEC §3.1, eq 1, Fig 3); returns the limits acting
