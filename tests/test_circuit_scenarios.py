@@ -55,17 +55,18 @@ def test_the_reference_of_a_cylinder_against_its_end_stop_and_relief_closed_form
 
 @pytest.mark.parametrize("name, position, pressure, speed, largest", [
     # measured at 0.5 ms: two_cylinders 1.0e-7 m, 2.1e-5, 1.3e-4; pump_relief_accumulator -, 4.7e-7, -;
-    # motor_speed (closed loop) 3.9e-8 m (its spool), 1.0e-4, 5.7e-5; counterbalance_hose_burst 3.2e-6 m,
-    # 1.6e-4, 4.4e-4; largest stable steps 4.6, 16 (every step tried up to the search's 20 ms: its relief and
+    # motor_speed (closed loop) 3.9e-8 m (its spool), 1.0e-4, 5.7e-5; counterbalance_hose_burst 8.4e-6 m,
+    # 2.6e-4, 6.6e-4; largest stable steps 4.6, 16 (every step tried up to the search's 20 ms: its relief and
     # hose nodes, stiff beyond 7.7 ms, slowed as the core's chambers), 3.8, 1.5 ms
     ("two_cylinders", 3e-7, 6e-5, 4e-4, 4.5e-3),
     ("pump_relief_accumulator", 0.0, 1.5e-6, 0.0, 16e-3),
     ("motor_speed", 1.2e-7, 3e-4, 1.7e-4, 3.8e-3),
-    ("counterbalance_hose_burst", 1e-5, 5e-4, 1.5e-3, 1.5e-3),
+    ("counterbalance_hose_burst", 2.5e-5, 8e-4, 2e-3, 1.5e-3),
     # the paper's rig and its servo valve and LuGre cylinder on a pump supply (closed loops; their friction's
-    # and stops' events located in the step): 4.5e-6 m, 1.2e-3, 2.8e-3, 3.7 ms; 3.4e-6 m, 8.4e-4, 9.9e-4, 3.7 ms
-    ("ferreira2004", 1.4e-5, 3.5e-3, 8.5e-3, 3.6e-3),
-    ("servo_supply", 1e-5, 2.5e-3, 3e-3, 3.6e-3),
+    # and stops' events located in the step, the valve's 0.76 ms input delay): 4.4e-6 m, 1.1e-3, 2.8e-3, 3.7 ms;
+    # 3.4e-6 m, 7.0e-4, 8.4e-4, 3.7 ms
+    ("ferreira2004", 1.4e-5, 3.3e-3, 8.5e-3, 3.7e-3),
+    ("servo_supply", 1e-5, 2.1e-3, 2.6e-3, 3.7e-3),
 ])
 def test_each_example_at_half_a_millisecond_against_its_reference_and_its_largest_step(name, position, pressure,
                                                                                        speed, largest):
@@ -81,8 +82,8 @@ def test_each_example_at_half_a_millisecond_against_its_reference_and_its_larges
     assert acc["worst_position_m"] <= position and acc["worst_pressure_relative"] <= pressure
     assert acc["worst_speed_relative"] <= speed
     assert ms["max_stable_step"] >= max(1e-3, 0.8 * largest)       # the issue's 1 ms, and near what it was
-    if ms["first_unstable_step"] is None:                            # stable up to the search's ceiling
-        assert largest == ms["max_stable_step"] and all(tr["stable"] for tr in ms["trials"])
+    if ms["first_unstable_step"] is None:       # stable at every doubling up to the search's 20 ms ceiling
+        assert largest == ms["max_stable_step"] and ms["trials"][-1]["step"] == largest
         return
     assert ms["first_unstable_step"] / ms["max_stable_step"] <= 1.05
     failed = [tr for tr in ms["trials"] if not tr["stable"]]

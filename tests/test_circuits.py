@@ -346,7 +346,7 @@ def test_a_node_too_stiff_for_the_step_is_reported_and_slowed():
     fine = {s.node: s for s in node_stiffness(c, fine_run)}
     assert fine["b"].stable and fine["b"].treatment("rk3", 5e-4 / 16).startswith("explicit")
     b, b_fine = run.column("b.p"), fine_run.column("b.p")
-    assert np.all(np.abs(np.diff(b[-100:])) < 1e-3)                  # settled, no alternation (measured 5e-5 Pa)
+    assert np.all(np.abs(np.diff(b[-100:])) < 3e-4)                  # settled, no alternation (measured 1e-4 Pa)
     for k, rel in (("a.p", 2e-6), ("b.p", 1e-7), ("cyl.v", 1e-7)):     # (measured: 6.7e-7, 3.1e-8, 3.1e-8)
         assert run.column(k)[-1] == pytest.approx(fine_run.column(k)[-1], rel=rel)
     after = run.column("t") > 0.05                                    # (the first 50 ms: chambers filling)
@@ -560,3 +560,26 @@ def test_a_node_without_an_open_path_at_rest_is_reported():
         simulate_circuit(circuit(body), 0.0)
     said = " ".join(str(w.message) for w in rec)
     assert "node a has no open path at rest" in said and "node b has no open path at rest" in said
+
+
+def test_two_stiff_nodes_coupled_stay_stable_and_are_reported():
+    """A pump into a 1 cm3 node, a 20 mm2 orifice to a 0.1 l node with a 1 l accumulator (empty below its 20 bar
+    precharge): both nodes are stiff at 0.5 ms and coupled through the orifice. Each slowed to lambda*h = 1.5
+    alone, their coupled mode would reach 3 (RK3 alternated between the pressure floor and 112 bar); the
+    stiff-node form's Gershgorin rule (hc_node.h) keeps every disc inside 1.9: no alternation, no floor, the end
+    state that of a 64x finer step within 3 % (measured 0.9 %); and circuit show says the pair's common filling
+    is slowed (it is: the fill transient lags the fine run's)."""
+    c = circuit({"t": {"type": "tank", "p": "t"},
+                 "pump": {"type": "pump", "inlet": "t", "outlet": "n1", "displacement": "10 cm3/rev", "speed": 20.0},
+                 "ori": {"type": "orifice", "a": "n1", "b": "n2", "area": "20 mm2"},
+                 "acc": {"type": "accumulator", "p": "n2", "gas_volume": "1 l", "precharge": "20 bar"}},
+                nodes={"n1": {"volume": "1 cm3"}, "n2": {"volume": "0.1 l"}})
+    run = simulate_circuit(c, 1.0, rest=False)
+    fine = simulate_circuit(c, 1.0, h=5e-4 / 64, rest=False, every=64)
+    n1 = run.column("n1.p")
+    assert n1.min() >= 0.0                                             # (before: the floor, -0.99 bar)
+    assert np.all(np.diff(n1) > 0)                                    # filling, no alternation
+    assert run.column("n2.p")[-1] == pytest.approx(fine.column("n2.p")[-1], rel=0.03)
+    s = {x.node: x for x in node_stiffness(c, run)}
+    assert s["n1"].stiff_neighbours == ("n2",) and s["n2"].stiff_neighbours == ("n1",)
+    assert "common filling is slowed" in s["n1"].treatment("rk3", 5e-4)

@@ -165,16 +165,13 @@ def circuits(duration: float = 60.0, repeats: int = 7) -> dict:
 
 
 def _paper_runs(duration: float):
-    """Fig 10's open-loop sine (without the valve's input delay, which a circuit's loop has not) on the core's
-    loop and on the paper's rig as a circuit (hydrohil.circuits.paper): (scenario, steps, run core, run circuit);
-    each run returns its wall time [s]."""
+    """Fig 10's open-loop sine on the core's loop and on the paper's rig as a circuit (hydrohil.circuits.paper;
+    both delaying the valve's command): (steps, run core, run circuit); each run returns its wall time [s]."""
     import warnings
     from hydrohil.circuits.paper import paper_circuit
     from hydrohil.circuits.run import simulate_circuit
     from hydrohil.simulation.run import run_scenario
     sc = _scenario("fig10_open_loop_sine.toml", duration)
-    sc = sc.model_copy(update={"params": sc.params.model_copy(update={"spool": sc.params.spool.model_copy(
-        update={"delay": 0.0})})})
     s = sc.scenario
     h, n = s.solver.step, s.n_steps()
     drive = {"valve.command": (np.arange(n + 1) * h, s.commands())}
@@ -189,10 +186,9 @@ def _paper_runs(duration: float):
 
 def paper_circuit(duration: float = 60.0, repeats: int = 7, steps: int | None = 4000) -> dict:
     """The paper's rig as a generated circuit beside the hand-written core, in one run: median ns per RK3 step
-    of each loop (Fig 10 open loop, no input delay) and, with valgrind, machine instructions per step inside
-    ``hh_sim_run`` and ``hc_run`` (the first ``steps`` steps). Both locate their events inside the step; the
-    circuit has no stiff-chamber slowing (no chamber of Fig 10 needs it) and no delay line yet. ``steps`` None:
-    no instruction count."""
+    of each loop (Fig 10 open loop) and, with valgrind, machine instructions per step inside ``hh_sim_run`` and
+    ``hc_run`` (the first ``steps`` steps). The same work: both locate their events inside the step, slow
+    their stiff chambers (nodes) and delay the valve's command. ``steps`` None: no instruction count."""
     import shutil
     import subprocess
     n, core, circuit = _paper_runs(duration)
@@ -473,11 +469,10 @@ def circuits_table(res: dict) -> str:
                  "≥ 1 ms.")
     pc = res.get("paper_circuit")
     if pc:
-        lines += ["", f"The paper's rig generated as a circuit beside the hand-written core (Fig 10, no input delay, "
+        lines += ["", f"The paper's rig generated as a circuit beside the hand-written core (Fig 10, the same work, "
                   f"same run): {pc['circuit_ns_per_step']:.0f} vs {pc['core_ns_per_step']:.0f} ns per RK3 step "
                   f"(ratio {pc['ratio']:.2f}), {_f(pc['circuit_instructions'], '{:.0f}')} vs "
-                  f"{_f(pc['core_instructions'], '{:.0f}')} instructions per step (callgrind); the circuit has no "
-                  "stiff-chamber slowing and no delay line yet."]
+                  f"{_f(pc['core_instructions'], '{:.0f}')} instructions per step (callgrind)."]
     return "\n".join(lines) + "\n"
 
 

@@ -53,8 +53,9 @@ class Emit:
     A component whose modes switch at events declares them as data (``guards``: (name, C value >= 0 while its
     mode holds, +INFINITY where the guard does not apply, C statements of its transition)): the generated
     step locates the earliest crossing of all the circuit's guards inside the step and applies its transition
-    there (SPEC §6, as the core's hybrid.c); its ``mode_update`` then runs at the step's end as well (a
-    crossing left when the step's event budget is spent)."""
+    there (SPEC §6, as the core's hybrid.c); its ``mode_update`` sets its mode at the start and in the rest
+    march. ``mode_at_rest``: its mode once the nodes settled at rest (C expression; a piston against its stop
+    pushed into it rests there, as the core's)."""
     pre: list = field(default_factory=list)
     flows: list = field(default_factory=list)
     capacitance: list = field(default_factory=list)
@@ -68,6 +69,8 @@ class Emit:
     bulk_modulus: list = field(default_factory=list)     # (port, C expression of its node's bulk modulus [Pa])
     guards: list = field(default_factory=list)           # (name, C value, C transition)
     at_rest: dict = field(default_factory=dict)          # state -> C: its value once the nodes settled at rest
+    delays: list = field(default_factory=list)           # (input key, C delay [s]): the input seen that late
+    mode_at_rest: str | None = None
 
 
 @dataclass(frozen=True)
@@ -292,7 +295,7 @@ def _emit_servo_valve(c):
     qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T), "PB": edge("", k, P, B), "BT": edge("-", kt, B, T)}
     u = c.par("command")
     return Emit(flows=[edge_flow("-", k, "P", "A"), edge_flow("", kt, "A", "T"), edge_flow("", k, "P", "B"),
-                       edge_flow("-", kt, "B", "T")],
+                       edge_flow("-", kt, "B", "T")], delays=[("command", c.par("delay"))],
                 derivatives={"x": f"hc_servo_spool_speed({x}, {v})",
                              "v": f"hc_servo_spool_accel({x}, {v}, {u}, {spool})"},
                 initial={"x": f"hh_clamp({u}, -1.0, 1.0)", "v": "0.0"},
@@ -322,6 +325,8 @@ def _emit_lugre_cylinder(c):
                f"{static});") for name, gid in _LUGRE_GUARDS]
     e = Emit(pre=[("f", f_ext), ("vp", vp)], guards=guards,
              at_rest={"z": f"hc_lc_held_z((int){c.mode}, {f_ext}, {z}, {c.par('sigma0')}, {fs})"},
+             mode_at_rest=f"hc_lc_rest_mode((int){c.mode}, &{x}, &{v}, {f_ext}, {stroke})",
+
              flows=[("a", None, f"{a1} * {c.v('vp')}", None, f"{a1} * {c.dx('v')}"),
                     (None, "b", f"{a2} * {c.v('vp')}", None, f"{a2} * {c.dx('v')}"),
                     ("a", "b", f"{c.par('leakage')} * ({c.p('a')} - {c.p('b')})", c.par("leakage"))],
@@ -549,8 +554,10 @@ TYPES["servo_valve"] = ComponentType(
      "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", 1007.01, lo_strict=True),
      "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.48, lo_strict=True),
      "la": Param("1/s2", 0.0, 1e9, "spool acceleration limit (normalised stroke)", 81184.24, lo_strict=True),
-     "lv": Param("1/s", 0.0, 1e6, "spool velocity limit (normalised stroke)", 125.56, lo_strict=True)},
+     "lv": Param("1/s", 0.0, 1e6, "spool velocity limit (normalised stroke)", 125.56, lo_strict=True),
+     "delay": Param("s", 0.0, 0.1, "pure delay of a driven command (the core's delay line, SPEC §3.1)", 7.625e-4)},
     modes=("linear", "acc_limited", "vel_limited", "at_end"), inputs=("command",), states=(("x", "-"), ("v", "1/s")))
+
 TYPES["lugre_cylinder"] = ComponentType(
     "lugre_cylinder", "the paper's differential cylinder (SPEC §4-§6): LuGre seal friction with stick and slip "
     "modes, end stops, eq 21 chambers, internal leakage (defaults: the paper's seals)", ("a", "b"),

@@ -11,7 +11,7 @@ from hydrohil.parameters import Parameters
 
 def paper_circuit(p: Parameters, x0: float | None = None, command: float = 0.0) -> Circuit:
     """The circuit of parameter set ``p``: supply ps, tank pt, the servo valve (eq 3's sections, the limited
-    spool; the valve's input delay is the core loop's and not in the circuit), the cylinder (eq 21 or
+    spool, the input delay of its command), the cylinder (eq 21 or
     constant chambers, leakage, the friction set(s) in use, the load with gravity along the rod), the
     piston at ``x0`` (default: linear.xp0), the command a constant (drive it with inputs=)."""
     pos, neg = p.friction_sets()
@@ -25,7 +25,7 @@ def paper_circuit(p: Parameters, x0: float | None = None, command: float = 0.0) 
                   **{f"k{i}": k for i, k in enumerate(p.valve.k, 1)},
                   **{f"kt{i}": k for i, k in enumerate(p.valve.kt, 1)},
                   "dp_laminar": p.valve.dp_laminar, "wn": p.spool.wn, "xi": p.spool.xi, "la": p.spool.la,
-                  "lv": p.spool.lv},
+                  "lv": p.spool.lv, "delay": p.spool.delay},
         "cyl": {"type": "lugre_cylinder", "a": "cap", "b": "rod", "area_a": cyl.a1, "area_b": cyl.a2,
                 "stroke": cyl.stroke, "dead_volume_a": cyl.v01, "dead_volume_b": cyl.v02, "leakage": cyl.g_lkc,
                 **chambers, "mass": p.load.mass, "gravity": p.load.gravity,

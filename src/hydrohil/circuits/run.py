@@ -314,11 +314,17 @@ def start_state(c: Circuit, *, h: float = 5e-4, method: str = "rk3", inputs: dic
     return _start(c, cc, np.ascontiguousarray(cc.layout.values()), u, h, method, rest, loop)
 
 
+def new_state(cc, P, h: float) -> np.ndarray:
+    """A zero state for steps of h: the circuit's states (one at least) and its delay lines' memory after them
+    (hc_state_size; the lines are sized for h at the first step)."""
+    return np.zeros(max(int(cc.lib.hc_state_size(cc.ffi.from_buffer("double[]", P), float(h))), 1))
+
+
 def _start(c: Circuit, cc, P, u, h: float, method: str, rest: bool, loop: Loop | None):
     ffi, lib, lay = cc.ffi, cc.lib, cc.layout
     if rest and loop is not None:
         return _held_by_loop(c, cc, P, u, h, method, loop)
-    y = np.zeros(max(len(lay.states), 1))         # (the C has one state at least)
+    y = new_state(cc, P, h)
     m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
     lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
                 ffi.from_buffer("int64_t[]", m))
@@ -342,7 +348,7 @@ def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
     def state(u0):
         uu = u.copy()
         uu[0, j] = u0
-        y = np.zeros(max(len(lay.states), 1))
+        y = new_state(cc, P, h)
         m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
         lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", uu), ffi.from_buffer("double[]", y),
                     ffi.from_buffer("int64_t[]", m))
@@ -456,7 +462,12 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
     lay = cc.layout
     stats: dict = {}
     control = None
-    if loop is not None:                       # the same sampled law at each step, on the reference's state
+    seen = _delay_line(cc, P, y, h)            # the inputs as the components see them (delayed ones late)
+    u_seen = u.copy()
+    if loop is None:
+        for k in range(len(u)):
+            u_seen[k] = seen(u[k])
+    else:                                      # the same sampled law at each step, on the reference's state
         ref, dref = loop.table(n, h)
         meas, cmd = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
 
@@ -464,14 +475,16 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
 
         def control(k, row):
             u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng))
+            u_seen[k] = seen(u[k])
 
         def applied(k):                    # the row the controller reads: under the command last applied
             if k > 0:
                 u[k, cmd] = u[k - 1, cmd]
+                u_seen[k] = u_seen[k - 1]
     t0 = time.perf_counter()
     try:
-        log = solve_circuit_reference(cc, P, y[:len(lay.states)], u, h, n, every, progress=progress, stats=stats,
-                                      control=control, applied=applied if loop is not None else None)
+        log = solve_circuit_reference(cc, P, y[:len(lay.states)], u_seen, h, n, every, progress=progress,
+                                      stats=stats, control=control, applied=applied if loop is not None else None)
     except ReferenceSolverFailed as exc:
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         state = exc.y if exc.y is not None else y
@@ -482,6 +495,23 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
                          lay.states[len(c.state_nodes):])
 
 
+def _delay_line(cc, P, y, h: float):
+    """f(u_k) -> the inputs of step k as the components see them, each delayed input through the generated
+    delay line (hc_delayed_inputs on a copy of y's memory: the hybrid step's own), pushed at each call."""
+    lay, ffi = cc.layout, cc.ffi
+    if not lay.delayed:
+        return lambda uk: uk
+    mem, Pb = y.copy(), ffi.from_buffer("double[]", P)
+    memb = ffi.from_buffer("double[]", mem)
+    out = np.zeros(max(len(lay.inputs), 1))
+    outb = ffi.from_buffer("double[]", out)
+
+    def seen(uk):
+        cc.lib.hc_delayed_inputs(Pb, float(h), memb, ffi.from_buffer("double[]", np.ascontiguousarray(uk)), outb)
+        return out.copy()
+    return seen
+
+
 @dataclass
 class NodeStiffness:
     node: str
@@ -490,6 +520,7 @@ class NodeStiffness:
     lam_h: float
     limit: float            # the method's stability interval |lambda*h|
     slowed_above: float     # the stiff-node form's lambda*h (hc_node.h): a stiffer relaxation is slowed to it
+    stiff_neighbours: tuple = ()   # stiff nodes it is coupled to (its rate moving with their pressure, |J|*h > 0.5)
 
     @property
     def stable(self) -> bool:
@@ -501,10 +532,16 @@ class NodeStiffness:
             return f"explicit {method}: lambda*h = {self.lam_h:.3g} < {self.limit:g}"
         why = ("beyond the stability interval" if not self.stable else "inside the stability interval, "
                "though it would ring")
-        return (f"stiff for {method} at {h * 1e3:g} ms: lambda*h up to {self.lam_h:.3g} ({why}, {self.limit:g}), "
+        text = (f"stiff for {method} at {h * 1e3:g} ms: lambda*h up to {self.lam_h:.3g} ({why}, {self.limit:g}), "
                 f"its relaxation slowed to lambda*h = {self.slowed_above:g} where stiffer (the stiff-node form, "
-                f"hc_node.h): flows, equilibria and steady motion exact, a deviation from its quasi-static pressure "
-                f"decaying at {self.slowed_above / h:.4g} 1/s instead of up to {self.lam:.4g} 1/s")
+                f"hc_node.h): flows, equilibria and steady motion exact, a deviation from its quasi-static "
+                f"pressure decaying at {self.slowed_above / h:.4g} 1/s instead of up to {self.lam:.4g} 1/s")
+        if self.stiff_neighbours:
+            text += (f"; but coupled to the stiff node(s) {', '.join(self.stiff_neighbours)}: their common "
+                     f"filling is slowed too (a pressure rising together too slowly): give them more volume, make "
+                     f"them one node or take a smaller step")
+        return text
+
 
 
 def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list[NodeStiffness]:
@@ -519,7 +556,8 @@ def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list
     dt_row = res.columns["t"][1] - res.columns["t"][0] if n > 1 else res.h
     u_all = input_table(c, max(n, 1), dt_row)          # the inputs at the rows' times
     limit = core.hh_real_axis_limit(METHODS.index(res.method))
-    lam = np.zeros(len(c.state_nodes))
+    nn = len(c.state_nodes)
+    lam, couple = np.zeros(nn), np.zeros((nn, nn))    # couple[k, i]: |d(dp_k/dt)/dp_i|, k != i
     dy_hi, dy_lo = np.zeros(max(len(lay.states), 1)), np.zeros(max(len(lay.states), 1))
     for row in np.unique(np.linspace(0, n - 1, min(samples, n)).astype(int)):
         y = np.array([res.columns[s][row] for s in lay.states])
@@ -534,5 +572,10 @@ def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list
                               ffi.from_buffer("int64_t[]", m), ffi.from_buffer("double[]", u),
                               ffi.from_buffer("double[]", out))
             lam[i] = max(lam[i], -(dy_hi[i] - dy_lo[i]) / (2 * d))
-    return [NodeStiffness(node, c.node_volume(node), float(lam[i]), float(lam[i] * res.h), float(limit),
-                          float(cc.lib.hc_lambda_h_max())) for i, node in enumerate(c.state_nodes)]
+            couple[:, i] = np.maximum(couple[:, i], np.abs(dy_hi[:nn] - dy_lo[:nn]) / (2 * d))
+    slowed = float(cc.lib.hc_lambda_h_max())
+    stiff = lam * res.h > slowed
+    return [NodeStiffness(node, c.node_volume(node), float(lam[i]), float(lam[i] * res.h), float(limit), slowed,
+                          tuple(c.state_nodes[j] for j in range(nn) if j != i and stiff[i] and stiff[j]
+                                and couple[i, j] * res.h > 0.5))
+            for i, node in enumerate(c.state_nodes)]

@@ -89,7 +89,27 @@ HH_INLINE double hc_lc_held_z(int mode, double f, double z, double sigma0, doubl
     return mode == HC_LC_STICK ? hh_min(hh_max(f, -fs_n), fs_p) / sigma0 : z;
 }
 
+/* At rest (the core's rest, loop.c): a piston at or beyond an end with the net force f pushing it there rests
+ * on that stop (x, v clamped); a free one stays in its mode */
+HH_INLINE int hc_lc_rest_mode(int mode, double *x, double *v, double f, double stroke)
+{
+    if (mode == HC_LC_AT_RETRACT || mode == HC_LC_AT_EXTEND)
+        return mode;
+    if (*x <= 0.0 && f <= 0.0) {
+        *x = 0.0;
+        *v = 0.0;
+        return HC_LC_AT_RETRACT;
+    }
+    if (*x >= stroke && f >= 0.0) {
+        *x = stroke;
+        *v = 0.0;
+        return HC_LC_AT_EXTEND;
+    }
+    return mode;
+}
+
 /* ---- its events as data
+
  (SPEC §6, the guards of hybrid.c's statechart): guard g's value is >= 0 while the mode
  * it belongs to holds (+inf in the other modes), so that a generated step locates the earliest crossing inside
  * the step (the circuit's first_crossing) and applies the guard's reset there. A rotary motion (lugre_motor)

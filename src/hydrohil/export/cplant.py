@@ -260,7 +260,7 @@ def circuit_plant_h(cs) -> str:
              "edit; export again. */", "#ifndef CIRCUIT_PLANT_H", "#define CIRCUIT_PLANT_H", "#include <stdint.h>", "",
              f"#define CIRCUIT_NAME {q(c.name)}", f"#define CIRCUIT_METHOD {METHODS.index(cs.method)}",
              f"#define CIRCUIT_STEP {_c(cs.step)}", f"#define CIRCUIT_LAYOUT {layout}U",
-             f"enum {{ CIRCUIT_NP = {len(lay.params)}, CIRCUIT_NY = {max(len(lay.states), 1)}, "
+             f"enum {{ CIRCUIT_NP = {len(lay.params)}, CIRCUIT_NY = {len(y0)}, "
              f"CIRCUIT_NM = {max(len(lay.modes), 1)}, CIRCUIT_NU = {max(len(inputs), 1)}, "
              f"CIRCUIT_NLOG = {len(lay.log_columns)}, CIRCUIT_NSIGNALS = {len(signals)}, "
              f"CIRCUIT_NINPUTS = {len(inputs)}, CIRCUIT_NSTATES = {len(lay.states)}, CIRCUIT_NMODES = {len(lay.modes)}, "
@@ -273,7 +273,7 @@ def circuit_plant_h(cs) -> str:
              f"#define CIRCUIT_LOG_T {lay.log_columns.index('t')}   /* the log row's time: first, the signals after it */",
              ""]
     lines += arr("double", "CIRCUIT_P", list(lay.values()))
-    lines += arr("double", "CIRCUIT_Y0", list(y0[:max(len(lay.states), 1)]))
+    lines += arr("double", "CIRCUIT_Y0", list(y0))       # (the states, then the delay lines' memory)
     lines += arr("int64_t", "CIRCUIT_M0", list(m0[:max(len(lay.modes), 1)]), lambda v: str(int(v)))
     lines += arr("double", "CIRCUIT_U0", list(u0[:max(len(inputs), 1)]))
     lines += arr("double", "CIRCUIT_DRIVE0", list(drives[0][:max(len(inputs), 1)]))

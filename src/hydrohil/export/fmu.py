@@ -316,7 +316,7 @@ def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
              f'#define PLANT_TOKEN "{token}"', f"#define CIRCUIT_NAME {q(c.name)}",
              f"#define CIRCUIT_METHOD {METHOD_RK3}   /* HH_RK3 */", f"#define CIRCUIT_STEP {_fmt(step)}",
              f"#define CIRCUIT_NP {len(lay.params)}", f"#define CIRCUIT_NU {max(len(lay.inputs), 1)}",
-             f"#define CIRCUIT_NY {max(len(lay.states), 1)}", f"#define CIRCUIT_NM {max(len(lay.modes), 1)}",
+             f"#define CIRCUIT_NY {len(y0)}", f"#define CIRCUIT_NM {max(len(lay.modes), 1)}",
              f"#define CIRCUIT_NLOG {len(lay.log_columns)}", f"#define CIRCUIT_NINPUTS {len(lay.inputs)}",
              f"#define CIRCUIT_NOUTPUTS {len(outputs)}", f"#define CIRCUIT_NMODES {len(lay.modes)}",
              f"#define VR_INPUT0 {VR_INPUT0}", f"#define VR_OUTPUT0 {VR_OUTPUT0}", f"#define VR_MODE0 {VR_MODE0}", ""]
