@@ -241,6 +241,9 @@ def test_circuit_show_and_run_as_a_user_types_them(tmp_path):
     # scenario, the loop holds it from the start
     r = hh("circuit", "show", "ferreira2004")
     assert r.returncode == 0 and "is not held at rest" in r.stderr
+    assert ("events located inside the step (guards): cyl.retract, cyl.extend, cyl.breakaway_pos, "
+            "cyl.breakaway_neg, cyl.reverse, cyl.leave") in r.stdout
+    assert "inputs seen late (delay lines): valve.command" in r.stdout
     r = hh("circuit", "show", "--scenario", CIRCUITS_DIR / "ferreira2004" / "scenario.toml")
     assert r.returncode == 0 and "is not held" not in r.stderr and "over a run of the scenario" in r.stdout
     out = tmp_path / "run"

@@ -91,7 +91,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     ny, nm, nu = len(lay.states), len(lay.modes), len(lay.inputs)
     rhs = _rhs_lines(c, lay, emits, reference=False)
     ref_rhs = _rhs_lines(c, lay, emits, reference=True)
-    stiff = _stiff_lines(c, lay, emits)
+    start_rhs = _rhs_lines(c, lay, emits, reference=False, start=True)
     updates = [f"    {_mode_update(comp, e, lay)}   /* {comp.name} */" for comp, e in emits
                if (e.mode_update or e.mode_of_state) and not e.guards]
     guarded = [f"    {_mode_update(comp, e, lay)}   /* {comp.name} */" for comp, e in emits
@@ -162,14 +162,18 @@ static void rhs(const double *y, const int64_t *m, const double *u, const double
 {chr(10).join(rhs)}
 }}
 
-/* The stiff-node constants sc of a step of h from y (hc_node.h: each node's conductance and capacitance at the
- * step's start) */
-static void stiff_constants(const double *y, const int64_t *m, const double *u, const double *P, double h, double *sc)
+/* rhs at a step's start y, the step's stiff-node constants sc (hc_node.h: each node's conductance and
+ * capacitance here, for a step of h) computed on the way, from the same flows */
+static void rhs_start(const double *y, const int64_t *m, const double *u, const double *P, double h, double *sc,
+                      double *dy)
 {{
+    int i;
     (void)m; (void)u; (void)P; (void)y; (void)h;
+    for (i = 0; i < NY; i++)
+        dy[i] = 0.0;
     sc[NSC - 2] = 1.0;
     sc[NSC - 1] = 0.0;
-{chr(10).join(stiff)}
+{chr(10).join(start_rhs)}
 }}
 
 /* The continuous reference (SPEC §6, §12.4): the same laws, the modes that are functions of the state evaluated
@@ -394,9 +398,10 @@ void hc_reference_row(const double *P, const double *y, const double *u, double 
 }}
 
 /* The stage derivatives k of an explicit step of h from y with tableau tab; held (NULL: none): the node
- * pressures kept where they are, the components' states too (the rest march of hc_rest). */
+ * pressures kept where they are, the components' states too (the rest march of hc_rest); sc_start (NULL:
+ * none): the first stage computes the step's stiff-node constants there (sc the same array). */
 HH_INLINE void stages(const hh_tableau *tab, double h, const double *y, int64_t *m, const double *u, const double *P,
-                      const double *sc, const int64_t *held, double k[][NY])
+                      const double *sc, double *sc_start, const int64_t *held, double k[][NY])
 {{
     double ytmp[NY];
     int s, j, i;
@@ -407,7 +412,10 @@ HH_INLINE void stages(const hh_tableau *tab, double h, const double *y, int64_t 
                 acc += h * tab->a[s][j] * k[j][i];
             ytmp[i] = acc;
         }}
-        rhs(ytmp, m, u, P, sc, k[s]);
+        if (s == 0 && sc_start)
+            rhs_start(ytmp, m, u, P, h, sc_start, k[s]);
+        else
+            rhs(ytmp, m, u, P, sc, k[s]);
         if (held)
             for (i = 0; i < NY; i++)
                 if (i >= NNODES || held[i])
@@ -428,7 +436,7 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
     int s, i;
     for (step = 0; step < max_steps; step++) {{
         double moved = 0.0;
-        stages(tab, h, y, m, u, P, NOT_STIFF, held, k);
+        stages(tab, h, y, m, u, P, NOT_STIFF, 0, held, k);
         for (i = 0; i < NNODES; i++) {{
             double acc = y[i], d;
             for (s = 0; s < tab->stages; s++)
@@ -467,11 +475,11 @@ double hc_sensed(double x, const double *sensor, void *rng)
 /* One explicit (sub)step of h from y (modes m) into y1 (node pressures floored, then projected: the modes that
  * follow the state into m1, m kept for a substep not taken). Returns 1 when the state went non-finite. */
 HH_INLINE int substep(const hh_tableau *tab, double h, const double *y, int64_t *m, const double *u, const double *P,
-                      const double *sc, double *y1, int64_t *m1)
+                      double *sc, int first, double *y1, int64_t *m1)
 {{
     double k[HH_MAX_STAGES][NY];
     int s, i;
-    stages(tab, h, y, m, u, P, sc, 0, k);
+    stages(tab, h, y, m, u, P, sc, first ? sc : 0, 0, k);
     for (i = 0; i < NY; i++) {{
         double acc = y[i];
         for (s = 0; s < tab->stages; s++)
@@ -506,9 +514,8 @@ HH_INLINE int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, c
     int64_t m1[NM];
     int pending = -1, n_events = 0, it, g;
 {chr(10).join(step_inputs)}
-    stiff_constants(y, m, u, P, h, sc);
     for (it = 0; it < 2 * HH_MAX_EVENTS + 1; it++) {{
-        if (substep(tab, hs, y, m, u, P, sc, y1, m1))
+        if (substep(tab, hs, y, m, u, P, sc, it == 0, y1, m1))   /* (the first computes sc, at y and h) */
             return 1;
         if (pending >= 0) {{                 /* at a located event: its transition, on in the new mode */
             take(y, m, y1, m1);
@@ -605,11 +612,12 @@ void hc_row(const double *P, const double *y, const int64_t *m, const double *u,
     return text, lay
 
 
-def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool) -> list[str]:
+def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool, start: bool = False) -> list[str]:
     """The body of a right-hand side: the components' locals and flows, the components' states' derivatives (the
     reference's where it has its own), then each state node's sum, volume and capacitance, in netlist order.
     The hybrid model's node rate is the stiff-node form of hc_node.h with the step's constants sc (c = 1: the
-    plain rate, bit for bit): its flows' rates with the pressures held use the derivatives above."""
+    plain rate, bit for bit): its flows' rates with the pressures held use the derivatives above; ``start``:
+    the constants sc computed first, from the same flows' conductances (rhs_start)."""
     rhs, nodes = [], _node_terms(c, lay, emits)
     for comp, e in emits:
         rhs += _flow_lines(comp, e)
@@ -618,6 +626,9 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool) -> list[str]:
         for state, expr in derivatives.items():
             j = lay.states.index(f"{comp.name}.{state}")
             rhs.append(f"    dy[{j}] = {expr};   /* {comp.name}.{state} */")
+    for i, node in enumerate(c.state_nodes if start else ()):
+        _, volume, beta, extra, g, _, g_n = nodes[node]
+        rhs.append(f"    hc_stiff_node({g}, {g_n}, {volume}, {beta}, {extra}, h, sc + {2 * i});   /* {node} */")
     for i, node in enumerate(c.state_nodes):
         q, volume, beta, extra, _, rate, _ = nodes[node]
         if reference:
@@ -628,19 +639,6 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool) -> list[str]:
             rhs.append(f"    if (sc[{2 * i + 1}] != 0.0)   /* stiff: Pq moves with the flows */")
             rhs.append(f"        dy[{i}] += sc[{2 * i + 1}] * ({rate});")
     return rhs
-
-
-def _stiff_lines(c: Circuit, lay: Layout, emits) -> list[str]:
-    """The body of stiff_constants: each state node's conductance and capacitance at the step's start, its
-    (c, (1 - c)/g) of hc_node.h."""
-    lines, nodes = [], _node_terms(c, lay, emits)
-    for comp, e in emits:                          # (the conductances need no flow, the locals perhaps)
-        lines += [f"    const double v_{_ident(comp.name)}_{name} = {expr};" for name, expr in e.pre]
-        lines += [f"    (void)v_{_ident(comp.name)}_{name};" for name, _ in e.pre]
-    for i, node in enumerate(c.state_nodes):
-        _, volume, beta, extra, g, _, g_n = nodes[node]
-        lines.append(f"    hc_stiff_node({g}, {g_n}, {volume}, {beta}, {extra}, h, sc + {2 * i});   /* {node} */")
-    return lines
 
 
 def _flow_lines(comp, e) -> list[str]:

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from hydrohil.circuits.circuit import Circuit
-from hydrohil.circuits.generate import Layout
+from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.run import CircuitResult, input_unit, node_stiffness, simulate_circuit
 
 
@@ -31,7 +31,7 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
     else:
         res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20)
     stiff = {s.node: s for s in node_stiffness(c, res)}
-    lay = Layout(c)
+    lay = compile_circuit(c).layout
     comps = []
     for comp in c.components.values():
         prm = [{"key": k, "value": _num(comp.values[k]), "unit": p.unit, "description": p.description,
@@ -58,6 +58,7 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
             "fluid": [{"key": k, "value": v} for k, v in c.fluid.items()], "components": comps, "nodes": nodes,
             "states": [{"name": s, "unit": u} for s, u in zip(lay.states, lay.state_units)],
             "modes": [{"name": m, "values": list(lay.mode_names[m])} for m in lay.modes],
+            "guards": list(lay.guards), "delayed_inputs": list(lay.delayed),
             "inputs": [{"name": n, "unit": input_unit(c, n), "drive": _drive_text(d)} for n, d in c.inputs.items()],
             "signals": signals, "link": _link(c)}
 
@@ -104,6 +105,8 @@ def text(d: dict) -> str:
                        f"{n['initial_pa'] / 1e5:g} bar; stiffness {n['stiffness_per_s']:.4g} 1/s: {n['treatment']}")
     out += ["", "states: " + ", ".join(f"{s['name']} [{s['unit']}]" for s in d["states"]),
             "modes: " + (", ".join(f"{m['name']} ({'|'.join(m['values'])})" for m in d["modes"]) or "none"),
+            "events located inside the step (guards): " + (", ".join(d["guards"]) or "none"),
+            "inputs seen late (delay lines): " + (", ".join(d["delayed_inputs"]) or "none"),
             "inputs: " + (", ".join(f"{i['name']} [{i['unit']}] = {i['drive']}" for i in d["inputs"]) or "none"),
             "signals: " + ", ".join(f"{s['name']} [{s['unit']}]" for s in d["signals"]),
             f"HIL link (docs/protocol.md): layout {d['link']['layout']}, SIGNALS carry "
