@@ -77,6 +77,9 @@ def test_circuit_linear_as_a_user_types_it(tmp_path):
     assert "oscillation" in run("two_cylinders").stdout
     assert load_circuit("two_cylinders").initial          # (its [initial] holds the supply off its rest: said)
     assert "not an equilibrium: supply.p" in run("two_cylinders").stdout
+    from conftest import EXAMPLES                          # the loop's poles leave the valve's delay out: said
+    r = run("--scenario", EXAMPLES / "circuits" / "ferreira2004" / "scenario.toml", "--json")
+    assert json.loads(r.stdout)["closed_loop"]["left_out"] == ["valve.command's input delay, 0.7625 ms"]
 
 
 def test_a_loops_closed_poles_predict_its_step_response(tmp_path):

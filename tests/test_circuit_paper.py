@@ -256,3 +256,21 @@ def test_the_ferreira2004_example_scenario_is_the_cores_fig_11():
     assert rms("xp", "cyl.x") < 4e-15 and rms("p1", "cap.p") < 6e-6 and rms("p2", "rod.p") < 6e-6
     travel, friction = core.column("travel_mode"), core.column("friction_mode")
     assert np.array_equal(np.where(travel == 0, friction, travel + 2), r.column("cyl.mode"))
+
+
+def test_a_state_steps_only_at_the_step_its_delay_lines_were_made_for():
+    """hc_init sizes a delayed input's line for the run's step (hc_state_size); hc_step at another step would
+    delay by the wrong time or write past the state: it returns 2 and leaves the state as it was."""
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.run import start_state
+    c = load_circuit("ferreira2004")
+    cc = compile_circuit(c)
+    y, m, u = start_state(c, h=5e-4, rest=False)
+    P = np.ascontiguousarray(cc.layout.values())
+    size = cc.lib.hc_state_size(cc.ffi.from_buffer("double[]", P), 5e-4)
+    assert len(y) == size == len(cc.layout.states) + 1 + 3 + 1 + 2      # a line of n = 1 (0.76 ms at 0.5 ms)
+    before = y.copy()
+    args = (cc.ffi.from_buffer("double[]", P), cc.ffi.from_buffer("double[]", y), cc.ffi.from_buffer("int64_t[]", m),
+            cc.ffi.from_buffer("double[]", u), 2)
+    assert cc.lib.hc_step(*args, 1e-4) == 2 and np.array_equal(y, before, equal_nan=True)
+    assert cc.lib.hc_step(*args, 5e-4) == 0 and not np.array_equal(y, before)

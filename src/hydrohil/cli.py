@@ -487,7 +487,8 @@ def circuit_linear_cmd(circuit: Optional[str] = typer.Argument(None, help="built
     _echo_modes(lin.modes(), lin.eigenvalues)
     cl = lin.closed
     if cl is not None and "modes" in cl:
-        typer.echo(f"closed loop ({cl['law']} on {cl['measure']} -> {cl['command']}, the law taken continuous):")
+        left = "".join(f"; without {x}" for x in cl.get("left_out", []))
+        typer.echo(f"closed loop ({cl['law']} on {cl['measure']} -> {cl['command']}, the law taken continuous{left}):")
         _echo_modes(cl["modes"], np.array([complex(*e) for e in cl["eigenvalues"]]))
     elif cl is not None:
         typer.echo(f"closed loop: {cl['note']}")

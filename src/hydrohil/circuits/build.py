@@ -19,11 +19,13 @@ from hydrohil.errors import HydrohilError
 
 CORE = Path(__file__).resolve().parent.parent / "core"
 CDEF = """
-void hc_init(const double *P, const double *u, double *y, int64_t *m);
+void hc_init(const double *P, const double *u, double h, double *y, int64_t *m);
 void hc_hold(const double *P, const double *u, double *y, int64_t *m);
 double hc_lambda_h_max(void);
+double hc_lambda_h_row(void);
+void hc_stiff_constants(const double *P, const double *y, const int64_t *m, const double *u, double h, double *sc);
 int64_t hc_state_size(const double *P, double h);
-void hc_delayed_inputs(const double *P, double h, double *y, const double *u, double *ud);
+int hc_delayed_inputs(const double *P, double h, double *y, const double *u, double *ud);
 void hc_rhs(const double *P, const double *y, const int64_t *m, const double *u, double *dy);
 int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const int64_t *held, int method, double h,
                 int64_t max_steps, double rel_tol);

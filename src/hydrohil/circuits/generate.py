@@ -92,6 +92,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     rhs = _rhs_lines(c, lay, emits, reference=False)
     ref_rhs = _rhs_lines(c, lay, emits, reference=True)
     start_rhs = _rhs_lines(c, lay, emits, reference=False, start=True)
+    lay.coupled = sorted({(c.state_nodes[i], c.state_nodes[j]) for i, j, _, _ in _coupled_pairs(c, emits)})
     updates = [f"    {_mode_update(comp, e, lay)}   /* {comp.name} */" for comp, e in emits
                if (e.mode_update or e.mode_of_state) and not e.guards]
     guarded = [f"    {_mode_update(comp, e, lay)}   /* {comp.name} */" for comp, e in emits
@@ -102,9 +103,11 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     resets = [f"    case {g}: {reset} break;   /* {name} */" for g, (name, _, reset) in enumerate(guards)]
     ref_modes = [f"    m[{lay.modes.index(comp.name + '.mode')}] = {e.mode_of_state};   /* {comp.name} */"
                  for comp, e in emits if e.mode_of_state]
-    delays = [(lay.inputs.index(f"{comp.name}.{key}"), expr, comp, key) for comp, e in emits
-              for key, expr in e.delays if f"{comp.name}.{key}" in lay.inputs]   # (a constant needs no delay)
-    lay.delayed = [f"{comp.name}.{key}" for _, _, comp, key in delays]
+    delays = [(lay.inputs.index(f"{comp.name}.{key}"), _View(lay, comp).par(par), comp, key, par)
+              for comp, e in emits for key, par in e.delays
+              if f"{comp.name}.{key}" in lay.inputs]                   # (a constant needs no delay)
+    lay.delayed = [f"{comp.name}.{key}" for _, _, comp, key, _ in delays]
+    lay.delay_params = {f"{comp.name}.{key}": f"{comp.name}.{par}" for _, _, comp, key, par in delays}
     outs = []
     for comp, e in emits:
         for st, unit in comp.type.states:          # every state of a component is logged
@@ -112,13 +115,11 @@ def generate(c: Circuit) -> tuple[str, Layout]:
         for name, (expr, unit) in e.outputs.items():
             lay.outputs.append((f"{comp.name}.{name}", unit))
             outs.append(f"    o[{len(outs)}] = {expr};")
-    delay_cases = [f"    case {d}: return {expr};   /* {comp.name}.{key} */" for d, (_, expr, comp, key) in
+    delay_cases = [f"    case {d}: return {expr};   /* {comp.name}.{key} */" for d, (_, expr, comp, key, _) in
                    enumerate(delays)]
-    delay_init = [f"    y[NY + {d}] = y[NY + {len(delays) + d}] = u[{j}];   /* {comp.name}.{key} */"
-                  for d, (j, _, comp, key) in enumerate(delays)]
     if delays:
-        delay_init.append(f"    y[NY + {2 * len(delays)}] = NAN;   /* its lines not yet sized */")
-        step_inputs = ["    double u[NU];", "    delayed_inputs(P, h, y, u_in, u);"]
+        step_inputs = ["    double u[NU];", "    if (delayed_inputs(P, h, y, u_in, u))   /* (h not the lines' step) */",
+                       "        return 2;"]
     else:
         step_inputs = ["    const double *u = u_in;"]
 
@@ -149,9 +150,9 @@ enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nou
 /* log columns: t, the nodes' pressures, the components' outputs, the modes */
 enum {{ LOG_T, LOG_NODES, LOG_OUTPUTS = LOG_NODES + {len(c.nodes)}, LOG_MODES = LOG_OUTPUTS + {nout} }};
 
-/* sc: per state node (c, (1 - c)/g) of hc_node.h's stiff-node form, NOT_STIFF: (1, 0) everywhere */
-enum {{ NSC = 2 * NNODES + 2 }};
-static const double NOT_STIFF[NSC] = {{ {", ".join(["1.0, 0.0"] * (len(c.state_nodes) + 1))} }};
+/* sc: per state node (c, (1 - c)/g, its Gershgorin reach) of hc_node.h's stiff-node form, NOT_STIFF: c = 1 */
+enum {{ NSC = 3 * NNODES + 3 }};
+static const double NOT_STIFF[NSC] = {{ {", ".join(["1.0, 0.0, 0.0"] * (len(c.state_nodes) + 1))} }};
 
 static void rhs(const double *y, const int64_t *m, const double *u, const double *P, const double *sc, double *dy)
 {{
@@ -171,7 +172,8 @@ static void rhs_start(const double *y, const int64_t *m, const double *u, const 
     (void)m; (void)u; (void)P; (void)y; (void)h;
     for (i = 0; i < NY; i++)
         dy[i] = 0.0;
-    sc[NSC - 2] = 1.0;
+    sc[NSC - 3] = 1.0;
+    sc[NSC - 2] = 0.0;
     sc[NSC - 1] = 0.0;
 {chr(10).join(start_rhs)}
 }}
@@ -264,10 +266,22 @@ static void outputs(const double *y, const int64_t *m, const double *u, const do
 {chr(10).join(outs)}
 }}
 
-/* the stiff-node form's lambda*h (hc_node.h) */
+/* the stiff-node constants sc (NSC) of a step of h from (y, m) under u (hc_node.h; circuit show's report) */
+void hc_stiff_constants(const double *P, const double *y, const int64_t *m, const double *u, double h, double *sc)
+{{
+    double dy[NY];
+    rhs_start(y, m, u, P, h, sc, dy);
+}}
+
+/* the stiff-node form's lambda*h and its coupled modes' bound (hc_node.h) */
 double hc_lambda_h_max(void)
 {{
     return HC_LAMBDA_H_MAX;
+}}
+
+double hc_lambda_h_row(void)
+{{
+    return HC_LAMBDA_H_ROW;
 }}
 
 /* dy/dt at (y, m) under inputs u without the stiff-node form (the stiffness estimate of hydrohil.circuits.run,
@@ -277,22 +291,11 @@ void hc_rhs(const double *P, const double *y, const int64_t *m, const double *u,
     rhs(y, m, u, P, NOT_STIFF, dy);
 }}
 
-void hc_init(const double *P, const double *u, double *y, int64_t *m)
-{{
-    int i;
-    (void)u;
-    for (i = 0; i < NM; i++)
-        m[i] = 0;
-{chr(10).join(init)}
-{chr(10).join(delay_init)}
-    update_modes(y, m, u, P);
-}}
-
 /* ---- delayed inputs (library: Emit.delays; the paper's valve's input delay, SPEC §3.1): the core's delay
  * line (delay.c: the spool input over a step is the step average of the two held commands it straddles),
- * its memory in y after the NY states: [ND initial inputs][ND delayed inputs of the last step][sized flag]
- * then per line [n, alpha, pos, n + 2 held commands], sized at the first step for its h (hc_state_size) */
-enum {{ ND = {len(delays)}, MEM = NY + (ND > 0 ? 2 * ND + 1 : 0) }};
+ * its memory in y after the NY states: [the step h it is sized for] then per line [n, alpha, pos, n + 2 held
+ * commands] (hc_state_size), set by hc_init */
+enum {{ ND = {len(delays)}, MEM = NY + (ND > 0 ? 1 : 0) }};
 static const int DELAYED[{max(len(delays), 1)}] = {{ {", ".join(str(j) for j, *_ in delays) or "0"} }};
 
 static double delay_time(int d, const double *P)
@@ -304,7 +307,7 @@ static double delay_time(int d, const double *P)
     }}
 }}
 
-/* the doubles a state needs at step h: the NY states and the delay lines' memory */
+/* the doubles a state needs for steps of h: the NY states and the delay lines' memory */
 int64_t hc_state_size(const double *P, double h)
 {{
     int64_t size = MEM;
@@ -315,25 +318,18 @@ int64_t hc_state_size(const double *P, double h)
     return size;
 }}
 
-/* The inputs u of a step of h as the components see them (ud): each delayed one through its line, pushed */
-static void delayed_inputs(const double *P, double h, double *y, const double *u, double *ud)
+/* The inputs u of a step of h as the components see them (ud): each delayed one through its line, pushed.
+ * Returns 2 (nothing pushed) when h is not the step the lines were sized for. */
+static int delayed_inputs(const double *P, double h, double *y, const double *u, double *ud)
 {{
     double *line = y + MEM, u_new, u_old;
     hh_delay dl;
     int i, d;
+    (void)P;
+    if (ND > 0 && h != y[NY])
+        return 2;
     for (i = 0; i < NU; i++)
         ud[i] = u[i];
-    if (ND > 0 && isnan(y[NY + 2 * ND])) {{          /* the first step: each line sized for h, its input held */
-        for (d = 0; d < ND; d++) {{
-            int n = hh_delay_steps(delay_time(d, P), h, &line[1]);
-            line[0] = (double)n;
-            hh_delay_init(&dl, line + 3, n, line[1], y[NY + d]);
-            line[2] = (double)dl.pos;
-            line += n + 5;
-        }}
-        y[NY + 2 * ND] = 1.0;
-        line = y + MEM;
-    }}
     for (d = 0; d < ND; d++) {{
         dl.buf = line + 3;
         dl.n = (int)line[0];
@@ -342,15 +338,38 @@ static void delayed_inputs(const double *P, double h, double *y, const double *u
         dl.pos = (int)line[2];
         ud[DELAYED[d]] = delay_push(&dl, u[DELAYED[d]], &u_new, &u_old);
         line[2] = (double)dl.pos;
-        y[NY + ND + d] = ud[DELAYED[d]];
         line += dl.n + 5;
     }}
+    return 0;
 }}
 
 /* the per-step interface of delayed_inputs (a reference run's delayed inputs) */
-void hc_delayed_inputs(const double *P, double h, double *y, const double *u, double *ud)
+int hc_delayed_inputs(const double *P, double h, double *y, const double *u, double *ud)
 {{
-    delayed_inputs(P, h, y, u, ud);
+    return delayed_inputs(P, h, y, u, ud);
+}}
+
+/* The initial state under the inputs u for steps of h (y: hc_state_size(P, h) doubles): the nodes' initial
+ * guesses, the components' initial states and modes, each delay line full of its input's value now */
+void hc_init(const double *P, const double *u, double h, double *y, int64_t *m)
+{{
+    double *line = y + MEM;
+    hh_delay dl;
+    int i, d;
+    (void)u; (void)h; (void)line; (void)dl; (void)d;
+    for (i = 0; i < NM; i++)
+        m[i] = 0;
+{chr(10).join(init)}
+    if (ND > 0)
+        y[NY] = h;
+    for (d = 0; d < ND; d++) {{
+        int n = hh_delay_steps(delay_time(d, P), h, &line[1]);
+        line[0] = (double)n;
+        hh_delay_init(&dl, line + 3, n, line[1], u[DELAYED[d]]);
+        line[2] = (double)dl.pos;
+        line += n + 5;
+    }}
+    update_modes(y, m, u, P);
 }}
 
 /* The components' modes and states once the nodes settled at rest (SPEC §12.5; library: Emit.mode_at_rest,
@@ -507,7 +526,8 @@ HH_INLINE void take(double *y, int64_t *m, const double *y1, const int64_t *m1)
 /* One step of h with tableau tab under the inputs u, the hybrid step of SPEC §6 (hybrid.c's rule for any
  * circuit): a (sub)step; when a guard crosses inside it, the substep again to the crossing's instant, the
  * transition there, and on in the new modes; at most HH_MAX_EVENTS events a step (then the last crossing's
- * transition at the step's end). Returns 0, or 1 when the state went non-finite. */
+ * transition at the step's end). Returns 0, 1 when the state went non-finite, 2 when h is not the step its
+ * delay lines were sized for (hc_init). */
 HH_INLINE int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, const double *u_in, const double *P)
 {{
     double y1[NY], sc[NSC], theta, t_left = h, hs = h;
@@ -567,7 +587,7 @@ static int method_step(int method, double h, double *y, int64_t *m, const double
  * of step k-1; through the sensor, hc_sensed) and sets input `cmd` of step k (written into u) for the reference
  * ref[k] (slope dref[k]); rng: its sensor's noise generator (hc_sensed); `sign` -1: a reverse-acting loop (the law on -ref, -dref and the signal's negative, so
  * that a larger command lowers the signal; 1: direct, exact). Returns 0, or 1 when the state went
- * non-finite (rows so far written, *rows set). */
+ * non-finite, 2 when h is not the step the state was made for (hc_init) (rows so far written, *rows set). */
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, const double *sensor, void *rng, double sign)
@@ -588,9 +608,10 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);
         if (step == n)
             break;
-        if (method_step(method, h, y, m, uk, P)) {{
+        int status = method_step(method, h, y, m, uk, P);
+        if (status) {{
             *rows = row;
-            return 1;
+            return status;
         }}
     }}
     *rows = row;
@@ -598,7 +619,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
 }}
 
 /* The per-step interface (the FMU, a plant): one step of h with the core's tableau `method` under the inputs
- * u; a log row of the state at time t. */
+ * u (h: the step the state was made for, hc_init; 2 otherwise, nothing done); a log row of the state at t. */
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h)
 {{
     return method_step(method, h, y, m, u, P);
@@ -626,18 +647,24 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool, start: bool =
         for state, expr in derivatives.items():
             j = lay.states.index(f"{comp.name}.{state}")
             rhs.append(f"    dy[{j}] = {expr};   /* {comp.name}.{state} */")
-    for i, node in enumerate(c.state_nodes if start else ()):
-        _, volume, beta, extra, g, _, g_n = nodes[node]
-        rhs.append(f"    hc_stiff_node({g}, {g_n}, {volume}, {beta}, {extra}, h, sc + {2 * i});   /* {node} */")
+    if start:
+        for i, node in enumerate(c.state_nodes):
+            _, volume, beta, extra, g, _ = nodes[node]
+            rhs.append(f"    hc_stiff_first({g}, {volume}, {beta}, {extra}, h, sc + {3 * i});   /* {node} */")
+        for i, j, slope, name in _coupled_pairs(c, emits):
+            rhs.append(f"    hc_stiff_pair({slope}, h, sc + {3 * i}, sc + {3 * j});   /* {name} */")
+        for i, node in enumerate(c.state_nodes):
+            _, _, _, _, g, _ = nodes[node]
+            rhs.append(f"    hc_stiff_last({g}, sc + {3 * i});   /* {node} */")
     for i, node in enumerate(c.state_nodes):
-        q, volume, beta, extra, _, rate, _ = nodes[node]
+        q, volume, beta, extra, _, rate = nodes[node]
         if reference:
             rhs.append(f"    dy[{i}] = hc_node_rate({q}, {volume}, {beta}, {extra});   /* {node} */")
             continue
-        rhs.append(f"    dy[{i}] = sc[{2 * i}] * hc_node_rate({q}, {volume}, {beta}, {extra});   /* {node} */")
+        rhs.append(f"    dy[{i}] = sc[{3 * i}] * hc_node_rate({q}, {volume}, {beta}, {extra});   /* {node} */")
         if rate != "0.0":
-            rhs.append(f"    if (sc[{2 * i + 1}] != 0.0)   /* stiff: Pq moves with the flows */")
-            rhs.append(f"        dy[{i}] += sc[{2 * i + 1}] * ({rate});")
+            rhs.append(f"    if (sc[{3 * i + 1}] != 0.0)   /* stiff: Pq moves with the flows */")
+            rhs.append(f"        dy[{i}] += sc[{3 * i + 1}] * ({rate});")
     return rhs
 
 
@@ -651,11 +678,23 @@ def _flow_lines(comp, e) -> list[str]:
     return lines
 
 
+def _coupled_pairs(c: Circuit, emits) -> list[tuple[int, int, str, str]]:
+    """(node i, node j, conductance, name) of each flow between two pressure nodes (hc_node.h's coupling)."""
+    out = []
+    for comp, e in emits:
+        for a, b, _, *more in e.flows:
+            slope = (list(more) + [None])[0]
+            ends = [comp.ports[p] for p in (a, b) if p is not None]
+            if slope is not None and len(ends) == 2 and ends[0] != ends[1] and all(n in c.state_nodes for n in ends):
+                out.append((c.state_nodes.index(ends[0]), c.state_nodes.index(ends[1]), slope,
+                            f"{comp.name}: {ends[0]} - {ends[1]}"))
+    return out
+
+
 def _node_terms(c: Circuit, lay: Layout, emits) -> dict:
     """Per state node: (its flows' sum in, its volume, its oil's bulk modulus, its extra capacitance, its
-    conductance, its flows' rate in with the pressures held, the conductance of its flows to other pressure
-    nodes), C expressions."""
-    qin, g, rate, g_n = ({n: [] for n in c.state_nodes} for _ in range(4))
+    conductance, its flows' rate in with the pressures held), C expressions."""
+    qin, g, rate = ({n: [] for n in c.state_nodes} for _ in range(3))
     cap, vol = {n: [] for n in c.state_nodes}, {n: [] for n in c.state_nodes}
     beta = {n: f"P[{lay.slot['fluid.bulk_modulus']}]" for n in c.state_nodes}
     for comp, e in emits:
@@ -666,10 +705,6 @@ def _node_terms(c: Circuit, lay: Layout, emits) -> dict:
         for j, (a, b, _, *more) in enumerate(e.flows):
             var = f"q_{_ident(comp.name)}_{j}"
             slope, drift = (list(more) + [None, None])[:2]
-            ends = [comp.ports[p] for p in (a, b) if p is not None and comp.ports[p] in qin]
-            if slope is not None and len(ends) == 2 and ends[0] != ends[1]:     # between two pressure nodes
-                for node in ends:
-                    g_n[node].append(f"+ {slope}")
             for port, sign in ((a, "-"), (b, "+")):
                 if port is not None and comp.ports[port] in qin:
                     node = comp.ports[port]
@@ -686,8 +721,7 @@ def _node_terms(c: Circuit, lay: Layout, emits) -> dict:
                 vol[comp.ports[port]].append(expr)
     return {node: (" ".join(qin[node]) or "0.0",
                    " + ".join([f"P[{lay.slot[f'node.{node}.volume']}]", *vol[node]]), beta[node],
-                   " + ".join(cap[node]) or "0.0", " ".join(g[node]) or "0.0", " ".join(rate[node]) or "0.0",
-                   " ".join(g_n[node]) or "0.0")
+                   " + ".join(cap[node]) or "0.0", " ".join(g[node]) or "0.0", " ".join(rate[node]) or "0.0")
             for node in c.state_nodes}
 
 

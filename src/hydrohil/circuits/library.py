@@ -69,7 +69,7 @@ class Emit:
     bulk_modulus: list = field(default_factory=list)     # (port, C expression of its node's bulk modulus [Pa])
     guards: list = field(default_factory=list)           # (name, C value, C transition)
     at_rest: dict = field(default_factory=dict)          # state -> C: its value once the nodes settled at rest
-    delays: list = field(default_factory=list)           # (input key, C delay [s]): the input seen that late
+    delays: list = field(default_factory=list)           # (input key, delay's parameter key): seen that late
     mode_at_rest: str | None = None
 
 
@@ -295,7 +295,7 @@ def _emit_servo_valve(c):
     qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T), "PB": edge("", k, P, B), "BT": edge("-", kt, B, T)}
     u = c.par("command")
     return Emit(flows=[edge_flow("-", k, "P", "A"), edge_flow("", kt, "A", "T"), edge_flow("", k, "P", "B"),
-                       edge_flow("-", kt, "B", "T")], delays=[("command", c.par("delay"))],
+                       edge_flow("-", kt, "B", "T")], delays=[("command", "delay")],
                 derivatives={"x": f"hc_servo_spool_speed({x}, {v})",
                              "v": f"hc_servo_spool_accel({x}, {v}, {u}, {spool})"},
                 initial={"x": f"hh_clamp({u}, -1.0, 1.0)", "v": "0.0"},

@@ -139,7 +139,8 @@ def run_state(cs, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def closed_loop(lin: CircuitLinear, loop, c: Circuit, y0, m0, u0) -> dict:
     """The scenario's loop closed around the linearised circuit, the law taken continuous (its sampling at the
-    step, its one-step measurement delay and its sensor's resolution left out): with the measured signal
+    step, its one-step measurement delay, its sensor's resolution and a delayed command's input delay left out:
+    ``left_out`` names the delay lines): with the measured signal
     y = C·x + D·u (C, D by central differences of the generated log row) and g = 1/(1 + kp·D), a P law gives
     A - g·kp·b·C; a PI law adds its integral xi' = ki·e: [[A - g·kp·b·C, g·b], [-ki·g·C, -ki·D·g]] (kp, ki
     times -1 for a reverse-acting loop). A PID law's derivative acts on the measured signal through its filter,
@@ -196,6 +197,10 @@ def closed_loop(lin: CircuitLinear, loop, c: Circuit, y0, m0, u0) -> dict:
         if cfg.type == "pi":
             A = np.block([[A, gain * b[:, None]], [-ki * gain * C[None, :], np.array([[-ki * D * gain]])]])
     ev = sorted_eigenvalues(A)
+    left_out = []
+    for sig, par in lay.delay_params.items():
+        comp, key = par.split(".")
+        left_out.append(f"{sig}'s input delay, {c.components[comp].values[key] * 1e3:g} ms")
     return {"law": cfg.type, "measure": loop.measure, "command": loop.command, "C": C.tolist(), "D": float(D),
             "A": A.tolist(), "eigenvalues": [[float(e.real), float(e.imag)] for e in ev],
-            "modes": describe_modes(ev)}
+            "modes": describe_modes(ev), "left_out": left_out}

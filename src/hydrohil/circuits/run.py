@@ -11,7 +11,7 @@ import numpy as np
 from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.circuit import Circuit
 from hydrohil.circuits.generate import PRESSURE_FLOOR
-from hydrohil.errors import InputError, SimulationDiverged
+from hydrohil.errors import HydrohilError, InputError, SimulationDiverged
 
 METHODS = ("euler", "heun", "rk3", "rk4")       # the core's tableaus, in its order (HH_EULER ..)
 SOLVERS = (*METHODS, "reference")               # "reference": the continuous model, LSODA/Radau
@@ -291,6 +291,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     log = log[:rows[0]]
     res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method,
                         wall, states=lay.states[len(c.state_nodes):])
+    if status == 2:                       # (a state sized for another step: not from simulate_circuit)
+        raise HydrohilError(f"circuit {c.name!r}: the step {h} s is not the one its state's delay lines were sized "
+                            "for (hc_init)")
     if status != 0:
         k = int(rows[0]) * every
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
@@ -326,8 +329,8 @@ def _start(c: Circuit, cc, P, u, h: float, method: str, rest: bool, loop: Loop |
         return _held_by_loop(c, cc, P, u, h, method, loop)
     y = new_state(cc, P, h)
     m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
-    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", y),
-                ffi.from_buffer("int64_t[]", m))
+    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), float(h),
+                ffi.from_buffer("double[]", y), ffi.from_buffer("int64_t[]", m))
     if rest:
         settle(c, cc, P, u, y, m, h, method)
     return y, m, u[0].copy()
@@ -350,8 +353,8 @@ def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
         uu[0, j] = u0
         y = new_state(cc, P, h)
         m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
-        lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", uu), ffi.from_buffer("double[]", y),
-                    ffi.from_buffer("int64_t[]", m))
+        lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", uu), float(h),
+                    ffi.from_buffer("double[]", y), ffi.from_buffer("int64_t[]", m))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             settle(c, cc, P, uu, y, m, h, method)
@@ -520,7 +523,7 @@ class NodeStiffness:
     lam_h: float
     limit: float            # the method's stability interval |lambda*h|
     slowed_above: float     # the stiff-node form's lambda*h (hc_node.h): a stiffer relaxation is slowed to it
-    stiff_neighbours: tuple = ()   # stiff nodes it is coupled to (its rate moving with their pressure, |J|*h > 0.5)
+    coupled_slowed: tuple = ()  # the nodes it is coupled to, where their coupled mode slowed it further (hc_node.h)
 
     @property
     def stable(self) -> bool:
@@ -528,7 +531,7 @@ class NodeStiffness:
         return self.lam_h < self.limit
 
     def treatment(self, method: str, h: float) -> str:
-        if self.lam_h <= self.slowed_above:
+        if self.lam_h <= self.slowed_above and not self.coupled_slowed:
             return f"explicit {method}: lambda*h = {self.lam_h:.3g} < {self.limit:g}"
         why = ("beyond the stability interval" if not self.stable else "inside the stability interval, "
                "though it would ring")
@@ -536,11 +539,13 @@ class NodeStiffness:
                 f"its relaxation slowed to lambda*h = {self.slowed_above:g} where stiffer (the stiff-node form, "
                 f"hc_node.h): flows, equilibria and steady motion exact, a deviation from its quasi-static "
                 f"pressure decaying at {self.slowed_above / h:.4g} 1/s instead of up to {self.lam:.4g} 1/s")
-        if self.stiff_neighbours:
-            text += (f"; but coupled to the stiff node(s) {', '.join(self.stiff_neighbours)}: their common "
-                     f"filling is slowed too (a pressure rising together too slowly): give them more volume, make "
-                     f"them one node or take a smaller step")
+        if self.coupled_slowed:
+            text += (f"; coupled to {', '.join(self.coupled_slowed)}, slowed further where their coupled mode "
+                     f"needed it (a Gershgorin bound of 1.9): their common filling is slowed too (a pressure "
+                     f"rising together too slowly): give them more volume, make them one node or take a smaller "
+                     f"step")
         return text
+
 
 
 
@@ -557,12 +562,18 @@ def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list
     u_all = input_table(c, max(n, 1), dt_row)          # the inputs at the rows' times
     limit = core.hh_real_axis_limit(METHODS.index(res.method))
     nn = len(c.state_nodes)
-    lam, couple = np.zeros(nn), np.zeros((nn, nn))    # couple[k, i]: |d(dp_k/dt)/dp_i|, k != i
+    lam, cut = np.zeros(nn), np.zeros(nn, dtype=bool)  # cut: slowed further for a coupled mode (hc_node.h)
+    sc = np.zeros(3 * nn + 3)
+    row_limit = float(cc.lib.hc_lambda_h_row())
     dy_hi, dy_lo = np.zeros(max(len(lay.states), 1)), np.zeros(max(len(lay.states), 1))
     for row in np.unique(np.linspace(0, n - 1, min(samples, n)).astype(int)):
         y = np.array([res.columns[s][row] for s in lay.states])
         m = np.array([res.columns[md][row] for md in lay.modes] or [0], dtype=np.int64)
         u = np.ascontiguousarray(u_all[min(row, len(u_all) - 1)])
+        cc.lib.hc_stiff_constants(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
+                                  ffi.from_buffer("int64_t[]", m), ffi.from_buffer("double[]", u), float(res.h),
+                                  ffi.from_buffer("double[]", sc))
+        cut |= sc[2:3 * nn:3] > row_limit                  # (each node's Gershgorin reach before the cut)
         for i in range(len(c.state_nodes)):       # the node pressures (the fast parts, SPEC §12.4)
             d = max(1e3, 1e-6 * abs(y[i]))
             for sign, out in ((1, dy_hi), (-1, dy_lo)):
@@ -572,10 +583,8 @@ def node_stiffness(c: Circuit, res: CircuitResult, *, samples: int = 50) -> list
                               ffi.from_buffer("int64_t[]", m), ffi.from_buffer("double[]", u),
                               ffi.from_buffer("double[]", out))
             lam[i] = max(lam[i], -(dy_hi[i] - dy_lo[i]) / (2 * d))
-            couple[:, i] = np.maximum(couple[:, i], np.abs(dy_hi[:nn] - dy_lo[:nn]) / (2 * d))
     slowed = float(cc.lib.hc_lambda_h_max())
-    stiff = lam * res.h > slowed
     return [NodeStiffness(node, c.node_volume(node), float(lam[i]), float(lam[i] * res.h), float(limit), slowed,
-                          tuple(c.state_nodes[j] for j in range(nn) if j != i and stiff[i] and stiff[j]
-                                and couple[i, j] * res.h > 0.5))
+                          tuple(sorted({b if a == node else a for a, b in lay.coupled if node in (a, b)}))
+                          if cut[i] else ())
             for i, node in enumerate(c.state_nodes)]

@@ -71,7 +71,7 @@ int plant_prepare(plant *pl)
     memcpy(pl->v.y, CIRCUIT_Y0, sizeof pl->v.y);
     memcpy(pl->v.m, CIRCUIT_M0, sizeof pl->v.m);
     if (pl->v.inputs_set && differ) {    /* the nodes given in [initial] keep theirs (CIRCUIT_HELD) */
-        hc_init(pl->v.P, pl->v.u, pl->v.y, pl->v.m);
+        hc_init(pl->v.P, pl->v.u, CIRCUIT_STEP, pl->v.y, pl->v.m);
         if (hc_rest(pl->v.P, pl->v.u, pl->v.y, pl->v.m, CIRCUIT_HELD, CIRCUIT_METHOD, CIRCUIT_STEP,
                     (int64_t)(REST_S / CIRCUIT_STEP), REST_TOL) < 0)
             plant_logf(pl, PLANT_WARNING, "the node pressures did not settle in %g s under the inputs set: the run "

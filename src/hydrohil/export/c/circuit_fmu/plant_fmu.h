@@ -33,7 +33,7 @@ struct plant {
 };
 
 /* the generated circuit (circuit.c) */
-void hc_init(const double *P, const double *u, double *y, int64_t *m);
+void hc_init(const double *P, const double *u, double h, double *y, int64_t *m);
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row);
 int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const int64_t *held, int method, double h,
