@@ -21,12 +21,13 @@ def reference_atol(units: list[str]) -> np.ndarray:
 
 def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h: float, n: int, every: int, *,
                             rtol: float = RTOL, progress=None, stats: dict | None = None,
-                            control=None, applied=None) -> np.ndarray:
+                            control=None, applied=None, seen: np.ndarray | None = None) -> np.ndarray:
     """The reference's log rows (NLOG columns, the hybrid run's) at steps 0, every, 2*every, .. n from ``y0``
     under the inputs ``u`` (a row per step, held over it). ``control(k, row)``: a sampled controller that sets
     u[k] from the log row of the state at step k (each step is then an interval of its own; ``applied(k)``
-    first puts the command last applied into u[k], the one that row is computed with). Raises
-    stiff.ReferenceSolverFailed."""
+    first puts the command last applied into u[k], the one that row is computed with). ``seen``: the inputs
+    as the components see them (a delayed input late, row k over step k; ``control`` keeps it up to date),
+    default u; the log rows take u. Raises stiff.ReferenceSolverFailed."""
     ffi, lib, lay = cc.ffi, cc.lib, cc.layout
     stats = {} if stats is None else stats
     stats.update(intervals=0, radau_fallbacks=0)
@@ -45,13 +46,15 @@ def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h:
     rows = np.arange(0, n + 1, every)
     log = np.zeros((len(rows), len(lay.log_columns)))
     # segments of constant input: [k0, k1) steps
+    su = u if seen is None else seen
     if control is not None:
-        return _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, applied, log, progress)
-    change = [0] + [k for k in range(1, n) if np.any(u[k] != u[k - 1])] + [n]
+        return _closed_loop(cc, Pb, f, ub, y0, u, su, h, n, every, rtol, atol, stats, control, applied, log,
+                            progress)
+    change = [0] + [k for k in range(1, n) if np.any(su[k] != su[k - 1])] + [n]
     y = np.array(y0, dtype=float)
     r = 0
     for k0, k1 in zip(change[:-1], change[1:]):
-        uk = np.ascontiguousarray(u[min(k0, len(u) - 1)])
+        uk = np.ascontiguousarray(su[min(k0, len(su) - 1)])
         ub[k0] = ffi.from_buffer("double[]", uk)
         inside = rows[(rows > k0) & (rows <= k1)]
         times = np.concatenate(([k0], inside, [k1] if not len(inside) or inside[-1] != k1 else [])) * h
@@ -60,7 +63,8 @@ def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h:
         else:
             ys = y[None, :]
         if r < len(rows) and rows[r] == k0:                   # the segment's first row (step 0)
-            lib.hc_reference_row(Pb, ffi.from_buffer("double[]", np.ascontiguousarray(y)), ub[k0], k0 * h,
+            lib.hc_reference_row(Pb, ffi.from_buffer("double[]", np.ascontiguousarray(y)),
+                                 ffi.from_buffer("double[]", np.ascontiguousarray(u[min(k0, len(u) - 1)])), k0 * h,
                                  ffi.from_buffer("double[]", log[r]))
             r += 1
         for j, k in enumerate(inside):
@@ -75,7 +79,7 @@ def solve_circuit_reference(cc, P: np.ndarray, y0: np.ndarray, u: np.ndarray, h:
     return log
 
 
-def _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, applied, log, progress):
+def _closed_loop(cc, Pb, f, ub, y0, u, su, h, n, every, rtol, atol, stats, control, applied, log, progress):
     """Step by step: the row of the state at t_k, the controller's command, the interval [t_k, t_k+1]."""
     ffi, lib = cc.ffi, cc.lib
     nlog = log.shape[1]
@@ -95,7 +99,7 @@ def _closed_loop(cc, Pb, f, ub, y0, u, h, n, every, rtol, atol, stats, control, 
             log[k // every] = row
         if k == n:
             break
-        ub[k] = ffi.from_buffer("double[]", uk)
+        ub[k] = ffi.from_buffer("double[]", np.ascontiguousarray(su[min(k, len(su) - 1)]))
         y = np.array(stiff.advance(f, y, [k * h, (k + 1) * h], k, rtol, atol, stats)[-1])
         del ub[k]
         if progress and k % 1000 == 0:

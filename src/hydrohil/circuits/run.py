@@ -483,11 +483,10 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         def applied(k):                    # the row the controller reads: under the command last applied
             if k > 0:
                 u[k, cmd] = u[k - 1, cmd]
-                u_seen[k] = u_seen[k - 1]
     t0 = time.perf_counter()
     try:
-        log = solve_circuit_reference(cc, P, y[:len(lay.states)], u_seen, h, n, every, progress=progress,
-                                      stats=stats, control=control, applied=applied if loop is not None else None)
+        log = solve_circuit_reference(cc, P, y[:len(lay.states)], u, h, n, every, progress=progress, stats=stats,
+                                      control=control, applied=applied if loop is not None else None, seen=u_seen)
     except ReferenceSolverFailed as exc:
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         state = exc.y if exc.y is not None else y
