@@ -89,10 +89,11 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     lay = Layout(c)
     emits = [(comp, comp.type.emit(_View(lay, comp))) for comp in c.components.values()]
     ny, nm, nu = len(lay.states), len(lay.modes), len(lay.inputs)
-    rhs = _rhs_lines(c, lay, emits, reference=False)
-    ref_rhs = _rhs_lines(c, lay, emits, reference=True)
-    start_rhs = _rhs_lines(c, lay, emits, reference=False, start=True)
-    lay.coupled = sorted({(c.state_nodes[i], c.state_nodes[j]) for i, j, _, _ in _coupled_pairs(c, emits)})
+    nodes, pairs = _node_terms(c, lay, emits), _coupled_pairs(c, emits)
+    rhs = _rhs_lines(c, lay, emits, nodes, reference=False)
+    ref_rhs = _rhs_lines(c, lay, emits, nodes, reference=True)
+    start_rhs = _rhs_lines(c, lay, emits, nodes, reference=False, start=pairs)
+    lay.coupled = sorted({(c.state_nodes[i], c.state_nodes[j]) for i, j, _, _ in pairs})
     updates = [f"    {_mode_update(comp, e, lay)}   /* {comp.name} */" for comp, e in emits
                if (e.mode_update or e.mode_of_state) and not e.guards]
     guarded = [f"    {_mode_update(comp, e, lay)}   /* {comp.name} */" for comp, e in emits
@@ -374,15 +375,13 @@ void hc_init(const double *P, const double *u, double h, double *y, int64_t *m)
 
 /* The components' modes and states once the nodes settled at rest (SPEC §12.5; library: Emit.mode_at_rest,
  * Emit.at_rest) */
-
 void hc_hold(const double *P, const double *u, double *y, int64_t *m)
 {{
     (void)m; (void)u; (void)P; (void)y;
 {chr(10).join(held)}
 }}
 
-static void log_row(double t,
- const double *y, const int64_t *m, const double *u, const double *P, double *row)
+static void log_row(double t, const double *y, const int64_t *m, const double *u, const double *P, double *row)
 {{
     double o[NOUT];
     int i;
@@ -633,13 +632,15 @@ void hc_row(const double *P, const double *y, const int64_t *m, const double *u,
     return text, lay
 
 
-def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool, start: bool = False) -> list[str]:
+def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
+               start: list | None = None) -> list[str]:
     """The body of a right-hand side: the components' locals and flows, the components' states' derivatives (the
     reference's where it has its own), then each state node's sum, volume and capacitance, in netlist order.
     The hybrid model's node rate is the stiff-node form of hc_node.h with the step's constants sc (c = 1: the
-    plain rate, bit for bit): its flows' rates with the pressures held use the derivatives above; ``start``:
-    the constants sc computed first, from the same flows' conductances (rhs_start)."""
-    rhs, nodes = [], _node_terms(c, lay, emits)
+    plain rate, bit for bit): its flows' rates with the pressures held use the derivatives above. ``nodes``:
+    :func:`_node_terms`; ``start`` (:func:`_coupled_pairs`): the constants sc computed first, from the same flows'
+    conductances and these couplings (rhs_start)."""
+    rhs = []
     for comp, e in emits:
         rhs += _flow_lines(comp, e)
     for comp, e in emits:
@@ -647,11 +648,11 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool, start: bool =
         for state, expr in derivatives.items():
             j = lay.states.index(f"{comp.name}.{state}")
             rhs.append(f"    dy[{j}] = {expr};   /* {comp.name}.{state} */")
-    if start:
+    if start is not None:
         for i, node in enumerate(c.state_nodes):
             _, volume, beta, extra, g, _ = nodes[node]
             rhs.append(f"    hc_stiff_first({g}, {volume}, {beta}, {extra}, h, sc + {3 * i});   /* {node} */")
-        for i, j, slope, name in _coupled_pairs(c, emits):
+        for i, j, slope, name in start:
             rhs.append(f"    hc_stiff_pair({slope}, h, sc + {3 * i}, sc + {3 * j});   /* {name} */")
         for i, node in enumerate(c.state_nodes):
             _, _, _, _, g, _ = nodes[node]
@@ -671,19 +672,23 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, *, reference: bool, start: bool =
 def _flow_lines(comp, e) -> list[str]:
     """A component's locals and flows as C constants (q_<component>_<j>)."""
     lines = [f"    const double v_{_ident(comp.name)}_{name} = {expr};" for name, expr in e.pre]
-    for j, (a, b, expr, *_) in enumerate(e.flows):
+    for j, (a, b, expr, _, _) in enumerate(map(_flow, e.flows)):
         lines.append(f"    const double q_{_ident(comp.name)}_{j} = {expr};   /* {comp.name}: {a or 'out'} -> {b or 'out'} */")
         lines.append(f"    (void)q_{_ident(comp.name)}_{j};")
     lines += [f"    (void)v_{_ident(comp.name)}_{name};" for name, _ in e.pre]
     return lines
 
 
+def _flow(flow: tuple) -> tuple:
+    """A flow of Emit.flows as (from port, to port, C flow, conductance or None, rate or None)."""
+    return (*flow, None, None)[:5]
+
+
 def _coupled_pairs(c: Circuit, emits) -> list[tuple[int, int, str, str]]:
     """(node i, node j, conductance, name) of each flow between two pressure nodes (hc_node.h's coupling)."""
     out = []
     for comp, e in emits:
-        for a, b, _, *more in e.flows:
-            slope = (list(more) + [None])[0]
+        for a, b, _, slope, _ in map(_flow, e.flows):
             ends = [comp.ports[p] for p in (a, b) if p is not None]
             if slope is not None and len(ends) == 2 and ends[0] != ends[1] and all(n in c.state_nodes for n in ends):
                 out.append((c.state_nodes.index(ends[0]), c.state_nodes.index(ends[1]), slope,
@@ -702,9 +707,8 @@ def _node_terms(c: Circuit, lay: Layout, emits) -> dict:
             if comp.ports[port] in beta:
                 beta[comp.ports[port]] = expr
     for comp, e in emits:
-        for j, (a, b, _, *more) in enumerate(e.flows):
+        for j, (a, b, _, slope, drift) in enumerate(map(_flow, e.flows)):
             var = f"q_{_ident(comp.name)}_{j}"
-            slope, drift = (list(more) + [None, None])[:2]
             for port, sign in ((a, "-"), (b, "+")):
                 if port is not None and comp.ports[port] in qin:
                     node = comp.ports[port]

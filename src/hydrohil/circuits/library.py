@@ -326,7 +326,6 @@ def _emit_lugre_cylinder(c):
     e = Emit(pre=[("f", f_ext), ("vp", vp)], guards=guards,
              at_rest={"z": f"hc_lc_held_z((int){c.mode}, {f_ext}, {z}, {c.par('sigma0')}, {fs})"},
              mode_at_rest=f"hc_lc_rest_mode((int){c.mode}, &{x}, &{v}, {f_ext}, {stroke})",
-
              flows=[("a", None, f"{a1} * {c.v('vp')}", None, f"{a1} * {c.dx('v')}"),
                     (None, "b", f"{a2} * {c.v('vp')}", None, f"{a2} * {c.dx('v')}"),
                     ("a", "b", f"{c.par('leakage')} * ({c.p('a')} - {c.p('b')})", c.par("leakage"))],
@@ -352,12 +351,13 @@ def _emit_lugre_cylinder(c):
     return e
 
 
-_LUGRE_GUARDS = (("retract", "HC_LC_G_RETRACT"), ("extend", "HC_LC_G_EXTEND"), ("breakaway_pos", "HC_LC_G_BREAK_POS"),
-                 ("breakaway_neg", "HC_LC_G_BREAK_NEG"), ("reverse", "HC_LC_G_REVERSE"), ("leave", "HC_LC_G_LEAVE"))
+_FRICTION_GUARDS = (("breakaway_pos", "HC_LC_G_BREAK_POS"), ("breakaway_neg", "HC_LC_G_BREAK_NEG"),
+                    ("reverse", "HC_LC_G_REVERSE"))                # (a rotary motion's too: lugre_motor)
+_LUGRE_GUARDS = (("retract", "HC_LC_G_RETRACT"), ("extend", "HC_LC_G_EXTEND"), *_FRICTION_GUARDS,
+                 ("leave", "HC_LC_G_LEAVE"))
 
 
 def _emit_lugre_motor(c):
-
     """A hydraulic motor with LuGre friction (SPEC §12.3: the Stribeck form of eq 25 with stick and slip)."""
     w, z = c.x("w"), c.x("z")
     dp = f"({c.p('a')} - {c.p('b')})"
@@ -373,19 +373,16 @@ def _emit_lugre_motor(c):
     dz = f"({w} - {c.par('sigma0')} * fabs({w}) * {z} / {g})"
     fs = f"{c.par('fs_pos')}, {c.par('fs_neg')}"
     guards = [(name, f"hc_lc_guard({gid}, (int){c.mode}, 0.0, {w}, {z}, 0.0, INFINITY, {c.par('sigma0')}, {fs})",
-               f"{{ double angle = 0.0; {c.mode} = hc_lc_reset({gid}, (int){c.mode}, &angle, &{w}, &{z}, INFINITY, "
-               f"{c.par('sigma0')}, {static}); }}") for name, gid in _LUGRE_GUARDS[2:5]]
+               f"{c.mode} = hc_lc_friction_reset({gid}, (int){c.mode}, &{w}, &{z}, {c.par('sigma0')}, {fs});")
+              for name, gid in _FRICTION_GUARDS]
     return Emit(pre=[("drive", drive)], guards=guards,
                 flows=[("a", "b", q, c.par("leakage"), f"hc_motor_flow({c.par('displacement')}, {c.dx('w')}, 0.0, 0.0)")],
-
                 at_rest={"z": f"({w} == 0.0 ? hc_lc_held_z((int){c.mode}, {drive}, {z}, {c.par('sigma0')}, {fs}) "
                               f": {z})"},
-
                 derivatives={"w": f"({c.v('drive')} - {ff}) / {c.par('inertia')}",
                              "z": f"({c.mode} == HC_LC_STICK ? {w} : 0.0)"},
                 initial={"w": c.par("speed0"), "z": "0.0"},
-                mode_update=f"{c.mode} = hc_lc_friction_mode((int){c.mode}, &{w}, &{z}, {c.par('sigma0')}, "
-                            f"{c.par('fs_pos')}, {c.par('fs_neg')});",
+                mode_update=f"{c.mode} = hc_lc_friction_mode((int){c.mode}, &{w}, &{z}, {c.par('sigma0')}, {fs});",
                 reference={"z": dz, "w": f"({c.v('drive')} - ({c.par('sigma0')} * {z} + {c.par('sigma1')} * {dz} + "
                                          f"{kv} * {w})) / {c.par('inertia')}"},
                 outputs={"w": (w, "rad/s"), "q": (q, "m3/s"), "torque": (torque, "N.m"), "friction": (ff, "N.m")})

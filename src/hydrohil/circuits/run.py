@@ -319,7 +319,7 @@ def start_state(c: Circuit, *, h: float = 5e-4, method: str = "rk3", inputs: dic
 
 def new_state(cc, P, h: float) -> np.ndarray:
     """A zero state for steps of h: the circuit's states (one at least) and its delay lines' memory after them
-    (hc_state_size; the lines are sized for h at the first step)."""
+    (hc_state_size; hc_init sizes and fills the lines for the same h)."""
     return np.zeros(max(int(cc.lib.hc_state_size(cc.ffi.from_buffer("double[]", P), float(h))), 1))
 
 
@@ -466,11 +466,11 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
     stats: dict = {}
     control = None
     seen = _delay_line(cc, P, y, h)            # the inputs as the components see them (delayed ones late)
-    u_seen = u.copy()
-    if loop is None:
+    u_seen = u if seen is None else u.copy()
+    if loop is None and seen is not None:
         for k in range(len(u)):
             u_seen[k] = seen(u[k])
-    else:                                      # the same sampled law at each step, on the reference's state
+    elif loop is not None:                     # the same sampled law at each step, on the reference's state
         ref, dref = loop.table(n, h)
         meas, cmd = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
 
@@ -478,7 +478,8 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
 
         def control(k, row):
             u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng))
-            u_seen[k] = seen(u[k])
+            if seen is not None:
+                u_seen[k] = seen(u[k])
 
         def applied(k):                    # the row the controller reads: under the command last applied
             if k > 0:
@@ -499,10 +500,11 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
 
 def _delay_line(cc, P, y, h: float):
     """f(u_k) -> the inputs of step k as the components see them, each delayed input through the generated
-    delay line (hc_delayed_inputs on a copy of y's memory: the hybrid step's own), pushed at each call."""
+    delay line (hc_delayed_inputs on a copy of y's memory: the hybrid step's own), pushed at each call; None
+    when no input is delayed (the inputs as set)."""
     lay, ffi = cc.layout, cc.ffi
     if not lay.delayed:
-        return lambda uk: uk
+        return None
     mem, Pb = y.copy(), ffi.from_buffer("double[]", P)
     memb = ffi.from_buffer("double[]", mem)
     out = np.zeros(max(len(lay.inputs), 1))
@@ -540,7 +542,7 @@ class NodeStiffness:
                 f"pressure decaying at {self.slowed_above / h:.4g} 1/s instead of up to {self.lam:.4g} 1/s")
         if self.coupled_slowed:
             text += (f"; coupled to {', '.join(self.coupled_slowed)}, slowed further where their coupled mode "
-                     f"needed it (a Gershgorin bound of 1.9): their common filling is slowed too (a pressure "
+                     f"needed it (hc_node.h's Gershgorin bound): their common filling is slowed too (a pressure "
                      f"rising together too slowly): give them more volume, make them one node or take a smaller "
                      f"step")
         return text

@@ -34,54 +34,6 @@ HH_INLINE double hc_lc_friction(int mode, double v, double z, double sigma0, dou
     return sigma0 * z + (sigma1 + (v >= 0.0 ? kv_p : kv_n)) * v;
 }
 
-/* the friction's statechart after a step, in a free mode (stick, slip_pos, slip_neg): breakaway at
- * sigma0*z = fs, stick again where the speed reverses (v = 0, the bristles at the breakaway's deflection);
- * v, z in place. A linear (lugre_cylinder) or rotary (lugre_motor) motion alike. */
-HH_INLINE int hc_lc_friction_mode(int mode, double *v, double *z, double sigma0, double fs_p, double fs_n)
-{
-    double d;
-    if (mode == HC_LC_STICK) {           /* breakaway */
-        if (fs_p - sigma0 * *z < 0.0)
-            return HC_LC_SLIP_POS;
-        if (fs_n + sigma0 * *z < 0.0)
-            return HC_LC_SLIP_NEG;
-        return mode;
-    }
-    if ((mode == HC_LC_SLIP_POS && *v < 0.0) || (mode == HC_LC_SLIP_NEG && *v > 0.0)) {   /* speed reverses */
-        d = mode == HC_LC_SLIP_POS ? 1.0 : -1.0;
-        *v = 0.0;
-        *z = d * (d > 0 ? fs_p : fs_n) / sigma0;
-        return HC_LC_STICK;
-    }
-    return mode;
-}
-
-/* the statechart after a step: x, v, z in place, f the net force on the piston without friction [N] */
-HH_INLINE int hc_lc_mode(int mode, double *x, double *v, double *z, double f, double stroke, double sigma0,
-                         double fc_p, double fs_p, double vs_p, double fc_n, double fs_n, double vs_n)
-{
-    double d;
-    if (mode == HC_LC_AT_RETRACT || mode == HC_LC_AT_EXTEND) {
-        double net = f - sigma0 * *z;
-        *x = mode == HC_LC_AT_RETRACT ? 0.0 : stroke;
-        *v = 0.0;
-        if ((mode == HC_LC_AT_RETRACT && net > 0.0) || (mode == HC_LC_AT_EXTEND && net < 0.0))
-            return HC_LC_STICK;          /* pulled off its stop: free, the bristles holding */
-        return mode;
-    }
-    if (*x < 0.0 || *x > stroke) {       /* a stop reached: bristles at their sliding state before impact */
-        if (mode != HC_LC_STICK) {
-            d = mode == HC_LC_SLIP_POS ? 1.0 : -1.0;
-            *z = d * hc_stribeck(*v, fc_p, fs_p, vs_p, fc_n, fs_n, vs_n) / sigma0;
-        }
-        mode = *x < 0.0 ? HC_LC_AT_RETRACT : HC_LC_AT_EXTEND;
-        *x = mode == HC_LC_AT_RETRACT ? 0.0 : stroke;
-        *v = 0.0;
-        return mode;
-    }
-    return hc_lc_friction_mode(mode, v, z, sigma0, fs_p, fs_n);
-}
-
 /* At rest (SPEC §12.5, the core's rest: loop.c): in stick the bristles carry the net force f on the still
  * piston (or motor), up to the breakaway force; elsewhere z as it is */
 HH_INLINE double hc_lc_held_z(int mode, double f, double z, double sigma0, double fs_p, double fs_n)
@@ -138,6 +90,21 @@ HH_INLINE double hc_lc_guard(int g, int mode, double x, double v, double z, doub
     return INFINITY;
 }
 
+/* the friction's transitions (breakaway either way, sticking again where the speed reverses: v = 0, the
+ * bristles at the breakaway's deflection); v, z in place; returns the new mode. A linear or rotary motion. */
+HH_INLINE int hc_lc_friction_reset(int g, int mode, double *v, double *z, double sigma0, double fs_p, double fs_n)
+{
+    double d;
+    if (g == HC_LC_G_BREAK_POS)
+        return HC_LC_SLIP_POS;
+    if (g == HC_LC_G_BREAK_NEG)
+        return HC_LC_SLIP_NEG;
+    d = mode == HC_LC_SLIP_POS ? 1.0 : -1.0;             /* reverse */
+    *v = 0.0;
+    *z = d * (d > 0 ? fs_p : fs_n) / sigma0;
+    return HC_LC_STICK;
+}
+
 /* the transition of guard g (hybrid.c's apply_reset): x, v, z in place; returns the new mode */
 HH_INLINE int hc_lc_reset(int g, int mode, double *x, double *v, double *z, double stroke, double sigma0,
                           double fc_p, double fs_p, double vs_p, double fc_n, double fs_n, double vs_n)
@@ -152,17 +119,35 @@ HH_INLINE int hc_lc_reset(int g, int mode, double *x, double *v, double *z, doub
         *v = 0.0;
         return g == HC_LC_G_RETRACT ? HC_LC_AT_RETRACT : HC_LC_AT_EXTEND;
     }
-    if (g == HC_LC_G_BREAK_POS)
-        return HC_LC_SLIP_POS;
-    if (g == HC_LC_G_BREAK_NEG)
-        return HC_LC_SLIP_NEG;
-    if (g == HC_LC_G_REVERSE) {
-        d = mode == HC_LC_SLIP_POS ? 1.0 : -1.0;
+    if (g == HC_LC_G_LEAVE)
+        return HC_LC_STICK;                              /* free, the bristles holding */
+    return hc_lc_friction_reset(g, mode, v, z, sigma0, fs_p, fs_n);
+}
+
+/* The statecharts as a whole (a circuit's modes at the start and in the rest march, where no step locates
+ * the events): the first of its guards violated, its transition; x, v, z in place. A piston on a stop stays
+ * clamped there. The cylinder's: every guard; a rotary motion's (lugre_motor): the friction's. */
+HH_INLINE int hc_lc_mode(int mode, double *x, double *v, double *z, double f, double stroke, double sigma0,
+                         double fc_p, double fs_p, double vs_p, double fc_n, double fs_n, double vs_n)
+{
+    int g;
+    if (mode == HC_LC_AT_RETRACT || mode == HC_LC_AT_EXTEND) {
+        *x = mode == HC_LC_AT_RETRACT ? 0.0 : stroke;
         *v = 0.0;
-        *z = d * (d > 0 ? fs_p : fs_n) / sigma0;
-        return HC_LC_STICK;
     }
-    return HC_LC_STICK;                                  /* leave: free, the bristles holding */
+    for (g = HC_LC_G_RETRACT; g <= HC_LC_G_LEAVE; g++)
+        if (hc_lc_guard(g, mode, *x, *v, *z, f, stroke, sigma0, fs_p, fs_n) < 0.0)
+            return hc_lc_reset(g, mode, x, v, z, stroke, sigma0, fc_p, fs_p, vs_p, fc_n, fs_n, vs_n);
+    return mode;
+}
+
+HH_INLINE int hc_lc_friction_mode(int mode, double *v, double *z, double sigma0, double fs_p, double fs_n)
+{
+    int g;
+    for (g = HC_LC_G_BREAK_POS; g <= HC_LC_G_REVERSE; g++)
+        if (hc_lc_guard(g, mode, 0.0, *v, *z, 0.0, INFINITY, sigma0, fs_p, fs_n) < 0.0)
+            return hc_lc_friction_reset(g, mode, v, z, sigma0, fs_p, fs_n);
+    return mode;
 }
 
 #endif
