@@ -233,24 +233,13 @@ def _wait_file_growth(path, n_steps, timeout=120):
     raise AssertionError(f"{path} did not reach {n_steps} steps")
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("plant", ["python", "c"])
-def test_hil_panel_run_replays_its_changes_offline(tmp_path, plant):
-    """hydrohil hil --panel --lockstep, on either plant: changes made while it runs are in the run's event logs
-    and the offline comparison replays them: the HIL and offline positions are equal bit for bit."""
-    from hydrohil.hil.processes import Child
-    import shutil
-    scen = tmp_path / "long.toml"
-    shutil.copy(FIG11, scen)
-    text = scen.read_text()
-    assert "duration = 6.0" in text
-    scen.write_text(text.replace("duration = 6.0", "duration = 60.0"))
-    out = tmp_path / "run"
-    ch = Child(hh_command("hil", scen, "--out", out, "--lockstep", "--panel", "--panel-port", "0", "--plant", plant),
-               "hil")
-    url = ch.wait_line("PANEL ", 120)
-    import time
+def _hil_panel(scenario, out, *args):
+    """``hydrohil hil SCENARIO --lockstep --panel`` started, waited for until its plant's telemetry reached the
+    panel (it runs); returns (the process, post(body) -> the answer of /api/steer)."""
     import urllib.request as ur
+    from hydrohil.hil.processes import Child
+    ch = Child(hh_command("hil", scenario, "--out", out, "--lockstep", "--panel", "--panel-port", "0", *args), "hil")
+    url = ch.wait_line("PANEL ", 120)
 
     def post(body):
         req = ur.Request(url + "api/steer", data=json.dumps(body).encode(), headers={"Content-Type": "application/json"})
@@ -262,6 +251,22 @@ def test_hil_panel_run_replays_its_changes_offline(tmp_path, plant):
             if json.loads(r.read())["counters"]["steps"] > 100:
                 break
         time.sleep(0.05)
+    return ch, post
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_hil_panel_run_replays_its_changes_offline(tmp_path, plant):
+    """hydrohil hil --panel --lockstep, on either plant: changes made while it runs are in the run's event logs
+    and the offline comparison replays them: the HIL and offline positions are equal bit for bit."""
+    import shutil
+    scen = tmp_path / "long.toml"
+    shutil.copy(FIG11, scen)
+    text = scen.read_text()
+    assert "duration = 6.0" in text
+    scen.write_text(text.replace("duration = 6.0", "duration = 60.0"))
+    out = tmp_path / "run"
+    ch, post = _hil_panel(scen, out, "--plant", plant)
     a = post({"op": "set", "name": "mass", "value": 200.0})
     b = post({"op": "gains", "kp": 70.0})
     assert ch.wait(600) == 0, ch.stderr()
@@ -477,3 +482,134 @@ def test_either_plant_speaks_the_side_channel_to_a_raw_panel(tmp_path, plant):
     timing = json.loads((out / "timing.json").read_text())
     assert list(timing) == list(shape.timing_keys("lockstep", panel=True)) and timing["plant"] == plant
     assert timing["telemetry_batches_sent"] >= len(rows) // 20 and timing["stopped_early"] is True
+
+
+# -- a circuit on the panel (a scenario naming its circuit) ----------------------------------------------------
+MOTOR = EXAMPLES / "circuits" / "motor_speed" / "scenario.toml"
+
+
+def test_circuit_steering_is_checked_against_the_circuit_and_a_set_value_derives_as_the_file_does():
+    """The panel's changes to a circuit are refused with the input or parameter named (the loop's command, a
+    value out of range with its unit, a misspelt key, a delay); a parameter changed while running gives the
+    parameter vector the circuit built with that value (--set) has, derived values included (a cylinder's
+    areas from its bore), and a held input replaces its drive."""
+    from hydrohil.circuits.rig import CircuitRig
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.errors import InputError
+    from hydrohil.simulation.steering import apply_circuit_event, parse_event
+    cs = load_circuit_scenario(EXAMPLES / "circuits" / "servo_supply" / "scenario.toml")
+    bad = {"valve.command": ({"op": "input", "name": "valve.command", "value": 0.1}, "controller drives it"),
+           "cyl.mass": ({"op": "set", "name": "cyl.mass", "value": -5.0}, "kg"),
+           "cyl.mas": ({"op": "set", "name": "cyl.mas", "value": 5.0}, "not a parameter of cyl"),
+           "valve.delay": ({"op": "set", "name": "valve.delay", "value": 1e-3}, "sized when the run starts"),
+           "pump.nope": ({"op": "input", "name": "pump.nope", "value": 1.0}, "not an input")}
+    for key, (body, what) in bad.items():
+        with pytest.raises(InputError, match=what) as exc:
+            parse_event(body, "plant", circuit=cs)
+        assert key in str(exc.value)
+    with pytest.raises(InputError, match="value"):
+        parse_event({"op": "reference", "value": float("nan")}, "controller", circuit=cs)
+    rig = CircuitRig(cs)
+    sets = {"cyl.area_a": 2.1e-3, "pump.volumetric_efficiency": 0.9, "fluid.density": 900.0, "cyl.mass": 80.0}
+    for key, value in sets.items():
+        apply_circuit_event(rig, parse_event({"op": "set", "name": key, "value": value}, "plant", circuit=cs), 0)
+    built = load_circuit_scenario(cs.source, sets=sets).layout.values()
+    assert np.array_equal(rig.P, built, equal_nan=True) and not np.array_equal(rig.P, rig.P0, equal_nan=True)
+    with pytest.raises(ValueError, match="cyl.bore: give bore and rod, or area_a and area_b"):   # (given by areas)
+        apply_circuit_event(rig, parse_event({"op": "set", "name": "cyl.bore", "value": 0.05}, "plant", circuit=cs), 0)
+    assert np.array_equal(rig.P, built, equal_nan=True)
+    motor = load_circuit_scenario(MOTOR)
+    rig = CircuitRig(motor)
+    apply_circuit_event(rig, parse_event({"op": "input", "name": "motor.load_torque", "value": 7.5}, "plant",
+                                         circuit=motor), 0)
+    j = motor.layout.inputs.index("motor.load_torque")
+    assert rig.step(0, None)[j] == 7.5
+    apply_circuit_event(rig, parse_event({"op": "input", "name": "motor.load_torque", "value": None}, "plant",
+                                         circuit=motor), 1)
+    assert rig.step(1, None)[j] == rig.drives[1, j]
+
+
+@pytest.mark.slow
+def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path):
+    """``hydrohil panel`` on a circuit scenario (lock-step): its own plots and forms, every kind of change (an
+    input held and released, a parameter and the fluid changed, the loop's gains and reference, a reset) applied
+    at a step and logged; refusals name the input or key; the recording is a run folder whose replay of the
+    session's applied inputs and events gives its states bit for bit (and without the events does not)."""
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.hil.circuit import replay_applied_inputs, replay_circuit_session
+    from hydrohil.hil.session import read_commands
+    p = PanelProcess(tmp_path / "panel", MOTOR, "--lockstep")
+    try:
+        p.wait_steps(200)
+        st = p.api("api/state")
+        view = st["view"]
+        assert view["kind"] == "circuit" and view["reference"]["shown"][1] == "rpm"
+        assert [pl["id"] for pl in view["plots"]][:2] == ["c-loop", "c-error"] and st["fault_schema"] == []
+        assert {i["name"]: i["controller"] for i in view["inputs"]} == {"valve.command": True,
+                                                                        "motor.load_torque": False}
+        steer = [{"op": "input", "name": "motor.load_torque", "value": 5.0},
+                 {"op": "gains", "kp": 0.004},
+                 {"op": "set", "name": "motor.inertia", "value": 0.02},
+                 {"op": "reference", "value": 40.0},
+                 {"op": "set", "name": "fluid.bulk_modulus", "value": 1.2e9},
+                 {"op": "input", "name": "motor.load_torque", "value": None},
+                 {"op": "reset"}]
+        rec, answers = _record(p, steer)
+        assert [a["k"] for a in answers] == sorted(a["k"] for a in answers)
+        for body, what in (({"op": "input", "name": "valve.command", "value": 0.1}, "valve.command"),
+                           ({"op": "set", "name": "motor.inertia", "value": -1}, "kg.m2"),
+                           ({"op": "fault_on", "fault": {"type": "hose_burst"}}, "input")):
+            with pytest.raises(urllib.error.HTTPError) as exc:
+                p.api("api/steer", body)
+            assert exc.value.code == 400 and what in exc.value.read().decode()
+        state = p.api("api/state")
+        assert state["values"] == {"motor.inertia": 0.02, "fluid.bulk_modulus": 1.2e9} and state["held"] == {}
+        ended = p.api("api/run/stop", {})
+        assert ended["exit_codes"] == {"plant": 0, "controller": 0} and ended["verdict"]["valid"]
+    finally:
+        p.close()
+    session = p.session
+    cs = load_circuit_scenario(session / "scenario.toml")
+    assert cs.repeat                         # (a session runs until stopped: its drives and reference repeat)
+    folder = session / "recordings" / rec["name"]
+    for f in ("plant_log.csv", "timing.json", "events.jsonl", "controller_events.jsonl", "scenario.toml",
+              "comparison.json", "report.png"):
+        assert (folder / f).is_file(), f
+    cmp = json.loads((folder / "comparison.json").read_text())
+    assert cmp["identical"] and set(cmp["replay_max_abs_difference"]) == set(cs.layout.states)
+    log = read_csv_columns(folder / "plant_log.csv")
+    ks = log["k"].astype(int)
+    assert np.array_equal(ks, np.arange(rec["k0"] + 1, rec["k1"] + 1))
+    rep = replay_circuit_session(cs, session, steps=rec["k1"])
+    for i, s in enumerate(cs.layout.states):
+        assert np.array_equal(rep[ks, i], log[s]), s
+    held = log["motor.load_torque.applied"]
+    k_on, k_off = answers[0]["k"], answers[5]["k"]
+    assert np.all(held[(ks > k_on) & (ks <= k_off)] == 5.0) and not np.any(held[ks > k_off] == 5.0)
+    assert len(read_events(session / "controller_events.jsonl", "controller", circuit=cs)) == 2
+    # without the plant's events the same inputs give another run: the check can fail
+    u = read_commands(session)
+    plain = replay_applied_inputs(cs, u[:len(u) // 2 * 2].reshape(-1, 2)[:rec["k1"]])
+    assert not np.array_equal(plain[ks, cs.layout.states.index("motor.w")], log["motor.w"])
+
+
+@pytest.mark.slow
+def test_circuit_hil_panel_run_replays_its_steering(tmp_path):
+    """hydrohil hil --panel --lockstep on a circuit scenario: a change made from the panel while it runs is in
+    the run's event log, the report says the run was steered, and the replay of its applied inputs and events
+    gives its states bit for bit."""
+    scen = tmp_path / "long.toml"
+    text = MOTOR.read_text().replace('circuit = "circuit.toml"', f'circuit = "{MOTOR.parent / "circuit.toml"}"')
+    scen.write_text(text.replace("duration = 4.5", "duration = 30.0"))
+    out = tmp_path / "run"
+    ch, post = _hil_panel(scen, out)
+    a = post({"op": "input", "name": "motor.load_torque", "value": 4.0})
+    b = post({"op": "reference", "value": 50.0})
+    assert ch.wait(600) == 0, ch.stderr()
+    cmp = json.loads((out / "comparison.json").read_text())
+    assert cmp["steered_events"] == {"plant": 1, "controller": 1} and "steered" in cmp["text"]
+    assert cmp["replay_max_abs_difference"] == 0.0
+    log = read_csv_columns(out / "plant_log.csv")
+    assert np.all(log["motor.load_torque.applied"][log["k"] > a["k"]] == 4.0)
+    assert np.all(log["motor.load_torque.applied"][(log["k"] <= a["k"]) & (log["t"] < 3.0)] == 0.0)
+    assert b["k"] > 0

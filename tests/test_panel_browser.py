@@ -160,3 +160,54 @@ def test_panel_in_chromium(browser, tmp_path, plant):
     assert np.all(log["faults"][burst] == 1) and np.all(log["faults"][log["k"] > events[3]["k"]] == 0)
     cmp = json.loads((rec / "comparison.json").read_text())
     assert cmp["replay_xp_max_abs"] == 0.0 and cmp["replay_p2_max_abs"] == 0.0
+
+
+def test_circuit_panel_in_chromium(browser, tmp_path):
+    """A circuit on the panel (``hydrohil panel examples/circuits/motor_speed/scenario.toml``) as a user sees it:
+    the page draws the circuit's own plots (its loop's speed in rpm first) and mode strips, an input is held from
+    its form (in its display unit) and given back to its drive, a parameter is changed from the list, stop ends
+    the session."""
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import Select
+    from conftest import EXAMPLES
+    p = PanelProcess(tmp_path / "panel", EXAMPLES / "circuits" / "motor_speed" / "scenario.toml")
+    try:
+        browser.get(p.url)
+        el = lambda i: browser.find_element(By.ID, i)   # noqa: E731
+        f0 = wait_until(lambda: int(el("frames").text), "a first frame")
+        assert el("c-loop").get_attribute("data-title") == "motor.w and its reference [rpm]"
+        assert el("c-modes").is_displayed() and not el("faults-box").is_displayed()
+        p.wait_steps(p.api("api/state")["counters"]["steps"] + 200)
+        a = png_pixels(el("c-loop").screenshot_as_png)
+        wait_until(lambda: int(el("frames").text) >= f0 + 25, "25 more frames")
+        p.wait_steps(p.api("api/state")["counters"]["steps"] + 200)
+        b = png_pixels(el("c-loop").screenshot_as_png)
+        assert a.shape == b.shape and np.mean(np.any(a != b, axis=-1)) > 1e-3
+        inp = el("in-motor.load_torque")
+        inp.click()
+        inp.send_keys("6")
+        el("hold-motor.load_torque").click()
+        ev = wait_until(lambda: [e for e in p.api("api/state")["events"] if e.get("op") == "input"],
+                        "the held input applied", on_fail=lambda: el("message").text)[0]
+        assert ev["name"] == "motor.load_torque" and ev["value"] == 6.0
+        Select(el("param-name")).select_by_visible_text("motor.inertia")
+        assert el("param-label").text == "[kg.m2]"
+        box = el("param-value")
+        box.clear()
+        box.send_keys("0.03")
+        el("param-set").click()
+        wait_until(lambda: p.api("api/state")["values"].get("motor.inertia") == 0.03, "the inertia changed",
+                   on_fail=lambda: el("message").text)
+        el("free-motor.load_torque").click()
+        wait_until(lambda: p.api("api/state")["held"] == {}, "the input back on its drive")
+        browser.save_screenshot(str(tmp_path / "circuit_panel.png"))
+        el("stop").click()
+        wait_until(lambda: el("status").text == "ended", "the session to end")
+        ended = p.api("api/state")["ended"]
+        assert ended["exit_codes"]["plant"] in (0, 3) and ended["exit_codes"]["controller"] == 0     # 3: INVALID
+    finally:
+        p.close()
+    events = [json.loads(x) for x in (p.session / "events.jsonl").read_text().splitlines()]
+    assert [(e["op"], e["name"], e["value"]) for e in events] == [("input", "motor.load_torque", 6.0),
+                                                                 ("set", "motor.inertia", 0.03),
+                                                                 ("input", "motor.load_torque", None)]

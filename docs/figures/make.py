@@ -63,6 +63,34 @@ def panel_figures():
     print("wrote", HERE / "panel.png", HERE / "panel_recording.png")
 
 
+def circuit_panel_figure():
+    """The live panel on a circuit (examples/circuits/motor_speed): its loop's speed, a 6 N.m load torque held
+    from the page and given back to its drive, the motor's inertia tripled."""
+    import time
+    sys.path.insert(0, str(ROOT / "tests"))
+    from conftest import PanelProcess
+    from test_panel_browser import browser_driver
+    with tempfile.TemporaryDirectory() as tmp:
+        p = PanelProcess(Path(tmp) / "panel", ROOT / "examples" / "circuits" / "motor_speed" / "scenario.toml")
+        drv = browser_driver(Path(tmp))
+        try:
+            drv.get(p.url)
+            p.wait_steps(int(2.5 / 5e-4))
+            p.api("api/steer", {"op": "input", "name": "motor.load_torque", "value": 6.0})
+            p.wait_steps(int(3.5 / 5e-4))
+            p.api("api/steer", {"op": "set", "name": "motor.inertia", "value": 0.03})
+            p.wait_steps(int(5.5 / 5e-4))
+            p.api("api/steer", {"op": "input", "name": "motor.load_torque", "value": None})
+            p.wait_steps(int(8 / 5e-4))
+            time.sleep(0.5)              # a few frames drawn after the last change
+            drv.save_screenshot(str(HERE / "panel_circuit.png"))
+            p.api("api/run/stop", {})
+        finally:
+            drv.quit()
+            p.close()
+    print("wrote", HERE / "panel_circuit.png")
+
+
 def circuit_figures():
     """The example circuits of examples/circuits/ (hydrohil circuit run)."""
     from hydrohil.circuits.circuit import CIRCUITS_DIR as CIRCUITS, load_circuit
@@ -94,11 +122,12 @@ def circuit_figures():
 
 
 if __name__ == "__main__":
-    if sys.argv[1:] in (["panel"], ["circuit"]):
-        (panel_figures if sys.argv[1] == "panel" else circuit_figures)()
+    if sys.argv[1:] in (["panel"], ["circuit"], ["circuit_panel"]):
+        {"panel": panel_figures, "circuit": circuit_figures, "circuit_panel": circuit_panel_figure}[sys.argv[1]]()
         raise SystemExit
     circuit_figures()
     panel_figures()
+    circuit_panel_figure()
     freqresp_figures()
     for name, (runs, labels, title) in FIGURES.items():
         with tempfile.TemporaryDirectory() as tmp:

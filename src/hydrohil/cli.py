@@ -817,7 +817,7 @@ def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), c
 
 @app.command("panel")
 def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop scenario TOML (default: the paper's "
-                                                       "Fig 11 experiment)"),
+                                                       "Fig 11 experiment), or a scenario naming its circuit"),
               out: Path = typer.Option(Path("hydrohil-panel"), "--out", help="folder of the sessions and recordings"),
               controller: str = typer.Option("builtin", "--controller", help="builtin: the scenario's controller "
                                              "process; external: wait for yours on 127.0.0.1:47000"),
@@ -835,6 +835,8 @@ def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop 
 
     Watch position, pressures, spool, friction, modes and timing live; change the load, supply pressure,
     friction and gains; switch faults on and off; record run folders. Ctrl-C stops the session cleanly.
+    A circuit scenario: its signals by unit and its modes; hold any input the controller does not drive,
+    change any parameter (--set keys), the loop's gains and reference (Python plant).
     """
     from hydrohil.hil.plant import parse_address
     try:

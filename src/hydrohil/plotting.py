@@ -235,12 +235,14 @@ def plot_hil(path: Path, hil: dict, offline, xref, *, title: str = "", verdict: 
 
 
 def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, title: str = "",
-                     verdict: dict | None = None, inputs: list[str] = (), commanded: bool = True) -> None:
+                     verdict: dict | None = None, inputs: list[str] = (), commanded: bool = True,
+                     other: str = "offline") -> None:
     """HIL report of a circuit: the loop's measured signal (open loop: the circuit's position or speed that moves
     most, else its pressure that does) with its reference, HIL and offline; HIL − offline; every pressure that
     moves (HIL solid, offline dotted); the inputs as the plant applied them, late commands marked; in real time
     the step jitter; the watchdog. ``offline``: a :class:`hydrohil.circuits.run.CircuitResult`; ``commanded``:
-    the controller sets an input (late commands matter; an open loop's controller only answers)."""
+    the controller sets an input (late commands matter; an open loop's controller only answers); ``other``: what
+    ``offline`` is ("offline": the simulation; "replay": a recording's replay of its applied inputs)."""
     from hydrohil.circuits.units import display
     t = np.asarray(hil["t"])
     cols, units = offline.columns, offline.units
@@ -262,18 +264,19 @@ def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, tit
             ax[0].plot(cols["t"][:n], cols[f"{measure}.reference"][:n] * k, "k--", lw=1, label="reference")
         ax[0].plot(t, np.asarray(hil[measure]) * k, lw=1.5, label="HIL (lock-step plant)" if lockstep else
                    "HIL (real-time plant)")
-        ax[0].plot(cols["t"][:n], cols[measure][:n] * k, ":", lw=1.5, label="offline simulation")
+        ax[0].plot(cols["t"][:n], cols[measure][:n] * k, ":", lw=1.5,
+                   label="offline simulation" if other == "offline" else other)
         d = (np.asarray(hil[measure])[:n] - cols[measure][:n]) * k
         rms = float(np.sqrt(np.mean(d ** 2))) if n else float("nan")
-        ax[1].plot(t[:n], d, lw=1, color="tab:red", label="HIL − offline\n" + (
+        ax[1].plot(t[:n], d, lw=1, color="tab:red", label=f"HIL − {other}\n" + (
             "(0 at every step:\nbit for bit)" if n and not np.any(d) else f"(RMS {rms:.3g} {du})"))
-        labels += [f"{measure} [{du}]", f"HIL − offline\n[{du}]"]
+        labels += [f"{measure} [{du}]", f"HIL − {other}\n[{du}]"]
     else:
         labels += ["", ""]
     for i, s in enumerate(x for x in units if units[x] == "Pa" and x in hil and np.ptp(cols[x]) > 0):
         ax[2].plot(cols["t"][:n], cols[s][:n] / 1e5, ":", lw=1.5, color=f"C{i % 10}")
         ax[2].plot(t, np.asarray(hil[s]) / 1e5, lw=1, color=f"C{i % 10}", label=s)
-    labels.append("pressure [bar]\n(HIL solid,\noffline dotted)")
+    labels.append(f"pressure [bar]\n(HIL solid,\n{other} dotted)")
     for i, name in enumerate(inputs):          # what drove each step (row k: the step into it)
         k, du = display(units.get(name, "-"))
         ax[3].step(t, np.asarray(hil[f"{name}.applied"], float) * k, where="pre", lw=1, color=f"C{i % 10}",

@@ -45,6 +45,7 @@ class Component:
     ports: dict[str, str]                # port -> node
     values: dict[str, float]             # parameters (SI) and derived values
     given: dict[str, str]                # parameter -> as the file wrote it (shown by `circuit show`)
+    params: dict[str, float] = field(default_factory=dict)   # its parameters (SI) before derivation
 
 
 @dataclass
@@ -154,9 +155,10 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
         for key in set(body) - set(ctype.params) - set(ctype.ports) - {"type"}:
             raise _err(source, f"{where}.{key}", f"not a parameter of a {ctype.name} (parameters: "
                                                  f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)})")
-        problem = _cross_check(ctype, values)
+        problem = cross_check(ctype, values)
         if problem:
             raise _err(source, where, problem)
+        params = dict(values)
         values.update(ctype.derive({**values, **fluid}))
         if ctype.fixes:
             node = ports[ctype.ports[0]]
@@ -164,7 +166,7 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
                 raise _err(source, where, f"node {node!r} is already fixed by {fixed[node][0]} (one tank or pressure "
                                           "source per node)")
             fixed[node] = (name, ctype.fixes)
-        components[name] = Component(name, ctype, ports, values, given)
+        components[name] = Component(name, ctype, ports, values, given, params)
     node_volumes = {}
     for node, body in data.get("nodes", {}).items():
         if node not in nodes:
@@ -235,7 +237,7 @@ def _drive(drive, prm, source: str, where: str):
     return ts, vs
 
 
-def _cross_check(ctype: ComponentType, v: dict) -> str | None:
+def cross_check(ctype: ComponentType, v: dict) -> str | None:
     if ctype.name == "lugre_motor" and (v["fs_pos"] < v["fc_pos"] or v["fs_neg"] < v["fc_neg"]):
         return "a breakaway torque fs_* is at least its Coulomb torque fc_*"
     if ctype.name == "lugre_cylinder":

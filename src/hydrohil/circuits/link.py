@@ -26,6 +26,17 @@ def plant_log_columns(signals, inputs) -> list[str]:
     return [*PLANT_LOG_HEAD, *(n for n, _ in signals), *(f"{n}.applied" for n, _ in inputs)]
 
 
+# the live panel's telemetry row of a circuit plant (hil/sidechannel.py; both ends make it from the circuit): the
+# time, every signal, every input as applied, the step's timing and the watchdog; and of its controller
+SIDE_TAIL = ("jitter_us", "compute_us", "watchdog")
+CONTROLLER_SIDE_COLUMNS = ("reference", "measured", "command")
+
+
+def side_columns(signals, inputs) -> tuple[str, ...]:
+    """The telemetry columns of a circuit plant's side channel."""
+    return ("t", *(n for n, _ in signals), *(f"{n}.applied" for n, _ in inputs), *SIDE_TAIL)
+
+
 def circuit_link(c) -> tuple[list[tuple[str, str]], list[tuple[str, str]], int]:
     """A circuit's signals and inputs in wire order and their layout (it compiles the circuit, or loads it)."""
     from hydrohil.circuits.build import compile_circuit

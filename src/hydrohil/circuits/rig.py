@@ -54,6 +54,11 @@ class CircuitRig(WatchdogCounters):
         self.row = np.zeros(len(lay.log_columns))
         self._t = lay.log_columns.index("t")
         self.fault_models: list = []                      # (none: the plant server's summary lists them)
+        self.repeat = cs.repeat                           # the drives again every scenario's duration (the panel)
+        self.held: dict[int, float] = {}                  # input -> value held by the live panel (steering)
+        self.P0 = self.P.copy()                           # the scenario's parameters (a steered set changes P)
+        self.fluid = dict(c.fluid)                        # the parameters before derivation, as steered
+        self.params = {n: dict(comp.params) for n, comp in c.components.items()}
         self.reset()
 
     def reset(self) -> None:
@@ -98,7 +103,10 @@ class CircuitRig(WatchdogCounters):
         core.hh_watchdog_command(self.link, k, command is not None, 0.0, self.h, self.watchdog_timeout, 0, 0.0,
                                        0.0)            # (its state only: the inputs are this rig's)
         u = self.u
-        u[:] = self.drives[min(k, len(self.drives) - 1)]
+        nd = len(self.drives)
+        u[:] = self.drives[k % nd if self.repeat else min(k, nd - 1)]
+        for j, v in self.held.items():
+            u[j] = v
         self.saturated = False
         for j in self.set_inputs:
             v = self.cmd[j] if not self.watchdog else 0.0           # (the safe state: neutral)
@@ -117,6 +125,43 @@ class CircuitRig(WatchdogCounters):
                                      "a state is not finite")
         self._row(self.k * self.h)
         return u
+
+    # -- steering (the live panel; events of hydrohil.simulation.steering, applied at a step boundary) ----------
+    def hold(self, name: str, value: float | None) -> None:
+        """Input ``name`` held at ``value`` (SI, within its range) from the next step on; None: back to its
+        drive. (An input the controller drives is not held: the event parser refuses it.)"""
+        j = self.layout.inputs.index(name)
+        if value is None:
+            self.held.pop(j, None)
+        else:
+            self.held[j] = float(value)
+
+    def set_value(self, key: str, value: float) -> None:
+        """Parameter ``key`` (``component.key`` or ``fluid.key``, SI, in its range: the event parser checks)
+        changed from the next step on; the values derived from it follow (``ComponentType.derive``, as the
+        circuit file's). ValueError (nothing changed) when the component's parameters no longer fit together."""
+        from hydrohil.circuits.circuit import cross_check
+        c, slot = self.circuit, self.layout.slot
+        name, _, k = key.partition(".")
+        fluid, params = dict(self.fluid), {n: dict(v) for n, v in self.params.items()}
+        (fluid if name == "fluid" else params[name])[k] = float(value)
+        if name != "fluid":
+            problem = cross_check(c.components[name].type, params[name])
+            if problem:
+                raise ValueError(f"{key}: {problem}")
+        P = self.P.copy()
+        P[slot[key]] = float(value)
+        for comp in c.components.values():
+            if comp.type.derived and (name == "fluid" or comp.name == name):
+                for dk, v in comp.type.derive({**params[comp.name], **fluid}).items():
+                    P[slot[f"{comp.name}.{dk}"]] = v
+        self.P[:], self.fluid, self.params = P, fluid, params
+
+    def restart(self) -> None:
+        """The model back to its state at rest (the scenario's, plant time 0); held inputs, changed parameters
+        and the command path stay."""
+        self.y[:], self.m[:] = self.y0, self.m0
+        self._row(0.0)
 
     @property
     def t(self) -> float:

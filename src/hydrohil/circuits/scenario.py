@@ -5,6 +5,8 @@ values on top of the circuit's, and drives of its signals in place of the circui
 
     circuit = "circuit.toml"          # a path (relative to this file) or a built-in circuit's name
     duration = 7.5                    # [s] (default: the drive's last change + 2 s)
+    repeat = false                    # true: the drives and the reference start again every duration (what
+                                      # a live panel session, running until stopped, writes)
     [solver]
     method = "rk3"                    # euler, heun, rk3, rk4 or reference (the continuous model, LSODA)
     step = 0.0005                     # [s]
@@ -39,13 +41,15 @@ from __future__ import annotations
 import copy
 import tomllib
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 from hydrohil.circuits.circuit import CIRCUITS_DIR, Circuit, circuit_from_dict
 from hydrohil.circuits.run import SOLVERS, Loop
 from hydrohil.errors import InputError
 
-KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "controller", "reference", "hil"}
+KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "controller", "reference", "hil",
+        "repeat"}
 LOOP_TYPES = ("p", "pi", "pid", "p_ff")
 SOLVER_KEYS = {"method", "step", "output_every"}
 
@@ -63,6 +67,13 @@ class CircuitScenario:
     sets: dict = field(default_factory=dict)       # "component.key" -> value as given (scenario [set] + --set)
     loop: Loop | None = None                       # closed loop ([controller] + [reference])
     hil: dict = field(default_factory=dict)        # [hil] as given (checked by hydrohil.hil.circuit)
+    repeat: bool = False                           # drives and reference again every duration (a panel session)
+
+    @cached_property
+    def layout(self):
+        """Its circuit's :class:`~hydrohil.circuits.generate.Layout` (compiled or loaded once)."""
+        from hydrohil.circuits.build import compile_circuit
+        return compile_circuit(self.circuit).layout
 
     @property
     def n_steps(self) -> int:
@@ -152,26 +163,33 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
     if dur < h:
         raise InputError(f"a run of at least one step: duration {dur:g} s < step {h:g} s", source=source,
                          key="duration")
-    rest = data.get("rest", True)
-    if not isinstance(rest, bool):
-        raise InputError(f"true or false, got {rest!r}", source=source, key="rest")
+    rest, repeat = data.get("rest", True), data.get("repeat", False)
+    for key, v in (("rest", rest), ("repeat", repeat)):
+        if not isinstance(v, bool):
+            raise InputError(f"true or false, got {v!r}", source=source, key=key)
     loop = _loop(data, c, source)
     if loop is not None and loop.command in given:
         raise InputError(f"{loop.command} is the closed loop's command (its controller drives it): a value set "
                          "for it would be overridden", source=source if loop.command in data.get("set", {}) else
                          "--set", key=loop.command)
     return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
-                           given, loop, dict(data.get("hil", {})))
+                           given, loop, dict(data.get("hil", {})), repeat)
 
 
-def write_circuit_scenario(path: str | Path, dest: str | Path, *, sets: dict) -> Path:
+def write_circuit_scenario(path: str | Path, dest: str | Path, *, sets: dict, repeat: bool | None = None,
+                           hil: dict | None = None) -> Path:
     """The scenario ``path`` with ``sets`` added to its [set], written to ``dest`` with its circuit's file named
-    absolutely: what a run folder records, and what its processes read."""
+    absolutely: what a run folder records, and what its processes read. ``repeat``: its ``repeat`` key set so,
+    ``hil``: keys of its [hil] (a live panel session)."""
     import tomli_w
     path, dest = Path(path), Path(dest)
     data = tomllib.loads(path.read_text())
     data["circuit"] = str(circuit_file(data["circuit"], path.parent, str(path)))
     data.setdefault("set", {}).update(sets)
+    if repeat is not None:
+        data["repeat"] = repeat
+    if hil:
+        data.setdefault("hil", {}).update(hil)
     dest.parent.mkdir(parents=True, exist_ok=True)
     dest.write_text(f"# {path.name} as run (hydrohil: --set applied)\n" + tomli_w.dumps(data))
     return dest

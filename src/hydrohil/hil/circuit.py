@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hydrohil.circuits.link import PLANT_LOG_INTS, plant_log_columns
+from hydrohil.circuits.link import PLANT_LOG_INTS, plant_log_columns, side_columns
 from hydrohil.errors import InputError, LinkError
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.plant import PlantServer, early_stop, serve
@@ -47,6 +47,28 @@ class CircuitPlantServer(PlantServer):
         self.layout = pr.layout_id(rig.signals, rig.inputs)
         self.columns = plant_log_columns(rig.signals, rig.inputs)
         super().__init__(None, step=cs.step, duration=duration, hil=hil, log=log, rig=rig, **kw)
+        self.side_row = [0.0] * len(self.telemetry_columns())
+
+    def telemetry_columns(self) -> tuple[str, ...]:
+        return side_columns(self.rig.signals, self.rig.inputs)
+
+    def apply_event(self, msg: dict, k: int) -> tuple:
+        from hydrohil.simulation.steering import apply_circuit_event, parse_event
+        ev = parse_event(msg, "plant", source="panel", circuit=self.cs)
+        return ev, apply_circuit_event(self.rig, ev, k)
+
+    def _telemetry(self, k: int, status: int, late_ns: int, compute_ns: int, u) -> None:
+        """Row k to the panel (:func:`hydrohil.circuits.link.side_columns`); every batch: send it, then apply
+        what the panel asked for at this boundary."""
+        rig, side, row = self.rig, self.side, self.side_row
+        ni = len(rig.inputs)
+        if self.session is not None:
+            self.session.command(*u[:ni])
+        row[:] = (rig.t, *rig.signal_row.tolist(), *u[:ni].tolist(), late_ns / 1e3, compute_ns / 1e3, rig.watchdog)
+        if side.row(k, *row):
+            side.flush(self._counters(k))
+            for msg in side.poll():
+                self._steer(msg, k)
 
     def accepts(self, msg) -> bool:
         if isinstance(msg, pr.Inputs):
@@ -67,12 +89,17 @@ class CircuitPlantServer(PlantServer):
         return status
 
     def _log_row(self, k, status, wall, jitter_ns, compute_ns, u) -> None:
-        if self.log is None:
+        rec = self.session.recording if self.session is not None else None
+        if self.log is None and rec is None:
             return
         rig = self.rig
         age = k - 1 - self.cmd_echo if self.cmd_seq >= 0 else -1
-        self.log.write((k, rig.t, wall, jitter_ns / 1e3, compute_ns / 1e3, self.cmd_seq, age, rig.watchdog,
-                        status, *rig.signal_row, *rig.u[:len(rig.inputs)]))
+        row = (k, rig.t, wall, jitter_ns / 1e3, compute_ns / 1e3, self.cmd_seq, age, rig.watchdog, status,
+               *rig.signal_row, *rig.u[:len(rig.inputs)])
+        if self.log is not None:
+            self.log.write(row)
+        if rec is not None:
+            rec.write(row, jitter_ns, compute_ns)
 
     def open_log(self, path: Path) -> CsvStream:
         return CsvStream(path, self.columns, ints={self.columns.index(c) for c in PLANT_LOG_INTS})
@@ -95,9 +122,6 @@ def serve_circuit_plant(scenario: Path, bind: str = "127.0.0.1:47000", duration:
     host_port = parse_address(bind, allow_remote=allow_remote)
     peer_addr = parse_address(peer, allow_remote=allow_remote) if peer else None
     cs = load_circuit_scenario(scenario)
-    if panel:
-        raise InputError("the live panel shows the paper's rig; on a circuit it is not in this version",
-                         source=cs.source, key="--panel")
     hil = circuit_hil(cs)
     if connect_timeout is not None:
         hil = hil.model_copy(update={"connect_timeout": connect_timeout})
@@ -105,86 +129,138 @@ def serve_circuit_plant(scenario: Path, bind: str = "127.0.0.1:47000", duration:
         log.mkdir(parents=True, exist_ok=True)
     server = CircuitPlantServer(cs, hil=hil, duration=cs.duration if duration is None else duration, bind=host_port,
                                 lockstep=lockstep, peer=peer_addr, cpu=hil.cpus()[0] if cpu is None else cpu,
-                                log=(log / "plant_log.csv") if log is not None and rows else None)
+                                log=(log / "plant_log.csv") if log is not None and rows else None,
+                                panel=parse_address(panel) if panel else None, session=log)
     return serve(server, log, ready, stop)
 
 
 class Drives:
     """What the scenario's controller process sends for each sensor packet: the loop's command from the core's
     law on the measured signal (the same C as offline), its bit alone in the mask (the plant applies the other
-    inputs' drives itself, on time); an open loop answers each packet with nothing set."""
+    inputs' drives itself, on time); an open loop answers each packet with nothing set. ``steer``: the live
+    panel's changes to the loop (gains, a held reference, the law's state cleared;
+    :class:`hydrohil.simulation.steering.SteerableController`)."""
 
     def __init__(self, cs):
-        from hydrohil.circuits.build import compile_circuit
         from hydrohil.circuits.link import circuit_link
+        from hydrohil.simulation.steering import SteerableController
         self.cs = cs
-        lay = compile_circuit(cs.circuit).layout
+        lay = cs.layout
         signals, inputs, self.layout = circuit_link(cs.circuit)
-        self.n, self.loop = cs.n_steps, cs.loop
+        self.n, self.loop, self.repeat = cs.n_steps, cs.loop, cs.repeat
         self.values = [0.0] * len(inputs)
         self.mask = 0
+        self.steer = None
         if self.loop is not None:
             self.loop.start(cs.step)
             self.ref, self.dref = self.loop.table(self.n, cs.step)
             self.meas = lay.log_columns.index(self.loop.measure) - lay.log_columns.index("t") - 1   # (in SIGNALS)
             self.cmd = lay.inputs.index(self.loop.command)
             self.mask = 1 << self.cmd
+            self.steer = SteerableController(self.loop.controller, None)
         self.measured = self.reference = float("nan")
 
     def answer(self, s: pr.Signals) -> list[float]:
         if self.loop is not None:
-            k = min(int(s.step), self.n)
-            self.measured, self.reference = s.values[self.meas], float(self.ref[k])
-            self.values[self.cmd] = self.loop.update(self.ref[k], self.dref[k], self.measured)
+            k = int(s.step) % self.n if self.repeat else min(int(s.step), self.n)
+            held = self.steer.held
+            ref, dref = (held, 0.0) if held is not None else (float(self.ref[k]), float(self.dref[k]))
+            self.measured, self.reference = s.values[self.meas], ref
+            self.values[self.cmd] = self.loop.update(ref, dref, self.measured)
         return self.values
 
 
-def run_circuit_controller(client, drives: Drives, *, log_path: Path | None = None, should_stop=lambda: False) -> dict:
+def run_circuit_controller(client, drives: Drives, *, log_path: Path | None = None, should_stop=lambda: False,
+                           side=None, events_path: Path | None = None) -> dict:
     """The scenario's controller over the link: one INPUTS packet answering each SIGNALS packet
     (:class:`Drives`, made before the link opens). Raises LinkError when the plant serves another circuit (its
-    layout differs)."""
+    layout differs). ``side``: the live panel's side channel (columns
+    :data:`hydrohil.circuits.link.CONTROLLER_SIDE_COLUMNS`); its steering events are applied before the command
+    answering the next packet k and logged with that k in ``events_path``."""
+    from hydrohil.simulation.steering import EventLog, apply_controller_messages
     cs = drives.cs
     log = CsvStream(log_path, CONTROLLER_LOG_HEAD, ints={0, 6}) if log_path is not None else None
+    events = EventLog(events_path) if side is not None else None
+    pending: list[dict] = []
     t_start = time.perf_counter()
     cmd = drives.cmd if drives.loop is not None else None
+
     try:
         for s in client.sensors():
             if not isinstance(s, pr.Signals) or s.layout != drives.layout:
                 raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} serves another circuit "
                                 f"(layout {getattr(s, 'layout', 'of the paper rig')}, expected {drives.layout} of "
                                 f"{cs.circuit.name!r})")
+            if pending:
+                apply_controller_messages(pending, s.step, drives.steer, side, events, circuit=cs)
             values = drives.answer(s)
             client.send_inputs(drives.layout, drives.mask, values, answer=s)
+            command = values[cmd] if cmd is not None else float("nan")
             if log is not None:
                 log.write((s.header.seq, s.t_sim, time.perf_counter() - t_start, drives.measured, drives.reference,
-                           values[cmd] if cmd is not None else float("nan"), s.status))
+                           command, s.status))
+            if side is not None and side.row(s.step, drives.reference, drives.measured, command):
+                side.flush()
+                pending.extend(side.poll())
             if should_stop():
                 break
     finally:
         if log is not None:
             log.close()
+        if events is not None:
+            events.close()
     return {"circuit": cs.circuit.name, "layout": drives.layout, "commands_sent": client.seq,
             "sensor_packets": client.received, "sensor_packets_bad": client.bad, "sensor_packets_lost": client.lost,
             "stopped_by_signal": bool(should_stop())}
 
 
-def replay_inputs(cs, hil: dict) -> np.ndarray:
-    """The plant log's applied inputs (``<input>.applied``) replayed through the circuit from its state at rest:
-    the state columns they give, row by row (equal to the log's bit for bit when the plant stepped the model
-    correctly, however late its commands came)."""
+def replay_applied_inputs(cs, applied: np.ndarray, events: dict | None = None, keep_from: int = 0) -> np.ndarray:
+    """The inputs that drove a run (``applied[k]``: every input as applied at step k, SI) and the plant's steering
+    events ({k: [events]}, :func:`hydrohil.simulation.steering.apply_circuit_event` before step k) replayed through
+    the circuit from its state at rest: its state columns at steps ``keep_from`` .. len(applied) (row k −
+    keep_from), equal to the run's bit for bit when the plant stepped the model right, however late its
+    commands came."""
     from hydrohil.circuits.rig import CircuitRig
+    from hydrohil.simulation.steering import apply_circuit_event
     rig = CircuitRig(cs)
-    states = rig.layout.states
-    n = len(hil["t"]) - 1
-    replayed = np.zeros((n + 1, len(states)))
-    idx = [rig.layout.log_columns.index(s) for s in states]
-    replayed[0] = rig.row[idx]
-    applied = np.column_stack([hil[f"{name}.applied"] for name, _ in rig.inputs] or [np.zeros(n + 1)])
+    idx = [rig.layout.log_columns.index(s) for s in rig.layout.states]
+    events = events or {}
+    n = len(applied)
+    k0 = min(max(int(keep_from), 0), n)
+    states = np.zeros((n + 1 - k0, len(idx)))
+    if k0 == 0:
+        states[k0] = rig.row[idx]
     every = (1 << len(rig.inputs)) - 1
     for k in range(n):
-        rig.step(k, (every, applied[k + 1].tolist()))
-        replayed[k + 1] = rig.row[idx]
-    return replayed
+        for ev in events.get(k, ()):
+            apply_circuit_event(rig, ev, k)
+        rig.step(k, (every, applied[k].tolist()))
+        if k + 1 >= k0:
+            states[k + 1 - k0] = rig.row[idx]
+    return states
+
+
+def replay_inputs(cs, hil: dict, events: dict | None = None) -> np.ndarray:
+    """The plant log's applied inputs (``<input>.applied``; row k + 1: step k's) and its steering ``events``
+    replayed through the circuit from its state at rest (:func:`replay_applied_inputs`): the state columns they
+    give, row by row."""
+    n = len(hil["t"]) - 1
+    names = [f"{name}.applied" for name in cs.circuit.inputs]
+    applied = np.column_stack([hil[c][1:] for c in names]) if names else np.zeros((n, 0))
+    return replay_applied_inputs(cs, applied, events)
+
+
+def replay_circuit_session(cs, folder: Path, steps: int | None = None, keep_from: int = 0) -> np.ndarray:
+    """A live-panel session of a circuit plant (its ``commands.f64``: every input as applied, a row per step;
+    its ``events.jsonl``) replayed up to step ``steps`` (:func:`replay_applied_inputs`; rows from ``keep_from``)."""
+    from hydrohil.hil.session import read_commands
+    from hydrohil.simulation.steering import read_events
+    ni = len(cs.circuit.inputs)
+    u = read_commands(folder)
+    applied = u[:len(u) // ni * ni].reshape(-1, ni) if ni else np.zeros((int(steps or 0), 0))
+    n = len(applied) if steps is None else min(int(steps), len(applied))
+    return replay_applied_inputs(cs, applied[:n], read_events(Path(folder) / "events.jsonl", "plant", circuit=cs),
+                                 keep_from)
 
 
 def compare_circuit_offline(cs, out: Path, *, plot: bool = True, verdict: dict | None = None,
@@ -221,8 +297,15 @@ def compare_circuit_offline(cs, out: Path, *, plot: bool = True, verdict: dict |
         cmp["text"] = "HIL = offline bit for bit in every state and mode" if cmp["identical"] or worst is None else \
             f"HIL vs offline: largest difference {worst} {diff[worst] * display(res.units[worst])[0]:.4g} " \
             f"{display(res.units[worst])[1]}"
+    from hydrohil.simulation.steering import read_events
+    steered = read_events(out / "events.jsonl", "plant", circuit=cs)
+    n_ctl = sum(map(len, read_events(out / "controller_events.jsonl", "controller", circuit=cs).values())) \
+        if cs.loop is not None else 0
+    if steered or n_ctl:         # changed from the live panel: the offline run is the scenario's, unsteered
+        cmp["steered_events"] = {"plant": sum(map(len, steered.values())), "controller": n_ctl}
+        cmp["text"] += " (the run was steered from the live panel; the offline run was not)"
     if n > 1:
-        rep = replay_inputs(cs, hil)
+        rep = replay_inputs(cs, hil, steered)
         logged = np.column_stack([hil[s] for s in lay.states])
         cmp["replay_max_abs_difference"] = float(np.max(np.abs(rep - logged)))
     (out / "comparison.json").write_text(json.dumps(cmp, indent=2) + "\n")

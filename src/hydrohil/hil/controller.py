@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 from hydrohil.control import BuiltinController, Measurement, call_controller, p_control
-from hydrohil.errors import HydrohilError, InputError, LinkError
+from hydrohil.errors import InputError, LinkError
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.protocol import parse_address
 from hydrohil.circuits.scenario import is_circuit_scenario
@@ -221,7 +221,7 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
     steering events (:mod:`hydrohil.simulation.steering`) in, applied before the command answering the next sensor
     packet k and logged with that k in ``events_path``. Returns a summary.
     """
-    from hydrohil.simulation.steering import EventLog, SteerableController, parse_event
+    from hydrohil.simulation.steering import EventLog, SteerableController, apply_controller_messages
     ctl = controller
     builtin = controller.update if isinstance(controller, BuiltinController) else None   # the core's law: no
     res = count_size(encoder_resolution)                                                # Measurement needed
@@ -232,24 +232,12 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
     events = EventLog(events_path) if side is not None else None
     pending: list[dict] = []
 
-    def apply_pending(k: int) -> None:
-        for msg in pending:
-            try:
-                ev = parse_event(msg, "controller", source="panel")
-                steer.apply(ev)
-            except (HydrohilError, ValueError, TypeError) as exc:
-                side.answer(msg, error=str(exc))
-                continue
-            events.write(k, ev.model_dump(exclude_none=True))
-            side.answer(msg, k=k)
-        pending.clear()
-
     def act(s: pr.Sensor) -> None:
         if not isinstance(s, pr.Sensor):
             raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} serves a circuit (SIGNALS "
                             "packets), not the paper's rig: run the controller with that circuit's scenario")
         if pending:
-            apply_pending(s.step)
+            apply_controller_messages(pending, s.step, steer, side, events)
         x = s.encoder_counts * res
         xr, dxr = reference(s.t_sim)
         if builtin is not None:
@@ -397,8 +385,10 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
     summary: dict = {"error": None}
     side = None
     if panel:
+        from hydrohil.circuits.link import CONTROLLER_SIDE_COLUMNS
         from hydrohil.hil.sidechannel import CONTROLLER_COLUMNS, ROLE_CONTROLLER, SideChannel
-        side = SideChannel(parse_address(panel), ROLE_CONTROLLER, CONTROLLER_COLUMNS)
+        side = SideChannel(parse_address(panel), ROLE_CONTROLLER,
+                           CONTROLLER_SIDE_COLUMNS if circuit is not None else CONTROLLER_COLUMNS)
     try:
         with PlantClient(addr, timeout=timeout, command_scale=scale, busy_poll=busy_poll, period=sample,
                          nap=not spin, bind=local_addr, should_stop=lambda: bool(stop),
@@ -406,8 +396,10 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
             try:
                 if circuit is not None:
                     from hydrohil.hil.circuit import run_circuit_controller
-                    summary.update(run_circuit_controller(client, drives, should_stop=lambda: bool(stop),
-                                                          log_path=(log / "controller_log.csv") if log else None))
+                    summary.update(run_circuit_controller(
+                        client, drives, should_stop=lambda: bool(stop), side=side,
+                        log_path=(log / "controller_log.csv") if log else None,
+                        events_path=(log / "controller_events.jsonl") if log else None))
                 else:
                     summary.update(run_position_controller(
                         client, ctl, ref, encoder_resolution=enc, mode=mode, sample_time=sample,

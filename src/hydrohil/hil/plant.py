@@ -144,8 +144,12 @@ class PlantServer:
         self.queued: list[dict] = []
         self.session = PanelSession(self, Path(session)) if panel is not None and session is not None else None
         if panel is not None:
-            from hydrohil.hil.sidechannel import PLANT_COLUMNS, ROLE_PLANT, SideChannel
-            self.side = SideChannel(panel, ROLE_PLANT, PLANT_COLUMNS)
+            from hydrohil.hil.sidechannel import ROLE_PLANT, SideChannel
+            self.side = SideChannel(panel, ROLE_PLANT, self.telemetry_columns())
+
+    def telemetry_columns(self) -> tuple[str, ...]:
+        """The columns of its telemetry rows to the live panel (the paper's rig: core/shape.py's)."""
+        return shape.SIDE_PLANT_COLUMNS
 
     def warm_up(self) -> None:
         """Touch every path a step takes once (the first steps of a run must not pay for page faults)."""
@@ -394,9 +398,14 @@ class PlantServer:
             for msg in msgs:
                 self._steer(msg, k)
 
+    def apply_event(self, msg: dict, k: int) -> tuple:
+        """A steering event validated and applied at the boundary of step k: (the event, what its answer adds)."""
+        from hydrohil.simulation.steering import apply_plant_event, parse_event
+        ev = parse_event(msg, "plant", source="panel")
+        return ev, apply_plant_event(self.rig, ev, k)
+
     def _steer(self, msg: dict, k: int) -> None:
         """Apply one steering message at the boundary of step k (before it is taken), log it, answer it."""
-        from hydrohil.simulation.steering import apply_plant_event, parse_event
         op = msg.get("op")
         try:
             if op == "stop":
@@ -410,8 +419,7 @@ class PlantServer:
                     self.session.record_stop(k)
                 self.side.answer(msg, k=k, **info)
                 return
-            ev = parse_event(msg, "plant", source="panel")
-            extra = apply_plant_event(self.rig, ev, k)
+            ev, extra = self.apply_event(msg, k)
         except (HydrohilError, ValueError, KeyError, TypeError, OSError) as exc:
             self.side.answer(msg, error=str(exc))
             return

@@ -3,12 +3,14 @@
 Session folder (``hydrohil panel --out DIR``: ``DIR/session-N``)::
 
     events.jsonl            every applied steering event with its step index k (hydrohil.simulation.steering)
-    commands.f64            the valve command applied at each step (float64, little-endian, k = 0, 1, ...)
+    commands.f64            the valve command applied at each step (float64, little-endian, k = 0, 1, ...);
+                            a circuit's plant: every input as applied, one row of them per step
     timing.json             the whole session's timing and verdict (at its end)
     recordings/NAME/        plant_log.csv + timing.json of the recorded steps (+ the panel's report)
 
-From ``events.jsonl`` and ``commands.f64`` the session replays exactly (:func:`replay_session`), whatever
-the machine did to the timing: the state of every step, bit for bit.
+From ``events.jsonl`` and ``commands.f64`` the session replays exactly (:func:`replay_session`, a circuit's:
+:func:`hydrohil.hil.circuit.replay_circuit_session`), whatever the machine did to the timing: the state of every
+step, bit for bit.
 """
 
 from __future__ import annotations
@@ -53,8 +55,9 @@ class PanelSession:
         self.cmds = array("d")
         self.recording: Recording | None = None
 
-    def command(self, u: float) -> None:
-        self.cmds.append(u)
+    def command(self, *u: float) -> None:
+        """The command(s) applied at a step: the valve's (the paper's rig), or every input of a circuit."""
+        self.cmds.extend(u)
         if len(self.cmds) >= FLUSH_EVERY:
             self.flush()
 

@@ -32,8 +32,9 @@ class SideHub:
     """The side-channel socket of one panel and what came through it: ``traces``, ``counters`` (the plant's,
     and the telemetry steps lost), ``peers`` (role -> address of that process)."""
 
-    def __init__(self, h: float):
+    def __init__(self, h: float, plant_columns=PLANT_COLUMNS, controller_columns=CONTROLLER_COLUMNS):
         self.h = h
+        self.plant_columns, self.controller_columns = tuple(plant_columns), tuple(controller_columns)
         self.acks: dict[int, asyncio.Future] = {}
         self.next_id = 1
         self.udp = None
@@ -41,7 +42,7 @@ class SideHub:
 
     def reset(self) -> None:
         """Forget what came before (a new session: new processes, step 0 again)."""
-        self.traces = Traces(self.h)
+        self.traces = Traces(self.h, plant_columns=self.plant_columns, controller_columns=self.controller_columns)
         self.counters = {**dict.fromkeys(PLANT_COUNTERS, 0), "telemetry_lost_steps": 0}
         self.peers: dict[str, tuple] = {}
 
@@ -62,11 +63,11 @@ class SideHub:
                 return
             role, k0, counters, ncols, nrows, payload = b
             rows = np.frombuffer(payload, dtype="<f8").reshape(nrows, ncols)
-            if role == ROLE_PLANT and ncols == len(PLANT_COLUMNS):
+            if role == ROLE_PLANT and ncols == len(self.plant_columns):
                 self.peers.setdefault("plant", addr)
                 self.traces.add_plant(k0, rows)
                 self.counters = {**dict(zip(PLANT_COUNTERS, counters)), "telemetry_lost_steps": self.traces.lost}
-            elif role == ROLE_CONTROLLER and ncols == len(CONTROLLER_COLUMNS):
+            elif role == ROLE_CONTROLLER and ncols == len(self.controller_columns) and ncols:
                 self.peers.setdefault("controller", addr)
                 self.traces.add_controller(k0, rows)
             return

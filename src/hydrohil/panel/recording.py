@@ -72,3 +72,45 @@ def finish_recording(sc, session: Path, folder: Path, k0: int, k1: int) -> dict:
     plot_recording(folder / "report.png", log, events=events, verdict=timing.get("verdict") or judge(timing, sc.scenario.hil),
                    title=f"{folder.name}: steps {cmp['recorded_steps']} of {session.name}")
     return {"comparison": cmp}
+
+
+def finish_circuit_recording(cs, session: Path, folder: Path, k0: int, k1: int) -> dict:
+    """A recording of a circuit plant's session made complete: ``scenario.toml``, the events up to k1, the
+    replay of the session's applied inputs and plant events (:func:`hydrohil.hil.circuit.replay_circuit_session`,
+    which must give the recorded states bit for bit: ``comparison.json``), ``report.png`` (recorded vs replayed,
+    the inputs as applied, the jitter, the watchdog)."""
+    from hydrohil.circuits.run import CircuitResult, input_unit, signal_units
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.hil.circuit import replay_circuit_session
+    from hydrohil.hil.verdict import judge
+    from hydrohil.plotting import plot_circuit_hil
+    from hydrohil.simulation.outputs import read_csv_columns
+    from hydrohil.simulation.scenario import circuit_hil
+    session, folder = Path(session), Path(folder)
+    if (session / "scenario.toml").is_file():
+        shutil.copyfile(session / "scenario.toml", folder / "scenario.toml")
+        cs = load_circuit_scenario(folder / "scenario.toml")          # (as the session ran: repeating)
+    _events_until(session / "events.jsonl", folder / "events.jsonl", k1)
+    _events_until(session / "controller_events.jsonl", folder / "controller_events.jsonl", k1)
+    log = read_csv_columns(folder / "plant_log.csv")
+    ks = log["k"].astype(np.int64)
+    k_first = int(ks[0]) if len(ks) else 0
+    lay = cs.layout
+    rep = replay_circuit_session(cs, session, steps=int(ks[-1]) if len(ks) else 0, keep_from=k_first)
+    diff = {s: float(np.max(np.abs(rep[ks - k_first, i] - log[s]))) if len(ks) else None
+            for i, s in enumerate(lay.states)}
+    cmp = {"recorded_steps": [int(ks[0]), int(ks[-1])] if len(ks) else [], "replayed_from_step": 0,
+           "replay_max_abs_difference": diff,
+           "identical": bool(len(ks)) and all(v == 0.0 for v in diff.values())}
+    (folder / "comparison.json").write_text(json.dumps(cmp, indent=2) + "\n")
+    timing = json.loads((folder / "timing.json").read_text())
+    units = {s: u for s, u in signal_units(cs.circuit, lay).items() if s in lay.states}    # (what a replay has)
+    units.update({name: input_unit(cs.circuit, name) for name in lay.inputs})              # (the inputs' strip)
+    replayed = CircuitResult({"t": ks * cs.step, **{s: rep[ks - k_first, i] for i, s in enumerate(lay.states)}},
+                             units, lay.mode_names, cs.step, cs.method)
+    measure = cs.loop.measure if cs.loop is not None and cs.loop.measure in units else None
+    plot_circuit_hil(folder / "report.png", log, replayed, measure,
+                     title=f"{folder.name}: steps {cmp['recorded_steps']} of {session.name} ({cs.circuit.name})",
+                     verdict=timing.get("verdict") or judge(timing, circuit_hil(cs)), inputs=lay.inputs,
+                     commanded=cs.loop is not None, other="replay")
+    return {"comparison": cmp}

@@ -35,23 +35,44 @@ class Panel:
                  lockstep: bool = False, params: str | None = None, sets: dict | None = None,
                  host: str = "127.0.0.1", port: int = 0, allow_remote: bool = False,
                  plant_port: int = 47000, plant: str = "python"):
-        from hydrohil.simulation.scenario import load_scenario
+        from hydrohil.circuits.scenario import is_circuit_scenario
+        from hydrohil.hil.run import CIRCUIT_PANEL_PLANT, PLANTS
+        from hydrohil.panel.views import circuit_view, paper_view
         self.scenario_path, self.out = Path(scenario), Path(out)
-        self.sc = load_scenario(self.scenario_path, params=params, sets=sets)
         self.params_arg, self.sets = params, sets
-        s = self.sc.scenario
         if controller not in ("builtin", "external"):
             raise InputError(f"--controller must be builtin or external, got {controller!r}", key="controller")
-        if controller == "builtin" and not s.closed_loop:
-            raise InputError("the panel's built-in controller needs a closed-loop scenario ([controller] + "
-                             "[reference]); or use --controller external", source=str(scenario))
-        from hydrohil.hil.run import PLANTS
         if plant not in PLANTS:
             raise InputError(f"--plant must be one of {', '.join(PLANTS)}, got {plant!r}", key="plant")
+        self.sc = self.cs = None
+        if is_circuit_scenario(self.scenario_path):      # a circuit: its signals, inputs and parameters
+            from hydrohil.circuits.scenario import load_circuit_scenario
+            from hydrohil.simulation.scenario import circuit_hil
+            if params is not None:
+                raise InputError("a circuit scenario has no parameter set: give its values with --set "
+                                 "component.key=value", key="--params")
+            if plant == "c":
+                raise InputError(CIRCUIT_PANEL_PLANT, key="--plant")
+            cs = self.cs = load_circuit_scenario(self.scenario_path, sets=sets)
+            self.hil, self.h, self.view = circuit_hil(cs), cs.step, circuit_view(cs)
+            self.controller_type = cs.loop.cfg.type if cs.loop is not None else None
+        else:
+            from hydrohil.simulation.scenario import load_scenario
+            self.sc = load_scenario(self.scenario_path, params=params, sets=sets)
+            s = self.sc.scenario
+            if controller == "builtin" and not s.closed_loop:
+                raise InputError("the panel's built-in controller needs a closed-loop scenario ([controller] + "
+                                 "[reference]); or use --controller external", source=str(scenario))
+            self.hil, self.h, self.view = s.hil, s.plant_step, paper_view()
+            self.controller_type = s.controller.type if s.controller else None
+        # the columns a frame carries: every plotted one, the mode strips, the step jitter and the watchdog
+        shown = [col for pl in self.view["plots"] for col, *_ in pl["series"]]
+        shown += [col for col, *_ in (self.view["modes"] or {}).get("rows", [])]
+        extra = [c for c in ("jitter_us", "watchdog", "faults") if c in self.view["plant_columns"]]
+        self.shown = list(dict.fromkeys([*shown, *extra]))
         self.own, self.controller_kind, self.lockstep, self.plant = own, controller, lockstep, plant
-        self.h = s.plant_step
         self.plant_port = plant_port
-        self.hub = SideHub(self.h)
+        self.hub = SideHub(self.h, self.view["plant_columns"], self.view["controller_columns"])
         self.supervisor = SessionSupervisor(self)
         self.web = PanelWeb(self, host=host, port=port, allow_remote=allow_remote)
         self.reset_steering()
@@ -60,16 +81,23 @@ class Panel:
     # -- what was steered --------------------------------------------------------------------------
     def reset_steering(self) -> None:
         """The scenario's values again (a new session)."""
-        p = self.sc.params
-        self.tunables = {"mass": p.load.mass, "force": p.load.force, "supply_pressure": p.supply.ps,
-                         "friction_scale": 1.0}
+        self.tunables = {}
+        if self.sc is not None:
+            p = self.sc.params
+            self.tunables = {"mass": p.load.mass, "force": p.load.force, "supply_pressure": p.supply.ps,
+                             "friction_scale": 1.0}
+        self.values: dict[str, float] = {}           # a circuit's parameters changed from the panel
+        self.held: dict[str, float] = {}             # a circuit's inputs held from the panel
         self.faults: dict[int, dict] = {}            # slot -> fault switched on from the panel
         self.gains = self._initial_gains()
         self.reference: float | None = None
         self.events: list[dict] = []                 # applied changes, newest last (shown on the page)
 
     def _initial_gains(self) -> dict:
-        c = self.sc.scenario.controller
+        if self.cs is not None:
+            c = self.cs.loop.cfg if self.cs.loop is not None else None
+        else:
+            c = self.sc.scenario.controller
         if c is None or self.controller_kind != "builtin" or c.type == "python":
             return {}
         from hydrohil.simulation.steering import GAINS
@@ -83,7 +111,7 @@ class Panel:
         op = body.get("op")
         role = "controller" if op in ("gains", "reference") or body.get("target") == "controller" else "plant"
         body = {k: v for k, v in body.items() if k != "target"}
-        ev = parse_event(body, role, source="request")
+        ev = parse_event(body, role, source="request", circuit=self.cs)
         if role == "controller" and self.controller_kind != "builtin":
             raise InputError("the controller is your own: its gains and reference are not the panel's", source="request")
         ans = await self.hub.send(role, ev.model_dump(exclude_none=True))
@@ -91,7 +119,12 @@ class Panel:
             raise InputError(ans["error"], source=role)
         d = ev.model_dump(exclude_none=True)
         if op == "set":
-            self.tunables[d["name"]] = d["value"]
+            (self.values if self.cs is not None else self.tunables)[d["name"]] = d["value"]
+        elif op == "input":
+            if d.get("value") is None:
+                self.held.pop(d["name"], None)
+            else:
+                self.held[d["name"]] = d["value"]
         elif op == "fault_on":
             self.faults[ans["slot"]] = d["fault"]
         elif op == "fault_off":
@@ -107,20 +140,22 @@ class Panel:
     def state(self) -> dict:
         from hydrohil.hil.verdict import judge
         from hydrohil.panel.schema import fault_schema, tunable_schema
-        s, runs = self.sc.scenario, self.supervisor
+        runs = self.supervisor
         c = self.hub.counters
         steps = c["steps"]
         timing = {"mode": "lockstep" if self.lockstep else "realtime", "steps": steps,
                   "late_commands": c["late_commands"], "overruns": c["overruns"],
                   "jitter_us_max": c["jitter_max_ns"] / 1e3, "watchdog_trips_unexplained": c["watchdog_trips_unexplained"]}
         return {"scenario": self.scenario_path.name, "plant": self.plant, "step_s": self.h, "running": runs.running,
-                "controller": self.controller_kind, "controller_type": s.controller.type if s.controller else None,
+                "controller": self.controller_kind, "controller_type": self.controller_type,
                 "session": str(runs.folder) if runs.folder else None, "lockstep": self.lockstep,
-                "tunables": self.tunables, "tunable_schema": tunable_schema(), "fault_schema": fault_schema(),
+                "view": self.view, "values": self.values, "held": self.held, "tunables": self.tunables,
+                "tunable_schema": tunable_schema() if self.sc is not None else [],
+                "fault_schema": fault_schema() if self.sc is not None else [],
                 "faults": [{"slot": k, **v} for k, v in sorted(self.faults.items())], "gains": self.gains,
                 "reference": self.reference, "recording": runs.recording, "recordings": runs.recordings,
                 "events": self.events[-30:], "counters": c,
-                "verdict": judge(timing, s.hil) if steps else None, "ended": runs.ended,
+                "verdict": judge(timing, self.hil) if steps else None, "ended": runs.ended,
                 "plant_address": f"127.0.0.1:{self.plant_port}" if self.controller_kind == "external" else None,
                 "own": self.own}
 

@@ -34,10 +34,15 @@ class SessionSupervisor:
         """What a session changes in its scenario: it runs until stopped, so the reference repeats
         (x_ref(t mod duration)); on fewer than 4 CPUs the browser needs one, so neither process busy-waits
         unless the scenario says so (``[hil] wait``: "sleep" here by default, "spin-controller" elsewhere)."""
-        s, tables = self.panel.sc.scenario, {}
-        if s.closed_loop and s.reference.repeat is None:
-            tables["reference"] = {"repeat": s.duration}
-        if "wait" not in s.hil.model_fields_set and (os.cpu_count() or 1) < 4:
+        pn, tables = self.panel, {}
+        if pn.cs is not None:                     # a circuit: its drives and reference repeat (``repeat``)
+            wait_given = "wait" in pn.cs.hil
+        else:
+            s = pn.sc.scenario
+            if s.closed_loop and s.reference.repeat is None:
+                tables["reference"] = {"repeat": s.duration}
+            wait_given = "wait" in s.hil.model_fields_set
+        if not wait_given and (os.cpu_count() or 1) < 4:
             tables["hil"] = {"wait": "sleep", "busy_poll": True}
         return tables
 
@@ -54,8 +59,15 @@ class SessionSupervisor:
         folder = self.folder = pn.out / f"session-{self.number:03d}"
         folder.mkdir(parents=True)
         self.folders.append(folder)
-        scenario = write_scenario(pn.scenario_path, folder / "scenario.toml", params=pn.params_arg, sets=pn.sets,
-                                  tables=self.tables())
+        if pn.cs is not None:
+            from hydrohil.circuits.scenario import load_circuit_scenario, write_circuit_scenario
+            scenario = write_circuit_scenario(pn.scenario_path, folder / "scenario.toml", sets=pn.sets or {},
+                                              repeat=True, hil=self.tables().get("hil"))
+            sc = load_circuit_scenario(scenario)
+        else:
+            scenario = write_scenario(pn.scenario_path, folder / "scenario.toml", params=pn.params_arg,
+                                      sets=pn.sets, tables=self.tables())
+            sc = load_scenario(scenario)
         pn.hub.reset()
         pn.reset_steering()
         self.ended = self.recording = None
@@ -63,7 +75,6 @@ class SessionSupervisor:
         builtin = pn.controller_kind == "builtin"
         ctl_addr = f"127.0.0.1:{free_udp_port()}" if builtin else None
         bind = "127.0.0.1:0" if builtin else f"127.0.0.1:{pn.plant_port}"
-        sc = load_scenario(scenario)
         plant = Child(plant_command(sc, scenario, folder, ctl_addr, lockstep=pn.lockstep, plant=pn.plant, bind=bind,
                                     extra=("--panel", side, "--no-rows", "--duration", "0",
                                            *([] if builtin else ["--connect-timeout", "3600"]))), "plant")
@@ -188,9 +199,10 @@ class SessionSupervisor:
 
     def _finish_recording(self, rec: dict) -> None:
         """Complete a recording's folder: scenario, the events up to its end, the replay check, report.png."""
-        from hydrohil.panel.recording import finish_recording
+        from hydrohil.panel.recording import finish_circuit_recording, finish_recording
+        finish = finish_circuit_recording if self.panel.cs is not None else finish_recording
         try:
-            rec.update(finish_recording(self.panel.sc, self.folder, Path(rec["dir"]), rec["k0"], rec["k1"]))
+            rec.update(finish(self.panel.sc or self.panel.cs, self.folder, Path(rec["dir"]), rec["k0"], rec["k1"]))
             rec["report"] = "done"
         except Exception as exc:       # noqa: BLE001 - shown on the page, the recording's logs stay
             rec["report"] = f"failed: {exc}"

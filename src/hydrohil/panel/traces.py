@@ -15,16 +15,22 @@ from hydrohil.hil.sidechannel import CONTROLLER_COLUMNS, PLANT_COLUMNS
 
 CAPACITY = 1 << 17                         # 131 072 steps: 65.5 s at 0.5 ms
 LEVELS = 11                                # blocks of 1 .. 1024 steps
-DERIVED = ("error",)                       # x_ref − x (the controller's measurement)
-COLUMNS = PLANT_COLUMNS + CONTROLLER_COLUMNS + DERIVED
-INDEX = {c: i for i, c in enumerate(COLUMNS)}
+DERIVED = ("error",)                       # reference − measured (the controller's first two columns)
 JITTER_BINS = np.concatenate([[-np.inf, 0.0], np.logspace(0, 5, 41), [np.inf]])   # µs: ≤0, 1 µs .. 100 ms
 
 
 class Traces:
-    def __init__(self, h: float, capacity: int = CAPACITY):
+    """``plant_columns`` / ``controller_columns``: the telemetry columns of either process (the paper's rig's
+    by default; a circuit's: :func:`hydrohil.circuits.link.side_columns`)."""
+
+    def __init__(self, h: float, capacity: int = CAPACITY, plant_columns=PLANT_COLUMNS,
+                 controller_columns=CONTROLLER_COLUMNS):
         self.h, self.cap = h, capacity
-        nc = len(COLUMNS)
+        self.plant_columns, self.controller_columns = tuple(plant_columns), tuple(controller_columns)
+        self.columns = self.plant_columns + self.controller_columns + DERIVED
+        self.index = {c: i for i, c in enumerate(self.columns)}
+        self._jitter = self.plant_columns.index("jitter_us")
+        nc = len(self.columns)
         self.raw = np.full((capacity, nc), np.nan)
         self.lo = [self.raw] + [np.full((capacity >> L, nc), np.nan) for L in range(1, LEVELS)]
         self.hi = [self.raw] + [np.full((capacity >> L, nc), np.nan) for L in range(1, LEVELS)]
@@ -49,30 +55,31 @@ class Traces:
             self.cleared_to = a + 4096
 
     def add_plant(self, k0: int, rows: np.ndarray) -> None:
-        """Plant telemetry rows of steps k0, k0+1, ... (columns :data:`PLANT_COLUMNS`)."""
+        """Plant telemetry rows of steps k0, k0+1, ... (columns ``plant_columns``)."""
         n = len(rows)
         if k0 > self.k_max + 1 and self.k_max >= 0:
             self.lost += k0 - self.k_max - 1
         self._clear_ahead(k0 + n - 1)
         idx = np.arange(k0, k0 + n) % self.cap
-        self.raw[idx, :len(PLANT_COLUMNS)] = rows
+        self.raw[idx, :len(self.plant_columns)] = rows
         self._touch(k0, k0 + n - 1)
         self.k_max = max(self.k_max, k0 + n - 1)
-        j = rows[:, PLANT_COLUMNS.index("jitter_us")]
+        j = rows[:, self._jitter]
         self.jitter_counts += np.bincount(np.searchsorted(JITTER_BINS, j, side="left") - 1,
                                           minlength=len(self.jitter_counts))[:len(self.jitter_counts)]
         self.rows += n
 
     def add_controller(self, k0: int, rows: np.ndarray) -> None:
-        """Controller telemetry rows (columns :data:`CONTROLLER_COLUMNS`) of steps k0, k0+1, ..."""
+        """Controller telemetry rows (columns ``controller_columns``) of steps k0, k0+1, ..."""
         n = len(rows)
         if k0 + n - 1 < self.k_max - self.cap + 1:
             return                                   # older than the ring
         self._clear_ahead(k0 + n - 1)
         idx = np.arange(k0, k0 + n) % self.cap
-        a = len(PLANT_COLUMNS)
-        self.raw[idx, a:a + len(CONTROLLER_COLUMNS)] = rows
-        self.raw[idx, INDEX["error"]] = rows[:, 0] - rows[:, 1]
+        a = len(self.plant_columns)
+        self.raw[idx, a:a + len(self.controller_columns)] = rows
+        if rows.shape[1] >= 2:
+            self.raw[idx, self.index["error"]] = rows[:, 0] - rows[:, 1]
         self._touch(k0, k0 + n - 1)
 
     def _touch(self, a: int, b: int) -> None:
@@ -112,7 +119,7 @@ class Traces:
             return {"level": L, "block": 1 << L, "b0": 0, "n": 0, "lo": empty, "hi": empty}
         nb = self.cap >> L
         blocks = np.arange(b0, b_end + 1) % nb
-        cols = [INDEX[c] for c in columns]
+        cols = [self.index[c] for c in columns]
         lo = self.lo[L][blocks][:, cols].T.astype(np.float32)
         hi = self.hi[L][blocks][:, cols].T.astype(np.float32)
         return {"level": L, "block": 1 << L, "b0": int(b0), "n": int(len(blocks)), "lo": lo, "hi": hi}

@@ -31,8 +31,6 @@ from hydrohil.panel.traces import JITTER_BINS
 
 STATIC = Path(__file__).parent / "static"
 FRAME_S = 0.04                   # 25 frames/s
-SHOWN = ("xp", "x_ref", "error", "p1", "p2", "ps", "xs", "u", "ff", "travel_mode", "friction_mode", "spool_mode",
-         "jitter_us", "watchdog", "faults")
 TOKEN_COOKIE = "hydrohil_token"
 JITTER_EDGES_US = [float(e) for e in JITTER_BINS[1:-1]]     # (sent with every frame: made once)
 
@@ -83,10 +81,11 @@ class PanelWeb:
         hub, runs = self.panel.hub, self.panel.supervisor
         window = float(min(max(view.get("window", 10.0), 0.5), 60.0))
         end = view.get("end_k")
-        f = hub.traces.frame(window, end, list(SHOWN), int(min(max(view.get("points", 1000), 100), 2000)))
+        shown = self.panel.shown          # (the view's columns: hydrohil.panel.views)
+        f = hub.traces.frame(window, end, shown, int(min(max(view.get("points", 1000), 100), 2000)))
         total = int(hub.traces.jitter_counts.sum())
         head = {"seq": self.frames_sent, "h": self.panel.h, "k_max": hub.traces.k_max, "level": f["level"],
-                "block": f["block"], "b0": f["b0"], "n": f["n"], "columns": list(SHOWN), "window": window,
+                "block": f["block"], "b0": f["b0"], "n": f["n"], "columns": shown, "window": window,
                 "counters": hub.counters, "running": runs.running, "recording": runs.recording,
                 "jitter_hist": {"edges_us": JITTER_EDGES_US, "counts": hub.traces.jitter_counts.tolist(),
                                 "total": total},

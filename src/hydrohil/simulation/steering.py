@@ -17,6 +17,19 @@ op                  process       fields
 ``reset``           controller    the law's state (integral, filters) cleared
 ==================  ============  ===================================================================
 
+A circuit's plant (a scenario naming its circuit, :mod:`hydrohil.hil.circuit`) takes its own events:
+
+==================  ============  ===================================================================
+``input``           plant         ``name`` (one of its inputs not driven by the controller), ``value``
+                                  (SI, in its parameter's range) held from now on, or null: its drive again
+``set``             plant         ``name`` (``component.key`` or ``fluid.key``: any parameter but an input
+                                  or a delay), ``value`` (SI, in its range); the values derived from it follow
+``reset``           plant         the model back to its state at rest (plant time 0)
+``gains``           controller    as above, the loop's law
+``reference``       controller    ``value`` (SI of the measured signal) held from now on, or null
+``reset``           controller    as above
+==================  ============  ===================================================================
+
 The same functions apply an event in the real-time plant, in the controller process and in the offline
 replay (:func:`hydrohil.simulation.rig.run_rig` with ``events``), so a panel session replays bit for bit.
 """
@@ -31,7 +44,7 @@ from typing import Annotated, Literal, Union
 
 from pydantic import Field, TypeAdapter, ValidationError
 
-from hydrohil.errors import InputError
+from hydrohil.errors import HydrohilError, InputError
 from hydrohil.core import dptr, lib, shape
 from hydrohil.parameters.schema import StrictModel
 
@@ -74,23 +87,50 @@ class Reference(StrictModel):
     value: float | None = Field(None, ge=-10, le=10, description="held reference [m]; null: the scenario's")
 
 
+class HoldInput(StrictModel):
+    op: Literal["input"]
+    name: str
+    value: float | None = Field(None, allow_inf_nan=False, description="held value (SI); null: its drive again")
+
+
+class SetValue(StrictModel):
+    op: Literal["set"]
+    name: str
+    value: float = Field(allow_inf_nan=False)
+
+
+class CircuitReference(Reference):
+    value: float | None = Field(None, allow_inf_nan=False, description="held reference (SI of the measured "
+                                                                      "signal); null: the scenario's")
+
+
 PlantEvent = Annotated[Union[SetTunable, FaultOn, FaultOff, Reset], Field(discriminator="op")]
 ControllerEvent = Annotated[Union[Gains, Reference, Reset], Field(discriminator="op")]
+CircuitEvent = Annotated[Union[HoldInput, SetValue, Reset], Field(discriminator="op")]
+CircuitControllerEvent = Annotated[Union[Gains, CircuitReference, Reset], Field(discriminator="op")]
 _PLANT, _CONTROLLER = TypeAdapter(PlantEvent), TypeAdapter(ControllerEvent)
+_CIRCUIT, _CIRCUIT_CONTROLLER = TypeAdapter(CircuitEvent), TypeAdapter(CircuitControllerEvent)
 
 
 def _errors(exc: ValidationError) -> str:
     return "; ".join(f"{'.'.join(map(str, e['loc'])) or 'event'}: {e['msg']}" for e in exc.errors())
 
 
-def parse_event(data: dict, process: str, source: str = "event"):
-    """Validate one event for ``process`` ("plant" | "controller"); InputError naming the field otherwise."""
-    adapter = _PLANT if process == "plant" else _CONTROLLER
+def _validate(adapter, data: dict, source: str):
     body = {k: v for k, v in data.items() if k not in ("k", "id", "result")}
     try:
-        ev = adapter.validate_python(body)
+        return adapter.validate_python(body)
     except ValidationError as exc:
         raise InputError(_errors(exc), source=source) from None
+
+
+def parse_event(data: dict, process: str, source: str = "event", circuit=None):
+    """Validate one event for ``process`` ("plant" | "controller"); InputError naming the field otherwise.
+    ``circuit``: the :class:`~hydrohil.circuits.scenario.CircuitScenario` whose plant or loop it steers (its
+    events, :func:`parse_circuit_event`)."""
+    if circuit is not None:
+        return parse_circuit_event(data, process, circuit, source)
+    ev = _validate(_PLANT if process == "plant" else _CONTROLLER, data, source)
     if isinstance(ev, SetTunable):
         unit, lo, hi, what = TUNABLES[ev.name]
         if not lo <= ev.value <= hi:
@@ -99,6 +139,66 @@ def parse_event(data: dict, process: str, source: str = "event"):
     if isinstance(ev, FaultOn):
         ev = FaultOn(op="fault_on", fault=fault_model(ev.fault, source).model_dump())
     return ev
+
+
+def parse_circuit_event(data: dict, process: str, cs, source: str = "event"):
+    """An event of a circuit scenario ``cs``'s plant or loop, checked against its circuit: an input it has and
+    the controller does not drive, a parameter it has (not an input, not a delay: its memory is sized at the
+    start), a value in the parameter's range (SI unit named)."""
+    if process != "plant":
+        if cs.loop is None:
+            raise InputError("this circuit scenario has no closed loop: its controller takes no steering",
+                             source=source)
+        return _validate(_CIRCUIT_CONTROLLER, data, source)
+    ev = _validate(_CIRCUIT, data, source)
+    c = cs.circuit
+    if isinstance(ev, HoldInput):
+        if ev.name not in c.inputs:
+            raise InputError(f"not an input of circuit {c.name!r} (inputs: {', '.join(c.inputs) or 'none'})",
+                             source=source, key=ev.name)
+        if cs.loop is not None and ev.name == cs.loop.command:
+            raise InputError("the closed loop's command: its controller drives it (steer its reference or gains)",
+                             source=source, key=ev.name)
+    if isinstance(ev, (HoldInput, SetValue)):
+        prm = _circuit_param(c, ev.name, source)
+        if isinstance(ev, SetValue) and ev.name in c.inputs:
+            raise InputError("an input of the circuit: hold it with op \"input\"", source=source, key=ev.name)
+        if isinstance(ev, SetValue) and ev.name in cs.layout.delay_params.values():
+            raise InputError("a delay's memory is sized when the run starts: not changed while it runs",
+                             source=source, key=ev.name)
+        problem = prm.check(ev.value) if ev.value is not None else None
+        if problem:
+            raise InputError(f"{problem}, got {ev.value:g}", source=source, key=ev.name)
+    return ev
+
+
+def _circuit_param(c, key: str, source: str):
+    from hydrohil.circuits.library import FLUID
+    comp, _, name = key.partition(".")
+    if comp == "fluid" and name in FLUID:
+        return FLUID[name]
+    if comp not in c.components:
+        raise InputError(f"no component {comp!r} (components: {', '.join(c.components)}; or fluid)", source=source,
+                         key=key)
+    params = c.components[comp].type.params
+    if name not in params:
+        raise InputError(f"not a parameter of {comp} ({c.components[comp].type.name}: {', '.join(params)})",
+                         source=source, key=key)
+    return params[name]
+
+
+def apply_circuit_event(rig, ev, k: int) -> dict:
+    """Apply a validated circuit plant event to a :class:`~hydrohil.circuits.rig.CircuitRig` at the boundary of
+    step k (before it is taken)."""
+    if isinstance(ev, HoldInput):
+        rig.hold(ev.name, ev.value)
+    elif isinstance(ev, SetValue):
+        rig.set_value(ev.name, ev.value)
+    elif isinstance(ev, Reset):
+        rig.restart()
+    else:
+        raise TypeError(f"not a circuit event: {ev!r}")
+    return {}
 
 
 _FAULT = None
@@ -172,6 +272,23 @@ class SteerableController:
         return {}
 
 
+def apply_controller_messages(messages: list[dict], k: int, steer: SteerableController, side, events, *,
+                               circuit=None) -> None:
+    """The panel's messages to a controller process (``side``: its side channel), applied before the command
+    answering sensor packet k: each validated (``circuit``: a circuit scenario's loop), applied to ``steer``,
+    logged with k in ``events`` and answered; a refused one answered with its error. ``messages`` is emptied."""
+    for msg in messages:
+        try:
+            ev = parse_event(msg, "controller", source="panel", circuit=circuit)
+            steer.apply(ev)
+        except (HydrohilError, ValueError, TypeError) as exc:
+            side.answer(msg, error=str(exc))
+            continue
+        events.write(k, ev.model_dump(exclude_none=True))
+        side.answer(msg, k=k)
+    messages.clear()
+
+
 class EventLog:
     """Append-only JSON-lines log of applied events (``events.jsonl`` / ``controller_events.jsonl``):
     one line per event with its step index ``k``; flushed at once (a crash keeps what was applied)."""
@@ -191,7 +308,7 @@ class EventLog:
             self.fh = None
 
 
-def read_events(path: Path, process: str) -> dict[int, list]:
+def read_events(path: Path, process: str, circuit=None) -> dict[int, list]:
     """An event log -> {k: [validated events in the order applied]} (a missing file: no events). Only
     applied events are in it (a refused one is answered with an error and never logged)."""
     path = Path(path)
@@ -206,5 +323,5 @@ def read_events(path: Path, process: str) -> dict[int, list]:
             k = int(data["k"])
         except (ValueError, KeyError, TypeError):
             raise InputError("expected a JSON object with an integer step index k", source=f"{path}:{n}") from None
-        out.setdefault(k, []).append(parse_event(data, process, source=f"{path}:{n}"))
+        out.setdefault(k, []).append(parse_event(data, process, source=f"{path}:{n}", circuit=circuit))
     return out

@@ -8,19 +8,23 @@ const $ = (id) => document.getElementById(id);
 let state = null, frame = null, frames = 0, fpsCount = 0, paused = false, view = { window: 10, end_k: null, paused: false };
 let pausedAt = null, ws = null;
 
-const PLOTS = {
-  "c-position": [["x_ref", "#444", 1e3, [4, 3]], ["xp", "#1565c0", 1e3]],
-  "c-error": [["error", "#c62828", 1e3]],
-  "c-pressure": [["p1", "#1565c0", 1e-5], ["p2", "#ef6c00", 1e-5], ["ps", "#444", 1e-5, [4, 3]]],
-  "c-valve": [["u", "#6a1b9a", 1], ["xs", "#2e7d32", 1]],
-  "c-friction": [["ff", "#795548", 1]],
-  "c-jitter": [["jitter_us", "#455a64", 1]],
-};
-const MODE_COLORS = {
-  travel_mode: ["#c8e6c9", "#e53935", "#1e88e5"],
-  friction_mode: ["#ffb74d", "#b3e5fc", "#b3e5fc"],
-  spool_mode: ["#e0e0e0", "#fff59d", "#ffcc80", "#e57373"],
-};
+// what is drawn comes with the state (hydrohil/panel/views.py): the paper's rig or a circuit's signals
+let PLOTS = {}, MODES = null;
+
+function buildPlots(view) {
+  const list = $("plot-list");
+  list.innerHTML = "";
+  const add = (id, title, height) => {
+    const c = document.createElement("canvas");
+    c.id = id; c.dataset.title = title; c.setAttribute("height", height); list.appendChild(c); return c;
+  };
+  PLOTS = {};
+  for (const pl of view.plots) { add(pl.id, pl.title, pl.height); PLOTS[pl.id] = pl.series; }
+  MODES = view.modes;
+  if (MODES) add("c-modes", MODES.title, Math.max(24, 20 * MODES.rows.length));
+  PLOTS["c-jitter"] = [["jitter_us", "#455a64", 1]];            // (its canvas is the page's own, below the list)
+  for (const id of [...Object.keys(PLOTS), ...(MODES ? ["c-modes"] : [])]) zoomable($(id));
+}
 
 async function api(path, body) {
   const r = await fetch(path + q, body === undefined ? {} :
@@ -123,16 +127,21 @@ function drawModes(c, f) {
   const g = sizeCanvas(c), W = c.clientWidth, H = +c.getAttribute("height"), L = 52, R = 8, T = 14;
   g.clearRect(0, 0, W, H); g.fillStyle = "#333"; g.font = "11px sans-serif"; g.fillText(c.dataset.title, L, 11);
   if (!f || !f.n) return;
-  const [t0, t1] = xRange(f), span = f.block * f.h, rows = ["travel_mode", "friction_mode", "spool_mode"];
-  const hRow = (H - T - 2) / 3, X = (t) => L + (t - t0) / (t1 - t0) * (W - L - R);
-  rows.forEach((col, r) => {
-    g.fillStyle = "#666"; g.fillText(col.split("_")[0], 2, T + r * hRow + hRow * 0.7);
+  const [t0, t1] = xRange(f), span = f.block * f.h, rows = MODES.rows;
+  const hRow = (H - T - 2) / rows.length, X = (t) => L + (t - t0) / (t1 - t0) * (W - L - R);
+  rows.forEach(([col, label, colors, names], r) => {
+    g.fillStyle = "#666"; g.fillText(label.slice(0, 8), 2, T + r * hRow + hRow * 0.7);
+    let last = null;
     for (let i = 0; i < f.n; i++) {
       const a = f.lo[col][i], b = f.hi[col][i];
       if (a !== a) continue;
-      g.fillStyle = a === b ? MODE_COLORS[col][a] || "#999" : "#9e9e9e";
+      last = a === b ? a : null;
+      g.fillStyle = a === b ? colors[a % colors.length] || "#999" : "#9e9e9e";
       const x0 = X((f.b0 + i) * span), x1 = X((f.b0 + i + 1) * span);
       g.fillRect(x0, T + r * hRow, Math.max(x1 - x0, 1), hRow - 1);
+    }
+    if (last !== null && names[last] !== undefined) {          // the mode now, by name, at the strip's right end
+      g.fillStyle = "#333"; const txt = names[last]; g.fillText(txt, W - R - g.measureText(txt).width - 2, T + r * hRow + hRow * 0.7);
     }
   });
 }
@@ -155,7 +164,7 @@ function draw() {
   const f = frame;
   if (!f) return;
   for (const [id, series] of Object.entries(PLOTS)) drawPlot($(id), series, f);
-  drawModes($("c-modes"), f);
+  if (MODES) drawModes($("c-modes"), f);
   drawHist($("c-hist"), f);
   if (f.k_max >= 0) $("tplant").textContent = (f.k_max * f.h).toFixed(2);
   const c = f.counters, rows = [["steps", c.steps], ["overruns", c.overruns], ["late commands", c.late_commands],
@@ -167,8 +176,7 @@ function draw() {
 
 // -- zoom while paused ------------------------------------------------------------------------------
 let drag = null;
-for (const id of [...Object.keys(PLOTS), "c-modes"]) {
-  const c = $(id);
+function zoomable(c) {
   c.addEventListener("mousedown", (e) => { if (paused && frame) drag = { c, x0: e.offsetX }; });
   c.addEventListener("mouseup", (e) => {
     if (!drag || !frame) return;
@@ -190,7 +198,9 @@ $("start").onclick = () => api("/api/run/start", {}).then(refresh);
 $("stop").onclick = () => api("/api/run/stop", {}).then(refresh);
 $("reset").onclick = () => api("/api/steer", { op: "reset" }).then(() => api("/api/steer", { op: "reset", target: "controller" }).catch(() => 0)).then(refresh);
 $("record").onclick = () => api(state && state.recording ? "/api/record/stop" : "/api/record/start", {}).then(refresh);
-$("ref-hold").onclick = () => api("/api/steer", { op: "reference", value: +$("ref-value").value / 1e3 }).then(refresh);
+// the reference in its display unit: mm on the paper's rig, the measured signal's on a circuit
+const refShown = () => (state && state.view.reference ? state.view.reference.shown : [1e3, "mm"]);
+$("ref-hold").onclick = () => api("/api/steer", { op: "reference", value: +$("ref-value").value / refShown()[0] }).then(refresh);
 $("ref-scenario").onclick = () => api("/api/steer", { op: "reference", value: null }).then(refresh);
 $("fault-type").onchange = buildFaultFields;
 $("fault-on").onclick = () => {
@@ -228,11 +238,44 @@ function buildForms() {
     inp.onfocus = inp.oninput = () => { inp.dataset.edited = "1"; };
     $("set-" + g).onclick = () => api("/api/steer", { op: "gains", [g]: +inp.value }).finally(() => { delete inp.dataset.edited; }).then(refresh);
   }
+  $("ref-label").textContent = `reference [${refShown()[1]}]`;
+  $("tunables-box").style.display = state.tunable_schema.length ? "" : "none";
+  $("faults-box").style.display = state.fault_schema.length ? "" : "none";
   $("fault-type").innerHTML = state.fault_schema.map((f) => `<option>${f.type}</option>`).join("");
   buildFaultFields();
+  buildPlots(state.view);
+  if (state.view.kind === "circuit") buildCircuitForms(state.view);
+}
+// a circuit: its inputs held from the page (or back on their drive), any parameter changed (display units)
+function buildCircuitForms(cv) {
+  const free = cv.inputs.filter((i) => !i.controller);
+  $("inputs-box").style.display = free.length ? "" : "none";
+  $("inputs").innerHTML = free.map((i) => `<div class="row" title="${i.description} (${i.lo}..${i.hi} ${i.unit})">` +
+    `<label>${i.name} [${i.shown[1]}]</label><input id="in-${i.name}" type="number" step="any">` +
+    `<button id="hold-${i.name}">hold</button><button id="free-${i.name}">drive</button></div>`).join("");
+  for (const i of free) {
+    const inp = $("in-" + i.name);
+    inp.onfocus = inp.oninput = () => { inp.dataset.edited = "1"; };
+    $("hold-" + i.name).onclick = () => api("/api/steer", { op: "input", name: i.name, value: +inp.value / i.shown[0] })
+      .finally(() => { delete inp.dataset.edited; }).then(refresh);
+    $("free-" + i.name).onclick = () => api("/api/steer", { op: "input", name: i.name, value: null }).then(refresh);
+  }
+  $("params-box").style.display = cv.params.length ? "" : "none";
+  $("param-name").innerHTML = cv.params.map((q) => `<option>${q.name}</option>`).join("");
+  const current = () => cv.params.find((q) => q.name === $("param-name").value);
+  const show = () => {
+    const q = current(); if (!q) return;
+    const v = state.values[q.name] !== undefined ? state.values[q.name] : q.value;
+    $("param-label").textContent = `[${q.shown[1]}]`;
+    $("param-value").value = +(v * q.shown[0]).toPrecision(6);
+    $("param-info").textContent = `${q.description}; ${+(q.lo * q.shown[0]).toPrecision(4)} .. ${+(q.hi * q.shown[0]).toPrecision(4)} ${q.shown[1]}`;
+  };
+  $("param-name").onchange = show; show();
+  $("param-set").onclick = () => { const q = current(); api("/api/steer", { op: "set", name: q.name, value: +$("param-value").value / q.shown[0] }).then(refresh); };
 }
 function buildFaultFields() {
   const f = state.fault_schema.find((x) => x.type === $("fault-type").value);
+  if (!f) { $("fault-fields").innerHTML = ""; return; }
   $("fault-fields").innerHTML = f.fields.map((fl) => `<div class="row" title="${fl.description}"><label>${fl.name}</label>` +
     (fl.kind === "choice" ? `<select data-name="${fl.name}">${fl.choices.map((c) => `<option>${c}</option>`).join("")}</select>`
       : `<input data-name="${fl.name}" type="number" step="any" value="${fl.default ?? ""}" placeholder="${fl.description}">`) + "</div>").join("");
@@ -257,6 +300,12 @@ async function refresh() {
     const inp = $("gain-" + g);
     if (inp && !inp.dataset.edited && +inp.value !== v) inp.value = v;
   }
+  for (const i of (state.view.inputs || [])) {               // a held input shows its value, else blank (its drive)
+    const inp = $("in-" + i.name);
+    if (!inp || inp.dataset.edited) continue;
+    inp.placeholder = "drive";
+    inp.value = state.held[i.name] !== undefined ? +(state.held[i.name] * i.shown[0]).toPrecision(6) : "";
+  }
   const st = $("status");
   st.textContent = state.running ? (state.lockstep ? "running (lock-step)" : "running") : (state.ended ? "ended" : "stopped");
   st.className = "pill " + (state.running ? "ok" : "warn");
@@ -271,7 +320,7 @@ async function refresh() {
   setHTML("recordings", state.recordings.map((r) => `<li><a href="/recordings/${r.name}.zip${q}" download>${r.name}</a> ` +
     `${r.steps} steps, ${r.verdict}, report ${r.report}</li>`).join(""));
   setHTML("events", state.events.slice().reverse().map((e) => `<li>k=${e.k} (${e.t.toFixed(3)} s) ${e.process}: ${e.op} ` +
-    `${e.name ? e.name + "=" + e.value : ""}${e.fault ? e.fault.type : ""}${e.slot !== undefined ? " slot " + e.slot : ""}</li>`).join(""));
+    `${e.name ? e.name + "=" + (e.value ?? "its drive") : ""}${e.fault ? e.fault.type : ""}${e.slot !== undefined ? " slot " + e.slot : ""}</li>`).join(""));
 }
 
 setInterval(() => { $("fps").textContent = fpsCount; fpsCount = 0; }, 1000);
