@@ -514,10 +514,12 @@ def test_circuit_steering_is_checked_against_the_circuit_and_a_set_value_derives
     for key, value in sets.items():
         apply_circuit_event(rig, parse_event({"op": "set", "name": key, "value": value}, "plant", circuit=cs), 0)
     built = load_circuit_scenario(cs.source, sets=sets).layout.values()
-    assert np.array_equal(rig.P, built, equal_nan=True) and not np.array_equal(rig.P, rig.P0, equal_nan=True)
-    with pytest.raises(ValueError, match="cyl.bore: give bore and rod, or area_a and area_b"):   # (given by areas)
+    assert np.array_equal(rig.P, built, equal_nan=True) and not np.array_equal(rig.P, cs.layout.values(), equal_nan=True)
+    with pytest.raises(ValueError, match="cyl.bore: cyl: give bore and rod, or area_a and area_b"):   # (given by areas)
         apply_circuit_event(rig, parse_event({"op": "set", "name": "cyl.bore", "value": 0.05}, "plant", circuit=cs), 0)
     assert np.array_equal(rig.P, built, equal_nan=True)
+    with pytest.raises(InputError, match="not a fluid parameter"):
+        parse_event({"op": "set", "name": "fluid.densty", "value": 900.0}, "plant", circuit=cs)
     motor = load_circuit_scenario(MOTOR)
     rig = CircuitRig(motor)
     apply_circuit_event(rig, parse_event({"op": "input", "name": "motor.load_torque", "value": 7.5}, "plant",
@@ -527,6 +529,14 @@ def test_circuit_steering_is_checked_against_the_circuit_and_a_set_value_derives
     apply_circuit_event(rig, parse_event({"op": "input", "name": "motor.load_torque", "value": None}, "plant",
                                          circuit=motor), 1)
     assert rig.step(1, None)[j] == rig.drives[1, j]
+    # the loop's gains changed from the panel keep its command's clamp (its range, not the config's ±1)
+    from hydrohil.simulation.steering import SteerableController
+    motor.loop.limits = (0.0, 0.5)
+    motor.loop.start(motor.step)
+    SteerableController(motor.loop.controller, None).apply(parse_event({"op": "gains", "kp": 0.01}, "controller",
+                                                                       circuit=motor))
+    c = motor.loop.controller.c
+    assert (c.kp, c.u_min, c.u_max) == (0.01, 0.0, 0.5)
 
 
 @pytest.mark.slow

@@ -148,12 +148,13 @@ def measurement(sensor, x_ref: float, dx_ref: float = 0.0, count: float = 1e-6) 
 class BuiltinController:
     """A built-in law of the core (``hh_controller``): ``ctl(measurement) -> ū``, or :meth:`update`.
 
-    ``h`` is the sample time [s] (the plant step: one command per sensor packet)."""
+    ``h`` is the sample time [s] (the plant step: one command per sensor packet). ``limits``: the command's
+    clamp (u_min, u_max) in place of the config's (a circuit's loop: its command's range), kept by a retune."""
 
-    def __init__(self, cfg: ControllerCfg, params: Parameters | None, h: float):
+    def __init__(self, cfg: ControllerCfg, params: Parameters | None, h: float, limits: tuple | None = None):
         if cfg.type not in BUILTIN_TYPES:
             raise ValueError(f"'{cfg.type}' is not a built-in controller ({', '.join(BUILTIN_TYPES)})")
-        self.h, self.params = float(h), params
+        self.h, self.params, self.limits = float(h), params, limits
         self.c = ffi.new("hh_controller *")
         self._load(cfg)
         self.state = ffi.new("hh_controller_state *")
@@ -179,7 +180,7 @@ class BuiltinController:
         c.tpl = getattr(cfg, "tpl", 0.0)
         c.area_ratio = params.cylinder.a2 / params.cylinder.a1 if params is not None else 0.0   # (a circuit's
         # loop: no load-pressure feedback)
-        c.u_min, c.u_max = cfg.u_min, cfg.u_max
+        c.u_min, c.u_max = self.limits if self.limits is not None else (cfg.u_min, cfg.u_max)
 
     def retune(self, **gains: float) -> None:
         """Change gains (``kp ki kd kff kpl``, units of ``[controller]``) between two samples, the law's state

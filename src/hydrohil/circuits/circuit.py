@@ -155,11 +155,11 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
         for key in set(body) - set(ctype.params) - set(ctype.ports) - {"type"}:
             raise _err(source, f"{where}.{key}", f"not a parameter of a {ctype.name} (parameters: "
                                                  f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)})")
-        problem = cross_check(ctype, values)
-        if problem:
-            raise _err(source, where, problem)
         params = dict(values)
-        values.update(ctype.derive({**values, **fluid}))
+        try:
+            values = component_values(ctype, params, fluid)
+        except ValueError as exc:
+            raise _err(source, where, str(exc)) from None
         if ctype.fixes:
             node = ports[ctype.ports[0]]
             if node in fixed:
@@ -235,6 +235,22 @@ def _drive(drive, prm, source: str, where: str):
         raise _err(source, f"{where}.t", "times start at 0 and increase")
     vs = np.array([_value({"value": x}, "value", prm, source, where) for x in v])
     return ts, vs
+
+
+def component_values(ctype: ComponentType, params: dict, fluid: dict) -> dict:
+    """A component's parameters (SI) with the values derived from them (and the fluid's), checked together
+    (:func:`cross_check`): what a circuit file gives, and what a parameter changed while running gives.
+    ValueError saying what does not fit. (A parameter not given is NaN; the check may set it None.)"""
+    params = {k: math.nan if v is None else v for k, v in params.items()}
+    problem = cross_check(ctype, params)
+    if problem:
+        raise ValueError(problem)
+    try:
+        return {**params, **ctype.derive({**params, **fluid})}
+    except (TypeError, ArithmeticError) as exc:         # (a catalogue partner not given: None)
+        missing = [k for k, v in params.items() if v is None]
+        raise ValueError(f"its derived values need {', '.join(missing) or 'other parameters'} given too "
+                         f"({exc})") from None
 
 
 def cross_check(ctype: ComponentType, v: dict) -> str | None:

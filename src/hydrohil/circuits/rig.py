@@ -56,7 +56,6 @@ class CircuitRig(WatchdogCounters):
         self.fault_models: list = []                      # (none: the plant server's summary lists them)
         self.repeat = cs.repeat                           # the drives again every scenario's duration (the panel)
         self.held: dict[int, float] = {}                  # input -> value held by the live panel (steering)
-        self.P0 = self.P.copy()                           # the scenario's parameters (a steered set changes P)
         self.fluid = dict(c.fluid)                        # the parameters before derivation, as steered
         self.params = {n: dict(comp.params) for n, comp in c.components.items()}
         self.reset()
@@ -140,26 +139,26 @@ class CircuitRig(WatchdogCounters):
         """Parameter ``key`` (``component.key`` or ``fluid.key``, SI, in its range: the event parser checks)
         changed from the next step on; the values derived from it follow (``ComponentType.derive``, as the
         circuit file's). ValueError (nothing changed) when the component's parameters no longer fit together."""
-        from hydrohil.circuits.circuit import cross_check
+        from hydrohil.circuits.circuit import component_values
         c, slot = self.circuit, self.layout.slot
         name, _, k = key.partition(".")
         fluid, params = dict(self.fluid), {n: dict(v) for n, v in self.params.items()}
         (fluid if name == "fluid" else params[name])[k] = float(value)
-        if name != "fluid":
-            problem = cross_check(c.components[name].type, params[name])
-            if problem:
-                raise ValueError(f"{key}: {problem}")
         P = self.P.copy()
         P[slot[key]] = float(value)
         for comp in c.components.values():
-            if comp.type.derived and (name == "fluid" or comp.name == name):
-                for dk, v in comp.type.derive({**params[comp.name], **fluid}).items():
-                    P[slot[f"{comp.name}.{dk}"]] = v
+            if name == "fluid" or comp.name == name:
+                try:
+                    values = component_values(comp.type, params[comp.name], fluid)
+                except ValueError as exc:
+                    raise ValueError(f"{key}: {comp.name}: {exc}") from None
+                for dk, _ in comp.type.derived:
+                    P[slot[f"{comp.name}.{dk}"]] = values[dk]
         self.P[:], self.fluid, self.params = P, fluid, params
 
     def restart(self) -> None:
-        """The model back to its state at rest (the scenario's, plant time 0); held inputs, changed parameters
-        and the command path stay."""
+        """The model's states and modes back to rest (the scenario's); the step count, the drives and the
+        reference go on, held inputs, changed parameters and the command path stay."""
         self.y[:], self.m[:] = self.y0, self.m0
         self._row(0.0)
 

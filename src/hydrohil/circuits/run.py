@@ -217,8 +217,7 @@ class Loop:
         """A fresh controller sampled at h (no integrator or filter state from another run) and its sensor's
         noise generator from its seed."""
         from hydrohil.control import BuiltinController
-        self.controller = BuiltinController(self.cfg, None, h)
-        self.controller.c.u_min, self.controller.c.u_max = self.limits   # (the law's clamp: in its range)
+        self.controller = BuiltinController(self.cfg, None, h, limits=self.limits)   # (the law's clamp: in its range)
         self.rng = new_rng(self.seed)
 
     def sensor_args(self, cc, rng=None):

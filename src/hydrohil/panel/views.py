@@ -10,6 +10,8 @@ speeds, flows, ...), its mode strips, its inputs (held from the page) and its pa
 
 from __future__ import annotations
 
+import math
+
 from hydrohil.core import shape
 
 PALETTE = ("#1565c0", "#ef6c00", "#2e7d32", "#6a1b9a", "#c62828", "#00838f", "#795548", "#455a64", "#ad1457",
@@ -19,6 +21,11 @@ MODE_PALETTE = ("#c8e6c9", "#e53935", "#1e88e5", "#ffb74d", "#b3e5fc", "#fff59d"
 UNIT_ORDER = ("Pa", "m", "m/s", "rad", "rad/s", "m3/s", "m3", "N", "N.m", "-")
 UNIT_TITLE = {"Pa": "pressure", "m": "position", "m/s": "velocity", "rad": "angle", "rad/s": "speed",
               "m3/s": "flow", "m3": "volume", "N": "force", "N.m": "torque", "-": "opening / command"}
+
+
+def _num(v) -> float | None:
+    """A number as JSON carries it: None for one not given (NaN, None) or unbounded (inf)."""
+    return float(v) if v is not None and math.isfinite(v) else None
 
 
 def paper_view() -> dict:
@@ -89,13 +96,13 @@ def circuit_view(cs) -> dict:
             if name in c.inputs or name in lay.delay_params.values():
                 continue
             k, du = display(prm.unit)
-            params.append({"name": name, "unit": prm.unit, "shown": [k, du], "lo": prm.lo, "hi": prm.hi,
-                           "value": comp.values[key], "description": prm.description})
+            params.append({"name": name, "unit": prm.unit, "shown": [k, du], "lo": _num(prm.lo), "hi": _num(prm.hi),
+                           "value": _num(comp.values[key]), "description": prm.description})
     ins = []
     for name, unit in inputs:
         comp, key = name.split(".", 1)
         prm = c.components[comp].type.params[key]
-        ins.append({"name": name, "unit": unit, "shown": list(display(unit)), "lo": prm.lo, "hi": prm.hi,
+        ins.append({"name": name, "unit": unit, "shown": list(display(unit)), "lo": _num(prm.lo), "hi": _num(prm.hi),
                     "controller": loop is not None and name == loop.command, "description": prm.description})
     return {"kind": "circuit", "circuit": c.name,
             "plant_columns": list(side_columns(signals, inputs)),

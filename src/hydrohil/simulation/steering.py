@@ -24,7 +24,7 @@ A circuit's plant (a scenario naming its circuit, :mod:`hydrohil.hil.circuit`) t
                                   (SI, in its parameter's range) held from now on, or null: its drive again
 ``set``             plant         ``name`` (``component.key`` or ``fluid.key``: any parameter but an input
                                   or a delay), ``value`` (SI, in its range); the values derived from it follow
-``reset``           plant         the model back to its state at rest (plant time 0)
+``reset``           plant         its states and modes back to rest (the drives and time go on)
 ``gains``           controller    as above, the loop's law
 ``reference``       controller    ``value`` (SI of the measured signal) held from now on, or null
 ``reset``           controller    as above
@@ -175,7 +175,9 @@ def parse_circuit_event(data: dict, process: str, cs, source: str = "event"):
 def _circuit_param(c, key: str, source: str):
     from hydrohil.circuits.library import FLUID
     comp, _, name = key.partition(".")
-    if comp == "fluid" and name in FLUID:
+    if comp == "fluid":
+        if name not in FLUID:
+            raise InputError(f"not a fluid parameter (fluid: {', '.join(FLUID)})", source=source, key=key)
         return FLUID[name]
     if comp not in c.components:
         raise InputError(f"no component {comp!r} (components: {', '.join(c.components)}; or fluid)", source=source,

@@ -196,7 +196,11 @@ $("pause").onclick = () => {
 };
 $("start").onclick = () => api("/api/run/start", {}).then(refresh);
 $("stop").onclick = () => api("/api/run/stop", {}).then(refresh);
-$("reset").onclick = () => api("/api/steer", { op: "reset" }).then(() => api("/api/steer", { op: "reset", target: "controller" }).catch(() => 0)).then(refresh);
+// the built-in controller takes gains, a held reference and a reset (not a Python one, not an open loop's)
+const steerableController = () => state.controller === "builtin" && state.controller_type !== "python" &&
+  !(state.view.kind === "circuit" && !state.view.reference);
+$("reset").onclick = () => api("/api/steer", { op: "reset" }).then(() => steerableController() &&
+  api("/api/steer", { op: "reset", target: "controller" }).catch(() => 0)).then(refresh);
 $("record").onclick = () => api(state && state.recording ? "/api/record/stop" : "/api/record/start", {}).then(refresh);
 // the reference in its display unit: mm on the paper's rig, the measured signal's on a circuit
 const refShown = () => (state && state.view.reference ? state.view.reference.shown : [1e3, "mm"]);
@@ -230,7 +234,7 @@ function buildForms() {
       value: +inp.value * (UNIT[t.name] || [1])[0] }).finally(() => { delete inp.dataset.edited; }).then(refresh);
   }
   const gains = Object.keys(state.gains);
-  $("controller-box").style.display = state.controller === "builtin" && state.controller_type !== "python" ? "" : "none";
+  $("controller-box").style.display = steerableController() ? "" : "none";
   $("gains").innerHTML = gains.map((g) => `<div class="row"><label>${g}</label>` +
     `<input id="gain-${g}" type="number" step="any" value="${state.gains[g]}"><button id="set-${g}">set</button></div>`).join("");
   for (const g of gains) {
@@ -265,10 +269,12 @@ function buildCircuitForms(cv) {
   const current = () => cv.params.find((q) => q.name === $("param-name").value);
   const show = () => {
     const q = current(); if (!q) return;
-    const v = state.values[q.name] !== undefined ? state.values[q.name] : q.value;
+    const v = state.values[q.name] !== undefined ? state.values[q.name] : q.value;     // (null: not given)
+    const shown = (x, none) => (x === null ? none : +(x * q.shown[0]).toPrecision(6));
     $("param-label").textContent = `[${q.shown[1]}]`;
-    $("param-value").value = +(v * q.shown[0]).toPrecision(6);
-    $("param-info").textContent = `${q.description}; ${+(q.lo * q.shown[0]).toPrecision(4)} .. ${+(q.hi * q.shown[0]).toPrecision(4)} ${q.shown[1]}`;
+    $("param-value").value = shown(v, "");
+    $("param-info").textContent = `${q.description}; ${shown(q.lo, "−∞")} .. ${shown(q.hi, "∞")} ${q.shown[1]}` +
+      (v === null ? " (not given)" : "");
   };
   $("param-name").onchange = show; show();
   $("param-set").onclick = () => { const q = current(); api("/api/steer", { op: "set", name: q.name, value: +$("param-value").value / q.shown[0] }).then(refresh); };
