@@ -155,12 +155,9 @@ enum {{ LOG_T, LOG_NODES, LOG_OUTPUTS = LOG_NODES + {len(c.nodes)}, LOG_MODES = 
 enum {{ NSC = 3 * NNODES + 3 }};
 static const double NOT_STIFF[NSC] = {{ {", ".join(["1.0, 0.0, 0.0"] * (len(c.state_nodes) + 1))} }};
 
-static void rhs(const double *y, const int64_t *m, const double *u, const double *P, const double *sc, double *dy)
+HH_INLINE void rhs(const double *y, const int64_t *m, const double *u, const double *P, const double *sc, double *dy)
 {{
-    int i;
     (void)m; (void)u; (void)P; (void)y; (void)sc;
-    for (i = 0; i < NY; i++)             /* (a circuit without states has one, constant) */
-        dy[i] = 0.0;
 {chr(10).join(rhs)}
 }}
 
@@ -169,10 +166,7 @@ static void rhs(const double *y, const int64_t *m, const double *u, const double
 static void rhs_start(const double *y, const int64_t *m, const double *u, const double *P, double h, double *sc,
                       double *dy)
 {{
-    int i;
     (void)m; (void)u; (void)P; (void)y; (void)h;
-    for (i = 0; i < NY; i++)
-        dy[i] = 0.0;
     sc[NSC - 3] = 1.0;
     sc[NSC - 2] = 0.0;
     sc[NSC - 1] = 0.0;
@@ -183,10 +177,7 @@ static void rhs_start(const double *y, const int64_t *m, const double *u, const 
  * at each call, end stops and spool ends as stiff spring-dampers (no clamp) */
 static void reference_rhs(const double *y, const int64_t *m, const double *u, const double *P, double *dy)
 {{
-    int i;
     (void)m; (void)u; (void)P; (void)y;
-    for (i = 0; i < NY; i++)
-        dy[i] = 0.0;
 {chr(10).join(ref_rhs)}
 }}
 
@@ -641,28 +632,35 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
     :func:`_node_terms`; ``start`` (:func:`_coupled_pairs`): the constants sc computed first, from the same flows'
     conductances and these couplings (rhs_start)."""
     rhs = []
+    assigned = set(range(len(c.state_nodes)))
     for comp, e in emits:
         rhs += _flow_lines(comp, e)
     for comp, e in emits:
         derivatives = {**e.derivatives, **e.reference} if reference else e.derivatives
         for state, expr in derivatives.items():
             j = lay.states.index(f"{comp.name}.{state}")
+            assigned.add(j)
             rhs.append(f"    dy[{j}] = {expr};   /* {comp.name}.{state} */")
+    # a state without a derivative is constant (a circuit without states has one): each written once, no loop
+    rhs += [f"    dy[{j}] = 0.0;" for j in range(max(len(lay.states), 1)) if j not in assigned]
+    for i, node in enumerate(c.state_nodes):            # each node's volume, bulk modulus, capacitance: once
+        _, volume, beta, extra, g, _ = nodes[node]
+        rhs.append(f"    const double vol_{i} = {volume}, beta_{i} = {beta}, cap_{i} = {extra};   /* {node} */")
+        if start is not None:
+            rhs.append(f"    const double g_{i} = {g};")
     if start is not None:
         for i, node in enumerate(c.state_nodes):
-            _, volume, beta, extra, g, _ = nodes[node]
-            rhs.append(f"    hc_stiff_first({g}, {volume}, {beta}, {extra}, h, sc + {3 * i});   /* {node} */")
+            rhs.append(f"    hc_stiff_first(g_{i}, vol_{i}, beta_{i}, cap_{i}, h, sc + {3 * i});   /* {node} */")
         for i, j, slope, name in start:
             rhs.append(f"    hc_stiff_pair({slope}, h, sc + {3 * i}, sc + {3 * j});   /* {name} */")
         for i, node in enumerate(c.state_nodes):
-            _, _, _, _, g, _ = nodes[node]
-            rhs.append(f"    hc_stiff_last({g}, sc + {3 * i});   /* {node} */")
+            rhs.append(f"    hc_stiff_last(g_{i}, sc + {3 * i});   /* {node} */")
     for i, node in enumerate(c.state_nodes):
-        q, volume, beta, extra, _, rate = nodes[node]
+        q, _, _, _, _, rate = nodes[node]
         if reference:
-            rhs.append(f"    dy[{i}] = hc_node_rate({q}, {volume}, {beta}, {extra});   /* {node} */")
+            rhs.append(f"    dy[{i}] = hc_node_rate({q}, vol_{i}, beta_{i}, cap_{i});   /* {node} */")
             continue
-        rhs.append(f"    dy[{i}] = sc[{3 * i}] * hc_node_rate({q}, {volume}, {beta}, {extra});   /* {node} */")
+        rhs.append(f"    dy[{i}] = sc[{3 * i}] * hc_node_rate({q}, vol_{i}, beta_{i}, cap_{i});   /* {node} */")
         if rate != "0.0":
             rhs.append(f"    if (sc[{3 * i + 1}] != 0.0)   /* stiff: Pq moves with the flows */")
             rhs.append(f"        dy[{i}] += sc[{3 * i + 1}] * ({rate});")
