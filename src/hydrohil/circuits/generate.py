@@ -646,6 +646,7 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
     for i, node in enumerate(c.state_nodes):            # each node's volume, bulk modulus, capacitance: once
         _, volume, beta, extra, g, _ = nodes[node]
         rhs.append(f"    const double vol_{i} = {volume}, beta_{i} = {beta}, cap_{i} = {extra};   /* {node} */")
+        rhs.append(f"    (void)cap_{i};")
         if start is not None:
             rhs.append(f"    const double g_{i} = {g};")
     if start is not None:
@@ -656,11 +657,13 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
         for i, node in enumerate(c.state_nodes):
             rhs.append(f"    hc_stiff_last(g_{i}, sc + {3 * i});   /* {node} */")
     for i, node in enumerate(c.state_nodes):
-        q, _, _, _, _, rate = nodes[node]
+        q, _, _, extra, _, rate = nodes[node]
+        law = (f"hc_node_rate({q}, vol_{i}, beta_{i}, cap_{i})" if extra != "0.0" else
+               f"hc_node_rate_oil({q}, vol_{i}, beta_{i})")          # (oil alone: one division fewer)
         if reference:
-            rhs.append(f"    dy[{i}] = hc_node_rate({q}, vol_{i}, beta_{i}, cap_{i});   /* {node} */")
+            rhs.append(f"    dy[{i}] = {law};   /* {node} */")
             continue
-        rhs.append(f"    dy[{i}] = sc[{3 * i}] * hc_node_rate({q}, vol_{i}, beta_{i}, cap_{i});   /* {node} */")
+        rhs.append(f"    dy[{i}] = sc[{3 * i}] * {law};   /* {node} */")
         if rate != "0.0":
             rhs.append(f"    if (sc[{3 * i + 1}] != 0.0)   /* stiff: Pq moves with the flows */")
             rhs.append(f"        dy[{i}] += sc[{3 * i + 1}] * ({rate});")

@@ -9,6 +9,12 @@ HH_INLINE double hc_node_rate(double q_in, double volume, double beta, double c_
     return q_in / (volume / beta + c_extra);
 }
 
+/* the same for a node of oil alone (no accumulator): dp/dt = sum(q_in) * beta / V, one division fewer */
+HH_INLINE double hc_node_rate_oil(double q_in, double volume, double beta)
+{
+    return q_in * beta / volume;
+}
+
 /* ---- a stiff node (the core's stiff chambers, hybrid.h, for any node): its pressure relaxes towards its
  * quasi-static value Pq (where its flows balance) at lambda = g/C, g = -d(q_in)/dp the conductance of the
  * flows at it. Where lambda*h exceeds HC_LAMBDA_H_MAX at a step's start (1.5, the core's default: inside
