@@ -100,7 +100,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
                if (e.mode_update or e.mode_of_state) and e.guards]
     guards = [(f"{comp.name}.{name}", value, reset) for comp, e in emits for name, value, reset in e.guards]
     lay.guards = [name for name, _, _ in guards]
-    guard_cases = [f"    case {g}: return {value};   /* {name} */" for g, (name, value, _) in enumerate(guards)]
+    guard_cases = [f"    gv[{g}] = {value};   /* {name} */" for g, (name, value, _) in enumerate(guards)]
     resets = [f"    case {g}: {reset} break;   /* {name} */" for g, (name, _, reset) in enumerate(guards)]
     ref_modes = [f"    m[{lay.modes.index(comp.name + '.mode')}] = {e.mode_of_state};   /* {comp.name} */"
                  for comp, e in emits if e.mode_of_state]
@@ -197,15 +197,12 @@ static void project(double *y, int64_t *m, const double *u, const double *P)
 {chr(10).join(updates)}
 }}
 
-/* The guards of the components with events (library: Emit.guards): >= 0 while the mode holds, +inf where a
- * guard does not apply */
-static double guard(int g, const double *y, const int64_t *m, const double *u, const double *P)
+/* The guards of the components with events (library: Emit.guards), all at once (what they share computed once):
+ * >= 0 while the mode holds, +inf where a guard does not apply */
+HH_INLINE void guard_values(const double *y, const int64_t *m, const double *u, const double *P, double *gv)
 {{
-    (void)m; (void)u; (void)P; (void)y;
-    switch (g) {{
+    (void)m; (void)u; (void)P; (void)y; (void)gv;
 {chr(10).join(guard_cases)}
-    default: return INFINITY;
-    }}
 }}
 
 /* The transition of guard g (its component's reset) */
@@ -237,12 +234,18 @@ static void update_modes(double *y, int64_t *m, const double *u, const double *P
 static int first_crossing(const double *y0, const double *y1, const int64_t *m, const double *u, const double *P,
                           double *theta)
 {{
-    int best = -1, g;
+    double g0[NG + 1], g1[NG + 1];
+    int best = -1, crossed = 0, g;
     *theta = 1.0;
+    guard_values(y1, m, u, P, g1);
+    for (g = 0; g < NG; g++)
+        crossed |= g1[g] < 0.0;
+    if (!crossed)
+        return -1;
+    guard_values(y0, m, u, P, g0);     /* (at the start: only when a guard crossed) */
     for (g = 0; g < NG; g++) {{
-        double g1 = guard(g, y1, m, u, P);
-        if (g1 < 0.0) {{
-            double g0 = guard(g, y0, m, u, P), th = g0 <= 0.0 ? 0.0 : g0 / (g0 - g1);
+        if (g1[g] < 0.0) {{
+            double th = g0[g] <= 0.0 ? 0.0 : g0[g] / (g0[g] - g1[g]);
             if (best < 0 || th < *theta) {{
                 best = g;
                 *theta = th;
