@@ -66,28 +66,29 @@ HH_INLINE void stiff_chamber_constants(const double *y, const double *p, double 
     sc[3] = c2 < 1.0 ? (1.0 - c2) / g2 : 0.0;
 }
 
+/* The guards and transitions of hybrid.h's table are the component library's LuGre cylinder's
+ * (hc_lugre_cylinder.h: hc_lc_guard, hc_lc_reset; one copy of the stop, breakaway and reversal rules, which the
+ * generated circuits use too) over its one mode: a piston on a stop, else its friction's (the core's two mode
+ * slots map onto it; the guard ids and friction modes agree, checked here at compile time). */
+typedef char hh_guards_are_the_library_s[(HH_G_RETRACT == HC_LC_G_RETRACT && HH_G_EXTEND == HC_LC_G_EXTEND &&
+                                          HH_G_BREAK_POS == HC_LC_G_BREAK_POS && HH_G_BREAK_NEG == HC_LC_G_BREAK_NEG &&
+                                          HH_G_REVERSE == HC_LC_G_REVERSE && HH_G_LEAVE == HC_LC_G_LEAVE &&
+                                          HH_STICK == HC_LC_STICK && HH_SLIP_POS == HC_LC_SLIP_POS &&
+                                          HH_SLIP_NEG == HC_LC_SLIP_NEG) ? 1 : -1];
+
+HH_INLINE int lc_mode(const int64_t *m)
+{
+    return m[HH_M_TRAVEL] == HH_AT_RETRACT ? HC_LC_AT_RETRACT
+         : m[HH_M_TRAVEL] == HH_AT_EXTEND ? HC_LC_AT_EXTEND : (int)m[HH_M_FRICTION];
+}
+
 /* Value of guard gid (>= 0 while the current mode is valid); +inf when it does not apply. */
 HH_INLINE double guard_value(int gid, const double *y, const int64_t *m, const double *p)
 {
-    int64_t travel = m[HH_M_TRAVEL], fr = m[HH_M_FRICTION];
-    if (travel == HH_FREE) {
-        if (gid == HH_G_RETRACT)
-            return y[HH_XP];
-        if (gid == HH_G_EXTEND)
-            return p[HH_CYLINDER_STROKE] - y[HH_XP];
-        if (gid == HH_G_BREAK_POS && fr == HH_STICK)
-            return p[HH_FS_POS] - p[HH_FRICTION_SIGMA0] * y[HH_Z];
-        if (gid == HH_G_BREAK_NEG && fr == HH_STICK)
-            return p[HH_FS_NEG] + p[HH_FRICTION_SIGMA0] * y[HH_Z];
-        if (gid == HH_G_REVERSE && fr != HH_STICK)
-            return fr == HH_SLIP_POS ? y[HH_VP] : -y[HH_VP];
-        return INFINITY;
-    }
-    if (gid == HH_G_LEAVE) {
-        double f = external_force(y[HH_P1], y[HH_P2], p) - p[HH_FRICTION_SIGMA0] * y[HH_Z];
-        return travel == HH_AT_RETRACT ? -f : f;
-    }
-    return INFINITY;
+    int mode = lc_mode(m);
+    double f = mode >= HC_LC_AT_RETRACT ? external_force(y[HH_P1], y[HH_P2], p) : 0.0;   /* (leaving a stop only) */
+    return hc_lc_guard(gid, mode, y[HH_XP], y[HH_VP], y[HH_Z], f, p[HH_CYLINDER_STROKE], p[HH_FRICTION_SIGMA0],
+                       p[HH_FS_POS], p[HH_FS_NEG]);
 }
 
 /* Fraction of the step at which a guard going from g0 to g1 < 0 crosses zero (linear). */
@@ -134,32 +135,14 @@ HH_INLINE int first_crossing(const double *y0, const double *y1, const int64_t *
     return best;
 }
 
-/* Discrete transition of guard gid (table in hybrid.h). */
+/* Discrete transition of guard gid (table in hybrid.h): the library's (hc_lc_reset), back in the two slots. */
 HH_INLINE void apply_reset(int gid, double *y, int64_t *m, const double *p)
 {
-    double s0 = p[HH_FRICTION_SIGMA0], d;
-    if (gid == HH_G_RETRACT || gid == HH_G_EXTEND) {
-        if (m[HH_M_FRICTION] != HH_STICK) {   /* bristles at their sliding steady state just before impact */
-            d = m[HH_M_FRICTION] == HH_SLIP_POS ? 1.0 : -1.0;
-            y[HH_Z] = d * stribeck(y[HH_VP], p) / s0;
-        }
-        y[HH_XP] = gid == HH_G_RETRACT ? 0.0 : p[HH_CYLINDER_STROKE];
-        y[HH_VP] = 0.0;
-        m[HH_M_TRAVEL] = gid == HH_G_RETRACT ? HH_AT_RETRACT : HH_AT_EXTEND;
-        m[HH_M_FRICTION] = HH_STICK;
-    } else if (gid == HH_G_BREAK_POS) {
-        m[HH_M_FRICTION] = HH_SLIP_POS;
-    } else if (gid == HH_G_BREAK_NEG) {
-        m[HH_M_FRICTION] = HH_SLIP_NEG;
-    } else if (gid == HH_G_REVERSE) {
-        d = m[HH_M_FRICTION] == HH_SLIP_POS ? 1.0 : -1.0;
-        y[HH_VP] = 0.0;
-        y[HH_Z] = d * (d > 0 ? p[HH_FS_POS] : p[HH_FS_NEG]) / s0;
-        m[HH_M_FRICTION] = HH_STICK;
-    } else if (gid == HH_G_LEAVE) {
-        m[HH_M_TRAVEL] = HH_FREE;
-        m[HH_M_FRICTION] = HH_STICK;
-    }
+    int mode = hc_lc_reset(gid, lc_mode(m), &y[HH_XP], &y[HH_VP], &y[HH_Z], p[HH_CYLINDER_STROKE],
+                           p[HH_FRICTION_SIGMA0], p[HH_FC_POS], p[HH_FS_POS], p[HH_VS_POS], p[HH_FC_NEG], p[HH_FS_NEG],
+                           p[HH_VS_NEG]);
+    m[HH_M_TRAVEL] = mode == HC_LC_AT_RETRACT ? HH_AT_RETRACT : mode == HC_LC_AT_EXTEND ? HH_AT_EXTEND : HH_FREE;
+    m[HH_M_FRICTION] = mode >= HC_LC_AT_RETRACT ? HH_STICK : mode;
 }
 
 /* Keep the state on its mode's manifold and inside physical bounds after a (sub)step. */
