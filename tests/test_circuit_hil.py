@@ -223,8 +223,6 @@ def test_circuit_hil_errors_name_what_cannot_run(tmp_path):
     assert r.returncode == 2 and "hil.command_scale" in r.stderr and not (tmp_path / "o" / "plant_log.csv").exists()
     r = hh("hil", MOTOR, "--out", tmp_path / "o", "--plant", "fpga")
     assert r.returncode == 2 and "--plant" in r.stderr
-    r = hh("hil", MOTOR, "--out", tmp_path / "o", "--panel", "--plant", "c")    # (the C circuit plant: no panel yet)
-    assert r.returncode == 2 and "--plant" in r.stderr and "Python plant" in r.stderr
     with pytest.raises(InputError, match="hil.watchdog_timeout"):
         run_hil(short(tmp_path, "motor_speed", 0.2, "[hil]\nwatchdog_timeout = -1\n"), tmp_path / "o")
 

@@ -540,15 +540,17 @@ def test_circuit_steering_is_checked_against_the_circuit_and_a_set_value_derives
 
 
 @pytest.mark.slow
-def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path):
-    """``hydrohil panel`` on a circuit scenario (lock-step): its own plots and forms, every kind of change (an
-    input held and released, a parameter and the fluid changed, the loop's gains and reference, a reset) applied
-    at a step and logged; refusals name the input or key; the recording is a run folder whose replay of the
-    session's applied inputs and events gives its states bit for bit (and without the events does not)."""
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path, plant):
+    """``hydrohil panel`` on a circuit scenario (lock-step), on either plant: its own plots and forms, every kind
+    of change (an input held and released, the loop's gains and reference, a reset; on the Python plant a
+    parameter and the fluid changed too, which the C plant refuses saying why) applied at a step and logged;
+    refusals name the input or key; the recording is a run folder whose replay of the session's applied inputs
+    and events gives its states bit for bit (and without the events does not)."""
     from hydrohil.circuits.scenario import load_circuit_scenario
     from hydrohil.hil.circuit import replay_applied_inputs, replay_circuit_session
     from hydrohil.hil.session import read_commands
-    p = PanelProcess(tmp_path / "panel", MOTOR, "--lockstep")
+    p = PanelProcess(tmp_path / "panel", MOTOR, "--lockstep", "--plant", plant)
     try:
         p.wait_steps(200)
         st = p.api("api/state")
@@ -557,23 +559,29 @@ def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path):
         assert [pl["id"] for pl in view["plots"]][:2] == ["c-loop", "c-error"] and st["fault_schema"] == []
         assert {i["name"]: i["controller"] for i in view["inputs"]} == {"valve.command": True,
                                                                         "motor.load_torque": False}
+        sets = [{"op": "set", "name": "motor.inertia", "value": 0.02},
+                {"op": "set", "name": "fluid.bulk_modulus", "value": 1.2e9}]
         steer = [{"op": "input", "name": "motor.load_torque", "value": 5.0},
                  {"op": "gains", "kp": 0.004},
-                 {"op": "set", "name": "motor.inertia", "value": 0.02},
+                 *sets[:1 if plant == "python" else 0],
                  {"op": "reference", "value": 40.0},
-                 {"op": "set", "name": "fluid.bulk_modulus", "value": 1.2e9},
+                 *sets[1:2 if plant == "python" else 0],
                  {"op": "input", "name": "motor.load_torque", "value": None},
                  {"op": "reset"}]
         rec, answers = _record(p, steer)
         assert [a["k"] for a in answers] == sorted(a["k"] for a in answers)
-        for body, what in (({"op": "input", "name": "valve.command", "value": 0.1}, "valve.command"),
-                           ({"op": "set", "name": "motor.inertia", "value": -1}, "kg.m2"),
-                           ({"op": "fault_on", "fault": {"type": "hose_burst"}}, "input")):
+        refused = [({"op": "input", "name": "valve.command", "value": 0.1}, "valve.command"),
+                   ({"op": "input", "name": "motor.load_torque", "value": 1e9}, "N.m"),
+                   ({"op": "fault_on", "fault": {"type": "hose_burst"}}, "input")]
+        refused += [({"op": "set", "name": "motor.inertia", "value": -1}, "kg.m2")] if plant == "python" else \
+            [(sets[0], "Python plant")]
+        for body, what in refused:
             with pytest.raises(urllib.error.HTTPError) as exc:
                 p.api("api/steer", body)
             assert exc.value.code == 400 and what in exc.value.read().decode()
         state = p.api("api/state")
-        assert state["values"] == {"motor.inertia": 0.02, "fluid.bulk_modulus": 1.2e9} and state["held"] == {}
+        assert state["values"] == ({"motor.inertia": 0.02, "fluid.bulk_modulus": 1.2e9} if plant == "python" else {})
+        assert state["held"] == {}
         ended = p.api("api/run/stop", {})
         assert ended["exit_codes"] == {"plant": 0, "controller": 0} and ended["verdict"]["valid"]
     finally:
@@ -594,7 +602,7 @@ def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path):
     for i, s in enumerate(cs.layout.states):
         assert np.array_equal(rep[ks, i], log[s]), s
     held = log["motor.load_torque.applied"]
-    k_on, k_off = answers[0]["k"], answers[5]["k"]
+    k_on, k_off = answers[0]["k"], answers[-2]["k"]
     assert np.all(held[(ks > k_on) & (ks <= k_off)] == 5.0) and not np.any(held[ks > k_off] == 5.0)
     assert len(read_events(session / "controller_events.jsonl", "controller", circuit=cs)) == 2
     # without the plant's events the same inputs give another run: the check can fail
@@ -604,15 +612,16 @@ def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path):
 
 
 @pytest.mark.slow
-def test_circuit_hil_panel_run_replays_its_steering(tmp_path):
-    """hydrohil hil --panel --lockstep on a circuit scenario: a change made from the panel while it runs is in
-    the run's event log, the report says the run was steered, and the replay of its applied inputs and events
-    gives its states bit for bit."""
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_circuit_hil_panel_run_replays_its_steering(tmp_path, plant):
+    """hydrohil hil --panel --lockstep on a circuit scenario, on either plant: a change made from the panel while
+    it runs is in the run's event log, the report says the run was steered, and the replay of its applied inputs
+    and events gives its states bit for bit."""
     scen = tmp_path / "long.toml"
     text = MOTOR.read_text().replace('circuit = "circuit.toml"', f'circuit = "{MOTOR.parent / "circuit.toml"}"')
     scen.write_text(text.replace("duration = 4.5", "duration = 30.0"))
     out = tmp_path / "run"
-    ch, post = _hil_panel(scen, out)
+    ch, post = _hil_panel(scen, out, "--plant", plant)
     a = post({"op": "input", "name": "motor.load_torque", "value": 4.0})
     b = post({"op": "reference", "value": 50.0})
     assert ch.wait(600) == 0, ch.stderr()

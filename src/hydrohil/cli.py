@@ -835,8 +835,8 @@ def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop 
 
     Watch position, pressures, spool, friction, modes and timing live; change the load, supply pressure,
     friction and gains; switch faults on and off; record run folders. Ctrl-C stops the session cleanly.
-    A circuit scenario: its signals by unit and its modes; hold any input the controller does not drive,
-    change any parameter (--set keys), the loop's gains and reference (Python plant).
+    A circuit scenario: its signals by unit and its modes; hold any input the controller does not drive, the
+    loop's gains and reference; change any parameter (--set keys) on the Python plant.
     """
     from hydrohil.hil.plant import parse_address
     try:

@@ -70,11 +70,13 @@ HH_INLINE void stiff_chamber_constants(const double *y, const double *p, double 
  * (hc_lugre_cylinder.h: hc_lc_guard, hc_lc_reset; one copy of the stop, breakaway and reversal rules, which the
  * generated circuits use too) over its one mode: a piston on a stop, else its friction's (the core's two mode
  * slots map onto it; the guard ids and friction modes agree, checked here at compile time). */
-typedef char hh_guards_are_the_library_s[(HH_G_RETRACT == HC_LC_G_RETRACT && HH_G_EXTEND == HC_LC_G_EXTEND &&
-                                          HH_G_BREAK_POS == HC_LC_G_BREAK_POS && HH_G_BREAK_NEG == HC_LC_G_BREAK_NEG &&
-                                          HH_G_REVERSE == HC_LC_G_REVERSE && HH_G_LEAVE == HC_LC_G_LEAVE &&
-                                          HH_STICK == HC_LC_STICK && HH_SLIP_POS == HC_LC_SLIP_POS &&
-                                          HH_SLIP_NEG == HC_LC_SLIP_NEG) ? 1 : -1];
+#define HH_SAME(a, b) ((int)(a) == (int)(b))
+typedef char hh_guards_are_the_library_s[(HH_SAME(HH_G_RETRACT, HC_LC_G_RETRACT) && HH_SAME(HH_G_EXTEND, HC_LC_G_EXTEND) &&
+                                          HH_SAME(HH_G_BREAK_POS, HC_LC_G_BREAK_POS) && HH_SAME(HH_G_BREAK_NEG, HC_LC_G_BREAK_NEG) &&
+                                          HH_SAME(HH_G_REVERSE, HC_LC_G_REVERSE) && HH_SAME(HH_G_LEAVE, HC_LC_G_LEAVE) &&
+                                          HH_SAME(HH_STICK, HC_LC_STICK) && HH_SAME(HH_SLIP_POS, HC_LC_SLIP_POS) &&
+                                          HH_SAME(HH_SLIP_NEG, HC_LC_SLIP_NEG)) ? 1 : -1];
+#undef HH_SAME
 
 HH_INLINE int lc_mode(const int64_t *m)
 {

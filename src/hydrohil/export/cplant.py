@@ -31,8 +31,8 @@ from hydrohil.parameters import Parameters
 HERE = Path(__file__).resolve().parent
 RT = HERE / "c" / "rt"
 RT_SOURCES = ("rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report.c", "protocol.c", "protocol.h",
-              "latency.c", "latency.h", "Makefile")
-RIG_SOURCES = ("rt_rig.c", "rt_side.c")          # what the plant serves: the paper's rig ...
+              "latency.c", "latency.h", "rt_side.c", "rt_side.h", "Makefile")
+RIG_SOURCES = ("rt_rig.c",)                     # what the plant serves: the paper's rig ...
 CIRCUIT_SOURCES = ("rt_circuit.c",)             # ... or a circuit (with its generated circuit.c)
 RIG_MODEL_MK = "MODEL_CORE = hh_core.c\nMODEL_SOURCES = rt_rig.c rt_side.c\n"
 EXECUTABLE = "hydrohil_plant"
@@ -219,7 +219,7 @@ def export_circuit_c(cs, out: str | Path) -> Path:
     out = _prepare(out, cs.step, cs.duration)
     for name in CIRCUIT_SOURCES:
         _copy(RT / name, out / name)
-    _write(out / "model.mk", "MODEL_CORE = circuit.c\nMODEL_SOURCES = rt_circuit.c\n")
+    _write(out / "model.mk", "MODEL_CORE = circuit.c\nMODEL_SOURCES = rt_circuit.c rt_side.c\n")
     source, _ = generate(cs.circuit)
     _write(out / "circuit.c", source)
     _write(out / "circuit_plant.h", circuit_plant_h(cs))
@@ -237,7 +237,7 @@ def circuit_plant_h(cs) -> str:
     as the steps where it changes, the loop's measured signal and sensor, the names, the wire layout and the
     plant_log.csv columns."""
     from hydrohil.circuits.build import compile_circuit
-    from hydrohil.circuits.link import PLANT_LOG_HEAD, PLANT_LOG_INTS, circuit_link, plant_log_columns
+    from hydrohil.circuits.link import PLANT_LOG_HEAD, PLANT_LOG_INTS, circuit_link, plant_log_columns, side_columns
     from hydrohil.circuits.run import METHODS, input_table, start_state
     c, lay = cs.circuit, compile_circuit(cs.circuit).layout
     signals, inputs, layout = circuit_link(c)
@@ -271,6 +271,9 @@ def circuit_plant_h(cs) -> str:
              f"#define CIRCUIT_HAS_SENSOR {int(loop is not None and loop.sensor is not None)}",
              f"#define CIRCUIT_SENSOR_SEED {loop.seed if loop is not None else 0}ULL",
              f"#define CIRCUIT_LOG_T {lay.log_columns.index('t')}   /* the log row's time: first, the signals after it */",
+             f"#define CIRCUIT_NSTEPS {max(cs.n_steps, 1)}LL   /* the scenario's steps (its drives' table) */",
+             f"#define CIRCUIT_REPEAT {int(cs.repeat)}   /* 1: the drives start again every CIRCUIT_NSTEPS (a panel session) */",
+             f"enum {{ CIRCUIT_NSIDE = {len(side_columns(signals, inputs))} }};   /* the live panel's telemetry columns */",
              ""]
     lines += arr("double", "CIRCUIT_P", list(lay.values()))
     lines += arr("double", "CIRCUIT_Y0", list(y0))       # (the states, then the delay lines' memory)
@@ -288,6 +291,9 @@ def circuit_plant_h(cs) -> str:
     lines += arr("char *const", "CIRCUIT_MODE_WORDS", words, q)
     lines += arr("int", "CIRCUIT_MODE_FIRST", first, str)
     lines += arr("char *const", "CIRCUIT_PLOG_NAMES", plog, q)
+    lines += arr("char *const", "CIRCUIT_INPUT_NAMES", [n for n, _ in inputs], q)
+    lines += arr("char *const", "CIRCUIT_INPUT_UNITS", [u for _, u in inputs], q)
+    lines += arr("char *const", "CIRCUIT_SIDE_NAMES", list(side_columns(signals, inputs)), q)
     lines += arr("int", "CIRCUIT_PLOG_KINDS", kinds, str)
     return "\n".join(lines + ["", "#endif", ""])
 

@@ -108,8 +108,7 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     scenario, out = Path(scenario), Path(out)
     circuit = None
     if is_circuit_scenario(scenario):      # any circuit: its signals and inputs over the link (hil/circuit.py)
-        circuit, scenario, hil_cfg = _circuit_run(scenario, out, params=params, sets=sets, live=live,
-                                                     plant=plant)
+        circuit, scenario, hil_cfg = _circuit_run(scenario, out, params=params, sets=sets)
         duration = circuit.duration
     else:
         sc = load_scenario(scenario, params=params, sets=sets)     # validate before starting anything
@@ -168,19 +167,13 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
     return HilResult(out, timing, ctl_summary, comparison)
 
 
-CIRCUIT_PANEL_PLANT = ("the live panel on a circuit runs on the Python plant (--plant python) in this version: the "
-                       "standalone C plant of a circuit has no side channel yet")
-
-
-def _circuit_run(scenario: Path, out: Path, *, params, sets, live, plant):
+def _circuit_run(scenario: Path, out: Path, *, params, sets):
     """A circuit scenario checked for a HIL run (before anything starts or is written), the file both processes
     read (the scenario itself, or with ``sets`` applied ``out/scenario.toml``) and its [hil] settings."""
     from hydrohil.circuits.scenario import load_circuit_scenario, write_circuit_scenario
     if params is not None:
         raise InputError("a circuit scenario has no parameter set: give its values with --set component.key=value",
                          key="--params")
-    if live is not None and plant == "c":
-        raise InputError(CIRCUIT_PANEL_PLANT, key="--plant")
     cs = load_circuit_scenario(scenario, sets=sets)
     hil = circuit_hil(cs)
     if sets:

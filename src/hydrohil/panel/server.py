@@ -36,7 +36,7 @@ class Panel:
                  host: str = "127.0.0.1", port: int = 0, allow_remote: bool = False,
                  plant_port: int = 47000, plant: str = "python"):
         from hydrohil.circuits.scenario import is_circuit_scenario
-        from hydrohil.hil.run import CIRCUIT_PANEL_PLANT, PLANTS
+        from hydrohil.hil.run import PLANTS
         from hydrohil.panel.views import circuit_view, paper_view
         self.scenario_path, self.out = Path(scenario), Path(out)
         self.params_arg, self.sets = params, sets
@@ -51,8 +51,6 @@ class Panel:
             if params is not None:
                 raise InputError("a circuit scenario has no parameter set: give its values with --set "
                                  "component.key=value", key="--params")
-            if plant == "c":
-                raise InputError(CIRCUIT_PANEL_PLANT, key="--plant")
             cs = self.cs = load_circuit_scenario(self.scenario_path, sets=sets)
             self.hil, self.h, self.view = circuit_hil(cs), cs.step, circuit_view(cs)
             self.controller_type = cs.loop.cfg.type if cs.loop is not None else None

@@ -5,13 +5,16 @@
  * drives and replaces the inputs the controller has set by their latest values (a loop's command from the
  * start: the one that holds its piston), saturated to their ranges; the watchdog's safe state sets the
  * commanded inputs to 0 (the end of their range nearest to it). The export's values (circuit_plant.h) are
- * fixed: no --set, --initial, --fault or --panel. */
+ * fixed: no --set, --initial or --fault. The live panel (--panel, rt_side.c): the circuit's telemetry (time, its
+ * signals, its inputs as applied), an input the controller does not drive held from the panel and given back to
+ * its drive, reset to rest; a parameter changed while running needs its derived values (Python): the Python
+ * plant's. */
 #define _GNU_SOURCE
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
-#include "rt_plant.h"
+#include "rt_side.h"
 #include "circuit_plant.h"
 
 /* the generated circuit's per-step interface (circuit.c) */
@@ -28,6 +31,8 @@ static struct {
     double pending[CIRCUIT_NU];
     double drive[CIRCUIT_NU];         /* the scenario's drive of each input at the current step */
     int drive_next;                   /* the next change of CIRCUIT_DRIVE_* */
+    uint32_t held;                    /* bit j: input j held by the live panel at hold[j] (in place of its drive) */
+    double hold[CIRCUIT_NU];
     int saturated;
     uint32_t status;                  /* of the last sensor packet (logged) */
     hh_watchdog link;
@@ -64,6 +69,7 @@ void model_reset(plant *pl)
     memcpy(C.cmd, CIRCUIT_U0, sizeof C.cmd);
     memcpy(C.drive, CIRCUIT_DRIVE0, sizeof C.drive);
     C.drive_next = 0;
+    C.held = 0U;
     C.set = CIRCUIT_LOOP_COMMAND >= 0 ? 1U << CIRCUIT_LOOP_COMMAND : 0U;
     C.pending_mask = 0;
     C.saturated = 0;
@@ -128,11 +134,19 @@ int model_step(plant *pl, int64_t k, int arrived, double *u)
         C.set |= C.pending_mask;
     }
     hh_watchdog_command(&C.link, k, arrived, 0.0, CIRCUIT_STEP, pl->o->hil[HIL_WATCHDOG_TIMEOUT], 0, 0.0, 0.0);
-    while (C.drive_next < CIRCUIT_NDRIVES && CIRCUIT_DRIVE_STEP[C.drive_next] <= k) {   /* the drives at step k */
+    if (CIRCUIT_REPEAT && k > 0 && k % CIRCUIT_NSTEPS == 0) {     /* the drives again from their start */
+        memcpy(C.drive, CIRCUIT_DRIVE0, sizeof C.drive);
+        C.drive_next = 0;
+    }
+    while (C.drive_next < CIRCUIT_NDRIVES &&                   /* the drives at step k */
+           CIRCUIT_DRIVE_STEP[C.drive_next] <= (CIRCUIT_REPEAT ? k % CIRCUIT_NSTEPS : k)) {
         C.drive[CIRCUIT_DRIVE_INPUT[C.drive_next]] = CIRCUIT_DRIVE_VALUE[C.drive_next];
         C.drive_next++;
     }
     memcpy(C.u, C.drive, sizeof C.u);
+    for (j = 0; j < CIRCUIT_NINPUTS; j++)                      /* held from the panel (never a commanded one) */
+        if (C.held >> j & 1U)
+            C.u[j] = C.hold[j];
     C.saturated = 0;
     for (j = 0; j < CIRCUIT_NINPUTS; j++) {
         double v;
@@ -179,7 +193,7 @@ void model_log_row(plant *pl, int64_t k, double wall, int64_t jitter_ns, int64_t
 {
     double *r = C.logrow;
     (void)u;
-    if (!pl->log.fh)
+    if (!pl->log.fh && !pl->side.rec.active)
         return;
     r[CPLOG_K] = (double)k;
     r[CPLOG_T] = C.row[CIRCUIT_LOG_T];
@@ -193,6 +207,8 @@ void model_log_row(plant *pl, int64_t k, double wall, int64_t jitter_ns, int64_t
     memcpy(r + LOG_HEAD, C.row + CIRCUIT_LOG_T + 1, sizeof(double) * CIRCUIT_NSIGNALS);
     memcpy(r + LOG_HEAD + CIRCUIT_NSIGNALS, C.u, sizeof(double) * CIRCUIT_NINPUTS);
     log_push(&pl->log, r);
+    if (pl->side.rec.active)       /* a recording of the live panel: its rows, its own histograms */
+        side_record_row(pl, r, jitter_ns, compute_ns);
 }
 
 void model_timing(const plant *pl, FILE *fh)
@@ -206,17 +222,103 @@ void model_timing(const plant *pl, FILE *fh)
 
 void model_free(plant *pl) { (void)pl; }
 
-/* ---- the live panel is the paper's rig's: nothing to serve (--panel is refused) ---------------------- */
-int side_open(plant *pl) { (void)pl; return 0; }
-void side_record_row(plant *pl, const double *row, int64_t jitter_ns, int64_t compute_ns)
+/* ---- the live panel (rt_side.h): the circuit's telemetry, inputs and steering --------------------------- */
+const char MODEL_STEER_OPS[] = "input, reset";
+
+const char *const *model_side_columns(int *n)
 {
-    (void)pl; (void)row; (void)jitter_ns; (void)compute_ns;
+    *n = CIRCUIT_NSIDE;
+    return CIRCUIT_SIDE_NAMES;
 }
-int side_fd(const plant *pl) { (void)pl; return -1; }
-void side_poll_waiting(plant *pl) { (void)pl; }
-void side_apply_queued(plant *pl) { (void)pl; }
-void side_row(plant *pl, int64_t k, const reading *r, int64_t late_ns, int64_t compute_ns, double u)
+
+void model_side_open(plant *pl) { (void)pl; }
+
+int model_side_commands(plant *pl, double u, double *out)     /* every input as applied (hydrohil.hil.session) */
 {
-    (void)pl; (void)k; (void)r; (void)late_ns; (void)compute_ns; (void)u;
+    (void)pl; (void)u;
+    memcpy(out, C.u, sizeof(double) * CIRCUIT_NINPUTS);   /* (at most SIDE_MAX_COMMANDS: the link's inputs) */
+    return CIRCUIT_NINPUTS;
 }
-void side_close(plant *pl, int64_t k_done) { (void)pl; (void)k_done; }
+
+/* (circuits/link.side_columns: t, the signals, the inputs as applied, jitter_us, compute_us, watchdog) */
+enum { SIDE_T, SIDE_SIGNALS, SIDE_INPUTS = SIDE_SIGNALS + CIRCUIT_NSIGNALS, SIDE_JITTER_US = SIDE_INPUTS + CIRCUIT_NINPUTS,
+       SIDE_COMPUTE_US, SIDE_WATCHDOG };
+
+void model_side_row(plant *pl, double *row, const reading *r, int64_t late_ns, int64_t compute_ns, double u)
+{
+    (void)pl; (void)r; (void)u;
+    row[SIDE_T] = C.row[CIRCUIT_LOG_T];
+    memcpy(row + SIDE_SIGNALS, C.row + CIRCUIT_LOG_T + 1, sizeof(double) * CIRCUIT_NSIGNALS);
+    memcpy(row + SIDE_INPUTS, C.u, sizeof(double) * CIRCUIT_NINPUTS);
+    row[SIDE_JITTER_US] = (double)late_ns / 1e3;
+    row[SIDE_COMPUTE_US] = (double)compute_ns / 1e3;
+    row[SIDE_WATCHDOG] = C.link.active;
+}
+
+/* A circuit's plant events (simulation/steering.py's parse_circuit_event, apply_circuit_event): input (one the
+ * controller does not drive, held at a value in its range, or null: back to its drive), reset (the states and
+ * modes back to rest; the step count, drives, held inputs and command path go on). */
+int model_steer(plant *pl, const jobject *o, const char *op, int64_t k, text *ev, char *extra, size_t extra_size,
+                char *err, size_t err_size)
+{
+    static const char *const none[] = {NULL}, *const input_fields[] = {"name", "value", NULL};
+    const char *odd;
+    (void)pl; (void)k; (void)extra; (void)extra_size;
+    if (strcmp(op, "set") == 0) {
+        snprintf(err, err_size, "set: a parameter changed while running needs its derived values, which the "
+                 "standalone C plant does not compute: run the panel on the Python plant (--plant python)");
+        return SIDE_REFUSED;
+    }
+    if (strcmp(op, "input") != 0 && strcmp(op, "reset") != 0)
+        return SIDE_UNKNOWN;
+    if ((odd = side_unexpected_field(o, strcmp(op, "input") == 0 ? input_fields : none)) != NULL) {
+        snprintf(err, err_size, "%.100s: not a field of %s", odd, op);
+        return SIDE_REFUSED;
+    }
+    if (strcmp(op, "input") == 0) {
+        const jfield *name = side_field(o, "name"), *value = side_field(o, "value");
+        int j = -1, i;
+        for (i = 0; name && name->kind == J_STR && i < CIRCUIT_NINPUTS; i++)
+            if (strcmp(CIRCUIT_INPUT_NAMES[i], name->str) == 0)
+                j = i;
+        if (j < 0) {
+            size_t used = (size_t)snprintf(err, err_size, "%.100s: not an input of circuit '%s' (inputs:",
+                                           name && name->kind == J_STR ? name->str : "name", CIRCUIT_NAME);
+            for (i = 0; i < CIRCUIT_NINPUTS && used < err_size; i++)
+                used += (size_t)snprintf(err + used, err_size - used, "%s %s", i ? "," : "", CIRCUIT_INPUT_NAMES[i]);
+            if (used < err_size)
+                snprintf(err + used, err_size - used, ")");
+            return SIDE_REFUSED;
+        }
+        if (j == CIRCUIT_LOOP_COMMAND) {
+            snprintf(err, err_size, "%s: the closed loop's command: its controller drives it (steer its reference "
+                     "or gains)", CIRCUIT_INPUT_NAMES[j]);
+            return SIDE_REFUSED;
+        }
+        if (value && value->kind != J_NULL && value->kind != J_NUM) {
+            snprintf(err, err_size, "value: a number (its unit: %s) or null (back to its drive)", CIRCUIT_INPUT_UNITS[j]);
+            return SIDE_REFUSED;
+        }
+        if (value && value->kind == J_NUM && !(value->num >= CIRCUIT_LO[j] && value->num <= CIRCUIT_HI[j])) {
+            snprintf(err, err_size, "%s: must be >= %g and <= %g %s, got %g", CIRCUIT_INPUT_NAMES[j], CIRCUIT_LO[j],
+                     CIRCUIT_HI[j], CIRCUIT_INPUT_UNITS[j], value->num);
+            return SIDE_REFUSED;
+        }
+        side_puts(ev, ", \"name\": ");
+        side_put_string(ev, CIRCUIT_INPUT_NAMES[j]);
+        side_puts(ev, ", \"value\": ");
+        if (value && value->kind == J_NUM) {
+            C.held |= 1U << j;
+            C.hold[j] = value->num;
+            side_put_double(ev, value->num);
+        } else {
+            C.held &= ~(1U << j);
+            side_puts(ev, "null");
+        }
+    } else {                                          /* reset: the state at rest, the rest goes on */
+        memcpy(C.y, CIRCUIT_Y0, sizeof C.y);
+        memcpy(C.m, CIRCUIT_M0, sizeof C.m);
+        row_now(0.0);
+    }
+    return SIDE_APPLIED;
+}

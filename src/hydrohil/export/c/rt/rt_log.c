@@ -52,7 +52,7 @@ const char *fmt_g6(char *buf, double v)
 
 const log_columns RIG_LOG_COLUMNS = {HH_NPLOG, PLANT_LOG_NAMES, PLANT_LOG_KINDS};
 
-size_t log_format_row(char *t, const double *r) { return format_row(&RIG_LOG_COLUMNS, t, r); }
+size_t log_format_row_of(const log_columns *cols, char *t, const double *r) { return format_row(cols, t, r); }
 
 size_t format_row(const log_columns *cols, char *t, const double *r)
 {
@@ -155,7 +155,7 @@ static void header(const log_columns *cols, FILE *fh)
     fputc('\n', fh);
 }
 
-void log_header(FILE *fh) { header(&RIG_LOG_COLUMNS, fh); }
+void log_header_of(const log_columns *cols, FILE *fh) { header(cols, fh); }
 
 int log_open(log_writer *w, const log_columns *cols, const char *dir, char *err, size_t size)
 {

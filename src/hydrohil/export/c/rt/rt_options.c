@@ -441,6 +441,8 @@ static void usage(void)
            "  --cpu N               pin the plant to CPU N\n"
            "  --hil KEY=VALUE       a [hil] setting (watchdog_timeout, wait, the verdict's limits, ...)\n"
            "  --connect-timeout S   wait this long for the controller's first packet (= --hil connect_timeout=S)\n"
+           "  --panel HOST:PORT     the live panel's side channel: telemetry out, steering in (hydrohil panel): hold an\n"
+           "                        input, reset; with --log DIR the session's events, inputs and recordings in DIR\n"
            "  --list                print the [hil] settings, then exit\n\n"
            "The circuit's parameters, state at rest, drives and step (%g s) are the export's: export again to change\n"
            "them (hydrohil export c --scenario FILE [--set component.key=value]).\n"
@@ -524,10 +526,11 @@ void parse_options(int argc, char **argv, options *o)
             o->cpu = (int)v;
             break;
 #ifdef PLANT_CIRCUIT             /* a circuit's plant: its parameters and state at rest are the export's */
-        case O_SET: case O_INITIAL: case O_FAULT: case O_PANEL:
+        case O_SET: case O_INITIAL: case O_FAULT:
             die_usage("--%s: not for a circuit's plant (its values are exported: hydrohil export c --scenario ... "
-                      "--set component.key=value; faults and the live panel are the paper's rig's)",
-                      c == O_SET ? "set" : c == O_INITIAL ? "initial" : c == O_FAULT ? "fault" : "panel");
+                      "--set component.key=value; faults are the paper's rig's)",
+                      c == O_SET ? "set" : c == O_INITIAL ? "initial" : "fault");
+        case O_PANEL: panel_text = optarg; break;
 #else
         case O_SET: set_parameter(o, optarg); break;
         case O_INITIAL: set_initial(o, optarg); break;

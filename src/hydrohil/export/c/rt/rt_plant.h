@@ -95,8 +95,8 @@ void fmt_double(char *buf, size_t size, double v);
 const char *fmt_g6(char *buf, double v);
 /* One plant-log row as CSV text (modes as names, counters as integers, floats exact) at t; its length. */
 size_t format_row(const log_columns *cols, char *t, const double *row);
-size_t log_format_row(char *t, const double *row);   /* the rig's (its panel recordings) */
-void log_header(FILE *fh);                         /* the CSV header line of the rig's plant_log.csv */
+size_t log_format_row_of(const log_columns *cols, char *t, const double *row);   /* (a panel recording's) */
+void log_header_of(const log_columns *cols, FILE *fh);      /* the CSV header line of a plant_log.csv */
 /* A writer thread that leaves SIGINT/SIGTERM to the step loop; pthread_create's result. */
 int start_writer_thread(pthread_t *thread, void *(*run)(void *), void *arg);
 /* DIR/plant_log.csv of these columns with its header, its writer thread started: 0, or -1 with the reason */
@@ -113,6 +113,10 @@ void log_close(log_writer *w);                     /* the writer drains the ring
 #define SIDE_EVENT_LINE 2048      /* one applied event's line of events.jsonl */
 #define SIDE_EVENTS 64            /* event lines between the step loop and the session writer */
 #define SIDE_RING (1 << 14)       /* commands, and recorded rows, between the step loop and the writer (8 s) */
+#define SIDE_MAX_COLUMNS (HHIL_MAX_SIGNALS + HHIL_MAX_INPUTS + 8)   /* a telemetry row's (a circuit's: its link's) */
+#define SIDE_MAX_COMMANDS HHIL_MAX_INPUTS   /* commands.f64 values a step at most (a circuit: its inputs) */
+#define SIDE_TEXT (1 << 16)       /* the writer's formatted recording rows */
+#define SIDE_ROW_TEXT 32          /* characters a logged value takes at most (with its comma) */
 
 /* the counters of a run (or of a recording: since its start) */
 typedef struct {
@@ -155,7 +159,8 @@ typedef struct {
     uint32_t cmd_head, cmd_tail;  /* atomic: head written by the loop, tail by the writer */
     char (*ev)[SIDE_EVENT_LINE];
     uint32_t ev_head, ev_tail;
-    double (*rows)[HH_NPLOG];
+    double *rows;                 /* SIDE_RING rows of ncols (the model's plant_log.csv columns) */
+    int ncols;
     uint32_t row_head, row_tail;
     char *text;                   /* the writer's formatted rows */
     size_t text_len;
@@ -164,7 +169,8 @@ typedef struct {
 
 typedef struct {
     int sock;                     /* -1: no panel */
-    double rows[SIDE_BATCH * HH_NSIDE];
+    double rows[SIDE_BATCH * SIDE_MAX_COLUMNS];
+    int ncols;                    /* the model's telemetry columns (model_side_columns) */
     int n;
     int64_t k0, sent, dropped;
     side_seen seen[SIDE_SEEN];
@@ -174,8 +180,6 @@ typedef struct {
     int nqueue;
     int session;                  /* a session folder (--log with --panel): the writer runs */
     side_writer w;
-    double base0[HH_NP];          /* the scenario's parameters; the tunables set (NaN: not set) act on them */
-    double tunables[HH_NTUNABLES];
     recording rec;
 } side_channel;
 

@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "rt_plant.h"
+#include "rt_side.h"
 
 /* The sensors' readings (the core's rig step, as the Python plant's) and the status bits of the wire. */
 static void read_sensors(plant *pl, reading *r)
@@ -195,3 +195,193 @@ void model_log_row(plant *pl, int64_t k, double wall, int64_t jitter_ns, int64_t
         side_record_row(pl, row, jitter_ns, compute_ns);
 }
 
+
+/* ---- the live panel (rt_side.h): the rig's telemetry, commands and steering ------------------------- */
+static double side_base0[HH_NP];           /* the scenario's parameters; the tunables set (NaN: not set) act on them */
+static double side_tunables[HH_NTUNABLES];
+const char MODEL_STEER_OPS[] = "set, fault_on, fault_off, reset";
+
+const char *const *model_side_columns(int *n)
+{
+    *n = HH_NSIDE;
+    return SIDE_NAMES;
+}
+
+void model_side_open(plant *pl)
+{
+    int i;
+    for (i = 0; i < HH_NTUNABLES; i++)
+        side_tunables[i] = NAN;
+    for (i = 0; i < HH_NP; i++)
+        side_base0[i] = pl->rig.base[i];
+}
+
+int model_side_commands(plant *pl, double u, double *out)
+{
+    (void)pl;
+    *out = u;
+    return 1;
+}
+
+void model_side_row(plant *pl, double *row, const reading *r, int64_t late_ns, int64_t compute_ns, double u)
+{
+    const double *out = pl->sim.out;
+    row[HH_SIDE_T] = out[HH_OUT_T];
+    row[HH_SIDE_XP] = out[HH_OUT_Y + HH_XP];
+    row[HH_SIDE_VP] = out[HH_OUT_Y + HH_VP];
+    row[HH_SIDE_XS] = out[HH_OUT_Y + HH_XS];
+    row[HH_SIDE_U] = u;
+    row[HH_SIDE_P1] = out[HH_OUT_Y + HH_P1];
+    row[HH_SIDE_P2] = out[HH_OUT_Y + HH_P2];
+    row[HH_SIDE_PS] = pl->sim.p[HH_SUPPLY_PS];
+    row[HH_SIDE_FF] = out[HH_OUT_FF];
+    row[HH_SIDE_TRAVEL_MODE] = out[HH_OUT_TRAVEL];
+    row[HH_SIDE_FRICTION_MODE] = out[HH_OUT_FRICTION];
+    row[HH_SIDE_SPOOL_MODE] = out[HH_OUT_SPOOL];
+    row[HH_SIDE_JITTER_US] = (double)late_ns / 1e3;
+    row[HH_SIDE_COMPUTE_US] = (double)compute_ns / 1e3;
+    row[HH_SIDE_WATCHDOG] = pl->rig.link.active;
+    row[HH_SIDE_FAULTS] = (double)r->faults;
+    row[HH_SIDE_X_MEAS] = (double)r->encoder * pl->rig.count;
+}
+
+/* The fault of a fault_on as --fault's TYPE:key=value,... text, on from now (start 0; end ignored: it lasts until
+ * fault_off, as hydrohil.simulation.steering.fault_model). -1 with the reason when it is not one. */
+static int fault_spec(const jobject *o, char *spec, size_t size, char *err, size_t errsize)
+{
+    const jfield *type = side_field(o, "fault.type"), *fault = side_field(o, "fault");
+    text t = {spec, size, 0, 0};
+    int i;
+    if (!fault || fault->kind != J_OBJ) {
+        snprintf(err, errsize, "fault: an object with the fault's type and fields is needed");
+        return -1;
+    }
+    if (!type || type->kind != J_STR || strpbrk(type->str, ",=:")) {
+        snprintf(err, errsize, "fault.type: a fault type is needed");
+        return -1;
+    }
+    side_puts(&t, type->str);
+    side_puts(&t, ":start=0");
+    for (i = 0; i < o->n; i++) {
+        const jfield *f = &o->f[i];
+        const char *key = f->key + 6;
+        if (strncmp(f->key, "fault.", 6) != 0 || strcmp(key, "type") == 0 || strcmp(key, "start") == 0 ||
+            strcmp(key, "end") == 0 || f->kind == J_NULL)
+            continue;
+        if (f->kind == J_BOOL || f->kind == J_OBJ || strpbrk(key, ",=:") ||
+            (f->kind == J_STR && strpbrk(f->str, ",=:"))) {
+            snprintf(err, errsize, "fault.%.100s: not a value of a fault's field", key);
+            return -1;
+        }
+        side_puts(&t, ",");
+        side_puts(&t, key);
+        side_puts(&t, "=");
+        if (f->kind == J_STR)
+            side_puts(&t, f->str);
+        else
+            side_put(&t, f->raw, f->raw_len);            /* strict JSON number text: strtod reads it exactly */
+    }
+    if (t.overflow) {
+        snprintf(err, errsize, "fault: too long");
+        return -1;
+    }
+    return 0;
+}
+
+/* The rig's steering (simulation/steering.py's plant events): set (a tunable), fault_on, fault_off, reset. */
+int model_steer(plant *pl, const jobject *o, const char *op, int64_t k, text *ev, char *extra, size_t extra_size,
+                char *err, size_t err_size)
+{
+    static const char *const none[] = {NULL}, *const set_fields[] = {"name", "value", NULL},
+                      *const fault_on_fields[] = {"fault", NULL}, *const fault_off_fields[] = {"slot", NULL};
+    const char *const *allowed, *odd;
+    if (strcmp(op, "set") == 0)
+        allowed = set_fields;
+    else if (strcmp(op, "fault_on") == 0)
+        allowed = fault_on_fields;
+    else if (strcmp(op, "fault_off") == 0)
+        allowed = fault_off_fields;
+    else if (strcmp(op, "reset") == 0)
+        allowed = none;
+    else
+        return SIDE_UNKNOWN;
+    if ((odd = side_unexpected_field(o, allowed)) != NULL) {
+        snprintf(err, err_size, "%.100s: not a field of %s", odd, op);
+        return SIDE_REFUSED;
+    }
+    if (strcmp(op, "set") == 0) {
+        const jfield *name = side_field(o, "name"), *value = side_field(o, "value");
+        const tunable *tu = NULL;
+        int i;
+        double p[HH_NP];
+        for (i = 0; name && name->kind == J_STR && i < HH_NTUNABLES; i++)
+            if (strcmp(TUNABLES[i].name, name->str) == 0)
+                tu = &TUNABLES[i];
+        if (!tu) {
+            size_t used = (size_t)snprintf(err, err_size, "name: one of");
+            for (i = 0; i < HH_NTUNABLES && used < err_size; i++)
+                used += (size_t)snprintf(err + used, err_size - used, " %s", TUNABLES[i].name);
+            return SIDE_REFUSED;
+        }
+        if (!value || value->kind != J_NUM) {
+            snprintf(err, err_size, "value: a number is needed");
+            return SIDE_REFUSED;
+        }
+        if (!(value->num >= tu->lo && value->num <= tu->hi)) {
+            snprintf(err, err_size, "%s must be in [%g, %g] %s, got %g", tu->description, tu->lo, tu->hi, tu->unit,
+                     value->num);
+            return SIDE_REFUSED;
+        }
+        side_tunables[tu - TUNABLES] = value->num;
+        hh_tuned_base(side_base0, side_tunables, p);
+        hh_rig_set_base(&pl->rig, p);
+        side_puts(ev, ", \"name\": ");
+        side_put_string(ev, tu->name);
+        side_puts(ev, ", \"value\": ");
+        side_put_double(ev, value->num);
+    } else if (strcmp(op, "fault_on") == 0) {
+        char spec[1024], fault[1024], why[SIDE_MSG];
+        hh_fault f;
+        double end;
+        int slot;
+        if (fault_spec(o, spec, sizeof spec, why, sizeof why) != 0 ||
+            fault_from_spec(spec, &f, &end, why, sizeof why) != 0) {
+            snprintf(err, err_size, "fault: %.7000s", why);
+            return SIDE_REFUSED;
+        }
+        if (f.type == HH_FAULT_NETWORK_DELAY && !pl->fifo) {
+            snprintf(err, err_size, "fault: network_delay needs its delay line (start the plant with --panel)");
+            return SIDE_REFUSED;
+        }
+        if (fault_json(&f, fault, sizeof fault) == 0) {
+            snprintf(err, err_size, "fault: too long");
+            return SIDE_REFUSED;
+        }
+        slot = hh_rig_add_live(&pl->rig, &f, k);
+        if (slot < 0) {
+            snprintf(err, err_size, "at most %d faults at a time", HH_MAX_FAULTS);
+            return SIDE_REFUSED;
+        }
+        side_puts(ev, ", \"fault\": ");
+        side_puts(ev, fault);
+        side_puts(ev, ", \"result\": {\"slot\": ");
+        side_put_int(ev, slot);
+        side_puts(ev, "}");
+        snprintf(extra, extra_size, ", \"slot\": %d", slot);
+    } else if (strcmp(op, "fault_off") == 0) {
+        const jfield *slot = side_field(o, "slot");
+        if (!side_integral(slot, 0, HH_MAX_FAULTS - 1)) {
+            snprintf(err, err_size, "slot: a whole number from 0 to %d", HH_MAX_FAULTS - 1);
+            return SIDE_REFUSED;
+        }
+        if (hh_rig_end(&pl->rig, (int)slot->num, k) != 0) {
+            snprintf(err, err_size, "no active fault in slot %d", (int)slot->num);
+            return SIDE_REFUSED;
+        }
+        side_puts(ev, ", \"slot\": ");
+        side_put_int(ev, (int64_t)slot->num);
+    } else {                                          /* reset */
+        plant_reset(pl);
+    }
+    return SIDE_APPLIED;
+}

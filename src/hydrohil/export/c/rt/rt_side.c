@@ -20,28 +20,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "rt_plant.h"
+#include "rt_side.h"
 
-/* ---- a JSON object of the panel: flat fields and one nested object (a fault) ---------------------- */
-enum { J_STR, J_NUM, J_NULL, J_BOOL, J_OBJ };
-#define J_FIELDS 32
-
-typedef struct {
-    char key[64];                 /* "op", ...; a nested object's fields "fault.type", ... */
-    int kind;
-    double num;
-    const char *str;              /* J_STR: decoded (in the object's string store) */
-    const char *raw;              /* the value as the message wrote it (an object: its text) */
-    size_t raw_len;
-} jfield;
-
-typedef struct {
-    jfield f[J_FIELDS];
-    int n;
-    char store[SIDE_MSG];
-    size_t used;
-} jobject;
-
+/* ---- a JSON object of the panel: flat fields and one nested object (rt_side.h) ----------------------- */
 static const char *skip_ws(const char *p, const char *e)
 {
     while (p < e && (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r'))
@@ -295,7 +276,7 @@ static int parse_object(const char *text, size_t n, jobject *o)
     return p && skip_ws(p, e) == e;
 }
 
-static const jfield *field(const jobject *o, const char *key)
+const jfield *side_field(const jobject *o, const char *key)
 {
     int i;
     for (i = 0; i < o->n; i++)
@@ -305,13 +286,7 @@ static const jfield *field(const jobject *o, const char *key)
 }
 
 /* ---- writing JSON ------------------------------------------------------------------------------ */
-typedef struct {
-    char *buf;
-    size_t size, n;
-    int overflow;                 /* something did not fit: the text is not to be used */
-} text;
-
-static void put(text *t, const char *s, size_t n)
+void side_put(text *t, const char *s, size_t n)
 {
     if (t->n + n + 1 > t->size) {
         t->overflow = 1;
@@ -322,44 +297,44 @@ static void put(text *t, const char *s, size_t n)
     t->buf[t->n] = '\0';
 }
 
-static void puts_(text *t, const char *s) { put(t, s, strlen(s)); }
+void side_puts(text *t, const char *s) { side_put(t, s, strlen(s)); }
 
 /* s as a JSON string (s is valid UTF-8: the parser took only that, the plant's own texts are ASCII) */
-static void put_string(text *t, const char *s)
+void side_put_string(text *t, const char *s)
 {
-    put(t, "\"", 1);
+    side_put(t, "\"", 1);
     for (; *s; s++) {
         unsigned char c = (unsigned char)*s;
         char esc[8];
         if (c == '"' || c == '\\') {
             esc[0] = '\\';
             esc[1] = (char)c;
-            put(t, esc, 2);
+            side_put(t, esc, 2);
         } else if (c < 0x20) {
             snprintf(esc, sizeof esc, "\\u%04x", c);
-            put(t, esc, 6);
+            side_put(t, esc, 6);
         } else {
-            put(t, (const char *)&c, 1);
+            side_put(t, (const char *)&c, 1);
         }
     }
-    put(t, "\"", 1);
+    side_put(t, "\"", 1);
 }
 
-static void put_int(text *t, int64_t v)
+void side_put_int(text *t, int64_t v)
 {
     char b[32];
     snprintf(b, sizeof b, "%lld", (long long)v);
-    puts_(t, b);
+    side_puts(t, b);
 }
 
 /* a float as Python's json writes it (repr: shortest round trip, ".0" on whole numbers) */
-static void put_double(text *t, double v)
+void side_put_double(text *t, double v)
 {
     char b[40];
     fmt_double(b, sizeof b, v);
     if (!strpbrk(b, ".e"))
         strcat(b, ".0");
-    puts_(t, b);
+    side_puts(t, b);
 }
 
 /* ---- the channel -------------------------------------------------------------------------------- */
@@ -393,10 +368,10 @@ static void answer(plant *pl, int64_t id, const char *extra)
     char buf[SIDE_MSG];
     text t = {buf, sizeof buf, 0, 0};
     side_seen *e = seen_find(&pl->side, id);
-    puts_(&t, "{\"ack\": ");
-    put_int(&t, id);
-    puts_(&t, extra);
-    puts_(&t, "}");
+    side_puts(&t, "{\"ack\": ");
+    side_put_int(&t, id);
+    side_puts(&t, extra);
+    side_puts(&t, "}");
     if (t.overflow) {
         t.n = (size_t)snprintf(buf, sizeof buf, "{\"ack\": %lld, \"error\": \"the answer is too long\"}", (long long)id);
     }
@@ -411,8 +386,8 @@ static void answer_error(plant *pl, int64_t id, const char *message)
 {
     char buf[SIDE_MSG];
     text t = {buf, sizeof buf, 0, 0};
-    puts_(&t, ", \"error\": ");
-    put_string(&t, message);
+    side_puts(&t, ", \"error\": ");
+    side_put_string(&t, message);
     answer(pl, id, t.overflow ? ", \"error\": \"refused (the reason is too long to say)\"" : buf);
 }
 
@@ -420,9 +395,9 @@ static void answer_applied(plant *pl, int64_t id, int64_t k, const char *extra)
 {
     char buf[SIDE_MSG];
     text t = {buf, sizeof buf, 0, 0};
-    puts_(&t, ", \"k\": ");
-    put_int(&t, k);
-    puts_(&t, extra);
+    side_puts(&t, ", \"k\": ");
+    side_put_int(&t, k);
+    side_puts(&t, extra);
     answer(pl, id, buf);
 }
 
@@ -476,14 +451,15 @@ static int writer_pass(side_channel *s)
         if (!w->rec_fh)
             snprintf(r->error, sizeof r->error, "cannot write %.4200s: %s", path, strerror(errno));
         else
-            log_header(w->rec_fh);
+            log_header_of(model_log_columns(), w->rec_fh);
     }
     head = load32(&w->row_head);
     if ((tail = w->row_tail) != head) {
         for (; tail != head; tail++) {
-            if (w->text_len + 2048 > SIDE_RING)       /* (text: SIDE_RING bytes) */
+            if (w->text_len + SIDE_ROW_TEXT * (size_t)w->ncols > SIDE_TEXT)   /* (a row's text fits) */
                 w->text_len = (write_all(w->rec_fh, w->text, w->text_len), 0);
-            w->text_len += log_format_row(w->text + w->text_len, w->rows[tail % SIDE_RING]);
+            w->text_len += log_format_row_of(model_log_columns(), w->text + w->text_len,
+                                             w->rows + (size_t)(tail % SIDE_RING) * (size_t)w->ncols);
         }
         store32(&w->row_tail, tail);
         busy = 1;
@@ -553,7 +529,7 @@ void side_record_row(plant *pl, const double *row, int64_t jitter_ns, int64_t co
         r->dropped++;               /* the writer fell 8 s behind: lose a row, never a step */
         return;
     }
-    memcpy(w->rows[w->row_head % SIDE_RING], row, sizeof(double) * HH_NPLOG);
+    memcpy(w->rows + (size_t)(w->row_head % SIDE_RING) * (size_t)w->ncols, row, sizeof(double) * (size_t)w->ncols);
     store32(&w->row_head, w->row_head + 1U);
 }
 
@@ -573,13 +549,13 @@ static void record_stop(plant *pl, int64_t k, int64_t id)
         r->timing_len = (size_t)ftell(fh);
         fclose(fh);
     }
-    puts_(&t, ", \"k\": ");
-    put_int(&t, k);
-    puts_(&t, ", \"dir\": ");
-    put_string(&t, r->dir);
-    puts_(&t, ", \"steps\": ");
-    put_int(&t, k - r->k0);
-    puts_(&t, nreasons ? ", \"verdict\": \"INVALID\"" : ", \"verdict\": \"VALID\"");
+    side_puts(&t, ", \"k\": ");
+    side_put_int(&t, k);
+    side_puts(&t, ", \"dir\": ");
+    side_put_string(&t, r->dir);
+    side_puts(&t, ", \"steps\": ");
+    side_put_int(&t, k - r->k0);
+    side_puts(&t, nreasons ? ", \"verdict\": \"INVALID\"" : ", \"verdict\": \"VALID\"");
     r->answer_id = id;
     r->close_head = pl->side.w.row_head;
     store_state(&r->state, REC_CLOSING);
@@ -602,13 +578,13 @@ static void answer_recording(plant *pl)
 }
 
 /* ---- steering (simulation/steering.py's events, the plant's) ------------------------------------ */
-static int integral(const jfield *f, double lo, double hi)
+int side_integral(const jfield *f, double lo, double hi)
 {
     return f && f->kind == J_NUM && f->num == floor(f->num) && f->num >= lo && f->num <= hi;
 }
 
 /* The message's fields are id, op, k, result (ignored) and those of its op: NULL, or the first other one. */
-static const char *unexpected_field(const jobject *o, const char *const *allowed)
+const char *side_unexpected_field(const jobject *o, const char *const *allowed)
 {
     int i, j;
     for (i = 0; i < o->n; i++) {
@@ -623,53 +599,10 @@ static const char *unexpected_field(const jobject *o, const char *const *allowed
     return NULL;
 }
 
-/* The fault of a fault_on as --fault's TYPE:key=value,... text, on from now (start 0; end ignored: it lasts until
- * fault_off, as hydrohil.simulation.steering.fault_model). -1 with the reason when it is not one. */
-static int fault_spec(const jobject *o, char *spec, size_t size, char *err, size_t errsize)
-{
-    const jfield *type = field(o, "fault.type"), *fault = field(o, "fault");
-    text t = {spec, size, 0, 0};
-    int i;
-    if (!fault || fault->kind != J_OBJ) {
-        snprintf(err, errsize, "fault: an object with the fault's type and fields is needed");
-        return -1;
-    }
-    if (!type || type->kind != J_STR || strpbrk(type->str, ",=:")) {
-        snprintf(err, errsize, "fault.type: a fault type is needed");
-        return -1;
-    }
-    puts_(&t, type->str);
-    puts_(&t, ":start=0");
-    for (i = 0; i < o->n; i++) {
-        const jfield *f = &o->f[i];
-        const char *key = f->key + 6;
-        if (strncmp(f->key, "fault.", 6) != 0 || strcmp(key, "type") == 0 || strcmp(key, "start") == 0 ||
-            strcmp(key, "end") == 0 || f->kind == J_NULL)
-            continue;
-        if (f->kind == J_BOOL || f->kind == J_OBJ || strpbrk(key, ",=:") ||
-            (f->kind == J_STR && strpbrk(f->str, ",=:"))) {
-            snprintf(err, errsize, "fault.%.100s: not a value of a fault's field", key);
-            return -1;
-        }
-        puts_(&t, ",");
-        puts_(&t, key);
-        puts_(&t, "=");
-        if (f->kind == J_STR)
-            puts_(&t, f->str);
-        else
-            put(&t, f->raw, f->raw_len);            /* strict JSON number text: strtod reads it exactly */
-    }
-    if (t.overflow) {
-        snprintf(err, errsize, "fault: too long");
-        return -1;
-    }
-    return 0;
-}
-
 static void record_start(plant *pl, const jobject *o, int64_t id, int64_t k)
 {
     recording *r = &pl->side.rec;
-    const jfield *dir = field(o, "dir");
+    const jfield *dir = side_field(o, "dir");
     char err[SIDE_MSG];
     const char *c;
     int bad = !dir || dir->kind != J_STR || !dir->str[0] || strlen(dir->str) >= sizeof r->dir;
@@ -706,44 +639,32 @@ static void record_start(plant *pl, const jobject *o, int64_t id, int64_t k)
     {
         char buf[SIDE_MSG];
         text t = {buf, sizeof buf, 0, 0};
-        puts_(&t, ", \"dir\": ");
-        put_string(&t, r->dir);
+        side_puts(&t, ", \"dir\": ");
+        side_put_string(&t, r->dir);
         answer_applied(pl, id, k, buf);
     }
 }
 
-/* Apply one steering message at the boundary before step k (simulation/steering.py's rules), log it in
- * events.jsonl as the Python plant does (its checked values, not the message's text), answer it. */
+/* Apply one steering message at the boundary before step k (simulation/steering.py's rules: stop and the
+ * recordings here, the model's operations by model_steer), log it in events.jsonl as the Python plant does (its
+ * checked values, not the message's text), answer it. */
 static void steer(plant *pl, const jobject *o, int64_t id, int64_t k)
 {
-    static const char *const none[] = {NULL}, *const set_fields[] = {"name", "value", NULL},
-                      *const fault_on_fields[] = {"fault", NULL}, *const fault_off_fields[] = {"slot", NULL},
-                      *const record_fields[] = {"dir", NULL};
+    static const char *const none[] = {NULL}, *const record_fields[] = {"dir", NULL};
     side_channel *s = &pl->side;
-    const jfield *op = field(o, "op");
-    const char *const *allowed = none, *odd;
+    const jfield *op = side_field(o, "op");
+    const char *odd;
     char err[SIDE_MSG], line[SIDE_EVENT_LINE], extra[64] = "";
     text ev = {line, sizeof line, 0, 0};
+    int own = op && op->kind == J_STR && (strcmp(op->str, "stop") == 0 || strcmp(op->str, "record_start") == 0 ||
+                                          strcmp(op->str, "record_stop") == 0);
     if (!op || op->kind != J_STR) {
-        answer_error(pl, id, "op: a steering operation is needed (set, fault_on, fault_off, reset, stop, "
-                             "record_start, record_stop)");
-        return;
-    }
-    if (strcmp(op->str, "set") == 0)
-        allowed = set_fields;
-    else if (strcmp(op->str, "fault_on") == 0)
-        allowed = fault_on_fields;
-    else if (strcmp(op->str, "fault_off") == 0)
-        allowed = fault_off_fields;
-    else if (strcmp(op->str, "record_start") == 0)
-        allowed = record_fields;
-    else if (strcmp(op->str, "reset") != 0 && strcmp(op->str, "stop") != 0 && strcmp(op->str, "record_stop") != 0) {
-        snprintf(err, sizeof err, "op: '%.100s' is not a plant operation (set, fault_on, fault_off, reset, stop, "
-                                  "record_start, record_stop)", op->str);
+        snprintf(err, sizeof err, "op: a steering operation is needed (%s, stop, record_start, record_stop)",
+                 MODEL_STEER_OPS);
         answer_error(pl, id, err);
         return;
     }
-    if ((odd = unexpected_field(o, allowed)) != NULL) {
+    if (own && (odd = side_unexpected_field(o, strcmp(op->str, "record_start") == 0 ? record_fields : none))) {
         snprintf(err, sizeof err, "%.100s: not a field of %s", odd, op->str);
         answer_error(pl, id, err);
         return;
@@ -753,7 +674,7 @@ static void steer(plant *pl, const jobject *o, int64_t id, int64_t k)
         answer_applied(pl, id, k, "");
         return;
     }
-    if (strcmp(op->str, "record_start") == 0 || strcmp(op->str, "record_stop") == 0) {
+    if (own) {                                        /* record_start, record_stop */
         if (!s->session) {
             answer_error(pl, id, "recording needs a session folder (hydrohil panel)");
         } else if (strcmp(op->str, "record_start") == 0) {
@@ -769,94 +690,24 @@ static void steer(plant *pl, const jobject *o, int64_t id, int64_t k)
         answer_error(pl, id, "the session's event log is behind: try again");
         return;
     }
-    puts_(&ev, "{\"k\": ");
-    put_int(&ev, k);
-    puts_(&ev, ", \"op\": ");
-    put_string(&ev, op->str);
-    if (strcmp(op->str, "set") == 0) {
-        const jfield *name = field(o, "name"), *value = field(o, "value");
-        const tunable *tu = NULL;
-        int i;
-        double p[HH_NP];
-        for (i = 0; name && name->kind == J_STR && i < HH_NTUNABLES; i++)
-            if (strcmp(TUNABLES[i].name, name->str) == 0)
-                tu = &TUNABLES[i];
-        if (!tu) {
-            size_t used = (size_t)snprintf(err, sizeof err, "name: one of");
-            for (i = 0; i < HH_NTUNABLES && used < sizeof err; i++)
-                used += (size_t)snprintf(err + used, sizeof err - used, " %s", TUNABLES[i].name);
-            answer_error(pl, id, err);
-            return;
-        }
-        if (!value || value->kind != J_NUM) {
-            answer_error(pl, id, "value: a number is needed");
-            return;
-        }
-        if (!(value->num >= tu->lo && value->num <= tu->hi)) {
-            snprintf(err, sizeof err, "%s must be in [%g, %g] %s, got %g", tu->description, tu->lo, tu->hi, tu->unit,
-                     value->num);
-            answer_error(pl, id, err);
-            return;
-        }
-        s->tunables[tu - TUNABLES] = value->num;
-        hh_tuned_base(s->base0, s->tunables, p);
-        hh_rig_set_base(&pl->rig, p);
-        puts_(&ev, ", \"name\": ");
-        put_string(&ev, tu->name);
-        puts_(&ev, ", \"value\": ");
-        put_double(&ev, value->num);
-    } else if (strcmp(op->str, "fault_on") == 0) {
-        char spec[1024], fault[1024];
-        hh_fault f;
-        double end;
-        int slot;
-        if (fault_spec(o, spec, sizeof spec, err, sizeof err) != 0 ||
-            fault_from_spec(spec, &f, &end, err, sizeof err) != 0) {
-            char msg[SIDE_MSG];
-            snprintf(msg, sizeof msg, "fault: %.7000s", err);
-            answer_error(pl, id, msg);
-            return;
-        }
-        if (f.type == HH_FAULT_NETWORK_DELAY && !pl->fifo) {
-            answer_error(pl, id, "fault: network_delay needs its delay line (start the plant with --panel)");
-            return;
-        }
-        if (fault_json(&f, fault, sizeof fault) == 0) {
-            answer_error(pl, id, "fault: too long");
-            return;
-        }
-        slot = hh_rig_add_live(&pl->rig, &f, k);
-        if (slot < 0) {
-            snprintf(err, sizeof err, "at most %d faults at a time", HH_MAX_FAULTS);
-            answer_error(pl, id, err);
-            return;
-        }
-        puts_(&ev, ", \"fault\": ");
-        puts_(&ev, fault);
-        puts_(&ev, ", \"result\": {\"slot\": ");
-        put_int(&ev, slot);
-        puts_(&ev, "}");
-        snprintf(extra, sizeof extra, ", \"slot\": %d", slot);
-    } else if (strcmp(op->str, "fault_off") == 0) {
-        const jfield *slot = field(o, "slot");
-        if (!integral(slot, 0, HH_MAX_FAULTS - 1)) {
-            snprintf(err, sizeof err, "slot: a whole number from 0 to %d", HH_MAX_FAULTS - 1);
-            answer_error(pl, id, err);
-            return;
-        }
-        if (hh_rig_end(&pl->rig, (int)slot->num, k) != 0) {
-            snprintf(err, sizeof err, "no active fault in slot %d", (int)slot->num);
-            answer_error(pl, id, err);
-            return;
-        }
-        puts_(&ev, ", \"slot\": ");
-        put_int(&ev, (int64_t)slot->num);
-    } else {                                          /* reset */
-        plant_reset(pl);
+    side_puts(&ev, "{\"k\": ");
+    side_put_int(&ev, k);
+    side_puts(&ev, ", \"op\": ");
+    side_put_string(&ev, op->str);
+    switch (model_steer(pl, o, op->str, k, &ev, extra, sizeof extra, err, sizeof err)) {
+    case SIDE_APPLIED:
+        side_puts(&ev, "}\n");
+        push_event(s, line);                          /* (fits: the longest event is a fault_on, < 1.2 kB) */
+        answer_applied(pl, id, k, extra);
+        return;
+    case SIDE_REFUSED:
+        answer_error(pl, id, err);
+        return;
+    default:
+        snprintf(err, sizeof err, "op: '%.100s' is not a plant operation (%s, stop, record_start, record_stop)",
+                 op->str, MODEL_STEER_OPS);
+        answer_error(pl, id, err);
     }
-    puts_(&ev, "}\n");
-    push_event(s, line);                              /* (fits: the longest event is a fault_on, < 1.2 kB) */
-    answer_applied(pl, id, k, extra);
 }
 
 /* A datagram from the panel: a valid JSON object with a whole-number id not seen before -> *o, *id, 1. A retry
@@ -868,8 +719,8 @@ static int take_message(plant *pl, const char *data, size_t n, jobject *o, int64
     side_seen *e;
     if (!parse_object(data, n, o))
         return 0;
-    f = field(o, "id");
-    if (!integral(f, -9.0e15, 9.0e15))
+    f = side_field(o, "id");
+    if (!side_integral(f, -9.0e15, 9.0e15))
         return 0;
     *id = (int64_t)f->num;
     e = seen_find(&pl->side, *id);
@@ -878,7 +729,7 @@ static int take_message(plant *pl, const char *data, size_t n, jobject *o, int64
             say(pl, e->answer, strlen(e->answer));
         return 0;
     }
-    op = field(o, "op");
+    op = side_field(o, "op");
     if (!take && !(op && op->kind == J_STR && strcmp(op->str, "stop") == 0))
         return 0;
     seen_add(&pl->side, *id);
@@ -908,12 +759,10 @@ int side_open(plant *pl)
     side_channel *s = &pl->side;
     const options *o = pl->o;
     int i;
+    const char *const *names = model_side_columns(&s->ncols);
     s->sock = -1;
     s->rec.answer_id = -1;
-    for (i = 0; i < HH_NTUNABLES; i++)
-        s->tunables[i] = NAN;
-    for (i = 0; i < HH_NP; i++)
-        s->base0[i] = pl->rig.base[i];
+    model_side_open(pl);
     if (!o->has_panel)
         return 0;
     s->sock = socket(AF_INET, SOCK_DGRAM, 0);
@@ -933,10 +782,11 @@ int side_open(plant *pl)
             fprintf(stderr, "error: cannot write %s: %s\n", path, strerror(errno));
             return -1;
         }
+        w->ncols = model_log_columns()->n;
         w->cmds = malloc(sizeof(double) * SIDE_RING);
         w->ev = malloc(sizeof *w->ev * SIDE_EVENTS);
-        w->rows = malloc(sizeof *w->rows * SIDE_RING);
-        w->text = malloc(SIDE_RING);
+        w->rows = malloc(sizeof(double) * SIDE_RING * (size_t)w->ncols);
+        w->text = malloc(SIDE_TEXT);
         if (!w->cmds || !w->ev || !w->rows || !w->text) {
             fprintf(stderr, "error: out of memory for the session writer\n");
             return -1;
@@ -948,15 +798,15 @@ int side_open(plant *pl)
         w->started = s->session = 1;
     }
     {
-        char buf[2048];
+        static char buf[SIDE_MSG];
         text t = {buf, sizeof buf, 0, 0};
-        puts_(&t, "{\"hello\": \"plant\", \"columns\": [");
-        for (i = 0; i < HH_NSIDE; i++) {
+        side_puts(&t, "{\"hello\": \"plant\", \"columns\": [");
+        for (i = 0; i < s->ncols; i++) {
             if (i)
-                puts_(&t, ", ");
-            put_string(&t, SIDE_NAMES[i]);
+                side_puts(&t, ", ");
+            side_put_string(&t, names[i]);
         }
-        puts_(&t, "]}");
+        side_puts(&t, "]}");
         say(pl, buf, t.n);
     }
     return 0;
@@ -982,7 +832,7 @@ void side_poll_waiting(plant *pl)
             return;
         if (!take_message(pl, data, (size_t)n, &o, &id, s->nqueue < SIDE_QUEUE))
             continue;
-        op = field(&o, "op");
+        op = side_field(&o, "op");
         if (op && op->kind == J_STR && strcmp(op->str, "stop") == 0) {
             steer(pl, &o, id, 0);           /* stop at once; the rest at step 0, in order */
         } else {
@@ -999,7 +849,7 @@ void side_apply_queued(plant *pl)
     int i;
     for (i = 0; i < s->nqueue; i++) {
         const jfield *f;
-        if (parse_object(s->queue[i], s->queue_len[i], &o) && (f = field(&o, "id")) != NULL)
+        if (parse_object(s->queue[i], s->queue_len[i], &o) && (f = side_field(&o, "id")) != NULL)
             steer(pl, &o, (int64_t)f->num, 0);
     }
     s->nqueue = 0;
@@ -1008,20 +858,20 @@ void side_apply_queued(plant *pl)
 static void send_batch(plant *pl, int64_t steps)
 {
     side_channel *s = &pl->side;
-    static uint8_t buf[HHIL_TM_HEADER_LEN + 8 * HHIL_TM_COUNTERS + 8 * SIDE_BATCH * HH_NSIDE];
+    static uint8_t buf[HHIL_TM_HEADER_LEN + 8 * HHIL_TM_COUNTERS + 8 * SIDE_BATCH * SIDE_MAX_COLUMNS];
     int64_t c[HH_NSIDEC];
     size_t n;
     if (!s->n)
         return;
     c[HH_SIDEC_OVERRUNS] = pl->overruns;
     c[HH_SIDEC_LATE_COMMANDS] = pl->late_commands;
-    c[HH_SIDEC_WATCHDOG_TRIPS] = pl->rig.link.trips;
-    c[HH_SIDEC_WATCHDOG_TRIPS_UNEXPLAINED] = pl->rig.link.trips_unexplained;
+    c[HH_SIDEC_WATCHDOG_TRIPS] = pl->link->trips;
+    c[HH_SIDEC_WATCHDOG_TRIPS_UNEXPLAINED] = pl->link->trips_unexplained;
     c[HH_SIDEC_PACKETS_LOST] = pl->packets_lost;
     c[HH_SIDEC_TELEMETRY_DROPPED] = s->dropped;
     c[HH_SIDEC_JITTER_MAX_NS] = pl->jitter.max_ns;
     c[HH_SIDEC_STEPS] = steps;
-    n = hhil_encode_telemetry(buf, HHIL_TM_ROLE_PLANT, s->k0, c, s->rows, HH_NSIDE, s->n);
+    n = hhil_encode_telemetry(buf, HHIL_TM_ROLE_PLANT, s->k0, c, s->rows, s->ncols, s->n);
     if (send(s->sock, buf, n, MSG_DONTWAIT) == (ssize_t)n)
         s->sent++;
     else
@@ -1032,39 +882,23 @@ static void send_batch(plant *pl, int64_t steps)
 void side_row(plant *pl, int64_t k, const reading *r, int64_t late_ns, int64_t compute_ns, double u)
 {
     side_channel *s = &pl->side;
-    const double *out = pl->sim.out;
-    double *row;
     if (s->sock < 0)
         return;
-    if (s->session) {                 /* commands.f64: the command applied at each step */
+    if (s->session) {                 /* commands.f64: the command (a circuit: every input) applied at each step */
         side_writer *w = &s->w;
-        if (w->cmd_head - load32(&w->cmd_tail) < SIDE_RING) {
-            w->cmds[w->cmd_head % SIDE_RING] = u;
-            store32(&w->cmd_head, w->cmd_head + 1U);
+        double cmds[SIDE_MAX_COMMANDS];
+        int i, n = model_side_commands(pl, u, cmds);
+        if (w->cmd_head - load32(&w->cmd_tail) + (uint32_t)n <= SIDE_RING) {
+            for (i = 0; i < n; i++)
+                w->cmds[(w->cmd_head + (uint32_t)i) % SIDE_RING] = cmds[i];
+            store32(&w->cmd_head, w->cmd_head + (uint32_t)n);
         } else {
-            w->cmds_dropped++;        /* (the writer fell 8 s behind) */
+            w->cmds_dropped++;        /* (the writer fell seconds behind) */
         }
     }
     if (s->n == 0)
         s->k0 = k;
-    row = s->rows + (size_t)s->n * HH_NSIDE;
-    row[HH_SIDE_T] = out[HH_OUT_T];
-    row[HH_SIDE_XP] = out[HH_OUT_Y + HH_XP];
-    row[HH_SIDE_VP] = out[HH_OUT_Y + HH_VP];
-    row[HH_SIDE_XS] = out[HH_OUT_Y + HH_XS];
-    row[HH_SIDE_U] = u;
-    row[HH_SIDE_P1] = out[HH_OUT_Y + HH_P1];
-    row[HH_SIDE_P2] = out[HH_OUT_Y + HH_P2];
-    row[HH_SIDE_PS] = pl->sim.p[HH_SUPPLY_PS];
-    row[HH_SIDE_FF] = out[HH_OUT_FF];
-    row[HH_SIDE_TRAVEL_MODE] = out[HH_OUT_TRAVEL];
-    row[HH_SIDE_FRICTION_MODE] = out[HH_OUT_FRICTION];
-    row[HH_SIDE_SPOOL_MODE] = out[HH_OUT_SPOOL];
-    row[HH_SIDE_JITTER_US] = (double)late_ns / 1e3;
-    row[HH_SIDE_COMPUTE_US] = (double)compute_ns / 1e3;
-    row[HH_SIDE_WATCHDOG] = pl->rig.link.active;
-    row[HH_SIDE_FAULTS] = (double)r->faults;
-    row[HH_SIDE_X_MEAS] = (double)r->encoder * pl->rig.count;
+    model_side_row(pl, s->rows + (size_t)s->n * (size_t)s->ncols, r, late_ns, compute_ns, u);
     if (++s->n == SIDE_BATCH) {
         send_batch(pl, k);
         answer_recording(pl);
