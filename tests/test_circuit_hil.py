@@ -303,3 +303,14 @@ def test_lockstep_hil_with_a_noisy_sensor_equals_offline(tmp_path, plant):
     ctl = read_csv_columns(tmp_path / "out" / "controller_log.csv")
     assert np.array_equal(ctl["measured"][:-1], res.columns["cyl.x.sensed"][:-1])
     assert np.std(ctl["measured"][:-1] - res.columns["cyl.x"][:-1]) > 5e-6          # noisy indeed
+
+
+def test_a_circuit_beyond_the_links_limits_is_refused_before_anything_is_built():
+    """One SIGNALS packet carries 176 signals, an INPUTS packet 32 inputs (docs/protocol.md): a circuit with more
+    is refused by name (the Python plant, and the export whose C buffers are sized by these limits)."""
+    from hydrohil.circuits.link import LINK_MAX_INPUTS, LINK_MAX_SIGNALS, check_link_size
+    from hydrohil.hil import protocol as pr
+    assert (pr.MAX_SIGNALS, pr.MAX_INPUTS) == (LINK_MAX_SIGNALS, LINK_MAX_INPUTS) == (176, 32)
+    check_link_size([("s", "-")] * 176, [("u", "-")] * 32, "ok.toml")
+    with pytest.raises(InputError, match=r"at most 176 signals and 32 inputs \(this one: 1, 33\)"):
+        check_link_size([("s", "-")], [("u", "-")] * 33, "big.toml")

@@ -9,6 +9,19 @@ import zlib
 from hydrohil.circuits.run import input_unit, signal_units
 
 
+# what one SIGNALS / INPUTS packet carries (hil/protocol.py computes the first from its datagram and checks it is
+# this; protocol.h's HHIL_MAX_SIGNALS / HHIL_MAX_INPUTS the same)
+LINK_MAX_SIGNALS, LINK_MAX_INPUTS = 176, 32
+
+
+def check_link_size(signals, inputs, source: str = "circuit") -> None:
+    """InputError when a circuit has more signals or inputs than a packet of the link carries."""
+    from hydrohil.errors import InputError
+    if len(signals) > LINK_MAX_SIGNALS or len(inputs) > LINK_MAX_INPUTS:
+        raise InputError(f"a circuit's link carries at most {LINK_MAX_SIGNALS} signals and {LINK_MAX_INPUTS} inputs "
+                         f"(this one: {len(signals)}, {len(inputs)})", source=source)
+
+
 def wire_lists(c, lay) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
     """(name, SI unit) of a circuit's signals (its log columns but time) and of its inputs, in wire order
     (``lay``: its :class:`hydrohil.circuits.generate.Layout`)."""

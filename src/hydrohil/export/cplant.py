@@ -237,10 +237,12 @@ def circuit_plant_h(cs) -> str:
     as the steps where it changes, the loop's measured signal and sensor, the names, the wire layout and the
     plant_log.csv columns."""
     from hydrohil.circuits.build import compile_circuit
-    from hydrohil.circuits.link import PLANT_LOG_HEAD, PLANT_LOG_INTS, circuit_link, plant_log_columns, side_columns
+    from hydrohil.circuits.link import (PLANT_LOG_HEAD, PLANT_LOG_INTS, check_link_size, circuit_link,
+                                        plant_log_columns, side_columns)
     from hydrohil.circuits.run import METHODS, input_table, start_state
     c, lay = cs.circuit, compile_circuit(cs.circuit).layout
     signals, inputs, layout = circuit_link(c)
+    check_link_size(signals, inputs, cs.source)          # (the plant's buffers are sized by the link's limits)
     y0, m0, u0 = start_state(c, h=cs.step, method=cs.method, rest=cs.rest, loop=cs.loop)
     drives = input_table(c, cs.n_steps, cs.step)
     changes = [(k, j, float(drives[k, j])) for k in range(1, len(drives)) for j in range(len(inputs))

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hydrohil.circuits.link import PLANT_LOG_INTS, plant_log_columns, side_columns
-from hydrohil.errors import InputError, LinkError
+from hydrohil.circuits.link import PLANT_LOG_INTS, check_link_size, plant_log_columns, side_columns
+from hydrohil.errors import LinkError
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.plant import PlantServer, early_stop, serve
 from hydrohil.hil.protocol import parse_address
@@ -41,9 +41,7 @@ class CircuitPlantServer(PlantServer):
     def __init__(self, cs, *, hil, duration: float, log: Path | None = None, **kw):
         self.cs = cs
         rig = make_rig(cs, hil)
-        if len(rig.signals) > pr.MAX_SIGNALS or len(rig.inputs) > pr.MAX_INPUTS:
-            raise InputError(f"a circuit's link carries at most {pr.MAX_SIGNALS} signals and {pr.MAX_INPUTS} inputs "
-                             f"(this one: {len(rig.signals)}, {len(rig.inputs)})", source=cs.source)
+        check_link_size(rig.signals, rig.inputs, cs.source)
         self.layout = pr.layout_id(rig.signals, rig.inputs)
         self.columns = plant_log_columns(rig.signals, rig.inputs)
         super().__init__(None, step=cs.step, duration=duration, hil=hil, log=log, rig=rig, **kw)

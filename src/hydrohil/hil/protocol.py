@@ -23,6 +23,7 @@ import struct
 import zlib
 from typing import NamedTuple
 
+from hydrohil.circuits.link import LINK_MAX_INPUTS, LINK_MAX_SIGNALS
 from hydrohil.circuits.link import layout_id  # noqa: F401  (the circuit packets' fingerprint)
 from hydrohil.core import shape
 from hydrohil.errors import InputError
@@ -44,6 +45,7 @@ SIZES = {T_SENSOR: HEADER.size + SENSOR.size + CRC.size,      # 100
 MAX_DATAGRAM = 1472                          # a UDP payload in one 1500-byte Ethernet frame
 MAX_SIGNALS = (MAX_DATAGRAM - HEADER.size - SIGNALS.size - CRC.size) // 8     # 176 signals of a circuit
 MAX_INPUTS = 32                              # (the mask's bits)
+assert (MAX_SIGNALS, MAX_INPUTS) == (LINK_MAX_SIGNALS, LINK_MAX_INPUTS)    # (circuits/link.py: the export's check)
 
 # status bits of a sensor packet (core/shape.py STATUS: each bit and its meaning)
 STATUS_BITS = {b.name: 1 << b.bit for b in shape.STATUS}

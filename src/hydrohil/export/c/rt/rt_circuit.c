@@ -224,6 +224,10 @@ void model_free(plant *pl) { (void)pl; }
 
 /* ---- the live panel (rt_side.h): the circuit's telemetry, inputs and steering --------------------------- */
 const char MODEL_STEER_OPS[] = "input, reset";
+/* (the export refuses a circuit beyond the link's limits: circuits/link.py check_link_size; here for the buffers) */
+typedef char circuit_fits_the_link[((int)CIRCUIT_NSIGNALS <= (int)HHIL_MAX_SIGNALS &&
+                                    (int)CIRCUIT_NINPUTS <= (int)HHIL_MAX_INPUTS && (int)CIRCUIT_NSIDE <= (int)SIDE_MAX_COLUMNS &&
+                                    (int)CIRCUIT_NINPUTS <= (int)SIDE_MAX_COMMANDS) ? 1 : -1];
 
 const char *const *model_side_columns(int *n)
 {

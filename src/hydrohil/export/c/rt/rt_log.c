@@ -111,7 +111,7 @@ static void *log_thread(void *arg)
         uint32_t head = __atomic_load_n(&w->head, __ATOMIC_ACQUIRE), tail = w->tail;
         int done = __atomic_load_n(&w->done, __ATOMIC_ACQUIRE);
         while (tail != head) {
-            if (w->text_len + 2048 > LOG_TEXT)
+            if (w->text_len + SIDE_ROW_TEXT * (size_t)w->cols->n > LOG_TEXT)   /* (a row's text fits) */
                 flush_text(w);
             w->text_len += format_row(w->cols, w->text + w->text_len, w->rows + (size_t)(tail % LOG_RING) * w->cols->n);
             tail++;

@@ -155,7 +155,8 @@ typedef struct {
     pthread_t thread;
     int started, quit;            /* quit: atomic */
     FILE *events, *commands, *rec_fh;
-    double *cmds;
+    double *cmds;                 /* cmd_room values: SIDE_RING steps' commands at least, a power of two */
+    uint32_t cmd_room;
     uint32_t cmd_head, cmd_tail;  /* atomic: head written by the loop, tail by the writer */
     char (*ev)[SIDE_EVENT_LINE];
     uint32_t ev_head, ev_tail;

@@ -426,7 +426,7 @@ static int writer_pass(side_channel *s)
             int n = 0, j;
             for (; n < 256 && tail != head; n++, tail++) {
                 uint64_t bits;
-                memcpy(&bits, &w->cmds[tail % SIDE_RING], 8);
+                memcpy(&bits, &w->cmds[tail % w->cmd_room], 8);
                 for (j = 0; j < 8; j++)
                     bytes[8 * n + j] = (uint8_t)(bits >> (8 * j));
             }
@@ -783,7 +783,14 @@ int side_open(plant *pl)
             return -1;
         }
         w->ncols = model_log_columns()->n;
-        w->cmds = malloc(sizeof(double) * SIDE_RING);
+        {                               /* commands.f64: SIDE_RING steps of the model's commands (a circuit: its
+                                         * inputs), a power of two of them (the counters wrap cleanly) */
+            double probe[SIDE_MAX_COMMANDS];
+            int ncmds = model_side_commands(pl, 0.0, probe);
+            for (w->cmd_room = SIDE_RING; w->cmd_room < (uint32_t)SIDE_RING * (uint32_t)ncmds; w->cmd_room <<= 1)
+                ;
+        }
+        w->cmds = malloc(sizeof(double) * w->cmd_room);
         w->ev = malloc(sizeof *w->ev * SIDE_EVENTS);
         w->rows = malloc(sizeof(double) * SIDE_RING * (size_t)w->ncols);
         w->text = malloc(SIDE_TEXT);
@@ -798,7 +805,7 @@ int side_open(plant *pl)
         w->started = s->session = 1;
     }
     {
-        static char buf[SIDE_MSG];
+        static char buf[65507];         /* (the largest UDP datagram: a circuit's hundreds of columns) */
         text t = {buf, sizeof buf, 0, 0};
         side_puts(&t, "{\"hello\": \"plant\", \"columns\": [");
         for (i = 0; i < s->ncols; i++) {
@@ -807,6 +814,10 @@ int side_open(plant *pl)
             side_put_string(&t, names[i]);
         }
         side_puts(&t, "]}");
+        if (t.overflow) {
+            fprintf(stderr, "error: the panel's hello does not fit a datagram (%d columns)\n", s->ncols);
+            return -1;
+        }
         say(pl, buf, t.n);
     }
     return 0;
@@ -888,9 +899,9 @@ void side_row(plant *pl, int64_t k, const reading *r, int64_t late_ns, int64_t c
         side_writer *w = &s->w;
         double cmds[SIDE_MAX_COMMANDS];
         int i, n = model_side_commands(pl, u, cmds);
-        if (w->cmd_head - load32(&w->cmd_tail) + (uint32_t)n <= SIDE_RING) {
+        if (w->cmd_head - load32(&w->cmd_tail) + (uint32_t)n <= w->cmd_room) {
             for (i = 0; i < n; i++)
-                w->cmds[(w->cmd_head + (uint32_t)i) % SIDE_RING] = cmds[i];
+                w->cmds[(w->cmd_head + (uint32_t)i) % w->cmd_room] = cmds[i];
             store32(&w->cmd_head, w->cmd_head + (uint32_t)n);
         } else {
             w->cmds_dropped++;        /* (the writer fell seconds behind) */
@@ -919,6 +930,9 @@ void side_close(plant *pl, int64_t k_done)
         pthread_join(s->w.thread, NULL);
         s->w.started = 0;
     }
+    if (s->w.cmds_dropped)            /* (commands.f64 lost steps: the session no longer replays from them) */
+        fprintf(stderr, "warning: the session writer fell behind: %lld steps' commands not in commands.f64\n",
+                (long long)s->w.cmds_dropped);
     answer_recording(pl);
     send_batch(pl, k_done);
     for (i = 0; i < SIDE_SEEN; i++) {
