@@ -253,7 +253,11 @@ def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, tit
         pick = moving[0] or moving[1]
         measure = max(pick, key=lambda s: np.ptp(cols[s][:n]) * display(units[s])[0]) if pick else None
     lockstep = not np.any(np.asarray(hil["jitter_us"], float) > 0)
-    heights = [3, 1.4, 3, 2] + ([] if lockstep else [2]) + [0.45]
+    by_unit: dict[str, list] = {}             # the inputs, an axis per unit (a command in [-] beside a torque)
+    for name in inputs:
+        by_unit.setdefault(units.get(name, "-"), []).append(name)
+    groups = list(by_unit.items()) or [("-", [])]
+    heights = [3, 1.4, 3] + [2 if len(groups) == 1 else 1.6] * len(groups) + ([] if lockstep else [2]) + [0.45]
     fig, ax, top = _stack(heights, (10, 3 + 1.15 * sum(heights)), banner=0.5 if verdict is not None else 0.0)
     if top is not None:
         _verdict_banner(top, verdict, "lock-step" if lockstep else "real-time")
@@ -277,17 +281,20 @@ def plot_circuit_hil(path: Path, hil: dict, offline, measure: str | None, *, tit
         ax[2].plot(cols["t"][:n], cols[s][:n] / 1e5, ":", lw=1.5, color=f"C{i % 10}")
         ax[2].plot(t, np.asarray(hil[s]) / 1e5, lw=1, color=f"C{i % 10}", label=s)
     labels.append(f"pressure [bar]\n(HIL solid,\n{other} dotted)")
-    for i, name in enumerate(inputs):          # what drove each step (row k: the step into it)
-        k, du = display(units.get(name, "-"))
-        ax[3].step(t, np.asarray(hil[f"{name}.applied"], float) * k, where="pre", lw=1, color=f"C{i % 10}",
-                   label=f"{name} [{du}]")
+    i = 0
+    for g, (unit, names) in enumerate(groups):      # what drove each step (row k: the step into it)
+        k, du = display(unit)
+        for name in names:
+            ax[3 + g].step(t, np.asarray(hil[f"{name}.applied"], float) * k, where="pre", lw=1, color=f"C{i % 10}",
+                           label=name)
+            i += 1
+        labels.append(f"inputs as\napplied [{du}]")
     late = (np.asarray(hil.get("cmd_age", np.zeros(len(t))), float) > 0) & commanded
     if late.any():
         ax[3].plot(t[late], np.zeros(int(late.sum())), "|", color="tab:red", ms=10,
                    label=f"late command ({int(late.sum())} steps: the one before repeated)")
-    labels.append("inputs as\napplied")
     if not lockstep:
-        _jitter_panel(ax[4], t, hil["jitter_us"])
+        _jitter_panel(ax[3 + len(groups)], t, hil["jitter_us"])
         labels.append("jitter [µs]")
     _watchdog_strip(ax[-1], t, hil["watchdog"])
     _finish(fig, path, ax[:len(labels)], tuple(labels), title, banner=top)
