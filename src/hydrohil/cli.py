@@ -51,15 +51,14 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
              sets: Optional[dict] = None) -> dict:
     """Run one scenario and write ``out/log.csv``, ``out/summary.json`` and ``out/simulation.png``.
     ``params`` replaces the scenario's parameter set, ``sets`` (dotted keys) apply on top of its overrides."""
-    from hydrohil.circuits.scenario import is_circuit_scenario
+    from hydrohil.circuits.scenario import NO_PARAMETER_SET, is_circuit_scenario
     from hydrohil.simulation.outputs import write_json, write_log_csv
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import load_scenario
 
     if is_circuit_scenario(scenario):
         if params is not None:
-            raise InputError("a circuit scenario has no parameter set: give its values with --set component.key=value",
-                             source="--params", key=params)
+            raise InputError(NO_PARAMETER_SET, source="--params", key=params)
         return simulate_circuit_scenario(scenario, out, solver, step, plot, progress, sets)
     sc = load_scenario(scenario, solver=solver, step=step, params=params, sets=sets)
     prog = None

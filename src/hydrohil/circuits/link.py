@@ -50,10 +50,13 @@ def side_columns(signals, inputs) -> tuple[str, ...]:
     return ("t", *(n for n, _ in signals), *(f"{n}.applied" for n, _ in inputs), *SIDE_TAIL)
 
 
-def circuit_link(c) -> tuple[list[tuple[str, str]], list[tuple[str, str]], int]:
-    """A circuit's signals and inputs in wire order and their layout (it compiles the circuit, or loads it)."""
-    from hydrohil.circuits.build import compile_circuit
-    signals, inputs = wire_lists(c, compile_circuit(c).layout)
+def circuit_link(c, lay=None) -> tuple[list[tuple[str, str]], list[tuple[str, str]], int]:
+    """A circuit's signals and inputs in wire order and their layout (``lay``: its Layout when the caller has it;
+    else the circuit is compiled, or loaded)."""
+    if lay is None:
+        from hydrohil.circuits.build import compile_circuit
+        lay = compile_circuit(c).layout
+    signals, inputs = wire_lists(c, lay)
     return signals, inputs, layout_id(signals, inputs)
 
 

@@ -48,6 +48,8 @@ from hydrohil.circuits.circuit import CIRCUITS_DIR, Circuit, circuit_from_dict
 from hydrohil.circuits.run import SOLVERS, Loop
 from hydrohil.errors import InputError
 
+# a --params given for a circuit scenario (simulate, hil, panel say it)
+NO_PARAMETER_SET = "a circuit scenario has no parameter set: give its values with --set component.key=value"
 KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "controller", "reference", "hil",
         "repeat"}
 LOOP_TYPES = ("p", "pi", "pid", "p_ff")

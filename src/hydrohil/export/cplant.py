@@ -241,7 +241,7 @@ def circuit_plant_h(cs) -> str:
                                         plant_log_columns, side_columns)
     from hydrohil.circuits.run import METHODS, input_table, start_state
     c, lay = cs.circuit, compile_circuit(cs.circuit).layout
-    signals, inputs, layout = circuit_link(c)
+    signals, inputs, layout = circuit_link(c, lay)
     check_link_size(signals, inputs, cs.source)          # (the plant's buffers are sized by the link's limits)
     y0, m0, u0 = start_state(c, h=cs.step, method=cs.method, rest=cs.rest, loop=cs.loop)
     drives = input_table(c, cs.n_steps, cs.step)

@@ -144,7 +144,7 @@ class Drives:
         from hydrohil.simulation.steering import SteerableController
         self.cs = cs
         lay = cs.layout
-        signals, inputs, self.layout = circuit_link(cs.circuit)
+        signals, inputs, self.layout = circuit_link(cs.circuit, lay)
         self.n, self.loop, self.repeat = cs.n_steps, cs.loop, cs.repeat
         self.values = [0.0] * len(inputs)
         self.mask = 0

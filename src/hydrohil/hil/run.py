@@ -170,10 +170,9 @@ def run_hil(scenario: str | Path, out: str | Path, *, lockstep: bool = False,
 def _circuit_run(scenario: Path, out: Path, *, params, sets):
     """A circuit scenario checked for a HIL run (before anything starts or is written), the file both processes
     read (the scenario itself, or with ``sets`` applied ``out/scenario.toml``) and its [hil] settings."""
-    from hydrohil.circuits.scenario import load_circuit_scenario, write_circuit_scenario
+    from hydrohil.circuits.scenario import NO_PARAMETER_SET, load_circuit_scenario, write_circuit_scenario
     if params is not None:
-        raise InputError("a circuit scenario has no parameter set: give its values with --set component.key=value",
-                         key="--params")
+        raise InputError(NO_PARAMETER_SET, key="--params")
     cs = load_circuit_scenario(scenario, sets=sets)
     hil = circuit_hil(cs)
     if sets:

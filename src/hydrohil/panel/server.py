@@ -35,7 +35,7 @@ class Panel:
                  lockstep: bool = False, params: str | None = None, sets: dict | None = None,
                  host: str = "127.0.0.1", port: int = 0, allow_remote: bool = False,
                  plant_port: int = 47000, plant: str = "python"):
-        from hydrohil.circuits.scenario import is_circuit_scenario
+        from hydrohil.circuits.scenario import NO_PARAMETER_SET, is_circuit_scenario
         from hydrohil.hil.run import PLANTS
         from hydrohil.panel.views import circuit_view, paper_view
         self.scenario_path, self.out = Path(scenario), Path(out)
@@ -49,8 +49,7 @@ class Panel:
             from hydrohil.circuits.scenario import load_circuit_scenario
             from hydrohil.simulation.scenario import circuit_hil
             if params is not None:
-                raise InputError("a circuit scenario has no parameter set: give its values with --set "
-                                 "component.key=value", key="--params")
+                raise InputError(NO_PARAMETER_SET, key="--params")
             cs = self.cs = load_circuit_scenario(self.scenario_path, sets=sets)
             self.hil, self.h, self.view = circuit_hil(cs), cs.step, circuit_view(cs)
             self.controller_type = cs.loop.cfg.type if cs.loop is not None else None

@@ -1,15 +1,17 @@
-/* rt_side.c: the standalone plant's side channel to the live panel (rt_plant.h), as hydrohil plant's
- * (hil/sidechannel.py, hil/session.py, simulation/steering.py; docs/protocol.md "Panel side channel"):
+/* rt_side.c: the standalone plant's side channel to the live panel (rt_side.h), as hydrohil plant's
+ * (hil/sidechannel.py, hil/session.py, simulation/steering.py; docs/protocol.md "Panel side channel"), for either
+ * model behind the plant (the paper's rig, rt_rig.c; a circuit, rt_circuit.c: each gives its telemetry columns
+ * and row, the commands a session records and its steering operations, model_side_* / model_steer):
  *
- *   telemetry   a row per step (core/shape.py SIDE_PLANT_COLUMNS) sent in batches of SIDE_BATCH rows with the
- *               plant's counters, non-blocking: a batch the panel has no room for is dropped and counted;
- *   steering    JSON messages read (non-blocking) once per batch, applied at the boundary before step k:
- *               set (a tunable), fault_on (a [[faults]] entry, checked as --fault checks it), fault_off,
- *               reset, stop, record_start {"dir"}, record_stop; answered {"ack": id, "k": k, ...} or
- *               {"ack": id, "error": "..."}; a repeated id is answered again, never applied twice;
+ *   telemetry   a row per step (the model's columns) sent in batches of SIDE_BATCH rows with the plant's
+ *               counters, non-blocking: a batch the panel has no room for is dropped and counted;
+ *   steering    JSON messages read (non-blocking) once per batch, applied at the boundary before step k: the
+ *               model's operations, and stop, record_start {"dir"}, record_stop here; answered {"ack": id, "k": k,
+ *               ...} or {"ack": id, "error": "..."}; a repeated id is answered again, never applied twice;
  *   session     with --log: DIR/events.jsonl (every applied event with its k, replayable by
- *               hydrohil.hil.session.replay_session), DIR/commands.f64 (the command applied at each step),
- *               recordings (DIR/.../plant_log.csv + timing.json of the steps recorded).
+ *               hydrohil.hil.session.replay_session or hydrohil.hil.circuit.replay_circuit_session),
+ *               DIR/commands.f64 (the model's commands applied at each step), recordings (DIR/.../plant_log.csv +
+ *               timing.json of the steps recorded, the model's log columns).
  */
 #define _GNU_SOURCE
 #include <errno.h>
