@@ -48,7 +48,7 @@ def drive(f, c, u, n, h, on_step=None):
 
 
 @pytest.mark.parametrize("fmi", [2, 3])
-@pytest.mark.parametrize("name", ["two_cylinders", "pump_relief_accumulator"])
+@pytest.mark.parametrize("name", ["two_cylinders", "pump_relief_accumulator", "lift_platform"])
 def test_a_circuit_fmu_validates_and_gives_simulates_run_bit_for_bit(tmp_path, fmi, name):
     c = load_circuit(name)
     path = export_circuit_fmu(c, tmp_path / f"{name}.fmu", fmi=fmi)

@@ -98,7 +98,7 @@ def test_the_papers_rig_as_a_circuit_rests_where_the_core_rests():
     assert r.column("valve.x")[0] == pytest.approx(y[0], rel=1e-10)       # xs = -0.00918
     assert r.column("cap.p")[0] == pytest.approx(y[2], rel=1e-10)
     assert r.column("rod.p")[0] == pytest.approx(y[3], rel=1e-10)
-    assert abs(r.column("cyl.force")[0]) < 1e-6
+    assert abs(r.column("cyl.applied_force")[0]) < 1e-6
 
 
 def _p_cfg(kp):

@@ -3,6 +3,7 @@ independently of the C (textbook formulas, root finding, quadrature), each throu
 circuit; catalogue units; errors that name the file, the component and the key; the example circuit."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -586,3 +587,103 @@ def test_two_stiff_nodes_coupled_stay_stable_and_are_reported():
     s = {x.node: x for x in node_stiffness(c, run)}
     assert s["n1"].coupled_slowed == ("n2",)
     assert "common filling is slowed" in s["n1"].treatment("rk3", 5e-4)
+
+
+def _platform(**load):
+    """A pump of 20 l/min (relief at 150 bar) into the cap sides of a 50/28 x 300 mm and a 40/22 x 250 mm
+    cylinder whose rods lift one platform (rod_end), their rod sides to tank through one orifice."""
+    q = 20e-3 / 60
+    return q, circuit({
+        "tank": {"type": "tank", "p": "t"},
+        "pump": {"type": "pump", "inlet": "t", "outlet": "a", "displacement": q / 25.0, "speed": 25.0},
+        "relief": {"type": "relief_valve", "p": "a", "t": "t", "cracking_pressure": "150 bar",
+                   "rated_flow": "30 l/min", "rated_pressure": "160 bar"},
+        "c1": {"type": "cylinder", "a": "a", "b": "b", "bore": 0.05, "rod": 0.028, "stroke": 0.3, "rod_end": "deck",
+               "dead_volume_a": "0.1 l", "dead_volume_b": "0.1 l"},
+        "c2": {"type": "cylinder", "a": "a", "b": "b", "bore": 0.04, "rod": 0.022, "stroke": 0.25,
+               "rod_end": "deck", "dead_volume_a": "0.1 l", "dead_volume_b": "0.1 l"},
+        "out": {"type": "orifice", "a": "b", "b": "t", "area": "10 mm2"},
+        "deck": {"type": "load", "mass": 400.0, "damping": 3000.0, "incline": "90 deg", "x0": 0.02, **load}})
+
+
+def test_two_cylinders_coupled_to_one_load_move_as_one_body():
+    """Mechanical coupling (SPEC §12.3): two cylinders of different bores whose rods drive one platform move it
+    at the pump's flow over the sum of their cap areas (closed form), their cap pressure the force balance
+    p_a = (c*v + M*g + p_b*(A2 + A2')) / (A1 + A1') with p_b from the orifice law at the rod sides' flow; the
+    platform stops at the shorter stroke (0.25 m) and the relief takes the pump's flow."""
+    q, c = _platform()
+    assert not c.components["c1"].states and c.components["deck"].actuators == ["c1", "c2"]
+    with pytest.warns(InputWarning, match="deck is not held at rest"):   # (the pump's flow into held pistons)
+        r = simulate_circuit(c, 2.5)
+    a1 = math.pi * (0.05 ** 2 + 0.04 ** 2) / 4
+    a2 = math.pi * (0.05 ** 2 - 0.028 ** 2 + 0.04 ** 2 - 0.022 ** 2) / 4
+    t, v = r.column("t"), r.column("deck.v")
+    k = np.searchsorted(t, 1.0)
+    assert v[k] == pytest.approx(q / a1, rel=1.5e-11)                      # (measured: 2.8e-12)
+    assert np.array_equal(r.column("c1.x"), r.column("deck.x")) and np.array_equal(r.column("c2.v"), v)
+    p_b = RHO / 2 * (a2 * v[k] / (0.61 * 10e-6)) ** 2
+    p_a = (3000.0 * v[k] + 400.0 * 9.80665 + p_b * a2) / a1
+    assert r.column("b.p")[k] == pytest.approx(p_b, rel=1.5e-11)           # (measured: 4.1e-12)
+    assert r.column("a.p")[k] == pytest.approx(p_a, rel=1.5e-11)           # (measured: 4.6e-12)
+    end = r.column("deck.mode") == 2
+    assert end.any() and r.column("deck.x")[-1] == 0.25 and v[-1] == 0.0   # the shorter stroke
+    x = r.column("deck.x")
+    assert t[np.argmax(end)] == pytest.approx(1.0 + (0.25 - x[k]) / (q / a1), abs=1.2e-3)   # (measured: 0.38 ms)
+    assert r.column("relief.mode")[-1] == 1
+
+
+def test_a_coupled_load_is_checked_where_it_is_written():
+    """A coupled cylinder's load keys are its load's; rod_end names a load; a load is driven; its start lies
+    within the shortest stroke: each an error naming the file, the component and the key."""
+    base = {"tank": {"type": "tank", "p": "t"}}
+    cyl = {"type": "cylinder", "a": "a", "b": "t", "bore": 0.05, "rod": 0.028, "stroke": 0.3,
+           "dead_volume_a": "0.1 l"}
+    src = {"type": "pressure_source", "p": "a", "pressure": "10 bar"}
+    for comps, where, message in (
+            ({"c": {**cyl, "rod_end": "deck", "mass": 10.0}, "deck": {"type": "load", "mass": 100.0}},
+             "components.c.mass", "c's rod drives the load 'deck' (rod_end): its mass is the load's"),
+            ({"c": {**cyl, "rod_end": "pump"}, "pump": src}, "components.c.rod_end",
+             "'pump' is not a load of this circuit (loads: none"),
+            ({"c": {**cyl, "mass": 10.0}, "deck": {"type": "load", "mass": 100.0}}, "components.deck",
+             "no cylinder drives this load"),
+            ({"c": {**cyl, "rod_end": "deck"}, "deck": {"type": "load", "mass": 100.0, "x0": "0.4 m"}},
+             "components.deck.x0", "within the travel of its cylinders (the shortest stroke, 0.3 m)"),
+            ({"c": {**cyl, "rod_end": "deck", "rod_ende": 1}, "deck": {"type": "load", "mass": 100.0}},
+             "components.c.rod_ende", "couplings: rod_end")):
+        comps = {**base, **comps}
+        comps.setdefault("pump", src)
+        with pytest.raises(InputError, match=f"test.toml: {re.escape(where)}: .*{re.escape(message)}"):
+            circuit(comps)
+    with pytest.raises(InputError, match="inputs.c1.force: c1's rod drives the load 'deck'"):
+        circuit({"tank": {"type": "tank", "p": "t"}, "src": src,
+                 "c1": {**cyl, "rod_end": "deck"}, "deck": {"type": "load", "mass": 400.0}},
+                inputs={"c1.force": 100.0})
+
+
+def test_a_load_force_driven_linearly_over_time_and_a_held_drive():
+    """A drive with interpolation = "linear" is sampled at each step's start (held over the step, as every
+    input): the values at the step times are the straight lines between the points, held after the last; a
+    load pushed by a cylinder at a fixed pressure against a force ramped 0 -> F over 1 s follows the quasi-static
+    balance x = (p*A1 - F(t))/k of its spring, lagging by the damper's c/k times the ramp's rate (closed
+    forms)."""
+    from hydrohil.circuits.run import input_table
+    p, k, bore, F = 50e5, 1e6, 0.05, 5000.0
+    a1 = math.pi * bore ** 2 / 4
+    comps = {"tank": {"type": "tank", "p": "t"}, "src": {"type": "pressure_source", "p": "s", "pressure": p},
+             "c1": {"type": "cylinder", "a": "s", "b": "t", "bore": bore, "rod": 0.028, "stroke": 0.5,
+                    "rod_end": "deck"},
+             "deck": {"type": "load", "mass": 50.0, "damping": 2e4, "spring": k, "x0": p * a1 / k}}
+    drive = {"t": [0, "0.5 s", 1.5], "value": [0, 0, "5 kN"], "interpolation": "linear"}
+    c = circuit(comps, inputs={"deck.force": drive})
+    u = input_table(c, 4000, 5e-4)[:, 0]
+    t = np.arange(4000) * 5e-4
+    expect = np.where(t < 0.5, 0.0, np.where(t < 1.5, F * (t - 0.5), F))         # by hand
+    assert np.max(np.abs(u - expect)) < 1e-9
+    r = simulate_circuit(c, 2.0)
+    tt, x = r.column("t"), r.column("deck.x")
+    balance = (p * a1 - np.interp(tt, [0, 0.5, 1.5], [0, 0, F])) / k
+    lag = 2e4 / k              # c/k [s]: a ramp's steady lag behind the balance (the held input adds h/2)
+    assert np.max(np.abs(x - balance)) == pytest.approx(lag * F / k, rel=0.04)   # (measured: +1.25 %)
+    assert x[-1] == pytest.approx((p * a1 - F) / k, rel=3e-14)            # (measured: 7e-15)
+    with pytest.raises(InputError, match="inputs.deck.force.interpolation: \"hold\" .* or \"linear\""):
+        circuit(comps, inputs={"deck.force": {**drive, "interpolation": "cubic"}})

@@ -111,12 +111,14 @@ def circuit_figures():
             ("counterbalance_hose_burst", "circuit_counterbalance.png",
              "1000 kg lifted through a counterbalance valve; the A hose bursts at 1.5 s: the load stays"),
             ("servo_supply", "circuit_servo_supply.png",
-             "the paper's servo valve and cylinder under P control, fed by a pump and an accumulator")):
+             "the paper's servo valve and cylinder under P control, fed by a pump and an accumulator"),
+            ("lift_platform", "circuit_lift_platform.png",
+             "a deck on two coupled cylinders under P control: raised, a 4 kN payload ramped on, lowered")):
         res, _ = run_circuit_scenario(load_circuit_scenario(CIRCUITS / name / "scenario.toml"))
         plot_run(res, HERE / file, title)
         print("wrote", HERE / file)
     from hydrohil.circuits.draw import draw_circuit
-    for name in ("two_cylinders", "counterbalance_hose_burst", "motor_speed", "servo_supply"):
+    for name in ("two_cylinders", "counterbalance_hose_burst", "motor_speed", "servo_supply", "lift_platform"):
         draw_circuit(load_circuit(name), HERE / f"circuit_{name}_diagram.png")
         print("wrote", HERE / f"circuit_{name}_diagram.png")
 

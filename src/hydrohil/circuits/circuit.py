@@ -15,8 +15,20 @@ converted at the boundary; a mistake names the file, the component, the key and 
     outlet = "supply"
     displacement = "16 cm3/rev"
     speed = "1500 rpm"
+    [components.lift]
+    type = "cylinder"
+    a = "supply"
+    b = "tank"
+    bore = "50 mm"
+    rod = "28 mm"
+    stroke = "300 mm"
+    rod_end = "deck"                          # a mechanical coupling: its rod drives the load "deck"
+    [components.deck]
+    type = "load"                             # mass, damping, spring, incline, force (or its signal), x0
+    mass = "500 kg"
     [inputs]                                  # parameters driven as signals, with their default drive:
     "load.opening" = { t = [0, 1], value = [0.2, 1.0] }     # held from each t (zero-order hold), or a number
+    "deck.force" = { t = [0, 2], value = [0, "3 kN"], interpolation = "linear" }   # or a straight line
     [initial]
     supply = "100 bar"                        # node pressures (default: at rest, hydrohil.circuits.run.settle)
 """
@@ -31,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hydrohil.circuits.library import FLUID, TYPES, ComponentType, Param
+from hydrohil.circuits.library import FLUID, LOAD_KEYS, TYPES, ComponentType, Param
 from hydrohil.circuits.units import to_si
 from hydrohil.errors import InputError
 
@@ -46,6 +58,18 @@ class Component:
     values: dict[str, float]             # parameters (SI) and derived values
     given: dict[str, str]                # parameter -> as the file wrote it (shown by `circuit show`)
     params: dict[str, float] = field(default_factory=dict)   # its parameters (SI) before derivation
+    coupled: str | None = None           # the load its rod drives (rod_end): its motion is the load's
+    actuators: list[str] = field(default_factory=list)        # a load: the cylinders coupled to it
+
+    @property
+    def states(self) -> tuple[tuple[str, str], ...]:
+        """(name, SI unit) of its own states (a coupled cylinder has none: they are its load's)."""
+        return () if self.coupled else self.type.states
+
+    @property
+    def modes(self) -> tuple[str, ...]:
+        """Its modes (a coupled cylinder has none: its end stops are its load's)."""
+        return () if self.coupled else self.type.modes
 
 
 @dataclass
@@ -138,8 +162,23 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
             ports[port] = node
             if node not in nodes:
                 nodes.append(node)
+        coupled = None
+        for key in ctype.couplings:
+            if key in body:
+                coupled = body[key]
+                if not isinstance(coupled, str) or not NAME.match(coupled):
+                    raise _err(source, f"{where}.{key}", f"the name of the load its rod drives (a component of type "
+                                                         f"load), got {coupled!r}")
         values, given = {}, {}
         for key, prm in ctype.params.items():
+            if coupled and key in LOAD_KEYS:             # the load's (checked below), not the cylinder's
+                if key in body or f"{name}.{key}" in driven:
+                    raise _err(source, f"{where}.{key}" if key in body else f"inputs.{name}.{key}",
+                               f"{name}'s rod drives the load {coupled!r} (rod_end): its {key} is the load's "
+                               f"(give it there; a coupled cylinder's keys: "
+                               f"{', '.join(k for k in ctype.params if k not in LOAD_KEYS)})")
+                values[key] = 0.0
+                continue
             if f"{name}.{key}" in driven:
                 if key not in ctype.inputs:
                     raise _err(source, f"inputs.{name}.{key}", f"not a signal of a {ctype.name} (signals: "
@@ -152,9 +191,11 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
             values[key] = _value(body, key, prm, source, where)
             if key in body:
                 given[key] = str(body[key])
-        for key in set(body) - set(ctype.params) - set(ctype.ports) - {"type"}:
+        for key in set(body) - set(ctype.params) - set(ctype.ports) - set(ctype.couplings) - {"type"}:
+            couplings = f"; couplings: {', '.join(ctype.couplings)}" if ctype.couplings else ""
             raise _err(source, f"{where}.{key}", f"not a parameter of a {ctype.name} (parameters: "
-                                                 f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)})")
+                                                 f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)}"
+                                                 f"{couplings})")
         params = dict(values)
         try:
             values = component_values(ctype, params, fluid)
@@ -166,7 +207,8 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
                 raise _err(source, where, f"node {node!r} is already fixed by {fixed[node][0]} (one tank or pressure "
                                           "source per node)")
             fixed[node] = (name, ctype.fixes)
-        components[name] = Component(name, ctype, ports, values, given, params)
+        components[name] = Component(name, ctype, ports, values, given, params, coupled)
+    _couple(components, source)
     node_volumes = {}
     for node, body in data.get("nodes", {}).items():
         if node not in nodes:
@@ -201,6 +243,34 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
     return c
 
 
+def _couple(components: dict[str, Component], source: str) -> None:
+    """The mechanical couplings (SPEC §12.3): each cylinder's rod_end names a load; a load is driven by at least
+    one; the coupled pistons start where their load does, within the shortest stroke."""
+    for comp in components.values():
+        if comp.coupled is None:
+            continue
+        load = components.get(comp.coupled)
+        if load is None or load.type.name != "load":
+            loads = ", ".join(n for n, c in components.items() if c.type.name == "load") or \
+                "none: add a [components.NAME] of type = \"load\""
+            raise _err(source, f"components.{comp.name}.rod_end",
+                       f"{comp.coupled!r} is not a load of this circuit (loads: {loads})")
+        load.actuators.append(comp.name)
+    for load in components.values():
+        if load.type.name != "load":
+            continue
+        if not load.actuators:
+            raise _err(source, f"components.{load.name}", "no cylinder drives this load: give a cylinder "
+                                                          f"rod_end = \"{load.name}\"")
+        stroke = min(components[a].values["stroke"] for a in load.actuators)
+        if not load.values["x0"] <= stroke:
+            raise _err(source, f"components.{load.name}.x0",
+                       f"must be within the travel of its cylinders (the shortest stroke, {stroke:g} m), got "
+                       f"{load.values['x0']:g} m")
+        for a in load.actuators:
+            components[a].values["x0"] = components[a].params["x0"] = load.values["x0"]
+
+
 _NODE_VOLUME = Param("m3", 0.0, 10.0, "the node's own volume", 0.0)
 _PRESSURE = Param("Pa", -1e5, 1e9, "pressure (gauge)")
 
@@ -220,11 +290,39 @@ def _value(body: dict, key: str, prm, source: str, where: str) -> float:
     return v
 
 
+class Drive(tuple):
+    """A signal's drive as a table: (times [s], values [SI]), held from each time (zero-order hold) or, with
+    ``linear``, interpolated linearly between them (a ramp, a load force over time); held after the last."""
+
+    def __new__(cls, t, v, linear: bool = False):
+        obj = super().__new__(cls, (t, v))
+        obj.linear = bool(linear)
+        return obj
+
+    def __getnewargs__(self):
+        return (self[0], self[1], self.linear)
+
+    def at(self, t, h: float):
+        """Its values at the step times ``t`` of step ``h`` (held over each step: a step starting within
+        1e-12 h of a table's time counts as at it)."""
+        ts, vs = self
+        if self.linear:
+            return np.interp(np.asarray(t, dtype=float), ts, vs)
+        return vs[np.searchsorted(ts, np.asarray(t) + 1e-12 * h, side="right") - 1]
+
+
 def _drive(drive, prm, source: str, where: str):
-    """A signal's default drive: a value, or a table {t, value} held from each t."""
+    """A signal's default drive: a value, or a table {t, value[, interpolation]} held from each t or linear."""
     if not isinstance(drive, dict):
         return _value({"value": drive}, "value", prm, source, where)
     t, v = drive.get("t"), drive.get("value")
+    extra = set(drive) - {"t", "value", "interpolation"}
+    if extra:
+        raise _err(source, f"{where}.{sorted(extra)[0]}", "unknown key (a drive's keys: t, value, interpolation)")
+    interp = drive.get("interpolation", "hold")
+    if interp not in ("hold", "linear"):
+        raise _err(source, f"{where}.interpolation", f"\"hold\" (from each t) or \"linear\" (between the points), "
+                                                     f"got {interp!r}")
     if not isinstance(t, list) or not isinstance(v, list) or len(t) != len(v) or not t:
         raise _err(source, where, "a table needs t = [...] and value = [...] of one length")
     try:
@@ -234,7 +332,7 @@ def _drive(drive, prm, source: str, where: str):
     if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
         raise _err(source, f"{where}.t", "times start at 0 and increase")
     vs = np.array([_value({"value": x}, "value", prm, source, where) for x in v])
-    return ts, vs
+    return Drive(ts, vs, interp == "linear")
 
 
 def component_values(ctype: ComponentType, params: dict, fluid: dict) -> dict:

@@ -33,11 +33,11 @@ class Layout:
         self.slot = {k: i for i, (k, _) in enumerate(self.params)}
         self.inputs = list(c.inputs)
         self.states = [f"{n}.p" for n in c.state_nodes] + [f"{comp.name}.{s}" for comp in c.components.values()
-                                                             for s, _ in comp.type.states]
+                                                             for s, _ in comp.states]
         self.state_units = ["Pa"] * len(c.state_nodes) + [u for comp in c.components.values()
-                                                          for _, u in comp.type.states]
-        self.modes = [f"{comp.name}.mode" for comp in c.components.values() if comp.type.modes]
-        self.mode_names = {f"{comp.name}.mode": comp.type.modes for comp in c.components.values() if comp.type.modes}
+                                                          for _, u in comp.states]
+        self.modes = [f"{comp.name}.mode" for comp in c.components.values() if comp.modes]
+        self.mode_names = {f"{comp.name}.mode": comp.modes for comp in c.components.values() if comp.modes}
         self.outputs: list[tuple[str, str]] = []      # (log column, SI unit)
 
     def values(self):
@@ -50,7 +50,8 @@ class _View:
 
     def __init__(self, lay: Layout, comp):
         self.lay, self.comp = lay, comp
-        self.mode = f"m[{lay.modes.index(comp.name + '.mode')}]" if comp.type.modes else "0"
+        self.mode = f"m[{lay.modes.index(comp.name + '.mode')}]" if comp.modes else "0"
+        self.moving = comp.coupled or comp.name        # whose states are its motion (a coupled rod: its load's)
 
     def par(self, key: str) -> str:
         sig = f"{self.comp.name}.{key}"
@@ -62,11 +63,15 @@ class _View:
         return _pressure(self.lay, self.comp.ports[port])
 
     def x(self, state: str) -> str:
-        return f"y[{self.lay.states.index(self.comp.name + '.' + state)}]"
+        return f"y[{self.lay.states.index(self.moving + '.' + state)}]"
 
     def dx(self, state: str) -> str:
         """its state's derivative in the right-hand side (computed before the nodes' rates)"""
-        return f"dy[{self.lay.states.index(self.comp.name + '.' + state)}]"
+        return f"dy[{self.lay.states.index(self.moving + '.' + state)}]"
+
+    def coupled_views(self) -> list:
+        """The views of the cylinders coupled to this load (their rod_end), in netlist order."""
+        return [_View(self.lay, self.lay.circuit.components[a]) for a in self.comp.actuators]
 
     def v(self, name: str) -> str:
         return f"v_{_ident(self.comp.name)}_{name}"
@@ -111,7 +116,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     lay.delay_params = {f"{comp.name}.{key}": f"{comp.name}.{par}" for _, _, comp, key, par in delays}
     outs = []
     for comp, e in emits:
-        for st, unit in comp.type.states:          # every state of a component is logged
+        for st, unit in comp.states:               # every state of a component is logged
             e.outputs.setdefault(st, (f"y[{lay.states.index(f'{comp.name}.{st}')}]", unit))
         for name, (expr, unit) in e.outputs.items():
             lay.outputs.append((f"{comp.name}.{name}", unit))
@@ -126,6 +131,10 @@ def generate(c: Circuit) -> tuple[str, Layout]:
 
     nout = len(outs)
     cols = ["t"] + [f"{n}.p" for n in c.nodes] + [n for n, _ in lay.outputs] + lay.modes
+    clash = sorted((set(cols) & set(c.inputs)) | {n for n in cols if cols.count(n) > 1})
+    if clash:               # (a log column and an input, or two columns, of one name: a library mistake)
+        raise RuntimeError(f"circuit {c.name}: the signal name {clash[0]!r} is given twice (outputs, modes, "
+                           "inputs and node pressures name the log's columns: one name each)")
     lay.log_columns = cols
     init = [f"    y[{i}] = {_initial(c, lay, node)};   /* {node} */" for i, node in enumerate(c.state_nodes)]
     init += [f"    y[{lay.states.index(f'{comp.name}.{st}')}] = {expr};   /* {comp.name}.{st} */"

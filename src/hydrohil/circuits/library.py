@@ -3,9 +3,11 @@ default), modes and the signals a circuit may drive; its law is C (``core/compon
 :meth:`ComponentType.emit` calls with the instance's parameter slots and port pressures. A circuit
 (:mod:`hydrohil.circuits.circuit`) is a netlist of instances; :mod:`hydrohil.circuits.generate` writes its C.
 
-This first part of the library is the supply side: tank, pressure source, fixed-displacement pump, relief and
-check valves, orifice, gas-charged accumulator, hose and a plain volume. (Valves, actuators, motors and loads
-follow; the paper's rig is the circuit they make.)
+The library: tank, pressure source, fixed-displacement pump, relief and check valves, orifice, gas-charged
+accumulator, hose, a plain volume; the 4/3 and open-centre 6/3 valves by geometry, the paper's servo valve;
+differential and double-rod cylinders (with their own load, or their rods coupled to a ``load``: a
+mechanical coupling, ``rod_end``), the paper's LuGre cylinder; motors (with LuGre friction too); the
+counterbalance valve. The paper's rig is the circuit its servo valve and LuGre cylinder make.
 """
 
 from __future__ import annotations
@@ -84,6 +86,7 @@ class ComponentType:
     fixes: str | None = None           # the parameter that fixes its port's pressure (tank, source)
     states: tuple[tuple[str, str], ...] = ()    # (name, SI unit) of its own states
     derived: tuple[tuple[str, str], ...] = ()   # (key, SI unit) of values derived from the parameters
+    couplings: tuple[str, ...] = ()    # optional mechanical couplings: keys naming a load its rod drives
 
     def derive(self, v: dict[str, float]) -> dict[str, float]:
         return _DERIVE.get(self.name, lambda v: {})(v)
@@ -132,6 +135,7 @@ _DERIVE = {"pump": _pump_derive, "relief_valve": _valve_k, "check_valve": _valve
            "double_rod_cylinder": lambda v: {"area_a": math.pi * (v["bore"] ** 2 - v["rod"] ** 2) / 4.0,
                                              "area_b": math.pi * (v["bore"] ** 2 - v["rod"] ** 2) / 4.0,
                                              "weight": _weight(v)},
+           "load": lambda v: {"weight": _weight(v)},
            "valve_43": lambda v: {"flow_gain": v["discharge_coefficient"] * v["area_gradient"]
                                   * math.sqrt(2.0 / v["density"])},
            "counterbalance_valve": lambda v: {"check_gain": v["check_rated_flow"] / (v["check_rated_pressure"]
@@ -206,26 +210,66 @@ def _emit_motor(c):
                 outputs={"w": (c.x("w"), "rad/s"), "q": (q, "m3/s"), "torque": (torque, "N.m")})
 
 
-def _emit_cylinder(c):
+def _piston_force(c) -> str:
+    """The chambers' force on a cylinder's piston [N], + extending (SPEC §12.3)."""
+    return f"{c.p('a')} * {c.par('area_a')} - {c.p('b')} * {c.par('area_b')}"
+
+
+def _motion(c, force: str, stroke: str) -> Emit:
+    """A rigid body moving along a rod between end stops (a cylinder with its own load, or a load driven by the
+    cylinders coupled to it): x' = v, M v' = F (net ``force``), plastic end stops at 0 and ``stroke`` as modes
+    with their guards (hc_stop_*), the reference's stops stiff spring-dampers."""
     x, v = c.x("x"), c.x("v")
-    force = (f"{c.p('a')} * {c.par('area_a')} - {c.p('b')} * {c.par('area_b')} - {c.par('damping')} * {v} - "
-             f"{c.par('force')} - {c.par('spring')} * ({x} - {c.par('spring_x0')}) - {c.par('weight')}")
-    guards = [(name, f"hc_stop_guard({g}, (int){c.mode}, {x}, {force}, {c.par('stroke')})",
-               f"{c.mode} = hc_stop_reset({g}, &{x}, &{v}, {c.par('stroke')});")
+    guards = [(name, f"hc_stop_guard({g}, (int){c.mode}, {x}, {force}, {stroke})",
+               f"{c.mode} = hc_stop_reset({g}, &{x}, &{v}, {stroke});")
               for name, g in (("retract", "HC_STOP_G_RETRACT"), ("extend", "HC_STOP_G_EXTEND"),
                               ("leave", "HC_STOP_G_LEAVE"))]
     return Emit(pre=[("f", force)], guards=guards,
-                flows=[("a", None, f"{c.par('area_a')} * {v}", None, f"{c.par('area_a')} * {c.dx('v')}"),
-                       (None, "b", f"{c.par('area_b')} * {v}", None, f"{c.par('area_b')} * {c.dx('v')}")],
-                volume=[("a", f"({c.par('dead_volume_a')} + {c.par('area_a')} * {x})"),
-                        ("b", f"({c.par('dead_volume_b')} + {c.par('area_b')} * ({c.par('stroke')} - {x}))")],
                 derivatives={"x": f"hc_stop_speed((int){c.mode}, {v})",
                              "v": f"hc_stop_accel((int){c.mode}, {c.v('f')}, {c.par('mass')})"},
                 initial={"x": c.par("x0"), "v": "0.0"},
-                mode_update=f"{c.mode} = hc_stop_mode((int){c.mode}, &{x}, &{v}, {c.par('stroke')}, {force});",
-                outputs={"x": (x, "m"), "v": (v, "m/s"), "force": (force, "N")},
-                reference={"x": v, "v": f"({c.v('f')} + hc_stop_penalty({x}, {v}, {c.par('stroke')}, "
+                mode_update=f"{c.mode} = hc_stop_mode((int){c.mode}, &{x}, &{v}, {stroke}, {force});",
+                outputs={"x": (x, "m"), "v": (v, "m/s"), "net_force": (force, "N")},
+                reference={"x": v, "v": f"({c.v('f')} + hc_stop_penalty({x}, {v}, {stroke}, "
                                         f"{c.par('mass')})) / {c.par('mass')}"})
+
+
+def _load_forces(c) -> str:
+    """The forces of a load on the rod [N], + opposing extension: viscous friction, the external force, the
+    spring and the weight."""
+    x, v = c.x("x"), c.x("v")
+    return (f"{c.par('damping')} * {v} + {c.par('force')} + {c.par('spring')} * ({x} - {c.par('spring_x0')}) + "
+            f"{c.par('weight')}")
+
+
+def _chambers(c) -> Emit:
+    """A cylinder's chambers: the piston's displacement flows and the chambers' volumes at its position."""
+    x, v = c.x("x"), c.x("v")
+    return Emit(flows=[("a", None, f"{c.par('area_a')} * {v}", None, f"{c.par('area_a')} * {c.dx('v')}"),
+                       (None, "b", f"{c.par('area_b')} * {v}", None, f"{c.par('area_b')} * {c.dx('v')}")],
+                volume=[("a", f"({c.par('dead_volume_a')} + {c.par('area_a')} * {x})"),
+                        ("b", f"({c.par('dead_volume_b')} + {c.par('area_b')} * ({c.par('stroke')} - {x}))")])
+
+
+def _emit_cylinder(c):
+    e = _chambers(c)
+    if c.comp.coupled:           # its rod drives a load (rod_end): the load's motion is its piston's
+        e.outputs = {"x": (c.x("x"), "m"), "v": (c.x("v"), "m/s"), "piston_force": (_piston_force(c), "N")}
+        return e
+    m = _motion(c, f"{_piston_force(c)} - ({_load_forces(c)})", c.par("stroke"))
+    m.flows, m.volume = e.flows, e.volume
+    return m
+
+
+def _emit_load(c):
+    """A load driven by the cylinders coupled to it (their rod_end): one rigid body, their pistons' forces
+    summed, its travel the shortest of their strokes (SPEC §12.3: a mechanical coupling)."""
+    actuators = c.coupled_views()
+    drive = " + ".join(f"({_piston_force(a)})" for a in actuators)
+    stroke = actuators[0].par("stroke")
+    for a in actuators[1:]:
+        stroke = f"fmin({stroke}, {a.par('stroke')})"
+    return _motion(c, f"{drive} - ({_load_forces(c)})", stroke)
 
 
 def _emit_counterbalance(c):
@@ -341,7 +385,7 @@ def _emit_lugre_cylinder(c):
                         "v": f"({c.v('f')} - ({c.par('sigma0')} * {z} + {c.par('sigma1')} * ({v} - "
                              f"{c.par('sigma0')} * fabs({v}) * {z} / {g}) + {kv} * {v}) + "
                              f"hc_stop_penalty({x}, {v}, {stroke}, {c.par('mass')})) / {c.par('mass')}"},
-             outputs={"x": (x, "m"), "v": (v, "m/s"), "force": (f_ext, "N"), "friction": (ff, "N")})
+             outputs={"x": (x, "m"), "v": (v, "m/s"), "applied_force": (f_ext, "N"), "friction": (ff, "N")})
     val = c.comp.values
     if val["bulk_b"] == val["bulk_b"]:                                     # eq 21 given (not NaN)
         e.bulk_modulus = [(port, f"hc_bulk_modulus({c.p(port)}, {c.par('bulk_b')}, {c.par('bulk_c')})")
@@ -391,7 +435,7 @@ def _emit_lugre_motor(c):
 _EMIT = {"tank": _emit_tank, "pressure_source": _emit_tank, "pump": _emit_pump,
          "relief_valve": lambda c: _emit_valve(c, "p", "t"), "check_valve": lambda c: _emit_valve(c, "a", "b"),
          "orifice": _emit_orifice, "accumulator": _emit_accumulator, "hose": _emit_hose, "volume": _emit_volume,
-         "motor": _emit_motor, "cylinder": _emit_cylinder, "double_rod_cylinder": _emit_cylinder,
+         "motor": _emit_motor, "cylinder": _emit_cylinder, "double_rod_cylinder": _emit_cylinder, "load": _emit_load,
          "valve_43": _emit_valve43, "valve_63": _emit_valve43, "counterbalance_valve": _emit_counterbalance,
          "servo_valve": _emit_servo_valve, "lugre_cylinder": _emit_lugre_cylinder, "lugre_motor": _emit_lugre_motor}
 _PORT_VOLUME = {"hose": lambda v, port: 0.5 * v["volume"], "volume": lambda v, port: v["volume"],
@@ -437,6 +481,8 @@ def _valve_params(extra: dict | None = None) -> dict[str, Param]:
 
 
 _STOPS = ("free", "at_retract", "at_extend")
+# a cylinder's keys that belong to its load: given on the load when its rod is coupled to one (rod_end)
+LOAD_KEYS = ("mass", "damping", "force", "spring", "spring_x0", "incline", "x0")
 _PISTON = (("x", "m"), ("v", "m/s"))
 _CYLINDER_DERIVED = (("area_a", "m2"), ("area_b", "m2"), ("weight", "N"))
 
@@ -496,12 +542,20 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "load_torque": Param("N.m", -1e6, 1e6, "load torque (or the signal NAME.load_torque)", 0.0),
                    "speed0": Param("rad/s", -1e4, 1e4, "initial speed", 0.0)},
                   inputs=("load_torque",), states=(("w", "rad/s"),)),
-    ComponentType("cylinder", "differential cylinder with its load (mass, viscous friction, force) and end stops",
+    ComponentType("cylinder", "differential cylinder with its load (mass, viscous friction, force) and end stops, "
+                  "or its rod coupled to a load (rod_end)",
                   ("a", "b"), _cylinder_params("rod diameter"), modes=_STOPS, inputs=("force",), states=_PISTON,
-                  derived=_CYLINDER_DERIVED),
-    ComponentType("double_rod_cylinder", "double-rod cylinder (equal areas) with its load and end stops",
+                  derived=_CYLINDER_DERIVED, couplings=("rod_end",)),
+    ComponentType("double_rod_cylinder", "double-rod cylinder (equal areas) with its load and end stops, or its "
+                  "rod coupled to a load (rod_end)",
                   ("a", "b"), _cylinder_params("rod diameter (both sides)"), modes=_STOPS, inputs=("force",),
-                  states=_PISTON, derived=_CYLINDER_DERIVED),
+                  states=_PISTON, derived=_CYLINDER_DERIVED, couplings=("rod_end",)),
+    ComponentType("load", "a load moved by the cylinders whose rod_end names it (one rigid body: mass, viscous "
+                  "friction, spring, weight, a force or force signal); its travel the shortest of their strokes, "
+                  "end stops as modes", (),
+                  {k: v for k, v in _cylinder_params("").items() if k in LOAD_KEYS},
+                  modes=_STOPS, inputs=("force",), states=_PISTON,
+                  derived=(("weight", "N"),)),
     ComponentType("valve_43", "4/3 proportional valve by geometry: spool lag (wn, xi), an opening per edge",
                   ("P", "T", "A", "B"), _valve_params(), inputs=("command",), states=(("x", "m"), ("v", "m/s")),
                   derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),

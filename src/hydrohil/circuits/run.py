@@ -9,13 +9,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hydrohil.circuits.build import compile_circuit
-from hydrohil.circuits.circuit import Circuit
+from hydrohil.circuits.circuit import Circuit, Drive
 from hydrohil.circuits.generate import PRESSURE_FLOOR
 from hydrohil.errors import HydrohilError, InputError, SimulationDiverged
 
 METHODS = ("euler", "heun", "rk3", "rk4")       # the core's tableaus, in its order (HH_EULER ..)
 SOLVERS = (*METHODS, "reference")               # "reference": the continuous model, LSODA/Radau
 CYLINDERS = ("cylinder", "double_rod_cylinder", "lugre_cylinder")   # (mode 0: free, or free and sticking)
+MOVING = (*CYLINDERS, "load")          # bodies moving on a rod (x, v, stop modes), unless coupled to a load
+
+
+def net_force_column(comp) -> str:
+    """A moving body's log column of the force that moves it (a LuGre cylinder's: before its seals' friction)."""
+    return f"{comp.name}.{'applied_force' if comp.type.name == 'lugre_cylinder' else 'net_force'}"
 
 
 @dataclass
@@ -55,7 +61,9 @@ def input_table(c: Circuit, n: int, h: float, inputs: dict | None = None) -> np.
     t = np.arange(max(n, 1)) * h
     for j, name in enumerate(c.inputs):
         d = drives[name]
-        if isinstance(d, tuple):
+        if isinstance(d, Drive):
+            u[:, j] = d.at(t, h)
+        elif isinstance(d, tuple):
             u[:, j] = held(d, t, h)
         else:
             u[:, j] = float(d)
@@ -145,7 +153,7 @@ def _force_balance(c: Circuit, cc, buf, y, nodes: list[int]) -> list[int]:
         chambers = [i for i in idx if i is not None and i in left]
         if len(chambers) != 1:
             continue
-        i, j = chambers[0], lay.states.index(f"{comp.name}.v")
+        i, j = chambers[0], lay.states.index(f"{comp.coupled or comp.name}.v")   # (a coupled rod: its load's)
 
         def accel(p):
             yy = y.copy()
@@ -176,11 +184,12 @@ def _warn_unbalanced(c: Circuit, res) -> None:
     import warnings
     from hydrohil.errors import InputWarning
     for comp in c.components.values():
-        if comp.type.name in CYLINDERS and res.columns[f"{comp.name}.mode"][0] == 0:
-            f = res.columns[f"{comp.name}.force"][0]
+        if comp.type.name in MOVING and not comp.coupled and res.columns[f"{comp.name}.mode"][0] == 0:
+            f = res.columns[net_force_column(comp)][0]
             if comp.type.name == "lugre_cylinder" and -comp.values["fs_neg"] <= f <= comp.values["fs_pos"]:
                 continue                       # its seals hold it (the bristles take the force at once)
-            scale = abs(res.columns[f"{comp.ports['a']}.p"][0]) * comp.values["area_a"] + 1.0
+            rods = [c.components[a] for a in comp.actuators] or [comp]
+            scale = sum(abs(res.columns[f"{r.ports['a']}.p"][0]) * r.values["area_a"] for r in rods) + 1.0
             if abs(f) > 1e-6 * scale:
                 warnings.warn(f"{c.source}: {comp.name} is not held at rest: the net force on it at the start is "
                               f"{f:.4g} N (its chambers' pressures at rest do not balance its load); it moves at "
@@ -364,8 +373,10 @@ def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
         row = np.zeros(len(lay.log_columns))
         lib.hc_reference_row(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                              ffi.from_buffer("double[]", uu[0]), 0.0, ffi.from_buffer("double[]", row))
-        return row[lay.log_columns.index(f"{comp.name}.force")]
-    if comp is not None and comp.type.name in CYLINDERS and loop.measure == f"{comp.name}.x":
+        return row[lay.log_columns.index(net_force_column(comp))]
+    if comp is not None and comp.coupled:                   # a coupled rod's position is its load's
+        comp = c.components[comp.coupled]
+    if comp is not None and comp.type.name in MOVING and loop.measure.endswith(".x"):
         prm = c.components[loop.command.split(".")[0]].type.params[loop.command.split(".")[1]]
         lo, hi = max(prm.lo, -1.0), min(prm.hi, 1.0)
         try:

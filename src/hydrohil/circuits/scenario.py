@@ -14,8 +14,8 @@ values on top of the circuit's, and drives of its signals in place of the circui
     [set]                             # parameters, as in the circuit file ("<number> <unit>" or SI)
     "cyl1.mass" = "300 kg"
     "fluid.bulk_modulus" = "12000 bar"
-    [inputs]                          # drives of the circuit's signals, as in its [inputs]
-    "valve1.command" = { t = [0, 0.5], value = [0, 0.6] }
+    [inputs]                          # drives of the circuit's signals, as in its [inputs] (held from each
+    "valve1.command" = { t = [0, 0.5], value = [0, 0.6] }  # t, or interpolation = "linear")
     [controller]                      # optional closed loop: the core's law (control.h) on any signal
     type = "pi"                       # p, pi, pid or p_ff
     measure = "motor.w"               # the signal it reads (a log column)

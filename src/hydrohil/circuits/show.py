@@ -12,6 +12,7 @@ import numpy as np
 
 from hydrohil.circuits.circuit import Circuit
 from hydrohil.circuits.build import compile_circuit
+from hydrohil.circuits.library import LOAD_KEYS
 from hydrohil.circuits.run import CircuitResult, input_unit, node_stiffness, simulate_circuit
 
 
@@ -36,11 +37,15 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
     for comp in c.components.values():
         prm = [{"key": k, "value": _num(comp.values[k]), "unit": p.unit, "description": p.description,
                 "given": comp.given.get(k), "signal": f"{comp.name}.{k}" in c.inputs}
-               for k, p in comp.type.params.items() if comp.values.get(k) is not None]
+               for k, p in comp.type.params.items() if comp.values.get(k) is not None
+               and not (comp.coupled and k in LOAD_KEYS)]            # (a coupled rod's load keys: its load's)
+        couplings = {"rod_end": comp.coupled} if comp.coupled else {"driven_by": comp.actuators} if comp.actuators \
+            else {}
         comps.append({"name": comp.name, "type": comp.type.name, "description": comp.type.description,
-                      "ports": comp.ports, "parameters": prm,
-                      "derived": [{"key": k, "value": comp.values[k], "unit": u} for k, u in comp.type.derived],
-                      "modes": list(comp.type.modes)})
+                      "ports": comp.ports, "couplings": couplings, "parameters": prm,
+                      "derived": [{"key": k, "value": comp.values[k], "unit": u} for k, u in comp.type.derived
+                                  if not (comp.coupled and k == "weight")],         # (its load's)
+                      "modes": list(comp.modes)})
     nodes = []
     for node in c.nodes:
         d = {"name": node, "volume_m3": c.node_volume(node)}
@@ -78,6 +83,8 @@ def _num(v):
 
 def _drive_text(d) -> str:
     if isinstance(d, tuple):
+        if getattr(d, "linear", False):
+            return "linear through " + ", ".join(f"{v:g} at {t:g} s" for t, v in zip(*d))
         return ", ".join(f"{v:g} from {t:g} s" for t, v in zip(*d))
     return f"{d:g}"
 
@@ -87,7 +94,8 @@ def text(d: dict) -> str:
     out = [f"circuit {d['name']}  ({d['source']})", "fluid: " + ", ".join(f"{f['key']} {f['value']:g}" for f in d["fluid"])
            + "  [kg/m3, Pa, m2/s]", "", "components:"]
     for comp in d["components"]:
-        ports = ", ".join(f"{p} = {n}" for p, n in comp["ports"].items())
+        ports = ", ".join([f"{p} = {n}" for p, n in comp["ports"].items()] +
+                          [f"{k} = {v if isinstance(v, str) else ', '.join(v)}" for k, v in comp["couplings"].items()])
         out.append(f"  {comp['name']}  ({comp['type']}: {comp['description']})  ports: {ports}")
         for p in comp["parameters"]:
             given = f"  (file: {p['given']})" if p["given"] and p["given"] != repr(p["value"]) else ""

@@ -264,6 +264,9 @@ class LoadedSequence:
             if base is None:
                 raise InputError(f"{a.signal} is not one of the circuit's inputs (inputs: "
                                  f"{', '.join(circuit_inputs) or 'none'})", source=src, key="actions")
+            if isinstance(base, dict) and base.get("interpolation", "hold") != "hold":
+                raise InputError(f"{a.signal}'s drive is interpolated linearly: a set action replaces a held drive "
+                                 "only (give its drive held from each t, or a constant)", source=src, key="actions")
             data.setdefault("inputs", {})[a.signal] = _set_drive(base, a)
         dest.parent.mkdir(parents=True, exist_ok=True)
         dest.write_text(f"# compiled from the test sequence {self.source.name} (hydrohil test)\n" + tomli_w.dumps(data))

@@ -173,7 +173,7 @@ def parse_circuit_event(data: dict, process: str, cs, source: str = "event"):
 
 
 def _circuit_param(c, key: str, source: str):
-    from hydrohil.circuits.library import FLUID
+    from hydrohil.circuits.library import FLUID, LOAD_KEYS
     comp, _, name = key.partition(".")
     if comp == "fluid":
         if name not in FLUID:
@@ -185,6 +185,10 @@ def _circuit_param(c, key: str, source: str):
     params = c.components[comp].type.params
     if name not in params:
         raise InputError(f"not a parameter of {comp} ({c.components[comp].type.name}: {', '.join(params)})",
+                         source=source, key=key)
+    coupled = c.components[comp].coupled
+    if coupled and name in LOAD_KEYS:
+        raise InputError(f"{comp}'s rod drives the load {coupled!r}: its {name} is the load's ({coupled}.{name})",
                          source=source, key=key)
     return params[name]
 
