@@ -88,6 +88,15 @@ class Circuit:
     def state_nodes(self) -> list[str]:
         return [n for n in self.nodes if n not in self.fixed]
 
+    def input_param(self, sig: str) -> Param:
+        """The parameter an input signal drives (its SI unit, range, description): a parameter of its component,
+        or a value derived from one that a fault changes (hydrohil.circuits.faults: unbounded)."""
+        comp, _, key = sig.partition(".")
+        ctype = self.components[comp].type
+        if key in ctype.params:
+            return ctype.params[key]
+        return Param(dict(ctype.derived)[key], -math.inf, math.inf, f"derived {key}, following a fault's change")
+
     def node_volume(self, node: str) -> float:
         """A node's volume [m3] at the initial state: its own and what the components attached bring (hoses'
         halves, volumes, a cylinder's chamber)."""
@@ -126,7 +135,10 @@ def load_circuit(path: str | Path) -> Circuit:
     return circuit_from_dict(data, source)
 
 
-def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
+def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: frozenset = frozenset()) -> Circuit:
+    """A circuit from its tables. ``fault_signals``: parameters ("component.key") a scenario's faults drive
+    (hydrohil.circuits.faults): driven although not signals of their type, their values as given kept (the
+    value outside the fault)."""
     unknown = set(data) - {"name", "description", "fluid", "nodes", "components", "inputs", "initial"}
     if unknown:
         raise _err(source, sorted(unknown)[0], "unknown key (keys: name, description, fluid, nodes, components, "
@@ -179,6 +191,11 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
                                f"{', '.join(k for k in ctype.params if k not in LOAD_KEYS)})")
                 values[key] = 0.0
                 continue
+            if f"{name}.{key}" in fault_signals:
+                values[key] = _value(body, key, prm, source, where)
+                if key in body:
+                    given[key] = str(body[key])
+                continue
             if f"{name}.{key}" in driven:
                 if key not in ctype.inputs:
                     raise _err(source, f"inputs.{name}.{key}", f"not a signal of a {ctype.name} (signals: "
@@ -221,7 +238,7 @@ def circuit_from_dict(data: dict, source: str = "circuit") -> Circuit:
         comp, _, key = sig.partition(".")
         if comp not in components:
             raise _err(source, f"inputs.{sig}", f"no component {comp!r} (components: {', '.join(components)})")
-        if key not in components[comp].type.inputs:
+        if key not in components[comp].type.inputs and sig not in fault_signals:
             raise _err(source, f"inputs.{sig}", f"not a signal of {comp} (signals of a {components[comp].type.name}: "
                                                 f"{', '.join(components[comp].type.inputs) or 'none'})")
         prm = components[comp].type.params[key]

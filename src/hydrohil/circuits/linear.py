@@ -105,7 +105,7 @@ def linearise_circuit(c: Circuit, *, h: float = 5e-4, inputs: dict | None = None
         lo[j] -= d
         A[:, j] = (f(hi, u0) - f(lo, u0)) / (2 * d)
     for j, sig in enumerate(lay.inputs):
-        prm = c.components[sig.split(".")[0]].type.params[sig.split(".")[1]]
+        prm = c.input_param(sig)
         d = max(1e-6 * max(abs(u0[j]), 1.0), 1e-9)
         if prm.unit == "Pa":
             d = max(d, 1.0)

@@ -42,7 +42,7 @@ class CircuitRig(WatchdogCounters):
         lay = self.layout = cc.layout
         self.signals, self.inputs = wire_lists(c, lay)
         self.drives = input_table(c, self.n, self.h)              # the scenario's drive of each input per step
-        ranges = [c.components[s.split(".")[0]].type.params[s.split(".")[1]] for s in lay.inputs]
+        ranges = [c.input_param(s) for s in lay.inputs]
         self.lo, self.hi = [float(p.lo) for p in ranges], [float(p.hi) for p in ranges]     # (saturation)
         self.P = np.ascontiguousarray(lay.values())
         self.method = METHODS.index(cs.method)

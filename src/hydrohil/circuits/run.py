@@ -377,7 +377,7 @@ def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
     if comp is not None and comp.coupled:                   # a coupled rod's position is its load's
         comp = c.components[comp.coupled]
     if comp is not None and comp.type.name in MOVING and loop.measure.endswith(".x"):
-        prm = c.components[loop.command.split(".")[0]].type.params[loop.command.split(".")[1]]
+        prm = c.input_param(loop.command)
         lo, hi = max(prm.lo, -1.0), min(prm.hi, 1.0)
         try:
             f_lo, f_hi = force(lo), force(hi)
@@ -459,8 +459,7 @@ def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
 
 def input_unit(c: Circuit, sig: str) -> str:
     """The SI unit of an input signal (a parameter a circuit drives)."""
-    comp, _, key = sig.partition(".")
-    return c.components[comp].type.params[key].unit
+    return c.input_param(sig).unit
 
 
 def signal_units(c: Circuit, lay) -> dict[str, str]:

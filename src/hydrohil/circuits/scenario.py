@@ -31,6 +31,11 @@ values on top of the circuit's, and drives of its signals in place of the circui
     interpolation = "hold"            # or "linear" between the points (its slope goes to p_ff's kff)
     [hil]                             # optional: real-time settings of `hydrohil hil` (as a paper scenario's)
     watchdog_timeout = 0.05
+    [[faults]]                        # optional: a leak at a node, a parameter changed (circuits/faults.py)
+    type = "leak"
+    node = "line_a"
+    area = "30 mm2"
+    start = 1.5
 
 ``--set component.key=value`` on the command line applies on top of ``[set]``; setting a signal replaces its
 drive by that constant.
@@ -45,13 +50,14 @@ from functools import cached_property
 from pathlib import Path
 
 from hydrohil.circuits.circuit import CIRCUITS_DIR, Circuit, circuit_from_dict
+from hydrohil.circuits.faults import apply_faults, follow_derived
 from hydrohil.circuits.run import SOLVERS, Loop
 from hydrohil.errors import InputError
 
 # a --params given for a circuit scenario (simulate, hil, panel say it)
 NO_PARAMETER_SET = "a circuit scenario has no parameter set: give its values with --set component.key=value"
 KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "controller", "reference", "hil",
-        "repeat"}
+        "repeat", "faults"}
 LOOP_TYPES = ("p", "pi", "pid", "p_ff")
 SOLVER_KEYS = {"method", "step", "output_every"}
 
@@ -69,6 +75,7 @@ class CircuitScenario:
     sets: dict = field(default_factory=dict)       # "component.key" -> value as given (scenario [set] + --set)
     loop: Loop | None = None                       # closed loop ([controller] + [reference])
     hil: dict = field(default_factory=dict)        # [hil] as given (checked by hydrohil.hil.circuit)
+    faults: list = field(default_factory=list)     # [[faults]] as given (compiled into the circuit: faults.py)
     repeat: bool = False                           # drives and reference again every duration (a panel session)
 
     @cached_property
@@ -154,8 +161,11 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
     given = {**data.get("set", {}), **(sets or {})}
     for key, value in given.items():
         _apply(raw, key, value, source if key in data.get("set", {}) and key not in (sets or {}) else "--set")
-    origin = str(cfile) if not (given or data.get("inputs")) else f"{cfile} (with {source}'s [set], [inputs] and --set)"
-    c = circuit_from_dict(raw, origin)
+    origin = str(cfile) if not (given or data.get("inputs") or data.get("faults")) else \
+        f"{cfile} (with {source}'s [set], [inputs], [[faults]] and --set)"
+    faulted = apply_faults(raw, data["faults"], source) if "faults" in data else frozenset()
+    c = circuit_from_dict(raw, origin, fault_signals=faulted)
+    follow_derived(c, source)
     if c.name == "circuit" or not raw.get("name"):
         c.name = cfile.parent.name
     from hydrohil.circuits.show import default_duration
@@ -175,7 +185,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
                          "for it would be overridden", source=source if loop.command in data.get("set", {}) else
                          "--set", key=loop.command)
     return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
-                           given, loop, dict(data.get("hil", {})), repeat)
+                           given, loop, dict(data.get("hil", {})), list(data.get("faults", [])), repeat)
 
 
 def write_circuit_scenario(path: str | Path, dest: str | Path, *, sets: dict, repeat: bool | None = None,
@@ -247,7 +257,7 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
         raise InputError(f"not an input of circuit {c.name!r} (inputs: {', '.join(c.inputs) or 'none'}; a "
                          "circuit's [inputs] names the signals it lets be driven)", source=source,
                          key="controller.command")
-    prm = c.components[command.split(".")[0]].type.params[command.split(".")[1]]
+    prm = c.input_param(command)
     try:
         lo = to_si(limits.get("u_min", prm.lo), prm.unit)
         hi = to_si(limits.get("u_max", prm.hi), prm.unit)

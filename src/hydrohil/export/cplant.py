@@ -247,7 +247,7 @@ def circuit_plant_h(cs) -> str:
     drives = input_table(c, cs.n_steps, cs.step)
     changes = [(k, j, float(drives[k, j])) for k in range(1, len(drives)) for j in range(len(inputs))
                if drives[k, j] != drives[k - 1, j]]
-    prm = [c.components[n.split(".")[0]].type.params[n.split(".")[1]] for n, _ in inputs]
+    prm = [c.input_param(n) for n, _ in inputs]
     loop = cs.loop
     words, first = [], []
     for md in lay.modes:

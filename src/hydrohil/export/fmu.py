@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import shutil
 import subprocess
 import tempfile
@@ -331,15 +332,20 @@ def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
     return "\n".join(lines)
 
 
+def _finite(v: float) -> float | None:
+    """A range bound for the modelDescription (None: not bounded)."""
+    return v if math.isfinite(v) else None
+
+
 def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str) -> str:
     """modelDescription.xml of a circuit's FMU: its input signals (start: the exported drive at t = 0), every
     signal as an output with its SI unit, the modes as Integer outputs naming their values."""
     from hydrohil.circuits.run import input_unit
     vars_: list[dict] = []
     for j, sig in enumerate(lay.inputs):
-        prm = c.components[sig.split(".")[0]].type.params[sig.split(".")[1]]
+        prm = c.input_param(sig)
         vars_.append(dict(name=sig, vr=VR_INPUT0 + j, causality="input", variability="continuous", initial=None,
-                          desc=prm.description, unit=input_unit(c, sig), start=float(u0[j]), lo=prm.lo, hi=prm.hi,
+                          desc=prm.description, unit=input_unit(c, sig), start=float(u0[j]), lo=_finite(prm.lo), hi=_finite(prm.hi),
                           kind="real"))
     units = dict(lay.outputs)
     outputs = []

@@ -10,7 +10,8 @@ Format (``examples/sequences/``)::
 
     name = "P control holds the load through a hose burst"    # default: the file's stem
     scenario = "../faults/hose_burst.toml"    # path (relative to this file) or built-in experiment name; a
-                                              # scenario naming a circuit: actions step/ramp (value) and set
+                                              # scenario naming a circuit: actions step/ramp (value), set and
+                                              # its faults leak and parameter (hydrohil.circuits.faults)
     duration = 6.0                            # optional: replaces the scenario's
     [set]                                     # optional: parameter values (dotted keys, SI units)
     "load.mass" = 120.0
@@ -118,8 +119,31 @@ class SetAction(_Action):
     until: float | None = Field(None, gt=0, le=3600, description="back to its drive at this time [s] (omit: never)")
 
 
-CircuitAction = Annotated[Union[CircuitStep, CircuitRamp, SetAction], Field(discriminator="type")]
-CIRCUIT_ACTIONS = ("step", "ramp", "set")
+class CircuitFaultAction(StrictModel):
+    """A circuit's fault (hydrohil.circuits.faults: a leak, a parameter changed) from ``at`` until ``until``:
+    the scenario's ``[[faults]]`` entry it becomes, checked as one."""
+    model_config = {"extra": "allow"}
+    name: str | None = Field(None, min_length=1, max_length=100)
+    at: float = Field(ge=0, le=3600, description="time the fault starts [s]")
+    until: float | None = Field(None, gt=0, le=3600, description="time it is cleared [s] (omit: never)")
+    type: Literal["leak", "parameter"]
+
+    @model_validator(mode="after")
+    def _keys(self):
+        from hydrohil.circuits.faults import KEYS
+        unknown = set(self.model_extra or {}) - (KEYS[self.type] - {"type", "start", "end"})
+        if unknown:
+            raise ValueError(f"unknown key {sorted(unknown)[0]!r} (keys of a {self.type} action: name, at, until, "
+                             f"{', '.join(sorted(KEYS[self.type] - {'type', 'start', 'end'}))})")
+        return self
+
+    def fault_table(self) -> dict:
+        return {"type": self.type, "start": self.at, **({"end": self.until} if self.until is not None else {}),
+                **dict(self.model_extra or {})}
+
+
+CircuitAction = Annotated[Union[CircuitStep, CircuitRamp, SetAction, CircuitFaultAction], Field(discriminator="type")]
+CIRCUIT_ACTIONS = ("step", "ramp", "set", "leak", "parameter")
 
 
 class Sequence(StrictModel):
@@ -141,7 +165,8 @@ def _circuit_action(i: int, table: dict, source: str):
     try:
         return TypeAdapter(CircuitAction).validate_python(table)
     except ValidationError as exc:
-        key, msg = format_validation_error(exc, {"step": CircuitStep, "ramp": CircuitRamp, "set": SetAction}[kind])
+        key, msg = format_validation_error(exc, {"step": CircuitStep, "ramp": CircuitRamp, "set": SetAction,
+                                                 "leak": CircuitFaultAction, "parameter": CircuitFaultAction}[kind])
         key = (key or "").removeprefix(f"{kind}.")
         raise InputError(msg, source=source, key=f"actions[{i}]" + (f".{key}" if key else "")) from None
 
@@ -232,6 +257,7 @@ class LoadedSequence:
         """The circuit scenario this sequence runs: its circuit by absolute path, [set] and duration on top, the
         reference moved by the step and ramp actions, the inputs set by the set actions."""
         import tomli_w
+        from hydrohil.circuits.faults import windowed_drive
         from hydrohil.circuits.scenario import circuit_file, load_circuit_scenario
         from hydrohil.parameters import read_toml
         seq, src, scen = self.seq, str(self.source), self.circuit
@@ -267,7 +293,10 @@ class LoadedSequence:
             if isinstance(base, dict) and base.get("interpolation", "hold") != "hold":
                 raise InputError(f"{a.signal}'s drive is interpolated linearly: a set action replaces a held drive "
                                  "only (give its drive held from each t, or a constant)", source=src, key="actions")
-            data.setdefault("inputs", {})[a.signal] = _set_drive(base, a)
+            data.setdefault("inputs", {})[a.signal] = windowed_drive(base, a.value, a.at, a.until)
+        for a in self.actions:                  # leaks and parameter changes: the scenario's faults
+            if isinstance(a, CircuitFaultAction):
+                data.setdefault("faults", []).append(a.fault_table())
         dest.parent.mkdir(parents=True, exist_ok=True)
         dest.write_text(f"# compiled from the test sequence {self.source.name} (hydrohil test)\n" + tomli_w.dumps(data))
         try:
@@ -276,32 +305,6 @@ class LoadedSequence:
             raise InputError(f"the scenario it compiles to: {exc}", source=src) from None
         del cs                           # (loaded to check it: an open loop's sequence judges its signals alone)
         return dest
-
-
-def _held_at(table, t: float):
-    """A drive's raw value (a number or "<number> <unit>") held at time t: a constant, or {t, value}."""
-    if not isinstance(table, dict):
-        return table
-    i = max(k for k, tk in enumerate(table["t"]) if float(tk) <= t + 1e-12)
-    return table["value"][i]
-
-
-def _set_drive(base, a) -> dict:
-    """The drive ``base`` with ``a.value`` from ``a.at`` (and ``base`` again from ``a.until``)."""
-    ts = [float(x) for x in base["t"]] if isinstance(base, dict) else [0.0]
-    vs = list(base["value"]) if isinstance(base, dict) else [base]
-    t_new = [t for t in ts if t < a.at] or [0.0]
-    v_new = [v for t, v in zip(ts, vs) if t < a.at] or [vs[0]]
-    if a.at == 0.0:
-        t_new, v_new = [], []
-    t_new.append(a.at)
-    v_new.append(a.value)
-    if a.until is not None:
-        t_new.append(a.until)
-        v_new.append(_held_at({"t": ts, "value": vs}, a.until))
-        t_new += [t for t in ts if t > a.until]
-        v_new += [v for t, v in zip(ts, vs) if t > a.until]
-    return {"t": t_new, "value": v_new}
 
 
 def _circuit_reference(ref: dict, refs: list, duration: float, source: str) -> dict:

@@ -1,0 +1,205 @@
+"""Faults of a circuit scenario (``[[faults]]``): compiled into the circuit itself, so that every layer that
+steps it (simulate, the continuous reference, HIL on both plants, the FMU, test sequences) injects them alike,
+step for step, with no fault code of its own.
+
+::
+
+    [[faults]]
+    type = "leak"                 # a burst hose, a broken fitting: an orifice from a node to tank opens
+    orifice = "burst"             # the orifice's name in the logs (burst.q, burst.opening); default leak_<node>
+    node = "line_a"
+    area = "30 mm2"               # (discharge_coefficient = 0.61; to = "tank": default the node a tank fixes)
+    start = 1.5                   # [s]: active on the steps k with start <= k*h < end
+    end = 3.0                     # [s] (omit: to the end of the run)
+
+    [[faults]]
+    type = "parameter"            # any parameter of a component changed for a while: a seal wearing
+    target = "cyl.damping"        # (leakage), a pump losing speed, a load changing, a relief setting drifting
+    value = "40000 N.s/m"
+    start = 2.0
+
+A leak is an orifice component added to the circuit, its opening a signal driven 0 -> 1 -> 0. A parameter
+fault makes its parameter an input signal of the circuit, held at its value outside the fault and at
+``value`` inside it; the values derived from it follow as signals of their own (a load's weight from its
+mass, a relief valve's flow gain from its cracking pressure), computed here at each of the drive's values.
+A fault on a signal replaces its drive during the fault. The log shows each as applied (``cyl.damping``).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+
+from hydrohil.errors import InputError
+
+TYPES = ("leak", "parameter")
+KEYS = {"leak": {"type", "orifice", "node", "area", "to", "discharge_coefficient", "start", "end"},
+        "parameter": {"type", "target", "value", "start", "end"}}
+
+
+def _number(v, key: str, where: str, source: str, unit: str = "s") -> float:
+    from hydrohil.circuits.units import to_si
+    try:
+        x = to_si(v, unit)
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"{exc}", source=source, key=f"{where}.{key}") from None
+    if not (isinstance(x, float) or isinstance(x, int)) or not math.isfinite(x):
+        raise InputError(f"a number [{unit}], got {v!r}", source=source, key=f"{where}.{key}")
+    return float(x)
+
+
+def _check(v, prm, key: str, source: str) -> None:
+    """A fault's value in its parameter's unit and range (the circuit file's rule, named as the fault's key)."""
+    from hydrohil.circuits.units import to_si
+    try:
+        x = to_si(v, prm.unit)
+    except (ValueError, TypeError) as exc:
+        raise InputError(str(exc), source=source, key=key) from None
+    problem = prm.check(x)
+    if problem:
+        raise InputError(f"{problem}, got {v!r}", source=source, key=key)
+
+
+def _window(f: dict, where: str, source: str) -> tuple[float, float | None]:
+    start = _number(f.get("start"), "start", where, source) if "start" in f else None
+    if start is None or not 0.0 <= start <= 1e5:
+        raise InputError(f"the fault's first instant [s] in [0, 1e5], got {f.get('start')!r}", source=source,
+                         key=f"{where}.start")
+    end = _number(f["end"], "end", where, source) if "end" in f else None
+    if end is not None and not end > start:
+        raise InputError(f"end ({end:g} s) must be after start ({start:g} s)", source=source, key=f"{where}.end")
+    return start, end
+
+
+def windowed_drive(base, value, start: float, end: float | None) -> dict:
+    """A held drive: ``base`` (a number, "<number> <unit>", or a held table {t, value}) with ``value`` over
+    [start, end)."""
+    ts = [float(x) for x in base["t"]] if isinstance(base, dict) else [0.0]
+    vs = list(base["value"]) if isinstance(base, dict) else [base]
+
+    def at(t):                                      # the base's value held at t
+        return vs[max(i for i, ti in enumerate(ts) if ti <= t + 1e-12)]
+    t_out = [t for t in ts if t < start]
+    v_out = [v for t, v in zip(ts, vs) if t < start]
+    t_out.append(start)
+    v_out.append(value)
+    if end is not None:
+        t_out.append(end)
+        v_out.append(at(end))
+        t_out += [t for t in ts if t > end]
+        v_out += [v for t, v in zip(ts, vs) if t > end]
+    return {"t": t_out, "value": v_out}
+
+
+def apply_faults(raw: dict, faults, source: str) -> frozenset:
+    """The scenario's ``faults`` (a list of tables) written into the circuit's raw tables ``raw`` (in place):
+    a leak's orifice and its drive, a parameter fault's drive. Returns the parameters driven by faults that are
+    not signals of their type (for :func:`hydrohil.circuits.circuit.circuit_from_dict`)."""
+    from hydrohil.circuits.library import TYPES as COMPONENTS
+    if not isinstance(faults, list) or not all(isinstance(f, dict) for f in faults):
+        raise InputError("[[faults]] tables (type = \"leak\" or \"parameter\")", source=source, key="faults")
+    comps, inputs = raw.setdefault("components", {}), raw.setdefault("inputs", {})
+    nodes = {n for body in comps.values() if isinstance(body, dict) for k, n in body.items()
+             if isinstance(n, str) and k in COMPONENTS.get(body.get("type", ""), COMPONENTS["tank"]).ports}
+    tanks = sorted({body["p"] for body in comps.values() if isinstance(body, dict) and body.get("type") == "tank"})
+    driven = set()
+    for i, f in enumerate(faults):
+        where = f"faults[{i}]"
+        kind = f.get("type")
+        if kind not in TYPES:
+            raise InputError(f"a circuit's faults are {' and '.join(TYPES)} (a leak at a node, a parameter changed; "
+                             f"the rig's fault types act on the paper's rig), got {kind!r}", source=source,
+                             key=f"{where}.type")
+        unknown = set(f) - KEYS[kind]
+        if unknown:
+            raise InputError(f"unknown key (keys of a {kind} fault: {', '.join(sorted(KEYS[kind]))})", source=source,
+                             key=f"{where}.{sorted(unknown)[0]}")
+        start, end = _window(f, where, source)
+        if kind == "leak":
+            node = f.get("node")
+            if node not in nodes:
+                raise InputError(f"the node that leaks, one of the circuit's ({', '.join(sorted(nodes))}), got "
+                                 f"{node!r}", source=source, key=f"{where}.node")
+            to = f.get("to", tanks[0] if len(tanks) == 1 else None)
+            if to not in nodes or to == node:
+                raise InputError(f"the node it leaks into (default: the tank's, when one tank fixes a node), one of "
+                                 f"{', '.join(sorted(nodes - {node}))}, got {to!r}", source=source, key=f"{where}.to")
+            name = f.get("orifice", f"leak_{node}")
+            if not isinstance(name, str) or name in comps:
+                raise InputError(f"a name for the leak's orifice that no component has, got {name!r}", source=source,
+                                 key=f"{where}.orifice")
+            if "area" not in f:
+                raise InputError("required: the leak's area [m2] (e.g. \"30 mm2\")", source=source,
+                                 key=f"{where}.area")
+            for k in ("area", "discharge_coefficient"):
+                if k in f:
+                    _check(f[k], COMPONENTS["orifice"].params[k], f"{where}.{k}", source)
+            comps[name] = {"type": "orifice", "a": node, "b": to, "area": f["area"],
+                           **({"discharge_coefficient": f["discharge_coefficient"]}
+                              if "discharge_coefficient" in f else {})}
+            inputs[f"{name}.opening"] = windowed_drive(0.0, 1.0, start, end)
+            continue
+        target = f.get("target")
+        comp, _, key = target.partition(".") if isinstance(target, str) else ("", "", "")
+        body = comps.get(comp)
+        ctype = COMPONENTS.get(body.get("type", "")) if isinstance(body, dict) else None
+        if ctype is None or key not in ctype.params:
+            choices = ", ".join(f"{n}.<key>" for n in comps) or "none"
+            raise InputError(f"a component's parameter, component.key ({choices}), got {target!r}", source=source,
+                             key=f"{where}.target")
+        if key in ctype.ports or key in ("x0", "speed0", "delay"):
+            raise InputError(f"{target} is fixed when the run starts (an initial state, a delay line's length): a "
+                             "fault cannot change it", source=source, key=f"{where}.target")
+        if "value" not in f:
+            raise InputError(f"required: {target}'s value during the fault [{ctype.params[key].unit}]", source=source,
+                             key=f"{where}.value")
+        _check(f["value"], ctype.params[key], f"{where}.value", source)
+        if target in inputs:
+            base = inputs[target]
+            if isinstance(base, dict) and base.get("interpolation", "hold") != "hold":
+                raise InputError(f"{target}'s drive is interpolated linearly: a fault replaces a held drive only",
+                                 source=source, key=f"{where}.target")
+        else:
+            prm = ctype.params[key]
+            base = body.get(key, prm.default)
+            if base is None or (isinstance(base, float) and math.isnan(base)):
+                raise InputError(f"{target} has no value of its own to return to after the fault (give it in the "
+                                 "circuit)", source=source, key=f"{where}.target")
+            if key in ctype.inputs:
+                body.pop(key, None)                   # a signal of its type: driven from now on
+            else:
+                driven.add(target)                    # its value as given kept: checked, shown, derived from
+        inputs[target] = windowed_drive(base, f["value"], start, end)
+    return frozenset(driven)
+
+
+def follow_derived(c, source: str) -> None:
+    """The values derived from a parameter that a fault drives (not a signal of its type: a load's weight from
+    its mass) added to the circuit's inputs (in place) as drives of their own, the derivation (ComponentType.derive,
+    the file's own check) applied at each of the drive's values."""
+    from hydrohil.circuits.circuit import Drive, component_values
+    for comp in c.components.values():
+        faulted = [k for k in comp.type.params if f"{comp.name}.{k}" in c.inputs and k not in comp.type.inputs]
+        if not faulted or not comp.type.derived:
+            continue
+        times = sorted({float(t) for k in faulted for t in c.inputs[f"{comp.name}.{k}"][0]})
+        rows = []
+        for t in times:
+            params = dict(comp.params)
+            for k in faulted:
+                params[k] = float(c.inputs[f"{comp.name}.{k}"].at([t], 1.0)[0])
+            try:
+                rows.append(component_values(comp.type, params, c.fluid))
+            except ValueError as exc:
+                raise InputError(f"{comp.name} at {t:g} s, during a fault: {exc}", source=source, key="faults") from None
+        for dk, _ in comp.type.derived:
+            vals = np.array([r[dk] for r in rows], dtype=float)
+            if not np.array_equal(vals, np.full_like(vals, comp.values[dk]), equal_nan=True):
+                c.inputs[f"{comp.name}.{dk}"] = Drive(np.array(times), vals)
+
+
+def scenario_faults(data: dict) -> list:
+    """A scenario's [[faults]] tables, copied (the scenario's own stay as written)."""
+    return copy.deepcopy(data.get("faults", []))
