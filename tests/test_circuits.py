@@ -645,11 +645,18 @@ def test_a_coupled_load_is_checked_where_it_is_written():
             ({"c": {**cyl, "rod_end": "pump"}, "pump": src}, "components.c.rod_end",
              "'pump' is not a load of this circuit (loads: none"),
             ({"c": {**cyl, "mass": 10.0}, "deck": {"type": "load", "mass": 100.0}}, "components.deck",
-             "no cylinder drives this load"),
+             "nothing drives this load: give a cylinder's rod_end = \"deck\""),
             ({"c": {**cyl, "rod_end": "deck"}, "deck": {"type": "load", "mass": 100.0, "x0": "0.4 m"}},
              "components.deck.x0", "within the travel of its cylinders (the shortest stroke, 0.3 m)"),
             ({"c": {**cyl, "rod_end": "deck", "rod_ende": 1}, "deck": {"type": "load", "mass": 100.0}},
-             "components.c.rod_ende", "couplings: rod_end")):
+             "components.c.rod_ende", "coupling: rod_end"),
+            ({"c": {**cyl, "mass": 10.0}, "m": {"type": "motor", "a": "a", "b": "t", "displacement": 1e-5,
+                                                "shaft": "c"}}, "components.m.shaft",
+             "'c' is not a rotary_load of this circuit (rotary_loads: none"),
+            ({"c": {**cyl, "mass": 10.0}, "m": {"type": "motor", "a": "a", "b": "t", "displacement": 1e-5,
+                                                "shaft": "drum", "inertia": 0.1}, "drum": {"type": "rotary_load",
+                                                                                          "inertia": 1.0}},
+             "components.m.inertia", "m's shaft drives the load 'drum' (shaft): its inertia is the load's")):
         comps = {**base, **comps}
         comps.setdefault("pump", src)
         with pytest.raises(InputError, match=f"test.toml: {re.escape(where)}: .*{re.escape(message)}"):
@@ -687,3 +694,27 @@ def test_a_load_force_driven_linearly_over_time_and_a_held_drive():
     assert x[-1] == pytest.approx((p * a1 - F) / k, rel=3e-14)            # (measured: 7e-15)
     with pytest.raises(InputError, match="inputs.deck.force.interpolation: \"hold\" .* or \"linear\""):
         circuit(comps, inputs={"deck.force": {**drive, "interpolation": "cubic"}})
+
+
+def test_two_motors_on_one_shaft_turn_as_one_inertia():
+    """Rotary coupling (SPEC §12.3): a 10 and a 16 cm3/rev motor whose shafts drive one drum (rotary_load),
+    fed in parallel by a pump of constant flow Q, turn at w = 2*pi*Q/(D1 + D2) (closed form); their common
+    pressure drop holds the drum's viscous friction and load torque, dp = 2*pi*(c*w + T)/(eta1*D1 + eta2*D2)."""
+    q, d1, d2, c_w, torque = 10e-3 / 60, 10e-6, 16e-6, 1.0, 10.0
+    c = circuit({"tank": {"type": "tank", "p": "t"},
+                 "pump": {"type": "pump", "inlet": "t", "outlet": "a", "displacement": q / 25.0, "speed": 25.0},
+                 "relief": {"type": "relief_valve", "p": "a", "t": "t", "cracking_pressure": "200 bar",
+                            "rated_flow": "30 l/min", "rated_pressure": "210 bar"},
+                 "m1": {"type": "motor", "a": "a", "b": "t", "displacement": d1, "efficiency": 0.9, "shaft": "drum"},
+                 "m2": {"type": "motor", "a": "a", "b": "t", "displacement": d2, "shaft": "drum"},
+                 "drum": {"type": "rotary_load", "inertia": 0.2, "damping": c_w, "load_torque": torque},
+                 "v": {"type": "volume", "p": "a", "volume": "0.5 l"}})
+    assert not c.components["m1"].states and c.components["drum"].actuators == ["m1", "m2"]
+    r = simulate_circuit(c, 15.0)                 # (its hydraulic spring rings at 15 rad/s, damped in 0.4 s)
+    w = 2 * math.pi * q / (d1 + d2)
+    assert r.column("drum.w")[-1] == pytest.approx(w, rel=3e-14)              # (measured: 7e-15)
+    assert np.array_equal(r.column("m1.w"), r.column("drum.w"))
+    dp = 2 * math.pi * (c_w * w + torque) / (0.9 * d1 + d2)
+    assert r.column("a.p")[-1] == pytest.approx(dp, rel=2e-13)                # (measured: 7e-14)
+    assert r.column("m1.q")[-1] == pytest.approx(d1 * w / (2 * math.pi), rel=3e-14)
+    assert abs(r.column("drum.net_torque")[-1]) < 1e-11                       # N.m (measured: 3e-12)

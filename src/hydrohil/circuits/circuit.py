@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hydrohil.circuits.library import FLUID, LOAD_KEYS, TYPES, ComponentType, Param
+from hydrohil.circuits.library import FLUID, TYPES, ComponentType, Param
 from hydrohil.circuits.units import to_si
 from hydrohil.errors import InputError
 
@@ -58,8 +58,13 @@ class Component:
     values: dict[str, float]             # parameters (SI) and derived values
     given: dict[str, str]                # parameter -> as the file wrote it (shown by `circuit show`)
     params: dict[str, float] = field(default_factory=dict)   # its parameters (SI) before derivation
-    coupled: str | None = None           # the load its rod drives (rod_end): its motion is the load's
-    actuators: list[str] = field(default_factory=list)        # a load: the cylinders coupled to it
+    coupled: str | None = None           # the load its rod or shaft drives (rod_end, shaft): its motion is the load's
+    actuators: list[str] = field(default_factory=list)        # a load: the actuators coupled to it
+
+    @property
+    def load_keys(self) -> tuple[str, ...]:
+        """Its keys that are its load's (a coupled actuator: its load's mass, its shaft load's inertia, ...)."""
+        return self.type.coupling.load_keys if self.coupled else ()
 
     @property
     def states(self) -> tuple[tuple[str, str], ...]:
@@ -174,21 +179,22 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             ports[port] = node
             if node not in nodes:
                 nodes.append(node)
-        coupled = None
-        for key in ctype.couplings:
-            if key in body:
-                coupled = body[key]
-                if not isinstance(coupled, str) or not NAME.match(coupled):
-                    raise _err(source, f"{where}.{key}", f"the name of the load its rod drives (a component of type "
-                                                         f"load), got {coupled!r}")
-        values, given = {}, {}
+        coupled, cp = None, ctype.coupling
+        if cp is not None and cp.key in body:
+            coupled = body[cp.key]
+            if not isinstance(coupled, str) or not NAME.match(coupled):
+                raise _err(source, f"{where}.{cp.key}", f"the name of the load its {cp.part} drives (a component of "
+                                                        f"type {cp.load_type}), got {coupled!r}")
         for key, prm in ctype.params.items():
-            if coupled and key in LOAD_KEYS:             # the load's (checked below), not the cylinder's
+            if coupled and key in cp.load_keys:          # the load's (checked below), not the actuator's
                 if key in body or f"{name}.{key}" in driven:
                     raise _err(source, f"{where}.{key}" if key in body else f"inputs.{name}.{key}",
-                               f"{name}'s rod drives the load {coupled!r} (rod_end): its {key} is the load's "
-                               f"(give it there; a coupled cylinder's keys: "
-                               f"{', '.join(k for k in ctype.params if k not in LOAD_KEYS)})")
+                               f"{name}'s {cp.part} drives the load {coupled!r} ({cp.key}): its {key} is the load's "
+                               f"(give it there; a coupled {ctype.name}'s keys: "
+                               f"{', '.join(k for k in ctype.params if k not in cp.load_keys)})")
+        values, given = {}, {}
+        for key, prm in ctype.params.items():
+            if coupled and key in cp.load_keys:
                 values[key] = 0.0
                 continue
             if f"{name}.{key}" in fault_signals:
@@ -208,8 +214,9 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             values[key] = _value(body, key, prm, source, where)
             if key in body:
                 given[key] = str(body[key])
-        for key in set(body) - set(ctype.params) - set(ctype.ports) - set(ctype.couplings) - {"type"}:
-            couplings = f"; couplings: {', '.join(ctype.couplings)}" if ctype.couplings else ""
+        couplings = {ctype.coupling.key} if ctype.coupling else set()
+        for key in set(body) - set(ctype.params) - set(ctype.ports) - couplings - {"type"}:
+            couplings = f"; coupling: {ctype.coupling.key}" if ctype.coupling else ""
             raise _err(source, f"{where}.{key}", f"not a parameter of a {ctype.name} (parameters: "
                                                  f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)}"
                                                  f"{couplings})")
@@ -261,24 +268,31 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
 
 
 def _couple(components: dict[str, Component], source: str) -> None:
-    """The mechanical couplings (SPEC §12.3): each cylinder's rod_end names a load; a load is driven by at least
-    one; the coupled pistons start where their load does, within the shortest stroke."""
+    """The mechanical couplings (SPEC §12.1, §12.3): each cylinder's rod_end names a load, each motor's shaft a
+    rotary load; a load is driven by at least one actuator; coupled pistons start where their load does, within
+    the shortest stroke, coupled motors at their load's speed."""
     for comp in components.values():
         if comp.coupled is None:
             continue
+        cp = comp.type.coupling
         load = components.get(comp.coupled)
-        if load is None or load.type.name != "load":
-            loads = ", ".join(n for n, c in components.items() if c.type.name == "load") or \
-                "none: add a [components.NAME] of type = \"load\""
-            raise _err(source, f"components.{comp.name}.rod_end",
-                       f"{comp.coupled!r} is not a load of this circuit (loads: {loads})")
+        if load is None or load.type.name != cp.load_type:
+            loads = ", ".join(n for n, c in components.items() if c.type.name == cp.load_type) or \
+                f"none: add a [components.NAME] of type = \"{cp.load_type}\""
+            raise _err(source, f"components.{comp.name}.{cp.key}",
+                       f"{comp.coupled!r} is not a {cp.load_type} of this circuit ({cp.load_type}s: {loads})")
         load.actuators.append(comp.name)
     for load in components.values():
-        if load.type.name != "load":
+        if load.type.name not in ("load", "rotary_load"):
             continue
         if not load.actuators:
-            raise _err(source, f"components.{load.name}", "no cylinder drives this load: give a cylinder "
-                                                          f"rod_end = \"{load.name}\"")
+            what = "cylinder's rod_end" if load.type.name == "load" else "motor's shaft"
+            raise _err(source, f"components.{load.name}", f"nothing drives this {load.type.name}: give a {what} = "
+                                                          f"\"{load.name}\"")
+        if load.type.name == "rotary_load":
+            for a in load.actuators:
+                components[a].values["speed0"] = components[a].params["speed0"] = load.values["speed0"]
+            continue
         stroke = min(components[a].values["stroke"] for a in load.actuators)
         if not load.values["x0"] <= stroke:
             raise _err(source, f"components.{load.name}.x0",

@@ -1,7 +1,7 @@
 """``hydrohil circuit draw``: the circuit as a labelled diagram (Graphviz): hydraulic nodes as dots, each
 component as a shape in the spirit of its ISO 1219 symbol (a valve's three envelopes, a pump's circle, an
 accumulator's capsule, a tank's open box) with its key figures in catalogue units, its ports' lines to the
-nodes, the signals that drive it as dashed arrows, a rod coupled to its load as a double line."""
+nodes, the signals that drive it as dashed arrows, a rod or shaft coupled to its load as a double line."""
 
 from __future__ import annotations
 
@@ -29,6 +29,7 @@ STYLE = {
     "lugre_cylinder": ("box3d", "cylinder, LuGre seals", {"style": "filled", "fillcolor": "#e2fde8"}),
     "lugre_motor": ("circle", "▽ motor, LuGre", {"style": "filled", "fillcolor": "#e2fde8"}),
     "load": ("box", "load", {"style": "filled,bold", "fillcolor": "#eeeeee"}),
+    "rotary_load": ("circle", "rotary load", {"style": "filled,bold", "fillcolor": "#eeeeee"}),
 }
 VALVES = {"valve_43": ("⇉", "⊥ ⊤", "⇆"), "valve_63": ("⇉", "⇢ P→T", "⇆"), "servo_valve": ("⇉", "⊥ ⊤", "⇆")}
 INTO = {"inlet", "a", "P", "p", "pilot", "valve"}        # ports the flow usually enters a component by
@@ -59,6 +60,8 @@ def _figures(comp) -> list[str]:
         out.append(f"{v['volume'] * 1e3:g} l")
     if t in ("motor", "lugre_motor"):
         out.append(f"{v['displacement'] * 1e6:g} cm³/rev")
+    if t == "rotary_load":
+        out.append(f"{v['inertia']:g} kg·m²")
     if t in ("cylinder", "double_rod_cylinder"):
         load = "" if comp.coupled else f", {v['mass']:g} kg"
         out.append(f"{v['bore'] * 1e3:g}/{v['rod'] * 1e3:g} × {v['stroke'] * 1e3:g} mm{load}")
@@ -109,7 +112,8 @@ def draw_circuit(c: Circuit, out: str | Path) -> Path:
             g.edge(*((f"n__{node}", f"c__{comp.name}") if into else (f"c__{comp.name}", f"n__{node}")), label=port)
     for comp in c.components.values():            # mechanical couplings: a rod driving its load (double line)
         if comp.coupled:
-            g.edge(f"c__{comp.name}", f"c__{comp.coupled}", label="rod", color="#555555:#555555", penwidth="1.2")
+            g.edge(f"c__{comp.name}", f"c__{comp.coupled}", label=comp.type.coupling.part, color="#555555:#555555",
+                   penwidth="1.2")
     for sig in c.inputs:
         comp = sig.split(".", 1)[0]
         g.node(f"s__{sig}", label=sig, shape="plaintext", fontcolor="#a03030")

@@ -70,7 +70,7 @@ class _View:
         return f"dy[{self.lay.states.index(self.moving + '.' + state)}]"
 
     def coupled_views(self) -> list:
-        """The views of the cylinders coupled to this load (their rod_end), in netlist order."""
+        """The views of the actuators coupled to this load (their rod_end or shaft), in netlist order."""
         return [_View(self.lay, self.lay.circuit.components[a]) for a in self.comp.actuators]
 
     def v(self, name: str) -> str:

@@ -6,8 +6,8 @@ default), modes and the signals a circuit may drive; its law is C (``core/compon
 The library: tank, pressure source, fixed-displacement pump, relief and check valves, orifice, gas-charged
 accumulator, hose, a plain volume; the 4/3 and open-centre 6/3 valves by geometry, the paper's servo valve;
 differential and double-rod cylinders (with their own load, or their rods coupled to a ``load``: a
-mechanical coupling, ``rod_end``), the paper's LuGre cylinder; motors (with LuGre friction too); the
-counterbalance valve. The paper's rig is the circuit its servo valve and LuGre cylinder make.
+mechanical coupling, ``rod_end``), the paper's LuGre cylinder; motors (their shafts coupled to a
+``rotary_load`` or not; with LuGre friction too); the counterbalance valve. The paper's rig is the circuit its servo valve and LuGre cylinder make.
 """
 
 from __future__ import annotations
@@ -76,6 +76,16 @@ class Emit:
 
 
 @dataclass(frozen=True)
+class Coupling:
+    """A mechanical coupling an actuator may have (SPEC §12.1): the key naming the load it drives, that load's
+    type, the actuator's keys that are then its load's, and what couples (a rod, a shaft)."""
+    key: str
+    load_type: str
+    load_keys: tuple[str, ...]
+    part: str
+
+
+@dataclass(frozen=True)
 class ComponentType:
     name: str
     description: str
@@ -86,7 +96,7 @@ class ComponentType:
     fixes: str | None = None           # the parameter that fixes its port's pressure (tank, source)
     states: tuple[tuple[str, str], ...] = ()    # (name, SI unit) of its own states
     derived: tuple[tuple[str, str], ...] = ()   # (key, SI unit) of values derived from the parameters
-    couplings: tuple[str, ...] = ()    # optional mechanical couplings: keys naming a load its rod drives
+    coupling: "Coupling | None" = None   # an optional mechanical coupling: its rod or shaft driving a load
 
     def derive(self, v: dict[str, float]) -> dict[str, float]:
         return _DERIVE.get(self.name, lambda v: {})(v)
@@ -198,16 +208,32 @@ def _emit_volume(c):
     return Emit(volume=[("p", c.par("volume"))])
 
 
+def _motor_torque(c) -> str:
+    """A motor's torque on its shaft [N.m]: eta*D*dp/(2 pi) (SPEC §12.3)."""
+    return f"hc_motor_torque({c.par('displacement')}, {c.par('efficiency')}, ({c.p('a')} - {c.p('b')}))"
+
+
 def _emit_motor(c):
     dp = f"({c.p('a')} - {c.p('b')})"
     q = f"hc_motor_flow({c.par('displacement')}, {c.x('w')}, {c.par('leakage')}, {dp})"
-    torque = f"hc_motor_torque({c.par('displacement')}, {c.par('efficiency')}, {dp})"
-    return Emit(pre=[("torque", torque)],
-                flows=[("a", "b", q, c.par("leakage"), f"hc_motor_flow({c.par('displacement')}, {c.dx('w')}, 0.0, 0.0)")],
-                derivatives={"w": f"({c.v('torque')} - {c.par('damping')} * {c.x('w')} - {c.par('load_torque')}) / "
-                                  f"{c.par('inertia')}"},
+    torque = _motor_torque(c)
+    e = Emit(pre=[("torque", torque)],
+             flows=[("a", "b", q, c.par("leakage"), f"hc_motor_flow({c.par('displacement')}, {c.dx('w')}, 0.0, 0.0)")],
+             outputs={"w": (c.x("w"), "rad/s"), "q": (q, "m3/s"), "torque": (torque, "N.m")})
+    if not c.comp.coupled:       # its own inertia (coupled: its shaft's load turns it, shaft)
+        e.derivatives = {"w": f"({c.v('torque')} - {c.par('damping')} * {c.x('w')} - {c.par('load_torque')}) / "
+                              f"{c.par('inertia')}"}
+        e.initial = {"w": c.par("speed0")}
+    return e
+
+
+def _emit_rotary_load(c):
+    """A rotary load driven by the motors coupled to it (their shaft): one inertia, their torques summed."""
+    drive = " + ".join(f"({_motor_torque(a)})" for a in c.coupled_views())
+    net = f"{drive} - {c.par('damping')} * {c.x('w')} - {c.par('load_torque')}"
+    return Emit(pre=[("t", net)], derivatives={"w": f"{c.v('t')} / {c.par('inertia')}"},
                 initial={"w": c.par("speed0")},
-                outputs={"w": (c.x("w"), "rad/s"), "q": (q, "m3/s"), "torque": (torque, "N.m")})
+                outputs={"w": (c.x("w"), "rad/s"), "net_torque": (net, "N.m")})
 
 
 def _piston_force(c) -> str:
@@ -436,6 +462,7 @@ _EMIT = {"tank": _emit_tank, "pressure_source": _emit_tank, "pump": _emit_pump,
          "relief_valve": lambda c: _emit_valve(c, "p", "t"), "check_valve": lambda c: _emit_valve(c, "a", "b"),
          "orifice": _emit_orifice, "accumulator": _emit_accumulator, "hose": _emit_hose, "volume": _emit_volume,
          "motor": _emit_motor, "cylinder": _emit_cylinder, "double_rod_cylinder": _emit_cylinder, "load": _emit_load,
+         "rotary_load": _emit_rotary_load,
          "valve_43": _emit_valve43, "valve_63": _emit_valve43, "counterbalance_valve": _emit_counterbalance,
          "servo_valve": _emit_servo_valve, "lugre_cylinder": _emit_lugre_cylinder, "lugre_motor": _emit_lugre_motor}
 _PORT_VOLUME = {"hose": lambda v, port: 0.5 * v["volume"], "volume": lambda v, port: v["volume"],
@@ -481,8 +508,10 @@ def _valve_params(extra: dict | None = None) -> dict[str, Param]:
 
 
 _STOPS = ("free", "at_retract", "at_extend")
-# a cylinder's keys that belong to its load: given on the load when its rod is coupled to one (rod_end)
-LOAD_KEYS = ("mass", "damping", "force", "spring", "spring_x0", "incline", "x0")
+# a cylinder's keys that belong to its load: given on the load when its rod is coupled to one (rod_end); a
+# motor's that belong to its shaft's load (shaft)
+ROD = Coupling("rod_end", "load", ("mass", "damping", "force", "spring", "spring_x0", "incline", "x0"), "rod")
+SHAFT = Coupling("shaft", "rotary_load", ("inertia", "damping", "load_torque", "speed0"), "shaft")
 _PISTON = (("x", "m"), ("v", "m/s"))
 _CYLINDER_DERIVED = (("area_a", "m2"), ("area_b", "m2"), ("weight", "N"))
 
@@ -532,7 +561,8 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "length": Param("m", 0.0, 1e3, "length", lo_strict=True)}, derived=(("volume", "m3"),)),
     ComponentType("volume", "a volume of oil at a node (a block's bores, a manifold)", ("p",),
                   {"volume": Param("m3", 0.0, 10.0, "volume", lo_strict=True)}),
-    ComponentType("motor", "hydraulic motor with its inertia: q = D*w/(2 pi) + Cl*dp, torque eta*D*dp/(2 pi)",
+    ComponentType("motor", "hydraulic motor with its inertia: q = D*w/(2 pi) + Cl*dp, torque eta*D*dp/(2 pi); or "
+                  "its shaft coupled to a rotary load (shaft)",
                   ("a", "b"),
                   {"displacement": Param("m3/rev", 0.0, 1e-2, "displacement per revolution", lo_strict=True),
                    "leakage": Param("m3/(s.Pa)", 0.0, 1e-6, "leakage conductance Cl", 0.0),
@@ -541,19 +571,26 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                    "damping": Param("N.m.s/rad", 0.0, 1e5, "viscous friction", 0.0),
                    "load_torque": Param("N.m", -1e6, 1e6, "load torque (or the signal NAME.load_torque)", 0.0),
                    "speed0": Param("rad/s", -1e4, 1e4, "initial speed", 0.0)},
+                  inputs=("load_torque",), states=(("w", "rad/s"),), coupling=SHAFT),
+    ComponentType("rotary_load", "a rotary load turned by the motors whose shaft names it (one inertia: the "
+                  "motors' and the load's, viscous friction, a load torque or its signal)", (),
+                  {"inertia": Param("kg.m2", 0.0, 1e4, "inertia of the load and the motors on it", lo_strict=True),
+                   "damping": Param("N.m.s/rad", 0.0, 1e5, "viscous friction", 0.0),
+                   "load_torque": Param("N.m", -1e6, 1e6, "load torque (or the signal NAME.load_torque)", 0.0),
+                   "speed0": Param("rad/s", -1e4, 1e4, "initial speed", 0.0)},
                   inputs=("load_torque",), states=(("w", "rad/s"),)),
     ComponentType("cylinder", "differential cylinder with its load (mass, viscous friction, force) and end stops, "
                   "or its rod coupled to a load (rod_end)",
                   ("a", "b"), _cylinder_params("rod diameter"), modes=_STOPS, inputs=("force",), states=_PISTON,
-                  derived=_CYLINDER_DERIVED, couplings=("rod_end",)),
+                  derived=_CYLINDER_DERIVED, coupling=ROD),
     ComponentType("double_rod_cylinder", "double-rod cylinder (equal areas) with its load and end stops, or its "
                   "rod coupled to a load (rod_end)",
                   ("a", "b"), _cylinder_params("rod diameter (both sides)"), modes=_STOPS, inputs=("force",),
-                  states=_PISTON, derived=_CYLINDER_DERIVED, couplings=("rod_end",)),
+                  states=_PISTON, derived=_CYLINDER_DERIVED, coupling=ROD),
     ComponentType("load", "a load moved by the cylinders whose rod_end names it (one rigid body: mass, viscous "
                   "friction, spring, weight, a force or force signal); its travel the shortest of their strokes, "
                   "end stops as modes", (),
-                  {k: v for k, v in _cylinder_params("").items() if k in LOAD_KEYS},
+                  {k: v for k, v in _cylinder_params("").items() if k in ROD.load_keys},
                   modes=_STOPS, inputs=("force",), states=_PISTON,
                   derived=(("weight", "N"),)),
     ComponentType("valve_43", "4/3 proportional valve by geometry: spool lag (wn, xi), an opening per edge",

@@ -12,7 +12,6 @@ import numpy as np
 
 from hydrohil.circuits.circuit import Circuit
 from hydrohil.circuits.build import compile_circuit
-from hydrohil.circuits.library import LOAD_KEYS
 from hydrohil.circuits.run import CircuitResult, input_unit, node_stiffness, simulate_circuit
 
 
@@ -38,9 +37,9 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
         prm = [{"key": k, "value": _num(comp.values[k]), "unit": p.unit, "description": p.description,
                 "given": comp.given.get(k), "signal": f"{comp.name}.{k}" in c.inputs}
                for k, p in comp.type.params.items() if comp.values.get(k) is not None
-               and not (comp.coupled and k in LOAD_KEYS)]            # (a coupled rod's load keys: its load's)
-        couplings = {"rod_end": comp.coupled} if comp.coupled else {"driven_by": comp.actuators} if comp.actuators \
-            else {}
+               and k not in comp.load_keys]                           # (a coupled actuator's: its load's)
+        couplings = {comp.type.coupling.key: comp.coupled} if comp.coupled else \
+            {"driven_by": comp.actuators} if comp.actuators else {}
         comps.append({"name": comp.name, "type": comp.type.name, "description": comp.type.description,
                       "ports": comp.ports, "couplings": couplings, "parameters": prm,
                       "derived": [{"key": k, "value": comp.values[k], "unit": u} for k, u in comp.type.derived

@@ -173,7 +173,7 @@ def parse_circuit_event(data: dict, process: str, cs, source: str = "event"):
 
 
 def _circuit_param(c, key: str, source: str):
-    from hydrohil.circuits.library import FLUID, LOAD_KEYS
+    from hydrohil.circuits.library import FLUID
     comp, _, name = key.partition(".")
     if comp == "fluid":
         if name not in FLUID:
@@ -186,9 +186,9 @@ def _circuit_param(c, key: str, source: str):
     if name not in params:
         raise InputError(f"not a parameter of {comp} ({c.components[comp].type.name}: {', '.join(params)})",
                          source=source, key=key)
-    coupled = c.components[comp].coupled
-    if coupled and name in LOAD_KEYS:
-        raise InputError(f"{comp}'s rod drives the load {coupled!r}: its {name} is the load's ({coupled}.{name})",
+    if name in c.components[comp].load_keys:
+        coupled = c.components[comp].coupled
+        raise InputError(f"{comp} drives the load {coupled!r}: its {name} is the load's ({coupled}.{name})",
                          source=source, key=key)
     return params[name]
 
