@@ -543,8 +543,8 @@ def test_circuit_steering_is_checked_against_the_circuit_and_a_set_value_derives
 @pytest.mark.parametrize("plant", ["python", "c"])
 def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path, plant):
     """``hydrohil panel`` on a circuit scenario (lock-step), on either plant: its own plots and forms, every kind
-    of change (an input held and released, the loop's gains and reference, a reset; on the Python plant a
-    parameter and the fluid changed too, which the C plant refuses saying why) applied at a step and logged;
+    of change (an input held and released, the loop's gains and reference, a parameter and the fluid changed,
+    a reset; the C plant takes the slots the panel derives for a parameter) applied at a step and logged;
     refusals name the input or key; the recording is a run folder whose replay of the session's applied inputs
     and events gives its states bit for bit (and without the events does not)."""
     from hydrohil.circuits.scenario import load_circuit_scenario
@@ -563,9 +563,9 @@ def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path, plant)
                 {"op": "set", "name": "fluid.bulk_modulus", "value": 1.2e9}]
         steer = [{"op": "input", "name": "motor.load_torque", "value": 5.0},
                  {"op": "gains", "kp": 0.004},
-                 *sets[:1 if plant == "python" else 0],
+                 sets[0],
                  {"op": "reference", "value": 40.0},
-                 *sets[1:2 if plant == "python" else 0],
+                 sets[1],
                  {"op": "input", "name": "motor.load_torque", "value": None},
                  {"op": "reset"}]
         rec, answers = _record(p, steer)
@@ -573,14 +573,13 @@ def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path, plant)
         refused = [({"op": "input", "name": "valve.command", "value": 0.1}, "valve.command"),
                    ({"op": "input", "name": "motor.load_torque", "value": 1e9}, "N.m"),
                    ({"op": "fault_on", "fault": {"type": "hose_burst"}}, "input")]
-        refused += [({"op": "set", "name": "motor.inertia", "value": -1}, "kg.m2")] if plant == "python" else \
-            [(sets[0], "Python plant")]
+        refused += [({"op": "set", "name": "motor.inertia", "value": -1}, "kg.m2")]
         for body, what in refused:
             with pytest.raises(urllib.error.HTTPError) as exc:
                 p.api("api/steer", body)
             assert exc.value.code == 400 and what in exc.value.read().decode()
         state = p.api("api/state")
-        assert state["values"] == ({"motor.inertia": 0.02, "fluid.bulk_modulus": 1.2e9} if plant == "python" else {})
+        assert state["values"] == {"motor.inertia": 0.02, "fluid.bulk_modulus": 1.2e9}
         assert state["held"] == {}
         ended = p.api("api/run/stop", {})
         assert ended["exit_codes"] == {"plant": 0, "controller": 0} and ended["verdict"]["valid"]
@@ -595,6 +594,10 @@ def test_circuit_panel_session_replays_its_steering_bit_for_bit(tmp_path, plant)
         assert (folder / f).is_file(), f
     cmp = json.loads((folder / "comparison.json").read_text())
     assert cmp["identical"] and set(cmp["replay_max_abs_difference"]) == set(cs.layout.states)
+    sets_logged = [e for e in map(json.loads, (session / "events.jsonl").read_text().splitlines()) if e["op"] == "set"]
+    assert sets_logged[0]["slots"] == {str(cs.layout.slot["motor.inertia"]): 0.02}       # (no derived value)
+    assert sets_logged[1]["slots"][str(cs.layout.slot["fluid.bulk_modulus"])] == 1.2e9   # (and every component's
+    assert len(sets_logged[1]["slots"]) > 1                                       # derived values, the fluid's)
     log = read_csv_columns(folder / "plant_log.csv")
     ks = log["k"].astype(int)
     assert np.array_equal(ks, np.arange(rec["k0"] + 1, rec["k1"] + 1))

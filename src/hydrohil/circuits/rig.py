@@ -137,24 +137,12 @@ class CircuitRig(WatchdogCounters):
 
     def set_value(self, key: str, value: float) -> None:
         """Parameter ``key`` (``component.key`` or ``fluid.key``, SI, in its range: the event parser checks)
-        changed from the next step on; the values derived from it follow (``ComponentType.derive``, as the
-        circuit file's). ValueError (nothing changed) when the component's parameters no longer fit together."""
-        from hydrohil.circuits.circuit import component_values
-        c, slot = self.circuit, self.layout.slot
-        name, _, k = key.partition(".")
-        fluid, params = dict(self.fluid), {n: dict(v) for n, v in self.params.items()}
-        (fluid if name == "fluid" else params[name])[k] = float(value)
-        P = self.P.copy()
-        P[slot[key]] = float(value)
-        for comp in c.components.values():
-            if name == "fluid" or comp.name == name:
-                try:
-                    values = component_values(comp.type, params[comp.name], fluid)
-                except ValueError as exc:
-                    raise ValueError(f"{key}: {comp.name}: {exc}") from None
-                for dk, _ in comp.type.derived:
-                    P[slot[f"{comp.name}.{dk}"]] = values[dk]
-        self.P[:], self.fluid, self.params = P, fluid, params
+        changed from the next step on; the values derived from it follow (:func:`parameter_change`). ValueError
+        (nothing changed) when the component's parameters no longer fit together."""
+        slots, self.params, self.fluid = parameter_change(self.circuit, self.layout, self.params, self.fluid, key,
+                                                          value)
+        for i, v in slots.items():
+            self.P[i] = v
 
     def restart(self) -> None:
         """The model's states and modes back to rest (the scenario's); the step count, the drives and the
@@ -179,3 +167,28 @@ class CircuitRig(WatchdogCounters):
         if self.loop is not None:
             values[self._meas - self._t - 1] = self.cc.lib.hc_sensed(float(self.row[self._meas]), *self._sensor)
         return values
+
+
+def parameter_change(c, layout, params: dict, fluid: dict, key: str, value: float) -> tuple[dict, dict, dict]:
+    """A parameter ``key`` (``component.key`` or ``fluid.key``) changed to ``value`` on a circuit whose current
+    parameters are ``params`` (component -> its parameters, SI) and ``fluid``: the slots of the parameter vector
+    it changes ({slot: value}: its own, and the values derived from it, by the circuit file's rule,
+    ``component_values``, for every component it concerns) and the new parameters and fluid. What the Python
+    plant applies, and what the panel hands the standalone C plant (which has no derivations of its own).
+    ValueError (nothing changed) when a component's parameters no longer fit together."""
+    from hydrohil.circuits.circuit import component_values
+    slot = layout.slot
+    name, _, k = key.partition(".")
+    fluid, params = dict(fluid), {n: dict(v) for n, v in params.items()}
+    (fluid if name == "fluid" else params[name])[k] = float(value)
+    slots = {slot[key]: float(value)}
+    for comp in c.components.values():
+        if name == "fluid" or comp.name == name:
+            try:
+                values = component_values(comp.type, params[comp.name], fluid)
+            except ValueError as exc:
+                raise ValueError(f"{key}: {comp.name}: {exc}") from None
+            for dk, _ in comp.type.derived:
+                slots[slot[f"{comp.name}.{dk}"]] = float(values[dk])
+    return slots, params, fluid
+

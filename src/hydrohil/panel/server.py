@@ -84,6 +84,9 @@ class Panel:
             self.tunables = {"mass": p.load.mass, "force": p.load.force, "supply_pressure": p.supply.ps,
                              "friction_scale": 1.0}
         self.values: dict[str, float] = {}           # a circuit's parameters changed from the panel
+        if self.cs is not None:                      # ... and its parameters with them (what the slots derive from)
+            c = self.cs.circuit
+            self.parameters = ({n: dict(comp.params) for n, comp in c.components.items()}, dict(c.fluid))
         self.held: dict[str, float] = {}             # a circuit's inputs held from the panel
         self.faults: dict[int, dict] = {}            # slot -> fault switched on from the panel
         self.gains = self._initial_gains()
@@ -111,10 +114,21 @@ class Panel:
         ev = parse_event(body, role, source="request", circuit=self.cs)
         if role == "controller" and self.controller_kind != "builtin":
             raise InputError("the controller is your own: its gains and reference are not the panel's", source="request")
+        changed = None
+        if op == "set" and self.cs is not None:      # the slots it sets, derived values with them (both plants)
+            from hydrohil.circuits.rig import parameter_change
+            try:
+                slots, *changed = parameter_change(self.cs.circuit, self.cs.layout, *self.parameters, ev.name,
+                                                   ev.value)
+            except ValueError as exc:
+                raise InputError(str(exc), source="request") from None
+            ev = ev.model_copy(update={"slots": {str(i): v for i, v in slots.items()}})
         ans = await self.hub.send(role, ev.model_dump(exclude_none=True))
         if "error" in ans:
             raise InputError(ans["error"], source=role)
         d = ev.model_dump(exclude_none=True)
+        if changed is not None:
+            self.parameters = tuple(changed)
         if op == "set":
             (self.values if self.cs is not None else self.tunables)[d["name"]] = d["value"]
         elif op == "input":

@@ -97,6 +97,9 @@ class SetValue(StrictModel):
     op: Literal["set"]
     name: str
     value: float = Field(allow_inf_nan=False)
+    slots: dict[str, float] | None = Field(None, description="the parameter vector's slots the change sets, its "
+                                           "derived values with it ({slot: value}, circuits.rig.parameter_change): "
+                                           "what the panel hands the standalone C plant")
 
 
 class CircuitReference(Reference):

@@ -7,11 +7,12 @@
  * commanded inputs to 0 (the end of their range nearest to it). The export's values (circuit_plant.h) are
  * fixed: no --set, --initial or --fault. The live panel (--panel, rt_side.c): the circuit's telemetry (time, its
  * signals, its inputs as applied), an input the controller does not drive held from the panel and given back to
- * its drive, reset to rest; a parameter changed while running needs its derived values (Python): the Python
- * plant's. */
+ * its drive, a parameter changed (the slots the panel derives for it: this plant has no derivations), reset
+ * to rest. */
 #define _GNU_SOURCE
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "rt_side.h"
@@ -223,7 +224,7 @@ void model_timing(const plant *pl, FILE *fh)
 void model_free(plant *pl) { (void)pl; }
 
 /* ---- the live panel (rt_side.h): the circuit's telemetry, inputs and steering --------------------------- */
-const char MODEL_STEER_OPS[] = "input, reset";
+const char MODEL_STEER_OPS[] = "input, set, reset";
 /* (the export refuses a circuit beyond the link's limits: circuits/link.py check_link_size; here for the buffers) */
 typedef char circuit_fits_the_link[((int)CIRCUIT_NSIGNALS <= (int)HHIL_MAX_SIGNALS &&
                                     (int)CIRCUIT_NINPUTS <= (int)HHIL_MAX_INPUTS && (int)CIRCUIT_NSIDE <= (int)SIDE_MAX_COLUMNS &&
@@ -259,6 +260,63 @@ void model_side_row(plant *pl, double *row, const reading *r, int64_t late_ns, i
     row[SIDE_WATCHDOG] = C.link.active;
 }
 
+/* set: a parameter changed from the next step on. The plant has no derivations of its own: the panel sends the
+ * slots of the parameter vector the change sets, its derived values with them (circuits/rig.py,
+ * parameter_change: {"slot": value, ...}), every one checked here before any is applied. */
+static int steer_set(const jobject *o, text *ev, char *err, size_t err_size)
+{
+    static const char *const fields[] = {"name", "value", "slots", NULL};
+    const jfield *name = side_field(o, "name"), *value = side_field(o, "value"), *slots = side_field(o, "slots");
+    const char *odd = side_unexpected_field(o, fields);
+    int idx[J_FIELDS], n = 0, i;
+    double v[J_FIELDS];
+    if (odd) {
+        snprintf(err, err_size, "%.100s: not a field of set", odd);
+        return SIDE_REFUSED;
+    }
+    if (!name || name->kind != J_STR || !value || value->kind != J_NUM || !slots || slots->kind != J_OBJ) {
+        snprintf(err, err_size, "set: name, value and slots (the parameter vector's slots it sets, as the panel "
+                 "derives them: {\"slot\": value})");
+        return SIDE_REFUSED;
+    }
+    for (i = 0; i < o->n; i++) {
+        const jfield *f = &o->f[i];
+        char *end;
+        long j;
+        if (strncmp(f->key, "slots.", 6) != 0)
+            continue;
+        j = strtol(f->key + 6, &end, 10);
+        if (*end || end == f->key + 6 || j < 0 || j >= CIRCUIT_NP || f->kind != J_NUM || !isfinite(f->num)) {
+            snprintf(err, err_size, "slots.%.40s: a slot of the parameter vector (0 to %d) and a finite number",
+                     f->key + 6, CIRCUIT_NP - 1);
+            return SIDE_REFUSED;
+        }
+        idx[n] = (int)j;
+        v[n++] = f->num;
+    }
+    if (n == 0) {
+        snprintf(err, err_size, "slots: empty (the parameter's own slot at least)");
+        return SIDE_REFUSED;
+    }
+    for (i = 0; i < n; i++)
+        C.P[idx[i]] = v[i];
+    side_puts(ev, ", \"name\": ");
+    side_put_string(ev, name->str);
+    side_puts(ev, ", \"value\": ");
+    side_put_double(ev, value->num);
+    side_puts(ev, ", \"slots\": {");
+    for (i = 0; i < n; i++) {
+        char key[16];
+        snprintf(key, sizeof key, "%d", idx[i]);
+        side_puts(ev, i ? ", " : "");
+        side_put_string(ev, key);
+        side_puts(ev, ": ");
+        side_put_double(ev, v[i]);
+    }
+    side_puts(ev, "}");
+    return SIDE_APPLIED;
+}
+
 /* A circuit's plant events (simulation/steering.py's parse_circuit_event, apply_circuit_event): input (one the
  * controller does not drive, held at a value in its range, or null: back to its drive), reset (the states and
  * modes back to rest; the step count, drives, held inputs and command path go on). */
@@ -268,11 +326,8 @@ int model_steer(plant *pl, const jobject *o, const char *op, int64_t k, text *ev
     static const char *const none[] = {NULL}, *const input_fields[] = {"name", "value", NULL};
     const char *odd;
     (void)pl; (void)k; (void)extra; (void)extra_size;
-    if (strcmp(op, "set") == 0) {
-        snprintf(err, err_size, "set: a parameter changed while running needs its derived values, which the "
-                 "standalone C plant does not compute: run the panel on the Python plant (--plant python)");
-        return SIDE_REFUSED;
-    }
+    if (strcmp(op, "set") == 0)
+        return steer_set(o, ev, err, err_size);
     if (strcmp(op, "input") != 0 && strcmp(op, "reset") != 0)
         return SIDE_UNKNOWN;
     if ((odd = side_unexpected_field(o, strcmp(op, "input") == 0 ? input_fields : none)) != NULL) {
