@@ -150,7 +150,8 @@ def test_a_fault_on_a_signal_replaces_its_drive_and_the_pump_trips(tmp_path):
 
 
 @pytest.mark.parametrize("fault, key, message", [
-    ('type = "hose_burst"\nline = 1\nstart = 1.0', "faults[0].type", "a circuit's faults are leak and parameter"),
+    ('type = "hose_burst"\nline = 1\nstart = 1.0', "faults[0].type", "a circuit's faults are leak, parameter, sensor_stuck"),
+    ('type = "sensor_stuck"\nstart = 1.0', "faults[0].type", "acts on the closed loop's measurement"),
     ('type = "leak"\nnode = "s"\narea = "1 mm2"\nstart = 1.0\nline = 2', "faults[0].line", "unknown key"),
     ('type = "leak"\nnode = "nowhere"\narea = "1 mm2"\nstart = 1.0', "faults[0].node", "one of the circuit's"),
     ('type = "leak"\nnode = "s"\nstart = 1.0', "faults[0].area", "required: the leak's area"),
@@ -186,8 +187,9 @@ def test_the_counterbalance_example_bursts_its_hose_by_a_fault(tmp_path):
 
 
 def test_a_sequence_injects_circuit_faults_as_actions(tmp_path):
-    """A circuit sequence's leak and parameter actions become the compiled scenario's [[faults]] (at/until ->
-    start/end) and act in the run: the motor's line leaks at 2 s and its PI loop opens the valve further."""
+    """A circuit sequence's fault actions (a leak, a parameter, the sensor's dropout) become the compiled
+    scenario's [[faults]] (at/until -> start/end) and act in the run: the motor's line leaks at 2 s and its PI
+    loop opens the valve further; its speed reading dropping out, it opens the valve fully."""
     from hydrohil.sequences.runner import run_sequence
     scen = CIRCUITS_DIR / "motor_speed" / "scenario.toml"
     p = tmp_path / "seq.toml"
@@ -195,15 +197,18 @@ def test_a_sequence_injects_circuit_faults_as_actions(tmp_path):
                  '[[actions]]\nname = "leak"\nat = 2.0\ntype = "leak"\nnode = "a"\narea = "0.5 mm2"\n'
                  '[[actions]]\nname = "stiffer"\nat = 2.5\nuntil = 2.8\ntype = "parameter"\n'
                  'target = "motor.damping"\nvalue = 0.05\n'
+                 '[[actions]]\nname = "blind"\nat = 2.9\nuntil = 2.95\ntype = "sensor_dropout"\n'
                  '[[expect]]\nname = "the valve opens further within 50 ms of the leak"\ntype = "reaction"\n'
                  'after = "leak"\nwithin = 0.05\nsignal = "valve.command"\nabove = 0.31\n'
-                 '[[expect]]\nname = "the leak takes oil"\ntype = "bounds"\nafter = 2.1\nsignal = "leak_a.q"\n'
-                 'min = 1e-5\n')
+                 '[[expect]]\nname = "the leak takes oil"\ntype = "bounds"\nafter = 2.1\nuntil = "blind"\n'
+                 'signal = "leak_a.q"\nmin = 1e-5\n'
+                 '[[expect]]\nname = "blind, the loop opens the valve fully"\ntype = "reaction"\nafter = "blind"\n'
+                 'within = 0.04\nsignal = "valve.command"\nabove = 0.99\n')
     res = run_sequence(p, tmp_path / "out")
     assert res.passed, [o.message for o in res.outcomes]
     import tomllib
     compiled = tomllib.loads(next((tmp_path / "out").rglob("scenario.toml")).read_text())
-    assert [f["type"] for f in compiled["faults"]] == ["leak", "parameter"]
+    assert [f["type"] for f in compiled["faults"]] == ["leak", "parameter", "sensor_dropout"]
     assert compiled["faults"][1]["start"] == 2.5 and compiled["faults"][1]["end"] == 2.8
     bad = tmp_path / "bad.toml"
     bad.write_text(f'scenario = "{scen}"\n[[actions]]\nat = 1.0\ntype = "leak"\nnode = "a"\narea = 1e-6\nline = 1\n'
@@ -212,3 +217,41 @@ def test_a_sequence_injects_circuit_faults_as_actions(tmp_path):
     with pytest.raises(InputError, match="unknown key 'line'") as e:
         load_sequence(bad)
     assert e.value.key.startswith("actions[0]")
+
+
+MOTOR = CIRCUITS_DIR / "motor_speed" / "scenario.toml"
+
+
+def motor(tmp_path, faults: str, name="m.toml"):
+    f = tmp_path / name
+    text = MOTOR.read_text().replace('circuit = "circuit.toml"', f'circuit = "{MOTOR.parent / "circuit.toml"}"')
+    f.write_text(text + faults)
+    return load_circuit_scenario(f)
+
+
+def test_sensor_faults_act_where_the_loop_reads_its_signal(tmp_path):
+    """The motor's PI speed loop (1000 rpm from 0.2 s, 600 rpm from 1.5 s): an offset of +20 rad/s on its speed
+    reading from 0.6 s makes it hold the true speed 20 rad/s below the reference (a PI has no steady error on
+    what it reads); a reading stuck over [2.0, 2.5) s keeps the value of its first step; a dropout reads 0; an
+    added noise has the standard deviation it was given. The log's motor.w.sensed is what the loop read."""
+    cs = motor(tmp_path, '[[faults]]\ntype = "sensor_offset"\noffset = 20.0\nstart = 0.6\nend = 2.0\n'
+                         '[[faults]]\ntype = "sensor_stuck"\nstart = 2.0\nend = 2.5\n'
+                         '[[faults]]\ntype = "sensor_dropout"\nstart = 3.5\nend = 3.51\n'
+                         '[[faults]]\ntype = "sensor_noise"\nstd = 2.0\nstart = 4.0\n')
+    assert [f[0] for f in cs.loop.sensor_faults] == ["sensor_offset", "sensor_stuck", "sensor_dropout",
+                                                     "sensor_noise"]
+    r = run(cs)
+    t, w, seen = r.column("t"), r.column("motor.w"), r.column("motor.w.sensed")
+    ref_1000 = 1000 * 2 * math.pi / 60
+    k = np.searchsorted(t, 1.45)
+    assert seen[k] - w[k] == 20.0 and w[k] == pytest.approx(ref_1000 - 20.0, abs=0.05)   # (measured: 0.018)
+    k1, k2 = np.searchsorted(t, 2.0), np.searchsorted(t, 2.5)
+    assert np.all(seen[k1:k2] == seen[k1]) and seen[k1] == w[k1] and np.ptp(w[k1:k2]) > 1.0
+    assert seen[k2] == w[k2]
+    drop = (t >= 3.5) & (t < 3.51)
+    assert np.all(seen[drop] == 0.0) and np.all(seen[(t >= 3.51) & (t < 4.0)] == w[(t >= 3.51) & (t < 4.0)])
+    noise = (seen - w)[t >= 4.0]
+    assert np.std(noise) == pytest.approx(2.0, rel=0.1) and abs(np.mean(noise)) < 0.2   # (1001 samples: 2.008,
+                                                                                     # -0.016; seeded)
+    again = run(cs)                                      # the same draws: the seed's
+    assert np.array_equal(again.column("motor.w.sensed"), seen)

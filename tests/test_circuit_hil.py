@@ -305,6 +305,33 @@ def test_lockstep_hil_with_a_noisy_sensor_equals_offline(tmp_path, plant):
     assert np.std(ctl["measured"][:-1] - res.columns["cyl.x"][:-1]) > 5e-6          # noisy indeed
 
 
+@pytest.mark.parametrize("plant", PLANTS)
+def test_lockstep_hil_with_circuit_faults_equals_offline(tmp_path, plant):
+    """A circuit scenario's faults act alike offline and on either plant: a leak and a parameter fault (drives
+    the plant applies), and the loop's sensor offset, stuck, dropout and noise (the plant's sensor packets:
+    hc_sensed with its faults at the step, the C plant's copy of the sensor reset with the run) — the run is
+    the offline run bit for bit, the controller reads what the sensor reported offline."""
+    f = tmp_path / "faulty.toml"
+    text = MOTOR.read_text().replace('circuit = "circuit.toml"', f'circuit = "{MOTOR.parent / "circuit.toml"}"')
+    f.write_text(text.replace("duration = 4.5", "duration = 3.0") +
+                 '[[faults]]\ntype = "sensor_offset"\noffset = 5.0\ndrift = 10.0\nstart = 0.5\nend = 1.0\n'
+                 '[[faults]]\ntype = "sensor_stuck"\nstart = 1.2\nend = 1.4\n'
+                 '[[faults]]\ntype = "sensor_dropout"\nstart = 1.6\nend = 1.61\n'
+                 '[[faults]]\ntype = "sensor_noise"\nstd = 1.0\nstart = 2.0\n'
+                 '[[faults]]\ntype = "leak"\nnode = "a"\narea = "0.3 mm2"\nstart = 2.2\nend = 2.6\n'
+                 '[[faults]]\ntype = "parameter"\ntarget = "motor.damping"\nvalue = 0.05\nstart = 2.4\n')
+    r = run_hil(f, tmp_path / "out", lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
+    assert r.comparison["identical"]
+    cs = load_circuit_scenario(f)
+    res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
+    log = read_csv_columns(tmp_path / "out" / "plant_log.csv")
+    for s in cs.layout.states:
+        assert np.array_equal(log[s], res.columns[s]), s
+    ctl = read_csv_columns(tmp_path / "out" / "controller_log.csv")
+    assert np.array_equal(ctl["measured"][:-1], res.columns["motor.w.sensed"][:-1])
+    assert not np.array_equal(res.columns["motor.w.sensed"], res.columns["motor.w"])      # (the faults acted)
+
+
 def test_a_circuit_beyond_the_links_limits_is_refused_before_anything_is_built():
     """One SIGNALS packet carries 176 signals, an INPUTS packet 32 inputs (docs/protocol.md): a circuit with more
     is refused by name (the Python plant, and the export whose C buffers are sized by these limits)."""

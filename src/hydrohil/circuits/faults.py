@@ -18,11 +18,19 @@ step for step, with no fault code of its own.
     value = "40000 N.s/m"
     start = 2.0
 
+    [[faults]]
+    type = "sensor_offset"        # the closed loop's measurement fails (sensor_stuck, sensor_offset with
+    offset = "2 bar"              # offset and drift, sensor_noise with std, sensor_dropout: it reads 0), in
+    drift = 0.0                   # its signal's unit
+    start = 3.0
+
 A leak is an orifice component added to the circuit, its opening a signal driven 0 -> 1 -> 0. A parameter
 fault makes its parameter an input signal of the circuit, held at its value outside the fault and at
 ``value`` inside it; the values derived from it follow as signals of their own (a load's weight from its
 mass, a relief valve's flow gain from its cracking pressure), computed here at each of the drive's values.
 A fault on a signal replaces its drive during the fault. The log shows each as applied (``cyl.damping``).
+A sensor fault acts where the loop reads its signal (the generated C's hc_sensed, the loop's transducer: an
+ideal one when the scenario gives none), in every layer that reads it; the log's ``<measure>.sensed`` shows it.
 """
 
 from __future__ import annotations
@@ -34,9 +42,12 @@ import numpy as np
 
 from hydrohil.errors import InputError
 
-TYPES = ("leak", "parameter")
+SENSOR_FAULTS = ("sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout")   # (hc_sensed's order)
+TYPES = ("leak", "parameter", *SENSOR_FAULTS)
 KEYS = {"leak": {"type", "orifice", "node", "area", "to", "discharge_coefficient", "start", "end"},
-        "parameter": {"type", "target", "value", "start", "end"}}
+        "parameter": {"type", "target", "value", "start", "end"},
+        "sensor_stuck": {"type", "start", "end"}, "sensor_offset": {"type", "offset", "drift", "start", "end"},
+        "sensor_noise": {"type", "std", "start", "end"}, "sensor_dropout": {"type", "start", "end"}}
 
 
 def _number(v, key: str, where: str, source: str, unit: str = "s") -> float:
@@ -109,14 +120,16 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
         where = f"faults[{i}]"
         kind = f.get("type")
         if kind not in TYPES:
-            raise InputError(f"a circuit's faults are {' and '.join(TYPES)} (a leak at a node, a parameter changed; "
-                             f"the rig's fault types act on the paper's rig), got {kind!r}", source=source,
-                             key=f"{where}.type")
+            raise InputError(f"a circuit's faults are {', '.join(TYPES)} (a leak at a node, a parameter changed, "
+                             f"the loop's sensor failing; the rig's other fault types act on the paper's rig), got "
+                             f"{kind!r}", source=source, key=f"{where}.type")
         unknown = set(f) - KEYS[kind]
         if unknown:
             raise InputError(f"unknown key (keys of a {kind} fault: {', '.join(sorted(KEYS[kind]))})", source=source,
                              key=f"{where}.{sorted(unknown)[0]}")
         start, end = _window(f, where, source)
+        if kind in SENSOR_FAULTS:                 # (the loop's measurement: sensor_faults, once the loop is known)
+            continue
         if kind == "leak":
             node = f.get("node")
             if node not in nodes:
@@ -173,6 +186,36 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
                 driven.add(target)                    # its value as given kept: checked, shown, derived from
         inputs[target] = windowed_drive(base, f["value"], start, end)
     return frozenset(driven)
+
+
+def sensor_faults(faults: list, loop, unit: str, source: str) -> list:
+    """The sensor faults among a scenario's ``faults`` (checked by :func:`apply_faults`), as the loop's
+    sensor takes them: (type, start, end or None, a, b) with an offset [unit] and drift [unit/s], or a noise's
+    standard deviation [unit], in SI (``unit``: the measured signal's)."""
+    out = []
+    for i, f in enumerate(faults):
+        kind = f.get("type")
+        if kind not in SENSOR_FAULTS:
+            continue
+        where = f"faults[{i}]"
+        if loop is None:
+            raise InputError(f"a {kind} acts on the closed loop's measurement: this scenario has no [controller]",
+                             source=source, key=f"{where}.type")
+        start, end = _window(f, where, source)
+        a = b = 0.0
+        if kind == "sensor_offset":
+            a = _number(f.get("offset", 0.0), "offset", where, source, unit)
+            b = _number(f.get("drift", 0.0), "drift", where, source, f"{unit}/s")
+        elif kind == "sensor_noise":
+            if "std" not in f:
+                raise InputError(f"required: the noise's standard deviation [{unit}]", source=source,
+                                 key=f"{where}.std")
+            a = _number(f["std"], "std", where, source, unit)
+            if not a > 0:
+                raise InputError(f"a standard deviation > 0 [{unit}], got {f['std']!r}", source=source,
+                                 key=f"{where}.std")
+        out.append((kind, start, end, a, b))
+    return out
 
 
 def follow_derived(c, source: str) -> None:

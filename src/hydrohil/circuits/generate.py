@@ -476,21 +476,51 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
     return -1;
 }}
 
-/* What the loop's sensor reports of a signal x (SPEC §10): x plus white noise of standard deviation sensor[3]
- * (one normal sample of the generator rng per reading; 0 or rng NULL: none), to the nearest multiple of its
- * quantum sensor[0] (0: ideal; the encoder's rounding, sensors.c), within its range [sensor[1], sensor[2]].
- * sensor NULL: x itself. */
-double hc_sensed(double x, const double *sensor, void *rng)
+/* What the loop's sensor reports of a signal x at step k (SPEC §10): x plus white noise of standard deviation
+ * sensor[3] (one normal sample of the generator rng per reading; 0 or rng NULL: none), to the nearest multiple of
+ * its quantum sensor[0] (0: ideal; the encoder's rounding, sensors.c), within its range [sensor[1], sensor[2]];
+ * and its faults (circuits/faults.py), sensor[4] of them after the head of HC_SENSOR_HEAD doubles (sensor[5]:
+ * the step h), each HC_SENSOR_FAULT doubles (type, first step, step after the last, a, b, memory) active on the
+ * steps k_first <= k < k_end: an offset a + drift b*(t - start) (memory: start) and added noise of standard
+ * deviation a (one more sample) before the transducer's model, stuck at the reading of its first step (memory:
+ * that reading, NaN until then), a dropout reporting 0. sensor NULL: x itself. */
+enum {{ HC_SENSOR_HEAD = 6, HC_SENSOR_FAULT = 6, HC_SENSOR_STUCK = 1, HC_SENSOR_OFFSET, HC_SENSOR_NOISE,
+       HC_SENSOR_DROPOUT }};
+double hc_sensed(double x, double *sensor, void *rng, int64_t k)
 {{
-    double v = x, z;
+    double v = x, z, *stuck = 0;
+    int f, nf, dropout = 0;
     if (!sensor)
         return x;
+    nf = (int)sensor[4];
+    for (f = 0; f < nf; f++) {{
+        double *F = sensor + HC_SENSOR_HEAD + HC_SENSOR_FAULT * f;
+        if ((double)k < F[1] || (double)k >= F[2])
+            continue;
+        switch ((int)F[0]) {{
+        case HC_SENSOR_STUCK: stuck = F; break;
+        case HC_SENSOR_OFFSET: v += F[3] + F[4] * ((double)k * sensor[5] - F[5]); break;
+        case HC_SENSOR_NOISE:
+            if (rng) {{
+                hh_rng_normals((hh_rng *)rng, 1, &z);
+                v += F[3] * z;
+            }}
+            break;
+        default: dropout = 1; break;
+        }}
+    }}
     if (sensor[3] > 0.0 && rng) {{
         hh_rng_normals((hh_rng *)rng, 1, &z);
-        v = x + sensor[3] * z;
+        v = v + sensor[3] * z;
     }}
     v = sensor[0] > 0.0 ? encoder_counts(v, sensor[0]) * sensor[0] : v;
-    return v < sensor[1] ? sensor[1] : v > sensor[2] ? sensor[2] : v;
+    v = v < sensor[1] ? sensor[1] : v > sensor[2] ? sensor[2] : v;
+    if (stuck) {{
+        if (isnan(stuck[5]))
+            stuck[5] = v;
+        v = stuck[5];
+    }}
+    return dropout ? 0.0 : v;
 }}
 
 /* One explicit (sub)step of h from y (modes m) into y1 (node pressures floored, then projected: the modes that
@@ -592,7 +622,7 @@ static int method_step(int method, double h, double *y, int64_t *m, const double
  * non-finite, 2 when h is not the step the state was made for (hc_init) (rows so far written, *rows set). */
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
-           const double *dref, int64_t meas, int64_t cmd, const double *sensor, void *rng, double sign)
+           const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign)
 {{
     double seen[NLOG];
     int64_t step, row = 0;
@@ -603,7 +633,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                 uk[cmd] = uk[cmd - NU];
             log_row((double)step * h, y, m, uk, P, seen);
             uk[cmd] = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
-                                           sign * ref[step], sign * dref[step], sign * hc_sensed(seen[meas], sensor, rng),
+                                           sign * ref[step], sign * dref[step], sign * hc_sensed(seen[meas], sensor, rng, step),
                                            0.0, 0.0);
         }}
         if (step % every == 0)

@@ -66,7 +66,7 @@ class CircuitRig(WatchdogCounters):
         self.y, self.m = self.y0.copy(), self.m0.copy()
         if self.loop is not None:                       # its sensor's noise from its seed again
             self._rng = new_rng(self.loop.seed)
-            self._sensor = self.loop.sensor_args(self.cc, self._rng)
+            self._sensor = self.loop.sensor_args(self.cc, self._rng, self.h)
         self.u = self.u0.copy()                         # the inputs of the last step (applied)
         self._c = [ffi.from_buffer("double[]", self.P), ffi.from_buffer("double[]", self.y),
                    ffi.from_buffer("int64_t[]", self.m), ffi.from_buffer("double[]", self.u),
@@ -165,7 +165,8 @@ class CircuitRig(WatchdogCounters):
         sensor), in the order of ``signals``."""
         values = self.signal_row.tolist()
         if self.loop is not None:
-            values[self._meas - self._t - 1] = self.cc.lib.hc_sensed(float(self.row[self._meas]), *self._sensor)
+            values[self._meas - self._t - 1] = self.cc.lib.hc_sensed(float(self.row[self._meas]), *self._sensor,
+                                                                     self.k)
         return values
 
 

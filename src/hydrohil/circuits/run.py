@@ -3,6 +3,7 @@ the core's explicit methods, its inputs from the circuit's default drive or give
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -211,6 +212,8 @@ class Loop:
     sensor: tuple | None = None         # (quantum, lo, hi, noise) of what the controller reads; None: the signal
     sign: float = 1.0                   # -1: reverse-acting (a larger command lowers the signal)
     seed: int = 0                       # of the sensor's noise (one normal sample per reading)
+    sensor_faults: list = field(default_factory=list)   # (type, start, end or None, a, b): circuits/faults.py
+    h: float | None = None              # the step it is sampled at (its scenario's; start(h) sets it)
 
     def __post_init__(self):
         if self.sensor is not None and len(self.sensor) == 3:     # (quantum, lo, hi): a noiseless sensor
@@ -228,15 +231,32 @@ class Loop:
         from hydrohil.control import BuiltinController
         self.controller = BuiltinController(self.cfg, None, h, limits=self.limits)   # (the law's clamp: in its range)
         self.rng = new_rng(self.seed)
+        self.h = h
 
-    def sensor_args(self, cc, rng=None):
-        """(sensor, rng) as the generated C's hc_sensed / hc_run take them (NULL: an ideal reading); ``rng``: a
+    def sensor_vector(self, h: float) -> list[float]:
+        """The sensor as the generated C's hc_sensed reads it: its transducer (quantum, range, noise), then its
+        faults with their steps at step h (a fresh memory: a stuck sensor not yet stuck)."""
+        from hydrohil.circuits.faults import SENSOR_FAULTS
+        out = [*self.sensor, float(len(self.sensor_faults)), float(h)]
+        for kind, start, end, a, b in self.sensor_faults:
+            k0 = math.ceil(start / h - 1e-9)
+            k1 = math.ceil(end / h - 1e-9) if end is not None else 2.0 ** 62
+            out += [float(SENSOR_FAULTS.index(kind) + 1), float(k0), float(k1), float(a), float(b),
+                    math.nan if kind == "sensor_stuck" else float(start)]
+        return out
+
+    def sensor_args(self, cc, rng=None, h: float | None = None):
+        """(sensor, rng) as the generated C's hc_sensed / hc_run take them (NULL: an ideal reading), a fresh
+        sensor (its faults' memory new, their steps at step ``h``, default the step of :meth:`start`); ``rng``: a
         generator of :func:`new_rng` in place of this loop's own."""
         ffi = cc.ffi
         if self.sensor is None:
             return ffi.NULL, ffi.NULL
         from hydrohil.core import ffi as core_ffi
-        buf = ffi.new("double[4]", list(self.sensor))
+        if h is None and self.h is None:
+            raise ValueError("the loop's sensor needs the step it is read at (Loop.start(h), or h)")
+        vec = self.sensor_vector(self.h if h is None else h)
+        buf = ffi.new(f"double[{len(vec)}]", vec)
         self._sensor_buf = buf                           # (alive while the C reads it)
         return buf, ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng if rng is None else rng)))
 
@@ -443,17 +463,14 @@ def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
     """What the loop's sensor read of the signal ``x`` logged every ``every`` steps: the readings the controller
     got, its noise drawn again from the seed, one sample per step in order (the samples of the steps between
     rows drawn and left)."""
-    from hydrohil.core import lib as core
     generator = new_rng(loop.seed)
     sensor, rng = loop.sensor_args(cc, generator)
-    noisy = loop.sensor[3] > 0.0
-    skip = cc.ffi.new("double[1]")
     out = np.empty(len(x))
     for i, v in enumerate(x):
-        out[i] = cc.lib.hc_sensed(float(v), sensor, rng)
-        if noisy and i + 1 < len(x):
-            for _ in range(every - 1):
-                core.hh_rng_normals(generator, 1, skip)
+        out[i] = cc.lib.hc_sensed(float(v), sensor, rng, i * every)
+        if i + 1 < len(x):                 # the readings between rows: their draws and a fault's first reading
+            for j in range(1, every):      # (of the row's value: exact when every row is logged)
+                cc.lib.hc_sensed(float(v), sensor, rng, i * every + j)
     return out
 
 
@@ -486,7 +503,7 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         sensor, rng = loop.sensor_args(cc)
 
         def control(k, row):
-            u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng))
+            u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng, k))
             if seen is not None:
                 u_seen[k] = seen(u[k])
 

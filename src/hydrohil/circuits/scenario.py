@@ -180,6 +180,17 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
         if not isinstance(v, bool):
             raise InputError(f"true or false, got {v!r}", source=source, key=key)
     loop = _loop(data, c, source)
+    if loop is not None:
+        loop.h = float(h)                         # (sampled at the scenario's step)
+    if data.get("faults"):                        # the loop's sensor failing (an ideal one to fail if none given)
+        from hydrohil.circuits.build import compile_circuit
+        from hydrohil.circuits.faults import sensor_faults
+        units = {**{f"{n}.p": "Pa" for n in c.nodes}, **dict(compile_circuit(c).layout.outputs)}
+        found = sensor_faults(data["faults"], loop, units.get(loop.measure, "-") if loop else "-", source)
+        if found:
+            loop.sensor_faults = found
+            if loop.sensor is None:
+                loop.sensor = (0.0, -1e300, 1e300, 0.0)
     if loop is not None and loop.command in given:
         raise InputError(f"{loop.command} is the closed loop's command (its controller drives it): a value set "
                          "for it would be overridden", source=source if loop.command in data.get("set", {}) else

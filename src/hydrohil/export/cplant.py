@@ -287,7 +287,9 @@ def circuit_plant_h(cs) -> str:
     lines += arr("double", "CIRCUIT_DRIVE_VALUE", [v for _, _, v in changes])
     lines += arr("double", "CIRCUIT_LO", [p.lo for p in prm])
     lines += arr("double", "CIRCUIT_HI", [p.hi for p in prm])
-    lines += arr("double", "CIRCUIT_SENSOR", list(loop.sensor) if loop is not None and loop.sensor else [0.0] * 4)
+    sensor = loop.sensor_vector(cs.step) if loop is not None and loop.sensor else [0.0] * 6
+    lines += [f"enum {{ CIRCUIT_SENSOR_N = {len(sensor)} }};   /* hc_sensed's sensor: its transducer, its faults */"]
+    lines += arr("double", "CIRCUIT_SENSOR", sensor)
     lines += arr("char *const", "CIRCUIT_STATE_NAMES", list(lay.states), q)
     lines += arr("char *const", "CIRCUIT_MODE_NAMES", list(lay.modes), q)
     lines += arr("char *const", "CIRCUIT_MODE_WORDS", words, q)

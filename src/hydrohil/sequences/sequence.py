@@ -11,7 +11,7 @@ Format (``examples/sequences/``)::
     name = "P control holds the load through a hose burst"    # default: the file's stem
     scenario = "../faults/hose_burst.toml"    # path (relative to this file) or built-in experiment name; a
                                               # scenario naming a circuit: actions step/ramp (value), set and
-                                              # its faults leak and parameter (hydrohil.circuits.faults)
+                                              # its faults (leak, parameter, sensor_*: circuits/faults.py)
     duration = 6.0                            # optional: replaces the scenario's
     [set]                                     # optional: parameter values (dotted keys, SI units)
     "load.mass" = 120.0
@@ -120,13 +120,14 @@ class SetAction(_Action):
 
 
 class CircuitFaultAction(StrictModel):
-    """A circuit's fault (hydrohil.circuits.faults: a leak, a parameter changed) from ``at`` until ``until``:
+    """A circuit's fault (hydrohil.circuits.faults: a leak, a parameter changed, the loop's sensor failing) from
+    ``at`` until ``until``:
     the scenario's ``[[faults]]`` entry it becomes, checked as one."""
     model_config = {"extra": "allow"}
     name: str | None = Field(None, min_length=1, max_length=100)
     at: float = Field(ge=0, le=3600, description="time the fault starts [s]")
     until: float | None = Field(None, gt=0, le=3600, description="time it is cleared [s] (omit: never)")
-    type: Literal["leak", "parameter"]
+    type: Literal["leak", "parameter", "sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout"]
 
     @model_validator(mode="after")
     def _keys(self):
@@ -143,7 +144,8 @@ class CircuitFaultAction(StrictModel):
 
 
 CircuitAction = Annotated[Union[CircuitStep, CircuitRamp, SetAction, CircuitFaultAction], Field(discriminator="type")]
-CIRCUIT_ACTIONS = ("step", "ramp", "set", "leak", "parameter")
+CIRCUIT_ACTIONS = ("step", "ramp", "set", "leak", "parameter", "sensor_stuck", "sensor_offset", "sensor_noise",
+                   "sensor_dropout")
 
 
 class Sequence(StrictModel):
@@ -165,8 +167,8 @@ def _circuit_action(i: int, table: dict, source: str):
     try:
         return TypeAdapter(CircuitAction).validate_python(table)
     except ValidationError as exc:
-        key, msg = format_validation_error(exc, {"step": CircuitStep, "ramp": CircuitRamp, "set": SetAction,
-                                                 "leak": CircuitFaultAction, "parameter": CircuitFaultAction}[kind])
+        key, msg = format_validation_error(exc, {"step": CircuitStep, "ramp": CircuitRamp, "set": SetAction}.get(
+            kind, CircuitFaultAction))
         key = (key or "").removeprefix(f"{kind}.")
         raise InputError(msg, source=source, key=f"actions[{i}]" + (f".{key}" if key else "")) from None
 

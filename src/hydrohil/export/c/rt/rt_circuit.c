@@ -21,7 +21,7 @@
 /* the generated circuit's per-step interface (circuit.c) */
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row);
-double hc_sensed(double x, const double *sensor, void *rng);
+double hc_sensed(double x, double *sensor, void *rng, int64_t k);
 
 static struct {
     double P[CIRCUIT_NP], y[CIRCUIT_NY], u[CIRCUIT_NU], row[CIRCUIT_NLOG];
@@ -38,6 +38,7 @@ static struct {
     uint32_t status;                  /* of the last sensor packet (logged) */
     hh_watchdog link;
     hh_rng rng;                       /* the loop's sensor noise (seeded at each reset) */
+    double sensor[CIRCUIT_SENSOR_N];  /* its sensor and faults (a stuck one's memory: new at each reset) */
     double logrow[LOG_HEAD + CIRCUIT_NSIGNALS + CIRCUIT_NINPUTS];
 } C;
 
@@ -77,6 +78,7 @@ void model_reset(plant *pl)
     C.status = 0;
     hh_watchdog_init(&C.link);
     hh_rng_seed(&C.rng, CIRCUIT_SENSOR_SEED);
+    memcpy(C.sensor, CIRCUIT_SENSOR, sizeof C.sensor);
     row_now(0.0);
 }
 
@@ -176,8 +178,8 @@ void model_send_sensor(plant *pl, int64_t k, uint32_t status)
     size_t n;
     memcpy(values, C.row + CIRCUIT_LOG_T + 1, sizeof values);   /* the signals: every column after time */
     if (CIRCUIT_MEASURE > 0)                        /* the loop's signal through its sensor */
-        values[CIRCUIT_MEASURE - CIRCUIT_LOG_T - 1] = hc_sensed(C.row[CIRCUIT_MEASURE], CIRCUIT_HAS_SENSOR ? CIRCUIT_SENSOR : NULL,
-                                                &C.rng);
+        values[CIRCUIT_MEASURE - CIRCUIT_LOG_T - 1] = hc_sensed(C.row[CIRCUIT_MEASURE], CIRCUIT_HAS_SENSOR ? C.sensor : NULL,
+                                                                  &C.rng, k);
     status |= (pl->o->lockstep ? HH_ST_LOCKSTEP : 0U) | (C.link.active ? HH_ST_WATCHDOG : 0U) |
               (C.saturated ? HH_ST_SATURATED : 0U);
     C.status = status;
