@@ -14,7 +14,7 @@ from hydrohil.circuits.paper import paper_circuit
 from hydrohil.circuits.run import Loop, simulate_circuit
 from hydrohil.circuits.scenario import load_circuit_scenario
 from hydrohil.errors import InputError
-from hydrohil.parameters import load_parameters
+from hydrohil.parameters import load_parameters, replace_values
 
 K = (-2.136, 1.602e-2, 4.561, -8.084e-2, 1.563e-2)          # the paper's eq 3 coefficients (§3.1.2)
 KT = (-2.145, 7.276e-3, 4.602, -4.208e-2, 1.092e-2)
@@ -160,6 +160,37 @@ def test_the_builtin_ferreira2004_circuit_is_the_parameter_set():
         for k, v in comp.values.items():
             w = b.components[name].values[k]
             assert v == w or (v != v and w != w), (name, k, v, w)
+
+
+def test_a_parameter_set_names_its_rig_as_a_circuit_in_any_install(tmp_path, monkeypatch):
+    """Without the examples folder (an installed package), the circuit ``ferreira2004`` is the built-in parameter
+    set's rig (the cache's file of paper_circuit's tables: every value equal); a parameter file stands for its
+    own rig, in `circuit show` and in a scenario's ``circuit = ...`` (the paper's Fig 11 loop on it runs as the
+    example's with the file's values)."""
+    import hydrohil.circuits.circuit as circuit_module
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.parameters import save_parameters
+    monkeypatch.setattr(circuit_module, "CIRCUITS_DIR", tmp_path / "no-examples")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    a = paper_circuit(load_parameters("ferreira2004"))
+    b = load_circuit("ferreira2004")
+    assert str(tmp_path / "cache") in b.source and b.name == "ferreira2004"
+    for name, comp in a.components.items():
+        for k, v in comp.values.items():
+            w = b.components[name].values[k]
+            assert v == w or (v != v and w != w), (name, k, v, w)
+    mine = replace_values(load_parameters("ferreira2004"), {"load.mass": 25.0})
+    save_parameters(mine, tmp_path / "mine.toml")
+    c = load_circuit(tmp_path / "mine.toml")
+    assert c.name == "mine" and c.components["cyl"].values["mass"] == 25.0
+    scen = tmp_path / "fig11.toml"
+    text = (CIRCUITS_DIR / "ferreira2004" / "scenario.toml").read_text()
+    scen.write_text(text.replace('circuit = "circuit.toml"', 'circuit = "mine.toml"'))
+    cs = load_circuit_scenario(scen)
+    assert cs.circuit.components["cyl"].values["mass"] == 25.0 and cs.loop is not None
+    scen.write_text(text.replace('circuit = "circuit.toml"', 'circuit = "nowhere"'))
+    with pytest.raises(InputError, match="no circuit 'nowhere'.*built-in: ferreira2004"):
+        load_circuit_scenario(scen)
 
 
 def test_a_pump_and_accumulator_supply_sags_and_recovers_under_the_servo_loop():

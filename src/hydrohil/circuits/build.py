@@ -14,6 +14,7 @@ import tempfile
 from pathlib import Path
 
 from hydrohil.circuits.circuit import Circuit
+from hydrohil.circuits.cache import cache_dir
 from hydrohil.circuits.generate import Layout, generate
 from hydrohil.errors import HydrohilError
 
@@ -38,11 +39,6 @@ void hc_row(const double *P, const double *y, const int64_t *m, const double *u,
 void hc_reference_rhs(const double *P, const double *y, const double *u, double *dy);
 void hc_reference_row(const double *P, const double *y, const double *u, double t, double *row);
 """
-
-
-def cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "hydrohil" / "circuits"
 
 
 class CompiledCircuit:

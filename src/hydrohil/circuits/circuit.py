@@ -120,21 +120,49 @@ def _err(source: str, where: str, message: str) -> InputError:
     return InputError(message, source=source, key=where)
 
 
-def load_circuit(path: str | Path) -> Circuit:
-    """A circuit from a file, or a built-in one by name (``examples/circuits/<name>/circuit.toml``)."""
-    p = Path(path)
-    if not p.suffix and not p.exists():
-        p = CIRCUITS_DIR / str(path) / "circuit.toml"
-    if p.is_dir():
+def builtin_circuits() -> list[str]:
+    """The circuits known by name: the example circuits (``examples/circuits/<name>/``, a checkout's) and the
+    parameter sets (``ferreira2004``: the paper's rig as a circuit, in any install)."""
+    from hydrohil.parameters import builtin_names
+    examples = [d.name for d in CIRCUITS_DIR.iterdir() if (d / "circuit.toml").is_file()] \
+        if CIRCUITS_DIR.is_dir() else []
+    return sorted({*examples, *builtin_names()})
+
+
+def circuit_path(name: str | Path, base: Path | None = None, source: str = "", key: str | None = None) -> Path:
+    """The circuit file a name stands for: a file or a folder holding circuit.toml (relative to ``base``, default
+    the working folder), an example circuit by name, or a parameter set — a built-in name or a parameter file of
+    the paper's shape — as its rig's circuit (:func:`hydrohil.circuits.parameter_set.paper_circuit_file`).
+    InputError naming ``source`` and ``key`` otherwise."""
+    from hydrohil.circuits.parameter_set import paper_circuit_file
+    from hydrohil.parameters import builtin_names
+    p = (base or Path.cwd()) / name
+    if p.is_dir() and (p / "circuit.toml").is_file():
         p = p / "circuit.toml"
+    if p.is_file():
+        try:
+            data = tomllib.loads(p.read_text())
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError):
+            return p.resolve()                       # (its loader says what is wrong)
+        if "components" not in data and {"spool", "valve", "cylinder"} & set(data):
+            return paper_circuit_file(p.resolve())   # a parameter file: its rig
+        return p.resolve()
+    example = CIRCUITS_DIR / str(name) / "circuit.toml"
+    if example.is_file():
+        return example
+    if str(name) in builtin_names():
+        return paper_circuit_file(str(name))
+    raise InputError(f"no circuit {str(name)!r}: not a file{f' (relative to {base})' if base else ''} nor a built-in "
+                     f"circuit (built-in: {', '.join(builtin_circuits())}; a parameter file stands for its rig)",
+                     source=source or str(p), key=key)
+
+
+def load_circuit(path: str | Path) -> Circuit:
+    """A circuit from a file, or a built-in one by name (:func:`circuit_path`)."""
+    p = circuit_path(path)
     source = str(p)
     try:
         data = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        names = sorted(d.name for d in CIRCUITS_DIR.iterdir() if (d / "circuit.toml").is_file()) \
-            if CIRCUITS_DIR.is_dir() else []
-        raise InputError(f"no such circuit file (built-in circuits: {', '.join(names) or 'none'})",
-                         source=source) from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"not valid TOML: {exc}", source=source) from None
     return circuit_from_dict(data, source)

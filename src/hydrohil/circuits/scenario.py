@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
-from hydrohil.circuits.circuit import CIRCUITS_DIR, Circuit, circuit_from_dict
+from hydrohil.circuits.circuit import Circuit, circuit_from_dict, circuit_path
 from hydrohil.circuits.faults import apply_faults, follow_derived
 from hydrohil.circuits.run import SOLVERS, Loop
 from hydrohil.errors import InputError
@@ -98,18 +98,9 @@ def is_circuit_scenario(path: str | Path) -> bool:
 
 
 def circuit_file(name: str, base: Path, source: str = "") -> Path:
-    """The file of a circuit named in a scenario: a path relative to the scenario's folder, or a built-in."""
-    p = base / name                       # (an absolute name stays itself)
-    if p.is_file():
-        return p.resolve()
-    if p.is_dir() and (p / "circuit.toml").is_file():
-        return (p / "circuit.toml").resolve()
-    builtin = CIRCUITS_DIR / name / "circuit.toml"
-    if builtin.is_file():
-        return builtin
-    names = sorted(d.name for d in CIRCUITS_DIR.iterdir() if (d / "circuit.toml").is_file())
-    raise InputError(f"no circuit {name!r}: not a file (relative to {base}) nor a built-in circuit (built-in: "
-                     f"{', '.join(names)})", source=source or str(base), key="circuit")
+    """The file of a circuit named in a scenario: a path relative to the scenario's folder, or a built-in
+    (:func:`hydrohil.circuits.circuit.circuit_path`)."""
+    return circuit_path(name, base, source or str(base), key="circuit")
 
 
 def load_circuit_scenario(path: str | Path, *, solver: str | None = None, step: float | None = None,
