@@ -718,3 +718,22 @@ def test_two_motors_on_one_shaft_turn_as_one_inertia():
     assert r.column("a.p")[-1] == pytest.approx(dp, rel=2e-13)                # (measured: 7e-14)
     assert r.column("m1.q")[-1] == pytest.approx(d1 * w / (2 * math.pi), rel=3e-14)
     assert abs(r.column("drum.net_torque")[-1]) < 1e-11                       # N.m (measured: 3e-12)
+
+
+def test_a_43_valve_from_its_catalogue_flow_at_its_rated_drop():
+    """The textbook 4/3 valve given as catalogues give it: rated_flow through one edge fully open at rated_drop
+    (40 l/min at 35 bar per edge): fully open against a fixed 35 bar across P->A it passes 40 l/min (closed
+    form), and it is the valve of the equivalent area gradient Q/(x_max*Cq*sqrt(2*dp/rho)); one form only."""
+    def valve(**form):
+        return circuit({"src": {"type": "pressure_source", "p": "s", "pressure": "35 bar"},
+                        "tank": {"type": "tank", "p": "t"},
+                        "v": {"type": "valve_43", "P": "s", "T": "t", "A": "t", "B": "t", "x_max": "1 mm",
+                              "wn": 400.0, "command": 1.0, "leakage_opening": 0.0, **form}})
+    q = at_start(valve(rated_flow="40 l/min", rated_drop="35 bar"), "v.q_pa")
+    assert q == pytest.approx(40e-3 / 60, rel=1e-15)                        # (measured: 2.2e-16)
+    gradient = (40e-3 / 60) / (1e-3 * 0.67 * math.sqrt(2 * 35e5 / RHO))
+    assert at_start(valve(area_gradient=gradient), "v.q_pa") == pytest.approx(q, rel=1e-15)
+    for form in ({}, {"area_gradient": gradient, "rated_flow": "40 l/min", "rated_drop": "35 bar"},
+                 {"rated_flow": "40 l/min"}):
+        with pytest.raises(InputError, match="components.v: give area_gradient, or the catalogue's rated_flow"):
+            valve(**form)

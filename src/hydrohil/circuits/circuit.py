@@ -431,6 +431,11 @@ def cross_check(ctype: ComponentType, v: dict) -> str | None:
             return "area_b (the annulus) must be smaller than area_a"
         if not v["x0"] <= v["stroke"]:
             return f"x0 ({v['x0']:g} m) must be within the stroke ({v['stroke']:g} m)"
+    if ctype.name in ("valve_43", "valve_63"):
+        gradient, catalogue = v["area_gradient"] == v["area_gradient"], [v[k] == v[k] for k in ("rated_flow",
+                                                                                                  "rated_drop")]
+        if gradient == any(catalogue) or (any(catalogue) and not all(catalogue)):
+            return "give area_gradient, or the catalogue's rated_flow at rated_drop (one of the two)"
     if ctype.name == "counterbalance_valve" and not v["check_rated_pressure"] > v["check_cracking"]:
         return "check_rated_pressure must be above check_cracking"
     if ctype.name in ("relief_valve", "check_valve") and not v["rated_pressure"] > v["cracking_pressure"]:

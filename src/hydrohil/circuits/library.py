@@ -147,7 +147,8 @@ _DERIVE = {"pump": _pump_derive, "relief_valve": _valve_k, "check_valve": _valve
                                              "weight": _weight(v)},
            "load": lambda v: {"weight": _weight(v)},
            "valve_43": lambda v: {"flow_gain": v["discharge_coefficient"] * v["area_gradient"]
-                                  * math.sqrt(2.0 / v["density"])},
+                                  * math.sqrt(2.0 / v["density"]) if v["area_gradient"] == v["area_gradient"]
+                                  else v["rated_flow"] / (v["x_max"] * math.sqrt(v["rated_drop"]))},
            "counterbalance_valve": lambda v: {"check_gain": v["check_rated_flow"] / (v["check_rated_pressure"]
                                                                                      - v["check_cracking"]),
                                               "relief_coefficient": v["rated_flow"] / math.sqrt(v["rated_drop"])}}
@@ -494,7 +495,12 @@ def _valve_params(extra: dict | None = None) -> dict[str, Param]:
     spool's dynamics)."""
     return {"command": Param("-", -1.0, 1.0, "spool command u (or the signal NAME.command)", 0.0),
             "x_max": Param("m", 0.0, 0.05, "spool stroke", lo_strict=True),
-            "area_gradient": Param("m", 0.0, 1.0, "opening per spool travel, w = pi*d*fraction", lo_strict=True),
+            "area_gradient": Param("m", 0.0, 1.0, "opening per spool travel, w = pi*d*fraction (or the catalogue's "
+                                   "rated_flow at rated_drop)", math.nan, lo_strict=True),
+            "rated_flow": Param("m3/s", 0.0, 1.0, "catalogue: flow through one edge fully open (x_max) at rated_drop "
+                                "(in place of area_gradient)", math.nan, lo_strict=True),
+            "rated_drop": Param("Pa", 0.0, 1e9, "catalogue: the pressure drop per edge of rated_flow (often 5, 10 or "
+                                "35 bar)", math.nan, lo_strict=True),
             "discharge_coefficient": Param("-", 0.0, 1.0, "Cq", 0.67, lo_strict=True),
             "lap_pa": Param("m", -0.01, 0.01, "overlap of P->A (< 0: underlap)", 0.0),
             "lap_at": Param("m", -0.01, 0.01, "overlap of A->T", 0.0),
