@@ -525,6 +525,15 @@ def test_circuit_draw_labels_every_component_node_and_signal(tmp_path):
     assert (tmp_path / "two.png").read_bytes()[:4] == b"\x89PNG"
     r = hh("circuit", "draw", "two_cylinders", "--out", tmp_path / "two.jpg")
     assert r.returncode == 2 and ".png or a .svg" in r.stderr and not (tmp_path / "two.jpg").exists()
+    # a scenario's circuit as it runs it: its faults in red, their windows said
+    r = hh("circuit", "draw", "--scenario", CIRCUITS_DIR / "counterbalance_hose_burst" / "scenario.toml", "--out",
+           tmp_path / "cb.svg")
+    assert r.returncode == 0, r.stderr
+    texts = " ".join(t.text or "" for t in ET.parse(tmp_path / "cb.svg").iter() if t.tag.endswith("text"))
+    assert "fault: a leak, from 1.5 s" in texts and "fault: burst opens, from 1.5 s" in texts
+    r = hh("circuit", "draw", "lift_platform", "--out", tmp_path / "lp.svg")
+    texts = " ".join(t.text or "" for t in ET.parse(tmp_path / "lp.svg").iter() if t.tag.endswith("text"))
+    assert r.returncode == 0 and "800 kg, 90°" in texts and texts.count("rod") >= 2      # the rods to the deck
 
 
 def test_names_inputs_and_tables_are_checked_and_a_circuit_without_states_runs():

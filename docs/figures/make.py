@@ -119,7 +119,8 @@ def circuit_figures():
         print("wrote", HERE / file)
     from hydrohil.circuits.draw import draw_circuit
     for name in ("two_cylinders", "counterbalance_hose_burst", "motor_speed", "servo_supply", "lift_platform"):
-        draw_circuit(load_circuit(name), HERE / f"circuit_{name}_diagram.png")
+        scenario = load_circuit_scenario(CIRCUITS / name / "scenario.toml")       # (as it runs: its faults marked)
+        draw_circuit(scenario.circuit, HERE / f"circuit_{name}_diagram.png", faults=scenario.faults)
         print("wrote", HERE / f"circuit_{name}_diagram.png")
 
 

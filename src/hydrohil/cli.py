@@ -384,13 +384,18 @@ def circuit_show(circuit: Optional[str] = typer.Argument(None, help="built-in na
 
 
 @circuit_app.command("draw")
-def circuit_draw(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or circuit TOML"),
-                 out: Path = typer.Option(..., "--out", help="F.png or F.svg")):
-    """The circuit as a labelled diagram (Graphviz): nodes, components with their key figures, ports, signals."""
-    from hydrohil.circuits.circuit import load_circuit
+def circuit_draw(circuit: str | None = typer.Argument(None, help="built-in name (an example circuit or a parameter "
+                                                                  "set) or circuit TOML"),
+                 out: Path = typer.Option(..., "--out", help="F.png or F.svg"),
+                 scenario: Path | None = typer.Option(None, "--scenario", help="a scenario naming its circuit: "
+                                                      "drawn as it runs it, its faults marked")):
+    """The circuit as a labelled diagram (Graphviz): nodes, components with their key figures, ports, signals;
+    with --scenario, the scenario's faults (a leak's orifice, a parameter changed) in red."""
     from hydrohil.circuits.draw import draw_circuit
+    from hydrohil.circuits.scenario import circuit_scenario
     try:
-        typer.echo(f"wrote {draw_circuit(load_circuit(circuit), out)}")
+        cs = circuit_scenario(circuit=circuit, scenario=scenario)
+        typer.echo(f"wrote {draw_circuit(cs.circuit, out, faults=cs.faults)}")
     except HydrohilError as exc:
         fail(exc)
 

@@ -78,8 +78,9 @@ def _figures(comp) -> list[str]:
     return out
 
 
-def draw_circuit(c: Circuit, out: str | Path) -> Path:
-    """Write the diagram of ``c`` to ``out`` (.png or .svg); returns the path."""
+def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None) -> Path:
+    """Write the diagram of ``c`` to ``out`` (.png or .svg); returns the path. ``faults``: its scenario's
+    [[faults]] (hydrohil.circuits.faults), drawn in red: a leak's orifice, a parameter a fault drives."""
     out = Path(out)
     fmt = out.suffix.lstrip(".").lower()
     if fmt not in ("png", "svg"):
@@ -93,6 +94,15 @@ def draw_circuit(c: Circuit, out: str | Path) -> Path:
                        node_attr={"fontname": "Helvetica", "fontsize": "11"},
                        edge_attr={"fontname": "Helvetica", "fontsize": "9", "color": "#3060a0", "penwidth": "1.6",
                                   "arrowhead": "none"})
+    fault_parts, fault_signals = {}, {}
+    for f in faults or []:
+        window = f"from {f.get('start', 0):g} s" + (f" to {f['end']:g} s" if "end" in f else "")
+        if f.get("type") == "leak":
+            name = f.get("orifice", f"leak_{f.get('node')}")
+            fault_parts[name] = f"fault: a leak, {window}"
+            fault_signals[f"{name}.opening"] = f"fault: {name} opens, {window}"
+        elif f.get("type") == "parameter":               # (a sensor's faults act on the loop: not drawn)
+            fault_signals[f.get("target")] = f"fault: {f.get('target')} = {f.get('value')} from {window}"
     for node in c.nodes:
         fixed = f" (fixed by {c.fixed[node][0]})" if node in c.fixed else ""
         g.node(f"n__{node}", label="", xlabel=node + fixed, shape="point", width="0.14", color="#3060a0")
@@ -106,6 +116,9 @@ def draw_circuit(c: Circuit, out: str | Path) -> Path:
         else:
             shape, glyph, extra = STYLE.get(t, ("box", t, {}))
             name = comp.name if glyph in (comp.name, t) and comp.name == glyph else f"{comp.name}\\n{glyph}"
+            if comp.name in fault_parts:                    # a fault's part: red, dashed, its window said
+                shape, extra = "box", {"color": "#c02020", "fontcolor": "#c02020", "style": "dashed,bold"}
+                figures = f"{figures}\\n{fault_parts[comp.name]}"
             g.node(f"c__{comp.name}", label=name + (f"\\n{figures}" if figures else ""), shape=shape, **extra)
         for port, node in comp.ports.items():     # drawn along the flow: supply at the top, tank at the bottom
             into = port in INTO and t != "pressure_source"
@@ -116,8 +129,12 @@ def draw_circuit(c: Circuit, out: str | Path) -> Path:
                    penwidth="1.2")
     for sig in c.inputs:
         comp = sig.split(".", 1)[0]
-        g.node(f"s__{sig}", label=sig, shape="plaintext", fontcolor="#a03030")
-        g.edge(f"s__{sig}", f"c__{comp}", style="dashed", color="#a03030", arrowhead="normal", penwidth="1.0")
+        if sig not in fault_signals and sig.split(".", 1)[1] not in c.components[comp].type.params:
+            continue                                        # (a derived value following a fault's parameter)
+        label = fault_signals.get(sig, sig)
+        colour = "#c02020" if sig in fault_signals else "#a03030"
+        g.node(f"s__{sig}", label=label, shape="plaintext", fontcolor=colour)
+        g.edge(f"s__{sig}", f"c__{comp}", style="dashed", color=colour, arrowhead="normal", penwidth="1.0")
     out.parent.mkdir(parents=True, exist_ok=True)
     g.render(outfile=str(out), cleanup=True)
     return out
