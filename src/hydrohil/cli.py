@@ -180,10 +180,21 @@ def compare_cmd(runs: list[Path] = typer.Argument(..., help="scenario TOMLs (sim
 
 
 @app.command("freqresp")
-def freqresp_cmd(scenario: Path = typer.Argument(..., help="scenario TOML (its parameters, step and controller)"),
+def freqresp_cmd(scenario: Path = typer.Argument(..., help="scenario TOML (its parameters, step and controller), or a "
+                                                 "scenario naming its circuit"),
                  out: Path = typer.Option(Path("hydrohil-freqresp"), "--out", help="output folder"),
-                 amplitude: float = typer.Option(1e-3, help="closed loop: reference amplitude [m]"),
-                 u_amplitude: float = typer.Option(0.02, help="open loop: command amplitude [ū]"),
+                 amplitude: Optional[float] = typer.Option(None, help="closed loop: reference amplitude [m] (default "
+                                                           "1 mm; a circuit's: in its measured signal's SI unit, "
+                                                           "default by unit: 1 mm, 2 rad/s, 1 bar, ...)"),
+                 u_amplitude: Optional[float] = typer.Option(None, help="open loop: command amplitude [ū] (default "
+                                                             "0.02; a circuit's: in its input's SI unit, default 1 % "
+                                                             "of its range)"),
+                 input_: Optional[str] = typer.Option(None, "--input", help="a circuit's open loop: the input it "
+                                                      "drives (default: its loop's command)"),
+                 signal: Optional[str] = typer.Option(None, "--signal", help="a circuit's open loop: the signal "
+                                                      "measured (default: its loop's measured signal)"),
+                 around: Optional[float] = typer.Option(None, "--around", help="a circuit's closed loop: the "
+                                                        "operating point, SI (default: the reference's last value)"),
                  fmin: float = typer.Option(0.5, help="lowest frequency [Hz]"),
                  fmax: float = typer.Option(50.0, help="highest frequency [Hz]"),
                  points: int = typer.Option(15, min=2, max=500, help="frequencies, log-spaced"),
@@ -192,20 +203,41 @@ def freqresp_cmd(scenario: Path = typer.Argument(..., help="scenario TOML (its p
                  params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path)"),
                  sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable)")):
     """Frequency responses of the nonlinear model by stepped sines at periodic steady state (closed loop
-    x/x_ref, open loop x/ū), beside the linear model's: freqresp.csv, bode.png, freqresp.json."""
+    x/x_ref, open loop x/ū; a circuit's: its loop's measured signal per its reference, a signal per an input),
+    beside the linear model's: freqresp.csv, bode.png, freqresp.json."""
+    from hydrohil.circuits.scenario import NO_PARAMETER_SET, is_circuit_scenario, load_circuit_scenario
     from hydrohil.errors import InputError
-    from hydrohil.freqresp import freqresp
+    from hydrohil.freqresp import circuit_freqresp, freqresp
     from hydrohil.simulation.scenario import load_scenario
     loops = {"both": ("closed", "open"), "closed": ("closed",), "open": ("open",)}
     try:
         if loop not in loops:
             raise InputError("expected closed, open or both", source="--loop", key=loop)
-        sc = load_scenario(scenario, params=params, sets=_parse_sets(sets))
+        circuit = is_circuit_scenario(scenario)
+        if circuit:
+            if params is not None:
+                raise InputError(NO_PARAMETER_SET, source="--params")
+            cs = load_circuit_scenario(scenario, sets=_parse_sets(sets))
+            chosen = loops[loop] if loop != "both" or cs.loop is not None else ("open",)
+        elif input_ is not None or signal is not None or around is not None:
+            raise InputError("--input, --signal and --around choose a circuit's responses: this scenario names no "
+                             "circuit", source="--input/--signal/--around")
+        else:
+            sc = load_scenario(scenario, params=params, sets=_parse_sets(sets))
+            chosen = loops[loop]
         from rich.progress import Progress
         with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
-            task = bar.add_task("stepped sines", total=points * len(loops[loop]))
-            s = freqresp(sc, out, fmin=fmin, fmax=fmax, points=points, amplitude=amplitude, u_amplitude=u_amplitude,
-                         loops=loops[loop], workers=workers, progress=lambda k, n: bar.update(task, completed=k))
+            task = bar.add_task("stepped sines", total=points * len(chosen))
+            tick = lambda k, n: bar.update(task, completed=k)   # noqa: E731
+            if circuit:
+                s = circuit_freqresp(cs, out, fmin=fmin, fmax=fmax, points=points, amplitude=amplitude,
+                                     u_amplitude=u_amplitude, loops=chosen, input_=input_, signal=signal,
+                                     around=around, workers=workers, progress=tick)
+            else:
+                s = freqresp(sc, out, fmin=fmin, fmax=fmax, points=points,
+                             amplitude=1e-3 if amplitude is None else amplitude,
+                             u_amplitude=0.02 if u_amplitude is None else u_amplitude, loops=chosen, workers=workers,
+                             progress=tick)
     except HydrohilError as exc:
         fail(exc)
     for name, info in s["loops"].items():

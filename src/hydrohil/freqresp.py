@@ -167,15 +167,27 @@ def freqresp(sc, out: Path, *, fmin: float = 0.5, fmax: float = 50.0, points: in
             results.append(fut.result())
             if progress is not None:
                 progress(len(results), len(jobs))
+    summary = {"scenario": sc.source, "amplitude_m": amplitude, "u_amplitude": u_amplitude}
+    return _report(out, jobs, results, lambda fr, loop: linear_prediction(sc, fr, loop), fmin, fmax, summary,
+                   f"{Path(sc.source).name}: stepped sines, closed-loop ±{amplitude * 1e3:g} mm, "
+                   f"open-loop ±{u_amplitude:g} ū")
+
+
+def _report(out: Path, jobs: list, results: list, linear, fmin: float, fmax: float, summary: dict, title: str,
+            names: dict | None = None) -> dict:
+    """The stepped sines' points (``jobs`` (loop, f) and their ``results``) beside ``linear(freqs, loop)`` (the
+    linear prediction, or None): freqresp.csv, bode.png, freqresp.json in ``out``; the summary (``summary``
+    with each loop's points, bandwidth and gaps to the linear model)."""
     out.mkdir(parents=True, exist_ok=True)
-    rows, summary = [], {"scenario": sc.source, "amplitude_m": amplitude, "u_amplitude": u_amplitude, "loops": {}}
+    rows, summary = [], {**summary, "loops": {}}
     by_loop = {}
+    loops = list(dict.fromkeys(loop for loop, _ in jobs))
     for loop in loops:
         pts = [r for (lp_, _), r in zip(jobs, results) if lp_ == loop]
         fr = np.array([r.freq for r in pts])
-        lin = linear_prediction(sc, fr, loop)
+        lin = linear(fr, loop)
         dense = np.geomspace(fmin, fmax, 200)
-        lin_dense = linear_prediction(sc, dense, loop)
+        lin_dense = linear(dense, loop)
         g = np.array([r.gain for r in pts])
         db = 20 * np.log10(np.abs(g))
         ph = phase_deg(g)
@@ -212,7 +224,207 @@ def freqresp(sc, out: Path, *, fmin: float = 0.5, fmax: float = 50.0, points: in
             fh.write(",".join(repr(float(v)) if isinstance(v, (float, np.floating)) else str(v) for v in r) + "\n")
     from hydrohil.plotting import plot_bode
     from hydrohil.simulation.outputs import write_json
-    plot_bode(out / "bode.png", by_loop, title=f"{Path(sc.source).name}: stepped sines, closed-loop ±{amplitude * 1e3:g} mm, "
-              f"open-loop ±{u_amplitude:g} ū")
+    plot_bode(out / "bode.png", by_loop, title=title, names=names)
     write_json(out / "freqresp.json", summary)
     return summary
+
+
+# ---- any circuit (issue #27): the same stepped sines on its generated loop, its linearisation beside them ----
+# the closed loop's default reference amplitude, per unit of the measured signal
+CIRCUIT_AMPLITUDE = {"m": 1e-3, "m/s": 1e-3, "rad/s": 2.0, "Pa": 1e5, "m3/s": 1e-5, "N": 100.0, "N.m": 1.0}
+
+
+@dataclass
+class CircuitSines:
+    """What a circuit's stepped sines drive and read: the closed loop's reference (around its first value) or
+    an input (around its value at rest, the loop opened), and the signal read (a position through its speed:
+    a cylinder's position integrates, x/u = (v/u)/(jw))."""
+    cs: object
+    loop: str
+    input: str | None             # the open loop's input
+    signal: str                   # the signal whose response is measured
+    read: str                     # the column read (the signal, or its speed)
+    integrate: bool               # read / (jw)
+    amplitude: float
+    centre: float
+    state: tuple                  # (y, m, u) of the operating point (the open loop's: the loop's holding command)
+
+
+SETTLE_S = 2.0       # a closed loop's run holds its reference at the operating point this long before the sine
+
+
+def _held_loop(cs, centre: float, t: np.ndarray, values: np.ndarray):
+    """The scenario's loop with the reference ``centre`` for SETTLE_S, then ``values`` at the times ``t`` after."""
+    import dataclasses
+    ts = np.concatenate(([0.0], SETTLE_S + t))
+    return dataclasses.replace(cs.loop, reference=(ts, np.concatenate(([centre], values))), linear=True,
+                               controller=None)
+
+
+def _circuit_sines(cs, loop: str, amplitude: float | None, input_: str | None, signal: str | None,
+                   around: float | None = None) -> CircuitSines:
+    from hydrohil.circuits.run import simulate_circuit, start_state
+    lay = cs.layout
+    c = cs.circuit
+    if loop == "closed":
+        if cs.loop is None:
+            raise InputError("the closed-loop response needs a [controller] + [reference] scenario", source=cs.source)
+        sig = signal or cs.loop.measure
+        if sig != cs.loop.measure:
+            raise InputError(f"a closed loop's response is its measured signal's ({cs.loop.measure})",
+                             source="--signal")
+        unit = dict(lay.outputs).get(sig, "Pa")
+        amp = amplitude if amplitude is not None else CIRCUIT_AMPLITUDE.get(unit, 1e-3)
+        centre = float(cs.loop.reference[1][-1]) if around is None else float(around)
+        held = {name: float(v) for name, v in zip(lay.inputs, start_state(c, h=cs.step, loop=cs.loop)[2])
+                if name != cs.loop.command}
+        res = simulate_circuit(c, SETTLE_S, h=cs.step, method=cs.method, rest=cs.rest, inputs=held,
+                               loop=_held_loop(cs, centre, np.zeros(1), np.array([centre])))
+        state = (np.array([res.columns[x][-1] for x in lay.states]),
+                 np.array([res.columns[m][-1] for m in lay.modes] or [0], dtype=np.int64),
+                 np.array([res.columns[i][-1] for i in lay.inputs]))
+        return CircuitSines(cs, loop, None, sig, sig, False, amp, centre, state)
+    name = input_ or (cs.loop.command if cs.loop is not None else (lay.inputs[0] if lay.inputs else None))
+    if name not in lay.inputs:
+        raise InputError(f"the input the open loop drives, one of the circuit's: {', '.join(lay.inputs) or 'none'}",
+                         source="--input", key=str(name))
+    sig = signal or (cs.loop.measure if cs.loop is not None else None)
+    if sig is None or sig not in lay.log_columns or sig == "t":
+        raise InputError(f"the signal whose response is measured (a log column of {c.name}: "
+                         f"{', '.join(x for x in lay.log_columns if x != 't')})", source="--signal", key=str(sig))
+    comp, _, var = sig.rpartition(".")
+    integrate = var == "x" and f"{comp}.v" in lay.log_columns
+    prm = c.input_param(name)
+    span = (prm.hi - prm.lo) if np.isfinite(prm.hi - prm.lo) else 1.0
+    amp = amplitude if amplitude is not None else 0.01 * span
+    state = start_state(c, h=cs.step, loop=cs.loop)
+    u0 = float(state[2][lay.inputs.index(name)])
+    return CircuitSines(cs, loop, name, sig, f"{comp}.v" if integrate else sig, integrate, amp, u0, state)
+
+
+def circuit_point(sn: CircuitSines, f: float, *, tol: float = 1e-3, min_periods: int = 6) -> Point:
+    """One stepped-sine point of a circuit (as :func:`point`): the generated loop run from the operating point's
+    rest with the reference or the input a sine, the fundamental of the signal read in the last period."""
+    from hydrohil.circuits.circuit import Drive
+    from hydrohil.circuits.run import MOVING, simulate_circuit
+    from hydrohil.errors import SimulationDiverged
+    cs = sn.cs
+    c, h = cs.circuit, cs.step
+    f = 1.0 / (round(1.0 / (f * h)) * h)
+    w = 2 * np.pi * f
+    periods = max(min_periods, int(math.ceil(0.5 * f)) * 2)
+    stops = {f"{comp.name}.mode": [comp.modes.index("at_retract"), comp.modes.index("at_extend")]
+             for comp in c.components.values() if comp.type.name in MOVING and "at_retract" in comp.modes}
+    lay = cs.layout
+    held = {name: float(sn.state[2][j]) for j, name in enumerate(lay.inputs)      # the other inputs: as at rest
+            if name != (sn.input if sn.loop == "open" else cs.loop.command)}
+    while True:
+        n = int(round(periods / (f * h)))
+        if n > MAX_STEPS:
+            return Point(f, complex("nan"), periods // 2, float("nan"), False, "did not converge")
+        t = np.arange(n + 1) * h
+        sine = sn.centre + sn.amplitude * np.sin(w * t)
+        try:
+            if sn.loop == "closed":                  # (the operating point reached first: SETTLE_S)
+                res = simulate_circuit(c, SETTLE_S + n * h, h=h, method=cs.method, rest=cs.rest,
+                                       loop=_held_loop(cs, sn.centre, t, sine), inputs=held)
+            else:
+                res = simulate_circuit(c, n * h, h=h, method=cs.method, rest=cs.rest,
+                                       inputs={**held, sn.input: Drive(t, sine)})
+        except SimulationDiverged:
+            return Point(f, complex("nan"), periods, float("nan"), False, "diverged")
+        k = int(round(1 / (f * h)))
+        if any(np.any(np.isin(res.column(m)[-2 * k:], at)) for m, at in stops.items()):
+            return Point(f, complex("nan"), periods, float("nan"), False, "reached an end stop")
+        t0 = SETTLE_S if sn.loop == "closed" else 0.0        # (the sine's own time: its phase)
+        log = np.column_stack([res.column("t") - t0, res.column(sn.read)])
+        a, b = _periods(log, f, h, 1)
+        if sn.integrate:
+            a, b = a / (1j * w), b / (1j * w)
+        res_ = abs(a - b) / max(abs(a), 1e-300)
+        if res_ < tol:
+            return Point(f, a / (-1j * sn.amplitude), periods, float(res_), True)
+        periods *= 2
+
+
+def circuit_linear_prediction(sn: CircuitSines, freqs) -> np.ndarray | None:
+    """The circuit linearised at the operating point (:mod:`hydrohil.circuits.linear`): the signal per input
+    C (jw - A)^-1 B + D, held over each step (the zero-order hold) and late by the input's delay line; in closed
+    loop the sampled law around it as the paper's (:func:`linear_prediction`: P, PI, PID, p_ff's feed-forward;
+    the measurement's one-step wait and a sensor's resolution left out). None for another law."""
+    from hydrohil.circuits.linear import linearise_circuit, output_row
+    cs = sn.cs
+    c, h, lay = cs.circuit, cs.step, cs.layout
+    y0, m0, u0 = sn.state
+    lin = linearise_circuit(c, h=h, state=(y0, m0, u0))
+    name = sn.input if sn.loop == "open" else cs.loop.command
+    j = lay.inputs.index(name)
+    C, D = output_row(c, lin, sn.signal, y0, m0, u0)
+    f = np.asarray(freqs, dtype=float)
+    w = 2 * np.pi * f
+    n = len(lin.states)
+    g = np.array([C @ np.linalg.solve(1j * wk * np.eye(n) - lin.A, lin.B[:, j]) + D[j] for wk in w])
+    g = g * (1 - np.exp(-1j * w * h)) / (1j * w * h)
+    if name in lay.delay_params:
+        comp, key = lay.delay_params[name].split(".")
+        g = g * np.exp(-1j * w * c.components[comp].values[key])
+    if sn.loop == "open":
+        return g
+    cfg, s = cs.loop.cfg, cs.loop.sign
+    if cfg.type not in ("p", "pi", "pid", "p_ff"):
+        return None
+    zi = np.exp(-1j * w * h)
+    kp, ki, kd = s * cfg.kp, s * getattr(cfg, "ki", 0.0), s * getattr(cfg, "kd", 0.0)
+    tf, kff = getattr(cfg, "tf", 2e-3), s * getattr(cfg, "kff", 0.0)
+    integ = ki * h * zi / (1 - zi)
+    vel = (1 - zi) / ((tf + h) - tf * zi)
+    return g * (kp + integ + kff * 1j * w) / (1 + (kp + integ + kd * vel) * g)
+
+
+def circuit_freqresp(cs, out: Path, *, fmin: float = 0.5, fmax: float = 50.0, points: int = 15,
+                     amplitude: float | None = None, u_amplitude: float | None = None, loops=("closed", "open"),
+                     input_: str | None = None, signal: str | None = None, around: float | None = None,
+                     workers: int | None = None, progress=None) -> dict:
+    """Stepped-sine responses of a circuit scenario ``cs`` (:class:`hydrohil.circuits.scenario.CircuitScenario`):
+    the closed loop's measured signal per its reference around ``around`` (default: the reference's last value,
+    reached in SETTLE_S first), the open loop's ``signal`` per ``input_`` (default: the loop's command and
+    measured signal) around the state at rest, the other inputs held as at rest; beside the linearised
+    circuit's; the same files as :func:`freqresp`."""
+    if cs.method == "reference":
+        raise InputError("stepped sines run the fixed-step model (solver.method rk3, ...): not the reference",
+                         source=cs.source, key="solver.method")
+    if not 0 < fmin < fmax:
+        raise InputError(f"need 0 < fmin < fmax, got {fmin}, {fmax}", source="--fmin/--fmax")
+    if fmax > 0.25 / cs.step:
+        raise InputError(f"fmax {fmax:g} Hz is above a quarter of the sample rate ({0.25 / cs.step:g} Hz)",
+                         source="--fmax")
+    for a, what in ((amplitude, "--amplitude"), (u_amplitude, "--u-amplitude")):
+        if a is not None and not a > 0:
+            raise InputError(f"an amplitude > 0, got {a}", source=what)
+    sines = {loop: _circuit_sines(cs, loop, amplitude if loop == "closed" else u_amplitude, input_, signal, around)
+             for loop in loops}
+    freqs = np.geomspace(fmin, fmax, points)
+    jobs = [(loop, f) for loop in loops for f in freqs]
+    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
+        futures = [pool.submit(circuit_point, sines[loop], f) for loop, f in jobs]
+        results = []
+        for fut in futures:
+            results.append(fut.result())
+            if progress is not None:
+                progress(len(results), len(jobs))
+    units = {**dict(cs.layout.outputs), **{f"{n}.p": "Pa" for n in cs.circuit.nodes}}
+    names, head = {}, {"scenario": cs.source, "circuit": cs.circuit.name}
+    for loop, sn in sines.items():
+        unit = units.get(sn.signal, "-")
+        if loop == "closed":
+            names[loop] = f"closed loop {sn.signal} / its reference"
+            head["closed"] = {"signal": sn.signal, "amplitude": sn.amplitude, "unit": unit, "around": sn.centre}
+        else:
+            iu = cs.circuit.input_param(sn.input).unit
+            names[loop] = f"open loop {sn.signal} / {sn.input} [{unit} per {iu}]"
+            head["open"] = {"signal": sn.signal, "input": sn.input, "amplitude": sn.amplitude, "unit": iu,
+                            "around": sn.centre, "through_speed": sn.integrate}
+    title = f"{Path(cs.source).name} ({cs.circuit.name}): stepped sines, " + ", ".join(
+        f"{loop} loop ±{sn.amplitude:g} {head[loop]['unit']}" for loop, sn in sines.items())
+    return _report(out, jobs, results, lambda fr, loop: circuit_linear_prediction(sines[loop], fr), fmin, fmax,
+                   head, title, names)

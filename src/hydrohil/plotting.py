@@ -327,14 +327,14 @@ def plot_compare(path: Path, runs, *, title: str = "") -> None:
             title)
 
 
-def plot_bode(path: Path, by_loop: dict, *, title: str = "") -> None:
+def plot_bode(path: Path, by_loop: dict, *, title: str = "", names: dict | None = None) -> None:
     """Bode plots, one column per loop (``by_loop``: loop -> {"freq", "gain_db", "phase_deg", "converged"}
     of the stepped sines of :mod:`hydrohil.freqresp`, and "linear": (frequencies, gain [dB], phase [deg]) of
-    the linear prediction, or None): the nonlinear model's stepped sines as markers (points without a periodic
+    the linear prediction, or None; ``names``: loop -> its panel's title): the nonlinear model's stepped sines as markers (points without a periodic
     steady state, e.g. at an end stop, are left out and counted in the legend), the linear model as a line."""
     loops = list(by_loop)
     fig, ax = plt.subplots(2, len(loops), figsize=(6 * len(loops), 7), sharex="col", squeeze=False)
-    names = {"closed": "closed loop x / x_ref", "open": "open loop x / ū [m per unit ū]"}
+    names = names or {"closed": "closed loop x / x_ref", "open": "open loop x / ū [m per unit ū]"}
     for j, loop in enumerate(loops):
         d = by_loop[loop]
         f, db, ph, ok = d["freq"], d["gain_db"], d["phase_deg"], d["converged"]

@@ -137,6 +137,38 @@ def run_state(cs, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return y, m, u
 
 
+def output_row(c: Circuit, lin: CircuitLinear, column: str, y0, m0, u0) -> tuple[np.ndarray, np.ndarray]:
+    """A log column (a signal) linearised about (y0, m0, u0): its row C (per state) and D (per input) by central
+    differences of the generated log row, y = C·x + D·u."""
+    cc = compile_circuit(c)
+    lay, ffi, lib = cc.layout, cc.ffi, cc.lib
+    P = np.ascontiguousarray(lay.values())
+    col = lay.log_columns.index(column)
+    row = np.zeros(len(lay.log_columns))
+    y0, u0 = np.asarray(y0, dtype=float), np.asarray(u0, dtype=float)
+
+    def g(y, u):
+        lib.hc_row(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", np.ascontiguousarray(y)),
+                   ffi.from_buffer("int64_t[]", np.ascontiguousarray(m0, dtype=np.int64)),
+                   ffi.from_buffer("double[]", np.ascontiguousarray(u)), 0.0, ffi.from_buffer("double[]", row))
+        return row[col]
+    n = len(lin.states)
+    C, D = np.zeros(n), np.zeros(len(lin.inputs))
+    for i in range(n):
+        d = max(STEP_BY_UNIT.get(lin.state_units[i], 1e-9), 1e-6 * abs(y0[i]))
+        hi, lo = y0.copy(), y0.copy()
+        hi[i] += d
+        lo[i] -= d
+        C[i] = (g(hi, u0) - g(lo, u0)) / (2 * d)
+    for j in range(len(lin.inputs)):
+        du = max(1e-6 * max(abs(u0[j]), 1.0), 1e-9)
+        hi, lo = u0.copy(), u0.copy()
+        hi[j] += du
+        lo[j] -= du
+        D[j] = (g(y0, hi) - g(y0, lo)) / (2 * du)
+    return C, D
+
+
 def closed_loop(lin: CircuitLinear, loop, c: Circuit, y0, m0, u0) -> dict:
     """The scenario's loop closed around the linearised circuit, the law taken continuous (its sampling at the
     step, its one-step measurement delay, its sensor's resolution and a delayed command's input delay left out:
@@ -147,33 +179,14 @@ def closed_loop(lin: CircuitLinear, loop, c: Circuit, y0, m0, u0) -> dict:
     tf·v' + v = y' (the sampled law's filter taken continuous): with D = 0, states [x, xi, v] and
     u = -kp·C·x + xi - kd·v. Its eigenvalues: the loop's poles. p_ff's feed-forward acts on the reference only
     (the poles are P's)."""
-    cc = compile_circuit(c)
-    lay, ffi, lib = cc.layout, cc.ffi, cc.lib
+    lay = compile_circuit(c).layout
     cfg = loop.cfg
     if cfg.type not in ("p", "pi", "pid", "p_ff"):
         return {"law": cfg.type, "note": f"no closed-loop poles for a {cfg.type} law"}
-    P = np.ascontiguousarray(lay.values())
-    meas, j = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
-    row = np.zeros(len(lay.log_columns))
-
-    def g(y, u):
-        lib.hc_row(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", np.ascontiguousarray(y)),
-                   ffi.from_buffer("int64_t[]", m0), ffi.from_buffer("double[]", np.ascontiguousarray(u)), 0.0,
-                   ffi.from_buffer("double[]", row))
-        return row[meas]
+    j = lay.inputs.index(loop.command)
+    C, Dall = output_row(c, lin, loop.measure, y0, m0, u0)
+    D = Dall[j]
     n = len(lin.states)
-    C = np.zeros(n)
-    for i in range(n):
-        d = max(STEP_BY_UNIT.get(lin.state_units[i], 1e-9), 1e-6 * abs(y0[i]))
-        hi, lo = y0.copy(), y0.copy()
-        hi[i] += d
-        lo[i] -= d
-        C[i] = (g(hi, u0) - g(lo, u0)) / (2 * d)
-    du = max(1e-6 * max(abs(u0[j]), 1.0), 1e-9)
-    hi, lo = u0.copy(), u0.copy()
-    hi[j] += du
-    lo[j] -= du
-    D = (g(y0, hi) - g(y0, lo)) / (2 * du)
     kp = loop.sign * cfg.kp
     ki = loop.sign * getattr(cfg, "ki", 0.0) if cfg.type in ("pi", "pid") else 0.0
     b = lin.B[:, j]
