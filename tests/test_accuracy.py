@@ -155,9 +155,67 @@ def test_random_scenarios_match_reference(sc):
     # inside the envelope of the issue's limits (loads 20-200 kg, 50-200 bar, Kp 20-100): position within
     # 0.5 mm RMS / 2 mm max; pressures within 3 bar RMS after a 20 ms moving average, since stick-slip
     # and hunting limit cycles make two correct models differ in phase (SPEC §6.1 pitfall 3; raw RMS
-    # exceeded 3 bar in 5 of 120 hand-checked runs, all such limit cycles)
+    # exceeded 3 bar in 5 of 120 hand-checked runs, all such limit cycles). A loop that hunts to the end
+    # (its set-point held over the last second, the reference's position oscillating there by more than 0.1 mm
+    # RMS above 5 Hz, at more than 20 Hz) drifts in phase
+    # against the other model however close they are (seen: 177 kg at 192 bar, Kp 81, both hunting at 46 Hz,
+    # 0.84 / 0.83 mm, means 3 um apart, pointwise 0.51 mm RMS): compared sample by sample until it starts
+    # hunting, then as fig 12's hunting is, by its frequency, size and mean.
     hyb, ref = hybrid_and_reference(sc)
-    ex = hyb.column("xp") - ref.column("xp")
+    t = hyb.column("t")
+    last = t >= t[-1] - 1.0
+    upto = np.ones(t.size, dtype=bool)
+    osc, f_osc = _above_5hz(ref.column("xp")[last], spectrum=True)
+    r = sc.scenario.reference
+    changes = [tk for tk, a, b in zip(r.t[1:], r.x, r.x[1:]) if a != b] if r is not None else [t[-1]]
+    held = sc.scenario.controller is not None and max(changes, default=0.0) <= t[-1] - 1.0
+    if held and osc.std() > 1e-4 and f_osc > 20.0:        # the P loop hunting at its set-point to the end
+        upto = t < _hunting_onset(ref.column("xp"), t)
+        for col, mean_tol in (("xp", 1e-4), ("p1", 1e5), ("p2", 1e5)):
+            (oh, fh), (orf, fr) = (_above_5hz(r.column(col)[last], spectrum=True) for r in (hyb, ref))
+            assert abs(fh - fr) <= 2.0, (col, fh, fr)                         # (one FFT bin: 1 Hz)
+            assert abs(oh.std() / orf.std() - 1) <= 0.2, (col, oh.std(), orf.std())
+            assert abs(hyb.column(col)[last].mean() - ref.column(col)[last].mean()) <= mean_tol, col
+    ex = (hyb.column("xp") - ref.column("xp"))[upto]
     assert rms(ex) <= 0.5e-3 and abs(ex).max() <= 2e-3
     for c in ("p1", "p2"):
-        assert rms(_moving_average(hyb.column(c)) - _moving_average(ref.column(c))) <= 3e5
+        assert rms((_moving_average(hyb.column(c)) - _moving_average(ref.column(c)))[upto[39:]]) <= 3e5  # (valid)
+
+
+def _above_5hz(v, spectrum=False):
+    """The part of v above 5 Hz (its FFT's) and, with ``spectrum``, its dominant frequency [Hz]."""
+    f = np.fft.rfftfreq(v.size, 5e-4)
+    spec = np.fft.rfft(v - v.mean())
+    spec[f < 5.0] = 0.0
+    osc = np.fft.irfft(spec, v.size)
+    return (osc, f[np.argmax(np.abs(spec))]) if spectrum else osc
+
+
+def _hunting_onset(x, t, window=200):
+    """When a loop starts hunting to the end: the first time after which the position's part faster than a
+    20 ms moving average keeps a 0.1 s RMS above 25 um (x's limit cycle)."""
+    hf = x - np.convolve(x, np.ones(40) / 40, mode="same")
+    rolling = np.sqrt(np.convolve(hf ** 2, np.ones(window) / window, mode="same"))
+    quiet = np.nonzero(rolling[: -window // 2] < 25e-6)[0]
+    return t[quiet[-1]] if quiet.size else 0.0
+
+
+@pytest.mark.slow
+def test_a_loop_hunting_to_the_end_is_judged_by_its_cycle():
+    """The case hypothesis found (177 kg at 192 bar, Kp 81, a 62.5 mm step at 1 s): both models hunt at 46 Hz
+    after the step, 0.84 / 0.83 mm RMS, their means 3 um apart; sample by sample they drift apart in phase
+    (0.51 mm RMS over the run: beyond 0.5 mm) — the random test judges it by its cycle, and it passes."""
+    from hydrohil.parameters import load_parameters
+    from hydrohil.simulation.scenario import LoadedScenario, Scenario
+    over = {"load.mass": 177.0, "supply.ps": 19164004.0, "load.gravity_direction": 1, "load.force": 0.0}
+    d = {"params": "ferreira2004", "duration": 3.0, "solver": {"method": "rk3", "step": 5e-4}, "overrides": over,
+         "initial": {"xp": 0.0}, "controller": {"type": "p", "kp": 81.0},
+         "reference": {"type": "table", "t": [0.0, 1.0, 1.0, 3.0], "x": [0.0, 0.0, 0.0625, 0.0625]}}
+    sc = LoadedScenario(scenario=Scenario.model_validate(d), params=load_parameters("ferreira2004", over),
+                        source="hypothesis's case")
+    hyb, ref = hybrid_and_reference(sc)
+    t = hyb.column("t")
+    osc, f = _above_5hz(ref.column("xp")[t >= 2.0], spectrum=True)
+    assert osc.std() > 5e-4 and 40.0 < f < 50.0                               # it hunts (measured: 46 Hz)
+    assert rms(hyb.column("xp") - ref.column("xp")) > 0.5e-3                  # pointwise: the phase drift
+    test_random_scenarios_match_reference.hypothesis.inner_test(sc)
