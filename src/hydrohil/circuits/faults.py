@@ -1,6 +1,7 @@
 """Faults of a circuit scenario (``[[faults]]``): compiled into the circuit itself, so that every layer that
-steps it (simulate, the continuous reference, HIL on both plants, the FMU, test sequences) injects them alike,
-step for step, with no fault code of its own.
+steps it (simulate, the continuous reference, HIL on both plants, test sequences) injects them alike, step for
+step, with no fault code of its own (an FMU exported from the scenario has a leak's opening and a faulted
+parameter as inputs, for its importer to drive).
 
 ::
 
@@ -35,7 +36,6 @@ ideal one when the scenario gives none), in every layer that reads it; the log's
 
 from __future__ import annotations
 
-import copy
 import math
 
 import numpy as np
@@ -241,8 +241,3 @@ def follow_derived(c, source: str) -> None:
             vals = np.array([r[dk] for r in rows], dtype=float)
             if not np.array_equal(vals, np.full_like(vals, comp.values[dk]), equal_nan=True):
                 c.inputs[f"{comp.name}.{dk}"] = Drive(np.array(times), vals)
-
-
-def scenario_faults(data: dict) -> list:
-    """A scenario's [[faults]] tables, copied (the scenario's own stay as written)."""
-    return copy.deepcopy(data.get("faults", []))
