@@ -746,3 +746,33 @@ def test_a_43_valve_from_its_catalogue_flow_at_its_rated_drop():
                  {"rated_flow": "40 l/min"}):
         with pytest.raises(InputError, match="components.v: give area_gradient, or the catalogue's rated_flow"):
             valve(**form)
+
+
+def test_a_load_against_its_force_table_rests_where_the_table_meets_the_piston_force():
+    """A load's force_table over the position (a workpiece met at 50 mm, rising to 20 kN at 60 mm, held beyond):
+    a cylinder at a fixed 50 bar pushes it there and rests where p*A1 = f(x), x = 50 mm + 10 mm * p*A1/20 kN
+    (closed form); the continuous reference rests there too; circuit show lists the table in its units; a table
+    of positions not increasing is refused by key."""
+    p, bore = 50e5, 0.05
+    comps = {"tank": {"type": "tank", "p": "t"}, "src": {"type": "pressure_source", "p": "s", "pressure": p},
+             "c1": {"type": "cylinder", "a": "s", "b": "t", "bore": bore, "rod": 0.028, "stroke": 0.3,
+                    "rod_end": "press"},
+             "press": {"type": "load", "mass": 50.0, "damping": 2e5, "x0": "10 mm",
+                       "force_table": {"x": ["0 mm", "50 mm", "60 mm"], "f": [0.0, 0.0, "20 kN"]}}}
+    c = circuit(comps)
+    assert c.components["press"].tables["force_table"][1][2] == 20e3
+    with pytest.warns(InputWarning, match="press is not held at rest"):
+        r = simulate_circuit(c, 4.0)                       # (the damper against the table's slope: 0.1 s)
+    x_eq = 0.05 + 0.01 * p * math.pi * bore ** 2 / 4 / 20e3
+    assert r.column("press.x")[-1] == pytest.approx(x_eq, rel=1e-13)      # (measured: 2.9e-14)
+    ref = simulate_circuit(c, 4.0, method="reference")
+    assert ref.column("press.x")[-1] == pytest.approx(x_eq, rel=1.5e-10)   # (measured: 4.6e-11, LSODA's)
+    from hydrohil.circuits.show import describe, text
+    out = text(describe(c, h=5e-4))
+    assert "force_table              table: (0 m, 0 N), (0.05 m, 0 N), (0.06 m, 20000 N)" in out
+    comps["press"]["force_table"] = {"x": [0.0, 0.06, 0.05], "f": [0.0, 0.0, 1.0]}
+    with pytest.raises(InputError, match="components.press.force_table.x: positions increasing"):
+        circuit(comps)
+    comps["press"]["force_table"] = {"x": [0.0, "3 bar"], "f": [0.0, 1.0]}
+    with pytest.raises(InputError, match="components.press.force_table.x: '3 bar' is in Pa, m is wanted"):
+        circuit(comps)

@@ -60,6 +60,7 @@ class Component:
     params: dict[str, float] = field(default_factory=dict)   # its parameters (SI) before derivation
     coupled: str | None = None           # the load its rod or shaft drives (rod_end, shaft): its motion is the load's
     actuators: list[str] = field(default_factory=list)        # a load: the actuators coupled to it
+    tables: dict = field(default_factory=dict)                # name -> (x's, values), SI (a load's force_table)
 
     @property
     def load_keys(self) -> tuple[str, ...]:
@@ -243,8 +244,10 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             if key in body:
                 given[key] = str(body[key])
         couplings = {ctype.coupling.key} if ctype.coupling else set()
-        for key in set(body) - set(ctype.params) - set(ctype.ports) - couplings - {"type"}:
-            couplings = f"; coupling: {ctype.coupling.key}" if ctype.coupling else ""
+        tables = {k: _table(body[k], ctype.tables[k], source, f"{where}.{k}") for k in ctype.tables if k in body}
+        for key in set(body) - set(ctype.params) - set(ctype.ports) - couplings - set(ctype.tables) - {"type"}:
+            couplings = (f"; coupling: {ctype.coupling.key}" if ctype.coupling else "") + \
+                (f"; tables: {', '.join(ctype.tables)}" if ctype.tables else "")
             raise _err(source, f"{where}.{key}", f"not a parameter of a {ctype.name} (parameters: "
                                                  f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)}"
                                                  f"{couplings})")
@@ -259,7 +262,7 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
                 raise _err(source, where, f"node {node!r} is already fixed by {fixed[node][0]} (one tank or pressure "
                                           "source per node)")
             fixed[node] = (name, ctype.fixes)
-        components[name] = Component(name, ctype, ports, values, given, params, coupled)
+        components[name] = Component(name, ctype, ports, values, given, params, coupled, tables=tables)
     _couple(components, source)
     node_volumes = {}
     for node, body in data.get("nodes", {}).items():
@@ -293,6 +296,27 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             raise _err(source, f"nodes.{node}", "this node has no volume: give [nodes.NAME] volume = ... or attach a "
                                                 "hose or a volume")
     return c
+
+
+def _table(t, spec: tuple, source: str, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """A component's table {x = [...], f = [...]} in SI (``spec``: x's unit, the values' unit): at least two
+    points, x increasing."""
+    x_unit, f_unit, _ = spec
+    if not isinstance(t, dict) or set(t) != {"x", "f"} or not isinstance(t["x"], list) or \
+            not isinstance(t["f"], list) or len(t["x"]) != len(t["f"]) or len(t["x"]) < 2:
+        raise _err(source, where, f"a table {{x = [...] ({x_unit}), f = [...] ({f_unit})}} of at least two points, "
+                                  "one length")
+    try:
+        xs = np.array([to_si(v, x_unit) for v in t["x"]])
+    except ValueError as exc:
+        raise _err(source, f"{where}.x", str(exc)) from None
+    try:
+        fs = np.array([to_si(v, f_unit) for v in t["f"]])
+    except ValueError as exc:
+        raise _err(source, f"{where}.f", str(exc)) from None
+    if np.any(np.diff(xs) <= 0):
+        raise _err(source, f"{where}.x", "positions increasing")
+    return xs, fs
 
 
 def _couple(components: dict[str, Component], source: str) -> None:

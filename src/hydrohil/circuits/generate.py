@@ -28,6 +28,9 @@ class Layout:
         for comp in c.components.values():
             for k, v in comp.values.items():
                 self.params.append((f"{comp.name}.{k}", math.nan if v is None else float(v)))
+            for name, (xs, fs) in comp.tables.items():       # a table's points: its x's, then its values
+                self.params += [(f"{comp.name}.{name}.x[{i}]", float(x)) for i, x in enumerate(xs)]
+                self.params += [(f"{comp.name}.{name}.f[{i}]", float(f)) for i, f in enumerate(fs)]
         for node in c.nodes:
             self.params.append((f"node.{node}.volume", c.node_volumes.get(node, 0.0)))   # its own; + components
         self.slot = {k: i for i, (k, _) in enumerate(self.params)}
@@ -68,6 +71,14 @@ class _View:
     def dx(self, state: str) -> str:
         """its state's derivative in the right-hand side (computed before the nodes' rates)"""
         return f"dy[{self.lay.states.index(self.moving + '.' + state)}]"
+
+    def table(self, name: str) -> str | None:
+        """A table's C arguments (its x's, its values, its length) in P, or None when the file gives none."""
+        if name not in self.comp.tables:
+            return None
+        n = len(self.comp.tables[name][0])
+        slot = self.lay.slot
+        return f"&P[{slot[f'{self.comp.name}.{name}.x[0]']}], &P[{slot[f'{self.comp.name}.{name}.f[0]']}], {n}"
 
     def coupled_views(self) -> list:
         """The views of the actuators coupled to this load (their rod_end or shaft), in netlist order."""

@@ -97,6 +97,7 @@ class ComponentType:
     states: tuple[tuple[str, str], ...] = ()    # (name, SI unit) of its own states
     derived: tuple[tuple[str, str], ...] = ()   # (key, SI unit) of values derived from the parameters
     coupling: "Coupling | None" = None   # an optional mechanical coupling: its rod or shaft driving a load
+    tables: dict = field(default_factory=dict)   # optional tables: name -> (x's SI unit, value's SI unit, what)
 
     def derive(self, v: dict[str, float]) -> dict[str, float]:
         return _DERIVE.get(self.name, lambda v: {})(v)
@@ -263,10 +264,11 @@ def _motion(c, force: str, stroke: str) -> Emit:
 
 def _load_forces(c) -> str:
     """The forces of a load on the rod [N], + opposing extension: viscous friction, the external force, the
-    spring and the weight."""
+    spring, the weight and its force table over the position (a load's ``force_table``)."""
     x, v = c.x("x"), c.x("v")
+    table = c.table("force_table")
     return (f"{c.par('damping')} * {v} + {c.par('force')} + {c.par('spring')} * ({x} - {c.par('spring_x0')}) + "
-            f"{c.par('weight')}")
+            f"{c.par('weight')}" + (f" + hc_table({x}, {table})" if table else ""))
 
 
 def _chambers(c) -> Emit:
@@ -598,7 +600,10 @@ TYPES: dict[str, ComponentType] = {t.name: t for t in (
                   "end stops as modes", (),
                   {k: v for k, v in _cylinder_params("").items() if k in ROD.load_keys},
                   modes=_STOPS, inputs=("force",), states=_PISTON,
-                  derived=(("weight", "N"),)),
+                  derived=(("weight", "N"),),
+                  tables={"force_table": ("m", "N", "force opposing extension over the position: {x = [...], "
+                                                   "f = [...]}, linear between the points, held beyond them (a "
+                                                   "workpiece, a spring's curve)")}),
     ComponentType("valve_43", "4/3 proportional valve by geometry: spool lag (wn, xi), an opening per edge",
                   ("P", "T", "A", "B"), _valve_params(), inputs=("command",), states=(("x", "m"), ("v", "m/s")),
                   derived=(("flow_gain", "m2/s/sqrt(Pa)"),)),

@@ -40,8 +40,10 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
                and k not in comp.load_keys]                           # (a coupled actuator's: its load's)
         couplings = {comp.type.coupling.key: comp.coupled} if comp.coupled else \
             {"driven_by": comp.actuators} if comp.actuators else {}
+        tables = {name: {"x": xs.tolist(), "f": fs.tolist(), "x_unit": comp.type.tables[name][0],
+                         "f_unit": comp.type.tables[name][1]} for name, (xs, fs) in comp.tables.items()}
         comps.append({"name": comp.name, "type": comp.type.name, "description": comp.type.description,
-                      "ports": comp.ports, "couplings": couplings, "parameters": prm,
+                      "ports": comp.ports, "couplings": couplings, "parameters": prm, "tables": tables,
                       "derived": [{"key": k, "value": comp.values[k], "unit": u} for k, u in comp.type.derived
                                   if not (comp.coupled and k == "weight")],         # (its load's)
                       "modes": list(comp.modes)})
@@ -103,6 +105,9 @@ def text(d: dict) -> str:
             out.append(f"    {p['key']:<24} {value:>12} {p['unit']:<10} {p['description']}{given}{sig}")
         for x in comp["derived"]:
             out.append(f"    {x['key']:<24} {x['value']:>12.6g} {x['unit']:<10} derived")
+        for name, tb in comp["tables"].items():
+            points = ", ".join(f"({x:g} {tb['x_unit']}, {f:g} {tb['f_unit']})" for x, f in zip(tb["x"], tb["f"]))
+            out.append(f"    {name:<24} table: {points}")
     out += ["", f"nodes (stiffness over a run of {d['stiffness_run']}, {d['method']} at {d['step_s'] * 1e3:g} ms):"]
     for n in d["nodes"]:
         if "fixed_by" in n:

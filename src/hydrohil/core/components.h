@@ -16,6 +16,7 @@
 #include "hc_accumulator.h"
 #include "hc_hose.h"
 #include "hc_end_stops.h"
+#include "hc_load.h"
 #include "hc_motor.h"
 #include "hc_valve_43.h"
 #include "hc_counterbalance.h"
