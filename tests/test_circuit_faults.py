@@ -255,3 +255,36 @@ def test_sensor_faults_act_where_the_loop_reads_its_signal(tmp_path):
                                                                                      # -0.016; seeded)
     again = run(cs)                                      # the same draws: the seed's
     assert np.array_equal(again.column("motor.w.sensed"), seen)
+
+
+def test_a_parameter_faults_schedule_is_not_steered_and_errors_name_the_fault(tmp_path):
+    """The live panel's view of a scenario with a parameter fault whose derived value follows it (a load's mass,
+    its weight): built, the fault's inputs not offered to hold, the component's parameters not offered to set,
+    and such events refused by name; a fault on a drive whose times carry units; a fault on a coupled
+    cylinder's load key named as the load's."""
+    from hydrohil.panel.views import circuit_view
+    from hydrohil.simulation.steering import parse_event
+    src = CIRCUITS_DIR / "lift_platform"
+    f = tmp_path / "lp.toml"
+    text = (src / "scenario.toml").read_text().replace('circuit = "circuit.toml"', f'circuit = "{src / "circuit.toml"}"')
+    f.write_text(text + '[[faults]]\ntype = "parameter"\ntarget = "deck.mass"\nvalue = "1 t"\nstart = 1.0\n')
+    cs = load_circuit_scenario(f)
+    assert {"deck.mass", "deck.weight"} <= set(cs.circuit.inputs)
+    view = circuit_view(cs)
+    assert {i["name"] for i in view["inputs"]} == {"deck.force", "valve.command"}   # (the loop's: shown, not held)
+    assert not any(p["name"].startswith("deck.") or p["name"] == "left.mass" for p in view["params"])
+    for body, what in (({"op": "input", "name": "deck.mass", "value": 500.0}, "parameter fault"),
+                       ({"op": "set", "name": "deck.incline", "value": 45.0}, "derived values follow")):
+        with pytest.raises(InputError, match=what) as e:
+            parse_event(body, "plant", circuit=cs)
+        assert e.value.key == body["name"]
+    f.write_text(text + '[inputs]\n"deck.force" = { t = [0, "1 s"], value = [0, "1 kN"] }\n'
+                        '[[faults]]\ntype = "parameter"\ntarget = "deck.force"\nvalue = "2 kN"\nstart = "1.5 s"\n'
+                        'end = 2.0\n')
+    cs = load_circuit_scenario(f)
+    assert list(cs.circuit.inputs["deck.force"][1]) == [0.0, 1000.0, 2000.0, 1000.0]
+    f.write_text(text + '[[faults]]\ntype = "parameter"\ntarget = "left.mass"\nvalue = "1 t"\nstart = 1.0\n')
+    with pytest.raises(InputError, match="left's rod drives the load 'deck': its mass is the load's "
+                                         "\\(target = \"deck.mass\"\\)") as e:
+        load_circuit_scenario(f)
+    assert e.value.key == "faults[0].target"

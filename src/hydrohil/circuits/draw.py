@@ -94,15 +94,17 @@ def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None) -> Pat
                        node_attr={"fontname": "Helvetica", "fontsize": "11"},
                        edge_attr={"fontname": "Helvetica", "fontsize": "9", "color": "#3060a0", "penwidth": "1.6",
                                   "arrowhead": "none"})
+    from hydrohil.circuits.units import to_si
     fault_parts, fault_signals = {}, {}
-    for f in faults or []:
-        window = f"from {f.get('start', 0):g} s" + (f" to {f['end']:g} s" if "end" in f else "")
+    for f in faults or []:                          # (checked by the scenario's loader: numbers or "<n> s")
+        window = f"from {to_si(f.get('start', 0), 's'):g} s" + \
+            (f" to {to_si(f['end'], 's'):g} s" if "end" in f else "")
         if f.get("type") == "leak":
             name = f.get("orifice", f"leak_{f.get('node')}")
             fault_parts[name] = f"fault: a leak, {window}"
             fault_signals[f"{name}.opening"] = f"fault: {name} opens, {window}"
         elif f.get("type") == "parameter":               # (a sensor's faults act on the loop: not drawn)
-            fault_signals[f.get("target")] = f"fault: {f.get('target')} = {f.get('value')} from {window}"
+            fault_signals[f.get("target")] = f"fault: {f.get('target')} = {f.get('value')}, {window}"
     for node in c.nodes:
         fixed = f" (fixed by {c.fixed[node][0]})" if node in c.fixed else ""
         g.node(f"n__{node}", label="", xlabel=node + fixed, shape="point", width="0.14", color="#3060a0")

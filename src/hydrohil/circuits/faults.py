@@ -87,7 +87,8 @@ def _window(f: dict, where: str, source: str) -> tuple[float, float | None]:
 def windowed_drive(base, value, start: float, end: float | None) -> dict:
     """A held drive: ``base`` (a number, "<number> <unit>", or a held table {t, value}) with ``value`` over
     [start, end)."""
-    ts = [float(x) for x in base["t"]] if isinstance(base, dict) else [0.0]
+    from hydrohil.circuits.units import to_si
+    ts = [to_si(x, "s") for x in base["t"]] if isinstance(base, dict) else [0.0]
     vs = list(base["value"]) if isinstance(base, dict) else [base]
 
     def at(t):                                      # the base's value held at t
@@ -162,6 +163,11 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
             choices = ", ".join(f"{n}.<key>" for n in comps) or "none"
             raise InputError(f"a component's parameter, component.key ({choices}), got {target!r}", source=source,
                              key=f"{where}.target")
+        coupling = ctype.coupling
+        if coupling is not None and coupling.key in body and key in coupling.load_keys:
+            raise InputError(f"{comp}'s {coupling.part} drives the load {body[coupling.key]!r}: its {key} is the "
+                             f"load's (target = \"{body[coupling.key]}.{key}\")", source=source,
+                             key=f"{where}.target")
         if key in ctype.ports or key in ("x0", "speed0", "delay"):
             raise InputError(f"{target} is fixed when the run starts (an initial state, a delay line's length): a "
                              "fault cannot change it", source=source, key=f"{where}.target")
@@ -186,6 +192,20 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
                 driven.add(target)                    # its value as given kept: checked, shown, derived from
         inputs[target] = windowed_drive(base, f["value"], start, end)
     return frozenset(driven)
+
+
+def driven_by_fault(c, name: str) -> bool:
+    """An input a parameter fault made (a parameter that is no signal of its type, or a value derived from
+    one): its drive is the fault's schedule."""
+    comp, _, key = name.partition(".")
+    return comp in c.components and key not in c.components[comp].type.inputs
+
+
+def follows_fault(c, comp: str) -> bool:
+    """A component whose derived values follow a fault's drive (they are inputs): a parameter of it changed
+    live would leave them behind."""
+    cp = c.components.get(comp)
+    return cp is not None and any(f"{comp}.{dk}" in c.inputs for dk, _ in cp.type.derived)
 
 
 def sensor_faults(faults: list, loop, unit: str, source: str) -> list:

@@ -5,6 +5,7 @@ file a circuit name or path that is a parameter set stands for, written once int
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from hydrohil.circuits.cache import cache_dir
@@ -25,7 +26,7 @@ def paper_circuit_file(name_or_path: str | Path) -> Path:
     path = cache_dir() / "paper" / f"{tables['name']}-{hashlib.sha256(text.encode()).hexdigest()[:16]}" / "circuit.toml"
     if not path.is_file():
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp")
+        tmp = path.with_name(f"circuit.toml.part{os.getpid()}")     # (another process may write it meanwhile)
         tmp.write_text(f"# {tables['description']}: written by hydrohil, do not edit\n" + text)
         tmp.replace(path)
     return path

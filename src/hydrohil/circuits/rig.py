@@ -175,21 +175,25 @@ def parameter_change(c, layout, params: dict, fluid: dict, key: str, value: floa
     parameters are ``params`` (component -> its parameters, SI) and ``fluid``: the slots of the parameter vector
     it changes ({slot: value}: its own, and the values derived from it, by the circuit file's rule,
     ``component_values``, for every component it concerns) and the new parameters and fluid. What the Python
-    plant applies, and what the panel hands the standalone C plant (which has no derivations of its own).
+    plant applies, and what the panel hands the standalone C plant (which has no derivations of its own); a
+    derived value the change leaves as it was is not in it.
     ValueError (nothing changed) when a component's parameters no longer fit together."""
     from hydrohil.circuits.circuit import component_values
     slot = layout.slot
     name, _, k = key.partition(".")
+    before = {n: component_values(cp.type, params[n], fluid) for n, cp in c.components.items()
+              if (name == "fluid" or n == name) and cp.type.derived}
     fluid, params = dict(fluid), {n: dict(v) for n, v in params.items()}
     (fluid if name == "fluid" else params[name])[k] = float(value)
     slots = {slot[key]: float(value)}
-    for comp in c.components.values():
-        if name == "fluid" or comp.name == name:
-            try:
-                values = component_values(comp.type, params[comp.name], fluid)
-            except ValueError as exc:
-                raise ValueError(f"{key}: {comp.name}: {exc}") from None
-            for dk, _ in comp.type.derived:
-                slots[slot[f"{comp.name}.{dk}"]] = float(values[dk])
+    for n in before:                                     # the derived values that change with it
+        comp = c.components[n]
+        try:
+            values = component_values(comp.type, params[n], fluid)
+        except ValueError as exc:
+            raise ValueError(f"{key}: {n}: {exc}") from None
+        for dk, _ in comp.type.derived:
+            if not (values[dk] == before[n][dk] or (values[dk] != values[dk] and before[n][dk] != before[n][dk])):
+                slots[slot[f"{n}.{dk}"]] = float(values[dk])
     return slots, params, fluid
 

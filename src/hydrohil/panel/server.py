@@ -25,6 +25,9 @@ from hydrohil.panel.hub import SideHub
 from hydrohil.panel.sessions import SessionSupervisor
 from hydrohil.panel.web import PanelWeb
 
+# a set's slots the standalone C plant takes in one message (rt_side.h: J_FIELDS 32, less the message's own)
+C_PLANT_MAX_SLOTS = 24
+
 
 class Panel:
     """The panel of one scenario. ``own``: start/stop the plant (and built-in controller) processes here
@@ -122,6 +125,11 @@ class Panel:
                                                    ev.value)
             except ValueError as exc:
                 raise InputError(str(exc), source="request") from None
+            if self.plant == "c" and len(slots) > C_PLANT_MAX_SLOTS:
+                raise InputError(f"{ev.name} changes {len(slots)} values of the parameter vector (itself and what "
+                                 f"derives from it): more than the C plant takes in one message "
+                                 f"({C_PLANT_MAX_SLOTS}); run the panel on the Python plant for it", source="request",
+                                 key=ev.name)
             ev = ev.model_copy(update={"slots": {str(i): v for i, v in slots.items()}})
         ans = await self.hub.send(role, ev.model_dump(exclude_none=True))
         if "error" in ans:

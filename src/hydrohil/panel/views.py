@@ -53,6 +53,7 @@ def paper_view() -> dict:
 def circuit_view(cs) -> dict:
     """A circuit scenario (:class:`hydrohil.circuits.scenario.CircuitScenario`): its signals by unit, its
     modes, its inputs and parameters with their units and ranges."""
+    from hydrohil.circuits.faults import driven_by_fault, follows_fault
     from hydrohil.circuits.link import CONTROLLER_SIDE_COLUMNS, side_columns, wire_lists
     from hydrohil.circuits.units import display
     c, lay, loop = cs.circuit, cs.layout, cs.loop
@@ -91,17 +92,19 @@ def circuit_view(cs) -> dict:
     rows = [[name, name.rsplit(".", 1)[0], list(MODE_PALETTE), list(lay.mode_names[name])] for name in lay.modes]
     params = []
     for comp in c.components.values():
+        follows = follows_fault(c, comp.name)          # (its derived values follow a fault's drive)
         for key, prm in comp.type.params.items():
             name = f"{comp.name}.{key}"
-            if name in c.inputs or name in lay.delay_params.values():
+            if name in c.inputs or name in lay.delay_params.values() or key in comp.load_keys or follows:
                 continue
             k, du = display(prm.unit)
             params.append({"name": name, "unit": prm.unit, "shown": [k, du], "lo": _num(prm.lo), "hi": _num(prm.hi),
                            "value": _num(comp.values[key]), "description": prm.description})
     ins = []
     for name, unit in inputs:
-        comp, key = name.split(".", 1)
-        prm = c.components[comp].type.params[key]
+        if driven_by_fault(c, name):
+            continue                                  # (a fault's schedule: not held from the page)
+        prm = c.input_param(name)
         ins.append({"name": name, "unit": unit, "shown": list(display(unit)), "lo": _num(prm.lo), "hi": _num(prm.hi),
                     "controller": loop is not None and name == loop.command, "description": prm.description})
     return {"kind": "circuit", "circuit": c.name,

@@ -163,6 +163,13 @@ def parse_circuit_event(data: dict, process: str, cs, source: str = "event"):
             raise InputError("the closed loop's command: its controller drives it (steer its reference or gains)",
                              source=source, key=ev.name)
     if isinstance(ev, (HoldInput, SetValue)):
+        from hydrohil.circuits.faults import driven_by_fault, follows_fault
+        if isinstance(ev, HoldInput) and ev.name in c.inputs and driven_by_fault(c, ev.name):
+            raise InputError("driven by the scenario's parameter fault (its schedule): not held from the panel",
+                             source=source, key=ev.name)
+        if isinstance(ev, SetValue) and follows_fault(c, ev.name.partition(".")[0]):
+            raise InputError(f"{ev.name.partition('.')[0]}'s derived values follow the scenario's parameter fault: "
+                             "its parameters are not changed live", source=source, key=ev.name)
         prm = _circuit_param(c, ev.name, source)
         if isinstance(ev, SetValue) and ev.name in c.inputs:
             raise InputError("an input of the circuit: hold it with op \"input\"", source=source, key=ev.name)

@@ -276,7 +276,8 @@ static int steer_set(const jobject *o, text *ev, char *err, size_t err_size)
         snprintf(err, err_size, "%.100s: not a field of set", odd);
         return SIDE_REFUSED;
     }
-    if (!name || name->kind != J_STR || !value || value->kind != J_NUM || !slots || slots->kind != J_OBJ) {
+    if (!name || name->kind != J_STR || strlen(name->str) > 100 || !value || value->kind != J_NUM || !slots ||
+        slots->kind != J_OBJ) {
         snprintf(err, err_size, "set: name, value and slots (the parameter vector's slots it sets, as the panel "
                  "derives them: {\"slot\": value})");
         return SIDE_REFUSED;
@@ -320,8 +321,9 @@ static int steer_set(const jobject *o, text *ev, char *err, size_t err_size)
 }
 
 /* A circuit's plant events (simulation/steering.py's parse_circuit_event, apply_circuit_event): input (one the
- * controller does not drive, held at a value in its range, or null: back to its drive), reset (the states and
- * modes back to rest; the step count, drives, held inputs and command path go on). */
+ * controller does not drive, held at a value in its range, or null: back to its drive), set (steer_set: the
+ * slots the panel derived), reset (the states and modes back to rest; the step count, drives, held inputs and
+ * command path go on). */
 int model_steer(plant *pl, const jobject *o, const char *op, int64_t k, text *ev, char *extra, size_t extra_size,
                 char *err, size_t err_size)
 {
