@@ -263,7 +263,7 @@ def _held_loop(cs, centre: float, t: np.ndarray, values: np.ndarray):
 
 def _circuit_sines(cs, loop: str, amplitude: float | None, input_: str | None, signal: str | None,
                    around: float | None = None) -> CircuitSines:
-    from hydrohil.circuits.run import simulate_circuit, start_state
+    from hydrohil.circuits.run import signal_units, simulate_circuit, start_state
     lay = cs.layout
     c = cs.circuit
     if loop == "closed":
@@ -273,7 +273,7 @@ def _circuit_sines(cs, loop: str, amplitude: float | None, input_: str | None, s
         if sig != cs.loop.measure:
             raise InputError(f"a closed loop's response is its measured signal's ({cs.loop.measure})",
                              source="--signal")
-        unit = dict(lay.outputs).get(sig, "Pa")
+        unit = signal_units(c, lay)[sig]
         amp = amplitude if amplitude is not None else CIRCUIT_AMPLITUDE.get(unit, 1e-3)
         centre = float(cs.loop.reference[1][-1]) if around is None else float(around)
         held = {name: float(v) for name, v in zip(lay.inputs, start_state(c, h=cs.step, loop=cs.loop)[2])
@@ -412,7 +412,8 @@ def circuit_freqresp(cs, out: Path, *, fmin: float = 0.5, fmax: float = 50.0, po
             results.append(fut.result())
             if progress is not None:
                 progress(len(results), len(jobs))
-    units = {**dict(cs.layout.outputs), **{f"{n}.p": "Pa" for n in cs.circuit.nodes}}
+    from hydrohil.circuits.run import signal_units
+    units = signal_units(cs.circuit, cs.layout)
     names, head = {}, {"scenario": cs.source, "circuit": cs.circuit.name}
     for loop, sn in sines.items():
         unit = units.get(sn.signal, "-")

@@ -214,16 +214,14 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             if not isinstance(coupled, str) or not NAME.match(coupled):
                 raise _err(source, f"{where}.{cp.key}", f"the name of the load its {cp.part} drives (a component of "
                                                         f"type {cp.load_type}), got {coupled!r}")
+        values, given = {}, {}
         for key, prm in ctype.params.items():
-            if coupled and key in cp.load_keys:          # the load's (checked below), not the actuator's
+            if coupled and key in cp.load_keys:          # the load's (checked by _couple), not the actuator's
                 if key in body or f"{name}.{key}" in driven:
                     raise _err(source, f"{where}.{key}" if key in body else f"inputs.{name}.{key}",
                                f"{name}'s {cp.part} drives the load {coupled!r} ({cp.key}): its {key} is the load's "
                                f"(give it there; a coupled {ctype.name}'s keys: "
                                f"{', '.join(k for k in ctype.params if k not in cp.load_keys)})")
-        values, given = {}, {}
-        for key, prm in ctype.params.items():
-            if coupled and key in cp.load_keys:
                 values[key] = 0.0
                 continue
             if f"{name}.{key}" in fault_signals:
@@ -243,14 +241,14 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             values[key] = _value(body, key, prm, source, where)
             if key in body:
                 given[key] = str(body[key])
-        couplings = {ctype.coupling.key} if ctype.coupling else set()
         tables = {k: _table(body[k], ctype.tables[k], source, f"{where}.{k}") for k in ctype.tables if k in body}
-        for key in set(body) - set(ctype.params) - set(ctype.ports) - couplings - set(ctype.tables) - {"type"}:
-            couplings = (f"; coupling: {ctype.coupling.key}" if ctype.coupling else "") + \
-                (f"; tables: {', '.join(ctype.tables)}" if ctype.tables else "")
+        other = ({cp.key} if cp else set()) | set(ctype.tables)       # a coupling's key, the tables
+        for key in set(body) - set(ctype.params) - set(ctype.ports) - other - {"type"}:
+            more = (f"; coupling: {cp.key}" if cp else "") + (f"; tables: {', '.join(ctype.tables)}"
+                                                                if ctype.tables else "")
             raise _err(source, f"{where}.{key}", f"not a parameter of a {ctype.name} (parameters: "
                                                  f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)}"
-                                                 f"{couplings})")
+                                                 f"{more})")
         params = dict(values)
         try:
             values = component_values(ctype, params, fluid)
@@ -322,7 +320,7 @@ def _table(t, spec: tuple, source: str, where: str) -> tuple[np.ndarray, np.ndar
 def _couple(components: dict[str, Component], source: str) -> None:
     """The mechanical couplings (SPEC §12.1, §12.3): each cylinder's rod_end names a load, each motor's shaft a
     rotary load; a load is driven by at least one actuator; coupled pistons start where their load does, within
-    the shortest stroke, coupled motors at their load's speed."""
+    the shortest stroke (their chambers' volumes at the start)."""
     for comp in components.values():
         if comp.coupled is None:
             continue
@@ -341,9 +339,7 @@ def _couple(components: dict[str, Component], source: str) -> None:
             what = "cylinder's rod_end" if load.type.name == "load" else "motor's shaft"
             raise _err(source, f"components.{load.name}", f"nothing drives this {load.type.name}: give a {what} = "
                                                           f"\"{load.name}\"")
-        if load.type.name == "rotary_load":
-            for a in load.actuators:
-                components[a].values["speed0"] = components[a].params["speed0"] = load.values["speed0"]
+        if load.type.name == "rotary_load":           # (a coupled motor's own speed is never read)
             continue
         stroke = min(components[a].values["stroke"] for a in load.actuators)
         if not load.values["x0"] <= stroke:

@@ -61,18 +61,6 @@ def _number(v, key: str, where: str, source: str, unit: str = "s") -> float:
     return float(x)
 
 
-def _check(v, prm, key: str, source: str) -> None:
-    """A fault's value in its parameter's unit and range (the circuit file's rule, named as the fault's key)."""
-    from hydrohil.circuits.units import to_si
-    try:
-        x = to_si(v, prm.unit)
-    except (ValueError, TypeError) as exc:
-        raise InputError(str(exc), source=source, key=key) from None
-    problem = prm.check(x)
-    if problem:
-        raise InputError(f"{problem}, got {v!r}", source=source, key=key)
-
-
 def _window(f: dict, where: str, source: str) -> tuple[float, float | None]:
     start = _number(f.get("start"), "start", where, source) if "start" in f else None
     if start is None or not 0.0 <= start <= 1e5:
@@ -86,8 +74,11 @@ def _window(f: dict, where: str, source: str) -> tuple[float, float | None]:
 
 def windowed_drive(base, value, start: float, end: float | None) -> dict:
     """A held drive: ``base`` (a number, "<number> <unit>", or a held table {t, value}) with ``value`` over
-    [start, end)."""
+    [start, end). ValueError for a table interpolated linearly (a value held over a window is no straight line)."""
     from hydrohil.circuits.units import to_si
+    if isinstance(base, dict) and base.get("interpolation", "hold") != "hold":
+        raise ValueError("its drive is interpolated linearly: a value held for a while replaces a held drive only "
+                         "(give the drive held from each t, or a constant)")
     ts = [to_si(x, "s") for x in base["t"]] if isinstance(base, dict) else [0.0]
     vs = list(base["value"]) if isinstance(base, dict) else [base]
 
@@ -109,6 +100,7 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
     """The scenario's ``faults`` (a list of tables) written into the circuit's raw tables ``raw`` (in place):
     a leak's orifice and its drive, a parameter fault's drive. Returns the parameters driven by faults that are
     not signals of their type (for :func:`hydrohil.circuits.circuit.circuit_from_dict`)."""
+    from hydrohil.circuits.circuit import _value          # (the circuit file's value check: unit, range, key)
     from hydrohil.circuits.library import TYPES as COMPONENTS
     if not isinstance(faults, list) or not all(isinstance(f, dict) for f in faults):
         raise InputError("[[faults]] tables (type = \"leak\" or \"parameter\")", source=source, key="faults")
@@ -149,7 +141,7 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
                                  key=f"{where}.area")
             for k in ("area", "discharge_coefficient"):
                 if k in f:
-                    _check(f[k], COMPONENTS["orifice"].params[k], f"{where}.{k}", source)
+                    _value(f, k, COMPONENTS["orifice"].params[k], source, where)
             comps[name] = {"type": "orifice", "a": node, "b": to, "area": f["area"],
                            **({"discharge_coefficient": f["discharge_coefficient"]}
                               if "discharge_coefficient" in f else {})}
@@ -174,12 +166,9 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
         if "value" not in f:
             raise InputError(f"required: {target}'s value during the fault [{ctype.params[key].unit}]", source=source,
                              key=f"{where}.value")
-        _check(f["value"], ctype.params[key], f"{where}.value", source)
+        _value(f, "value", ctype.params[key], source, where)
         if target in inputs:
             base = inputs[target]
-            if isinstance(base, dict) and base.get("interpolation", "hold") != "hold":
-                raise InputError(f"{target}'s drive is interpolated linearly: a fault replaces a held drive only",
-                                 source=source, key=f"{where}.target")
         else:
             prm = ctype.params[key]
             base = body.get(key, prm.default)
@@ -190,7 +179,10 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
                 body.pop(key, None)                   # a signal of its type: driven from now on
             else:
                 driven.add(target)                    # its value as given kept: checked, shown, derived from
-        inputs[target] = windowed_drive(base, f["value"], start, end)
+        try:
+            inputs[target] = windowed_drive(base, f["value"], start, end)
+        except ValueError as exc:
+            raise InputError(f"{target}: {exc}", source=source, key=f"{where}.target") from None
     return frozenset(driven)
 
 

@@ -215,6 +215,12 @@ def _motor_torque(c) -> str:
     return f"hc_motor_torque({c.par('displacement')}, {c.par('efficiency')}, ({c.p('a')} - {c.p('b')}))"
 
 
+def _net_torque(c, drive: str) -> str:
+    """The net torque on a shaft [N.m]: its ``drive`` (the motors' torque) less viscous friction and the load
+    torque (J w' = it: a motor with its own inertia, or a rotary load)."""
+    return f"({drive} - {c.par('damping')} * {c.x('w')} - {c.par('load_torque')})"
+
+
 def _emit_motor(c):
     dp = f"({c.p('a')} - {c.p('b')})"
     q = f"hc_motor_flow({c.par('displacement')}, {c.x('w')}, {c.par('leakage')}, {dp})"
@@ -223,16 +229,14 @@ def _emit_motor(c):
              flows=[("a", "b", q, c.par("leakage"), f"hc_motor_flow({c.par('displacement')}, {c.dx('w')}, 0.0, 0.0)")],
              outputs={"w": (c.x("w"), "rad/s"), "q": (q, "m3/s"), "torque": (torque, "N.m")})
     if not c.comp.coupled:       # its own inertia (coupled: its shaft's load turns it, shaft)
-        e.derivatives = {"w": f"({c.v('torque')} - {c.par('damping')} * {c.x('w')} - {c.par('load_torque')}) / "
-                              f"{c.par('inertia')}"}
+        e.derivatives = {"w": f"{_net_torque(c, c.v('torque'))} / {c.par('inertia')}"}
         e.initial = {"w": c.par("speed0")}
     return e
 
 
 def _emit_rotary_load(c):
     """A rotary load driven by the motors coupled to it (their shaft): one inertia, their torques summed."""
-    drive = " + ".join(f"({_motor_torque(a)})" for a in c.coupled_views())
-    net = f"{drive} - {c.par('damping')} * {c.x('w')} - {c.par('load_torque')}"
+    net = _net_torque(c, " + ".join(f"({_motor_torque(a)})" for a in c.coupled_views()))
     return Emit(pre=[("t", net)], derivatives={"w": f"{c.v('t')} / {c.par('inertia')}"},
                 initial={"w": c.par("speed0")},
                 outputs={"w": (c.x("w"), "rad/s"), "net_torque": (net, "N.m")})
@@ -438,7 +442,7 @@ def _emit_lugre_motor(c):
                                       "fs_neg", "vs_neg", "kv_neg"))
     static = ", ".join(c.par(k) for k in ("fc_pos", "fs_pos", "vs_pos", "fc_neg", "fs_neg", "vs_neg"))
     torque = f"hc_motor_torque({c.par('displacement')}, {c.par('efficiency')}, {dp})"
-    drive = f"({torque} - {c.par('damping')} * {w} - {c.par('load_torque')})"     # the net torque but friction
+    drive = _net_torque(c, torque)                                    # the net torque but the seals' friction
     ff = f"hc_lc_friction((int){c.mode}, {w}, {z}, {fr})"
     q = f"hc_motor_flow({c.par('displacement')}, {w}, {c.par('leakage')}, {dp})"
     g = f"hc_stribeck({w}, {static})"

@@ -43,13 +43,6 @@ class CircuitResult:
             raise InputError(f"no column {name!r} (columns: {', '.join(self.columns)})") from None
 
 
-def held(table: tuple[np.ndarray, np.ndarray], t: np.ndarray, h: float) -> np.ndarray:
-    """A table (times, values) held from each time (zero-order hold) at the step times t of step h (a step
-    starting within 1e-12 h of a table's time counts as at it)."""
-    ts, vs = table
-    return vs[np.searchsorted(ts, np.asarray(t) + 1e-12 * h, side="right") - 1]
-
-
 def input_table(c: Circuit, n: int, h: float, inputs: dict | None = None) -> np.ndarray:
     """The inputs of steps 0..n-1 (n x NU): each signal's drive (a value, or (t, values) held from each t),
     ``inputs`` replacing the circuit's defaults."""
@@ -62,10 +55,8 @@ def input_table(c: Circuit, n: int, h: float, inputs: dict | None = None) -> np.
     t = np.arange(max(n, 1)) * h
     for j, name in enumerate(c.inputs):
         d = drives[name]
-        if isinstance(d, Drive):
-            u[:, j] = d.at(t, h)
-        elif isinstance(d, tuple):
-            u[:, j] = held(d, t, h)
+        if isinstance(d, tuple):           # a table (t, values), held or linear (Drive.at)
+            u[:, j] = (d if isinstance(d, Drive) else Drive(*d)).at(t, h)
         else:
             u[:, j] = float(d)
     return u
@@ -261,9 +252,8 @@ class Loop:
         return buf, ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng if rng is None else rng)))
 
     def at(self, t: np.ndarray, h: float) -> np.ndarray:
-        if self.linear:
-            return np.interp(t, *self.reference)
-        return held(self.reference, t, h)
+        """The reference at the step times ``t`` of step ``h`` (the circuit's drive rule, Drive.at)."""
+        return Drive(*self.reference, self.linear).at(t, h)
 
     def table(self, n: int, h: float) -> tuple[np.ndarray, np.ndarray]:
         """The reference and its slope at each step (a held reference has none)."""

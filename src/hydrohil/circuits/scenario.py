@@ -176,7 +176,8 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
     if data.get("faults"):                        # the loop's sensor failing (an ideal one to fail if none given)
         from hydrohil.circuits.build import compile_circuit
         from hydrohil.circuits.faults import sensor_faults
-        units = {**{f"{n}.p": "Pa" for n in c.nodes}, **dict(compile_circuit(c).layout.outputs)}
+        from hydrohil.circuits.run import signal_units
+        units = signal_units(c, compile_circuit(c).layout)
         found = sensor_faults(data["faults"], loop, units.get(loop.measure, "-") if loop else "-", source)
         if found:
             loop.sensor_faults = found

@@ -119,28 +119,20 @@ class SetAction(_Action):
     until: float | None = Field(None, gt=0, le=3600, description="back to its drive at this time [s] (omit: never)")
 
 
-class CircuitFaultAction(StrictModel):
+class CircuitFaultAction(FaultAction):
     """A circuit's fault (hydrohil.circuits.faults: a leak, a parameter changed, the loop's sensor failing) from
-    ``at`` until ``until``:
-    the scenario's ``[[faults]]`` entry it becomes, checked as one."""
-    model_config = {"extra": "allow"}
-    name: str | None = Field(None, min_length=1, max_length=100)
-    at: float = Field(ge=0, le=3600, description="time the fault starts [s]")
-    until: float | None = Field(None, gt=0, le=3600, description="time it is cleared [s] (omit: never)")
+    ``at`` until ``until``: the scenario's ``[[faults]]`` entry it becomes (FaultAction.fault_table), its keys
+    those of its type."""
     type: Literal["leak", "parameter", "sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout"]
 
     @model_validator(mode="after")
-    def _keys(self):
+    def _fault_type(self):                 # (in place of the rig's: a circuit's fault types and keys)
         from hydrohil.circuits.faults import KEYS
         unknown = set(self.model_extra or {}) - (KEYS[self.type] - {"type", "start", "end"})
         if unknown:
             raise ValueError(f"unknown key {sorted(unknown)[0]!r} (keys of a {self.type} action: name, at, until, "
                              f"{', '.join(sorted(KEYS[self.type] - {'type', 'start', 'end'}))})")
         return self
-
-    def fault_table(self) -> dict:
-        return {"type": self.type, "start": self.at, **({"end": self.until} if self.until is not None else {}),
-                **dict(self.model_extra or {})}
 
 
 CircuitAction = Annotated[Union[CircuitStep, CircuitRamp, SetAction, CircuitFaultAction], Field(discriminator="type")]
@@ -292,10 +284,10 @@ class LoadedSequence:
             if base is None:
                 raise InputError(f"{a.signal} is not one of the circuit's inputs (inputs: "
                                  f"{', '.join(circuit_inputs) or 'none'})", source=src, key="actions")
-            if isinstance(base, dict) and base.get("interpolation", "hold") != "hold":
-                raise InputError(f"{a.signal}'s drive is interpolated linearly: a set action replaces a held drive "
-                                 "only (give its drive held from each t, or a constant)", source=src, key="actions")
-            data.setdefault("inputs", {})[a.signal] = windowed_drive(base, a.value, a.at, a.until)
+            try:
+                data.setdefault("inputs", {})[a.signal] = windowed_drive(base, a.value, a.at, a.until)
+            except ValueError as exc:
+                raise InputError(f"{a.signal}: {exc}", source=src, key="actions") from None
         for a in self.actions:                  # leaks and parameter changes: the scenario's faults
             if isinstance(a, CircuitFaultAction):
                 data.setdefault("faults", []).append(a.fault_table())
