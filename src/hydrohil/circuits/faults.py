@@ -25,6 +25,12 @@ parameter as inputs, for its importer to drive).
     drift = 0.0                   # its signal's unit
     start = 3.0
 
+    [[faults]]
+    type = "packet_loss"          # the network between the controller and the plant (packet_loss and
+    probability = 0.3             # reordering with probability, network_delay with delay [s],
+    start = 1.0                   # controller_silence): on the loop's commands, as the paper's rig's
+    end = 2.0                     # (circuits/network.py)
+
 A leak is an orifice component added to the circuit, its opening a signal driven 0 -> 1 -> 0. A parameter
 fault makes its parameter an input signal of the circuit, held at its value outside the fault and at
 ``value`` inside it; the values derived from it follow as signals of their own (a load's weight from its
@@ -40,14 +46,20 @@ import math
 
 import numpy as np
 
+from hydrohil.circuits.network import NETWORK_FAULTS
 from hydrohil.errors import InputError
 
 SENSOR_FAULTS = ("sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout")   # (hc_sensed's order)
-TYPES = ("leak", "parameter", *SENSOR_FAULTS)
+TYPES = ("leak", "parameter", *SENSOR_FAULTS, *NETWORK_FAULTS)
 KEYS = {"leak": {"type", "orifice", "node", "area", "to", "discharge_coefficient", "start", "end"},
         "parameter": {"type", "target", "value", "start", "end"},
         "sensor_stuck": {"type", "start", "end"}, "sensor_offset": {"type", "offset", "drift", "start", "end"},
-        "sensor_noise": {"type", "std", "start", "end"}, "sensor_dropout": {"type", "start", "end"}}
+        "sensor_noise": {"type", "std", "start", "end"}, "sensor_dropout": {"type", "start", "end"},
+        "packet_loss": {"type", "probability", "start", "end"}, "network_delay": {"type", "delay", "start", "end"},
+        "reordering": {"type", "probability", "start", "end"}, "controller_silence": {"type", "start", "end"}}
+# each network fault's value: key, unit, range (the paper's rig's, simulation/faults.py; a delay line up to 1 s)
+NETWORK_VALUE = {"packet_loss": ("probability", "-", 0.0, 1.0), "network_delay": ("delay", "s", 0.0, 1.0),
+                 "reordering": ("probability", "-", 0.0, 1.0)}
 
 
 def _number(v, key: str, where: str, source: str, unit: str = "s") -> float:
@@ -114,14 +126,15 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
         kind = f.get("type")
         if kind not in TYPES:
             raise InputError(f"a circuit's faults are {', '.join(TYPES)} (a leak at a node, a parameter changed, "
-                             f"the loop's sensor failing; the rig's other fault types act on the paper's rig), got "
-                             f"{kind!r}", source=source, key=f"{where}.type")
+                             f"the loop's sensor failing, the network losing, delaying or reordering its commands "
+                             f"or the controller falling silent; the rig's other fault types act on the paper's "
+                             f"rig), got {kind!r}", source=source, key=f"{where}.type")
         unknown = set(f) - KEYS[kind]
         if unknown:
             raise InputError(f"unknown key (keys of a {kind} fault: {', '.join(sorted(KEYS[kind]))})", source=source,
                              key=f"{where}.{sorted(unknown)[0]}")
         start, end = _window(f, where, source)
-        if kind in SENSOR_FAULTS:                 # (the loop's measurement: sensor_faults, once the loop is known)
+        if kind in SENSOR_FAULTS or kind in NETWORK_FAULTS:   # (the loop's: sensor_faults, network_faults)
             continue
         if kind == "leak":
             node = f.get("node")
@@ -200,20 +213,26 @@ def follows_fault(c, comp: str) -> bool:
     return cp is not None and any(f"{comp}.{dk}" in c.inputs for dk, _ in cp.type.derived)
 
 
+def _loop_faults(faults: list, kinds: tuple, loop, what: str, source: str):
+    """(table, type, its key, start, end) of each of ``faults`` of the ``kinds`` acting on the loop's ``what``;
+    an error naming the fault when the scenario has no loop."""
+    for i, f in enumerate(faults):
+        kind = f.get("type")
+        if kind not in kinds:
+            continue
+        where = f"faults[{i}]"
+        if loop is None:
+            raise InputError(f"a {kind} acts on the closed loop's {what}: this scenario has no [controller]",
+                             source=source, key=f"{where}.type")
+        yield (f, kind, where, *_window(f, where, source))
+
+
 def sensor_faults(faults: list, loop, unit: str, source: str) -> list:
     """The sensor faults among a scenario's ``faults`` (checked by :func:`apply_faults`), as the loop's
     sensor takes them: (type, start, end or None, a, b) with an offset [unit] and drift [unit/s], or a noise's
     standard deviation [unit], in SI (``unit``: the measured signal's)."""
     out = []
-    for i, f in enumerate(faults):
-        kind = f.get("type")
-        if kind not in SENSOR_FAULTS:
-            continue
-        where = f"faults[{i}]"
-        if loop is None:
-            raise InputError(f"a {kind} acts on the closed loop's measurement: this scenario has no [controller]",
-                             source=source, key=f"{where}.type")
-        start, end = _window(f, where, source)
+    for f, kind, where, start, end in _loop_faults(faults, SENSOR_FAULTS, loop, "measurement", source):
         a = b = 0.0
         if kind == "sensor_offset":
             a = _number(f.get("offset", 0.0), "offset", where, source, unit)
@@ -253,3 +272,23 @@ def follow_derived(c, source: str) -> None:
             vals = np.array([r[dk] for r in rows], dtype=float)
             if not np.array_equal(vals, np.full_like(vals, comp.values[dk]), equal_nan=True):
                 c.inputs[f"{comp.name}.{dk}"] = Drive(np.array(times), vals)
+
+
+def network_faults(faults: list, loop, source: str) -> list:
+    """The network faults among a scenario's ``faults`` (checked by :func:`apply_faults`), as the command path
+    takes them (:class:`hydrohil.circuits.network.CommandPath`): (type, start, end or None, value) with a
+    probability, or a delay [s]; 0 for a controller_silence."""
+    out = []
+    for f, kind, where, start, end in _loop_faults(faults, NETWORK_FAULTS, loop, "commands", source):
+        a = 0.0
+        if kind in NETWORK_VALUE:
+            key, unit, lo, hi = NETWORK_VALUE[kind]
+            if key not in f:
+                raise InputError(f"required: the {key} [{unit}] in ({lo:g}, {hi:g}]", source=source,
+                                 key=f"{where}.{key}")
+            a = _number(f[key], key, where, source, unit)
+            if not lo < a <= hi:
+                raise InputError(f"a {key} [{unit}] in ({lo:g}, {hi:g}], got {f[key]!r}", source=source,
+                                 key=f"{where}.{key}")
+        out.append((kind, start, end, a))
+    return out

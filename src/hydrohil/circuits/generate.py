@@ -164,6 +164,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
 #include "watchdog.c"
 #include "sensors.c"
 #include "rng.c"
+#include "link.c"
 #include "delay.c"
 
 enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nout, 1)}, NLOG = {len(cols)},
@@ -629,23 +630,39 @@ static int method_step(int method, double h, double *y, int64_t *m, const double
  * control.c): at each step k the controller reads log column `meas` of the state at t_k (under the command
  * of step k-1; through the sensor, hc_sensed) and sets input `cmd` of step k (written into u) for the reference
  * ref[k] (slope dref[k]); rng: its sensor's noise generator (hc_sensed); `sign` -1: a reverse-acting loop (the law on -ref, -dref and the signal's negative, so
- * that a larger command lowers the signal; 1: direct, exact). Returns 0, or 1 when the state went
- * non-finite, 2 when h is not the step the state was made for (hc_init) (rows so far written, *rows set). */
+ * that a larger command lowers the signal; 1: direct, exact). path (not NULL: the scenario's network faults,
+ * an hh_path of packets of one value): the controller's command goes through it (link.c: network faults, then
+ * the watchdog) as to a plant over the network: the last one that arrived drives the step, `safe` in the
+ * watchdog's safe state; sent[k] (when not NULL): what the controller sent for step k. Returns 0, or 1 when
+ * the state went non-finite, 2 when h is not the step the state was made for (hc_init) (rows so far written,
+ * *rows set). */
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
-           const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign)
+           const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
+           double safe, double *sent)
 {{
-    double seen[NLOG];
+    double seen[NLOG], held = 0.0;
     int64_t step, row = 0;
     for (step = 0; step <= n; step++) {{
         double *uk = u + (step < n ? step : n - 1 > 0 ? n - 1 : 0) * NU;
         if (ctl && step < n) {{   /* the controller measures under the command last applied (step 0: as set) */
+            double c;
             if (step > 0)
                 uk[cmd] = uk[cmd - NU];
+            else
+                held = uk[cmd];           /* (the command that holds the piston until one arrives) */
             log_row((double)step * h, y, m, uk, P, seen);
-            uk[cmd] = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
-                                           sign * ref[step], sign * dref[step], sign * hc_sensed(seen[meas], sensor, rng, step),
-                                           0.0, 0.0);
+            c = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
+                                     sign * ref[step], sign * dref[step], sign * hc_sensed(seen[meas], sensor, rng, step),
+                                     0.0, 0.0);
+            if (path) {{
+                if (sent)
+                    sent[step] = c;
+                if (hh_path_step((hh_path *)path, step, 1, &c))
+                    held = c;
+                c = ((hh_path *)path)->link.active ? safe : held;
+            }}
+            uk[cmd] = c;
         }}
         if (step % every == 0)
             log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);

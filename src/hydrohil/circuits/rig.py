@@ -7,12 +7,13 @@ that holds its piston (:func:`hydrohil.circuits.run.start_state`), so a controll
 sensor packet gets exactly :func:`~hydrohil.circuits.run.simulate_circuit`'s run. What a controller reads:
 every log column of the state after the step, the loop's measured signal through its sensor.
 
-Inputs are saturated to their parameter's range. Watchdog (the core's, ``hh_watchdog_command`` of rig.c: the
+Inputs are saturated to their parameter's range. The controller's packets reach the inputs through the
+command path (:mod:`hydrohil.circuits.network`: the scenario's network faults, then the core's watchdog, the
 same rule as the paper's rig): no command for longer than ``watchdog_timeout`` -> the safe state until the next
 command: every input the controller drives (a loop's command from the start) at 0, or the end of its range
 nearest to 0 (a valve centred, an orifice closed, a pump stopped: the rig's "centre"), the others on their
-drives from the scenario. A circuit has no injected faults (a hose burst is an input of its own), so every trip
-counts against the run (:mod:`hydrohil.hil.verdict`).
+drives from the scenario. A trip counts against the run (:mod:`hydrohil.hil.verdict`) unless a network fault
+held packets back meanwhile.
 """
 
 from __future__ import annotations
@@ -21,18 +22,18 @@ import numpy as np
 
 from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.link import wire_lists
+from hydrohil.circuits.network import CommandPath
 from hydrohil.circuits.run import METHODS, input_table, new_rng, start_state
-from hydrohil.core import ffi as core_ffi
-from hydrohil.core import lib as core
-from hydrohil.core.watchdog import WatchdogCounters
+from hydrohil.core.watchdog import WATCHDOG_TIMEOUT, WatchdogCounters
 from hydrohil.errors import InputError, SimulationDiverged
 
 
 class CircuitRig(WatchdogCounters):
     """The circuit of a scenario (:class:`~hydrohil.circuits.scenario.CircuitScenario`) behind its inputs.
-    ``signals`` / ``inputs``: (name, SI unit) of what it reports and what it takes, in wire order."""
+    ``signals`` / ``inputs``: (name, SI unit) of what it reports and what it takes, in wire order. The command
+    path's watchdog timeout and the seed of its network faults' streams: the scenario's [hil]."""
 
-    def __init__(self, cs, *, watchdog_timeout: float = 0.05):
+    def __init__(self, cs, *, watchdog_timeout: float = WATCHDOG_TIMEOUT, seed: int = 0, network: bool = True):
         if cs.method == "reference":
             raise InputError("a real-time plant steps the hybrid model: give a fixed-step method (rk3, ...), not "
                              "the continuous reference", source=cs.source, key="solver.method")
@@ -46,7 +47,9 @@ class CircuitRig(WatchdogCounters):
         self.lo, self.hi = [float(p.lo) for p in ranges], [float(p.hi) for p in ranges]     # (saturation)
         self.P = np.ascontiguousarray(lay.values())
         self.method = METHODS.index(cs.method)
-        self.watchdog_timeout = float(watchdog_timeout)
+        self.watchdog_timeout, self.seed = float(watchdog_timeout), int(seed)
+        # the loop's network faults (network False: none, a replay of the inputs as applied after them)
+        self.network = cs.loop.network if network and cs.loop is not None else []
         self.loop = cs.loop
         if self.loop is not None:
             self._meas = lay.log_columns.index(self.loop.measure)
@@ -75,8 +78,9 @@ class CircuitRig(WatchdogCounters):
         self.set_inputs = set()                         # the inputs set by the controller so far
         if self.loop is not None:                       # the loop's command: the one holding the piston until
             self.set_inputs.add(self.layout.inputs.index(self.loop.command))    # the controller speaks
-        self.link = core_ffi.new("hh_watchdog *")          # the command path's watchdog (counts from step 0)
-        core.hh_watchdog_init(self.link)
+        self.path = CommandPath(self.network, self.h, seed=self.seed,
+                                timeout=self.watchdog_timeout, stride=1 + len(self.inputs))   # (mask, values)
+        self.link = self.path.link                      # its watchdog (counts from step 0)
         self.saturated = False
         self.k = 0
         self._row(0.0)
@@ -93,14 +97,17 @@ class CircuitRig(WatchdogCounters):
     def step(self, k: int, command: tuple[int, tuple] | None) -> np.ndarray:
         """Advance step k -> k+1 with the inputs the controller sent for it ((mask, values); None: nothing new).
         Returns the inputs that drove the step (SI)."""
+        packet = self.path.packet
         if command is not None:
-            mask, values = command
+            packet[0] = command[0]
+            for j, v in enumerate(command[1]):
+                packet[1 + j] = v
+        if self.path.step(k, command is not None):     # (the network's faults, the watchdog: circuits/network.py)
+            mask = int(packet[0])
             for j in range(len(self.inputs)):
                 if mask >> j & 1:
-                    self.cmd[j] = values[j]
+                    self.cmd[j] = packet[1 + j]
                     self.set_inputs.add(j)
-        core.hh_watchdog_command(self.link, k, command is not None, 0.0, self.h, self.watchdog_timeout, 0, 0.0,
-                                       0.0)            # (its state only: the inputs are this rig's)
         u = self.u
         nd = len(self.drives)
         u[:] = self.drives[k % nd if self.repeat else min(k, nd - 1)]

@@ -12,6 +12,7 @@ import numpy as np
 from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.circuit import Circuit, Drive
 from hydrohil.circuits.generate import PRESSURE_FLOOR
+from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
 from hydrohil.errors import HydrohilError, InputError, SimulationDiverged
 
 METHODS = ("euler", "heun", "rk3", "rk4")       # the core's tableaus, in its order (HH_EULER ..)
@@ -205,6 +206,9 @@ class Loop:
     seed: int = 0                       # of the sensor's noise (one normal sample per reading)
     sensor_faults: list = field(default_factory=list)   # (type, start, end or None, a, b): circuits/faults.py
     h: float | None = None              # the step it is sampled at (its scenario's; start(h) sets it)
+    network: list = field(default_factory=list)   # (type, start, end or None, value): circuits/network.py
+    link: tuple = (0, WATCHDOG_TIMEOUT)  # ([hil] seed, watchdog_timeout [s]) of the network's command path
+    sent: np.ndarray | None = None      # the last run's commands as the controller sent them (network faults)
 
     def __post_init__(self):
         if self.sensor is not None and len(self.sensor) == 3:     # (quantum, lo, hi): a noiseless sensor
@@ -250,6 +254,15 @@ class Loop:
         buf = ffi.new(f"double[{len(vec)}]", vec)
         self._sensor_buf = buf                           # (alive while the C reads it)
         return buf, ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng if rng is None else rng)))
+
+    def command_path(self, h: float, stride: int = 1):
+        """The command path of its network faults at step h for packets of ``stride`` values (None: none, the
+        commands reach the plant as sent)."""
+        from hydrohil.circuits.network import CommandPath
+        if not self.network:
+            return None
+        seed, timeout = self.link
+        return CommandPath(self.network, h, seed=seed, timeout=timeout, stride=stride)
 
     def at(self, t: np.ndarray, h: float) -> np.ndarray:
         """The reference at the step times ``t`` of step ``h`` (the circuit's drive rule, Drive.at)."""
@@ -299,8 +312,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         return _with_drives(c, cc, res, u, every, loop)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
-    ctl = (_loop_args(cc, lay, loop, n, h) if loop is not None else
-           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0))
+    ctl = (_loop_args(cc, lay, loop, n, h, safe_value(c, loop.command)) if loop is not None else
+           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, ffi.NULL))
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
@@ -410,18 +423,22 @@ def _check_loop(c: Circuit, lay, loop: Loop) -> None:
                          key="controller.command")
 
 
-def _loop_args(cc, lay, loop: Loop, n: int, h: float):
+def _loop_args(cc, lay, loop: Loop, n: int, h: float, safe: float):
     """hc_run's closed-loop arguments: the core's controller and its state (the core module's structs, passed
-    by address: the same header, the same compiler), the reference and its slope per step, the indices."""
+    by address: the same header, the same compiler), the reference and its slope per step, the indices, the
+    command path of its network faults (the command ``safe`` in the watchdog's safe state)."""
     from hydrohil.core import ffi as core_ffi
     ffi = cc.ffi
     ref, dref = loop.table(n, h)
     addr = lambda p: ffi.cast("void *", int(core_ffi.cast("uintptr_t", p)))  # noqa: E731
     sensor, rng = loop.sensor_args(cc)
-    loop._keep = (ref, dref, sensor)                             # alive while hc_run reads them
+    path = loop.command_path(h)                                  # (its network faults: circuits/network.py)
+    loop.sent = np.zeros(n) if path is not None else None        # what the controller sent (the path's input)
+    loop._keep = (ref, dref, sensor, path)                       # alive while hc_run reads them
     return (addr(loop.controller.c), addr(loop.controller.state), ffi.from_buffer("double[]", ref),
             ffi.from_buffer("double[]", dref), lay.log_columns.index(loop.measure), cc.layout.inputs.index(loop.command),
-            sensor, rng, float(loop.sign))
+            sensor, rng, float(loop.sign), addr(path.c) if path is not None else ffi.NULL, safe,
+            ffi.from_buffer("double[]", loop.sent) if path is not None else ffi.NULL)
 
 
 def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
@@ -432,6 +449,9 @@ def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, 
     for j, sig in enumerate(c.inputs):
         res.columns[sig] = u[idx, j].copy()
         res.units[sig] = input_unit(c, sig)
+    if loop is not None and loop.sent is not None and len(loop.sent):   # (network faults: what was sent)
+        res.columns[f"{loop.command}.sent"] = loop.sent[np.minimum(idx, len(loop.sent) - 1)]
+        res.units[f"{loop.command}.sent"] = input_unit(c, loop.command)
     if loop is not None:
         res.columns[f"{loop.measure}.reference"] = loop.at(res.columns["t"], res.h)
         res.units[f"{loop.measure}.reference"] = res.units.get(loop.measure, "-")
@@ -464,6 +484,13 @@ def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
     return out
 
 
+def safe_value(c: Circuit, sig: str) -> float:
+    """An input commanded by a controller in the watchdog's safe state: 0, or the end of its range nearest to
+    it (a valve centred, an orifice closed, a pump stopped)."""
+    p = c.input_param(sig)
+    return min(max(0.0, float(p.lo)), float(p.hi))
+
+
 def input_unit(c: Circuit, sig: str) -> str:
     """The SI unit of an input signal (a parameter a circuit drives)."""
     return c.input_param(sig).unit
@@ -491,9 +518,17 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         meas, cmd = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
 
         sensor, rng = loop.sensor_args(cc)
+        path = loop.command_path(h)            # (its network faults: hc_run's rule, the same C)
+        loop.sent = np.zeros(n) if path is not None else None
+        safe, held = safe_value(c, loop.command), [u[0, cmd]]
 
         def control(k, row):
             u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng, k))
+            if path is not None:
+                loop.sent[k] = path.packet[0] = u[k, cmd]
+                if path.step(k, True):
+                    held[0] = path.packet[0]
+                u[k, cmd] = safe if path.watchdog else held[0]
             if seen is not None:
                 u_seen[k] = seen(u[k])
 

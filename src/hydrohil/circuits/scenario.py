@@ -52,6 +52,7 @@ from pathlib import Path
 from hydrohil.circuits.circuit import Circuit, circuit_from_dict, circuit_path
 from hydrohil.circuits.faults import apply_faults, follow_derived
 from hydrohil.circuits.run import SOLVERS, Loop
+from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
 from hydrohil.errors import InputError
 
 # a --params given for a circuit scenario (simulate, hil, panel say it)
@@ -175,7 +176,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
         loop.h = float(h)                         # (sampled at the scenario's step)
     if data.get("faults"):                        # the loop's sensor failing (an ideal one to fail if none given)
         from hydrohil.circuits.build import compile_circuit
-        from hydrohil.circuits.faults import sensor_faults
+        from hydrohil.circuits.faults import network_faults, sensor_faults
         from hydrohil.circuits.run import signal_units
         units = signal_units(c, compile_circuit(c).layout)
         found = sensor_faults(data["faults"], loop, units.get(loop.measure, "-") if loop else "-", source)
@@ -183,12 +184,27 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
             loop.sensor_faults = found
             if loop.sensor is None:
                 loop.sensor = (0.0, -1e300, 1e300, 0.0)
+        network = network_faults(data["faults"], loop, source)
+        if network:                               # the loop's commands through the network (circuits/network.py)
+            loop.network, loop.link = network, _link(data.get("hil", {}), source)
     if loop is not None and loop.command in given:
         raise InputError(f"{loop.command} is the closed loop's command (its controller drives it): a value set "
                          "for it would be overridden", source=source if loop.command in data.get("set", {}) else
                          "--set", key=loop.command)
     return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
                            given, loop, dict(data.get("hil", {})), list(data.get("faults", [])), repeat)
+
+
+def _link(hil: dict, source: str) -> tuple[int, float]:
+    """([hil] seed, watchdog_timeout) of the command path (the full [hil] check is the HIL run's:
+    hydrohil.simulation.scenario.circuit_hil; these two act offline too)."""
+    seed, timeout = hil.get("seed", 0), hil.get("watchdog_timeout", WATCHDOG_TIMEOUT)
+    if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed <= 2 ** 53):
+        raise InputError(f"a whole number in [0, 2^53] (the network faults' random streams), got {seed!r}",
+                         source=source, key="hil.seed")
+    if not (isinstance(timeout, (int, float)) and not isinstance(timeout, bool) and 0 < timeout <= 10):
+        raise InputError(f"a time [s] in (0, 10], got {timeout!r}", source=source, key="hil.watchdog_timeout")
+    return seed, float(timeout)
 
 
 def write_circuit_scenario(path: str | Path, dest: str | Path, *, sets: dict, repeat: bool | None = None,

@@ -247,8 +247,40 @@ typedef struct {
     hh_rng rng;                 /* its own stream, seeded by the run's seed and its slot */
     double stuck;               /* sensor_stuck: the value held (NaN until the first reading while active) */
 } hh_fault;
+
+/* ---- the network between a controller and a plant (link.c) --------------------------------------------- */
+/* A plant's command packets (stride doubles each: the paper's rig 1, a circuit its inputs' mask and values) on
+ * their way through the network faults of a fault table. fifo: network_delay's packets in flight, cap slots of
+ * stride + 1 doubles, cap >= the longest delay in steps + 2 (fifo NULL: no delay line). */
+typedef struct {
+    int stride;
+    double *fifo;
+    int64_t cap, head, n;
+    int held_back;              /* reordering: a packet held back (it arrives after the next, stale) */
+} hh_wire;
+void hh_wire_init(hh_wire *w, int stride, double *fifo, int64_t cap);
+void hh_fault_seed(hh_fault *f, uint64_t seed, int slot);      /* its stream: the run's seed and its slot */
+uint64_t hh_fault_mask(const hh_fault *f, int n, int64_t k);   /* bit i: fault i active at step k */
+/* The packet sent for a step (sent 0: none) through the active (mask) network faults: 1 when a packet reaches
+ * the plant (in packet), 0 when none does. */
+int hh_wire_deliver(hh_wire *w, hh_fault *fault, int nfault, uint64_t mask, double h, int sent, double *packet);
+/* A circuit's command path: its network faults (hh_fault with k_start, k_end; streams seeded here), the wire,
+ * the watchdog (link.active: the safe state; trips unexplained when no injected fault held a packet back). */
+typedef struct {
+    hh_fault *fault;
+    int nfault;
+    hh_wire wire;
+    hh_watchdog link;
+    double h, timeout;
+} hh_path;
+void hh_path_init(hh_path *p, hh_fault *fault, int nfault, uint64_t seed, double h, double timeout, int stride,
+                  double *fifo, int64_t cap);
+/* Step k's packet (sent 0: none) through the faults of step k and the watchdog: 1 when it reaches the plant. */
+int hh_path_step(hh_path *p, int64_t k, int sent, double *packet);
+
 /* The rig around one sim: the faults act on the parameters through a copy of the fault-free ones (base), the
- * model reads only sim->p. fifo: network_delay's commands in flight, fifo_cap >= its longest delay in steps + 2. */
+ * model reads only sim->p. wire: commands of one value (hh_rig_init's fifo: 2 doubles per slot, fifo_cap slots
+ * >= the longest network_delay in steps + 2). */
 struct hh_rig {
     hh_sim *sim;
     double base[HH_NP];
@@ -263,9 +295,7 @@ struct hh_rig {
     hh_rng noise;               /* the pressure transducers' noise */
     double lost_counts, last_counts;   /* encoder_count_loss: counts lost so far; the last true count */
     int have_last;
-    double *fifo;
-    int64_t fifo_cap, fifo_head, fifo_n;
-    double held_back;           /* reordering: the command held back (NaN: none) */
+    hh_wire wire;
 };
 struct hh_rig_reading {
     int64_t encoder;            /* counts, as the rig reports them */

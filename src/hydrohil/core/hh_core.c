@@ -11,6 +11,7 @@
 #include "rng.c"
 #include "control.c"
 #include "watchdog.c"
+#include "link.c"
 #include "delay.c"
 #include "loop.c"
 #include "rig.c"

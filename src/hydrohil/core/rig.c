@@ -55,12 +55,6 @@ static const char *const FAULT_NAMES[HH_NFAULT_TYPES] = {
 
 const char *hh_fault_type_name(int type) { return type >= 0 && type < HH_NFAULT_TYPES ? FAULT_NAMES[type] : 0; }
 
-/* A stream of its own for slot i: splitmix64 from the run's seed and the slot. */
-static void seed_stream(hh_rng *r, uint64_t seed, int slot)
-{
-    hh_rng_seed(r, seed ^ (0xD1B54A32D192ED03ULL * (uint64_t)(slot + 1)));
-}
-
 void hh_rig_init(hh_rig *r, hh_sim *sim, double count, uint64_t seed, double timeout, int hold, double hold_kp,
                  double *fifo, int64_t fifo_cap)
 {
@@ -80,10 +74,7 @@ void hh_rig_init(hh_rig *r, hh_sim *sim, double count, uint64_t seed, double tim
     r->lost_counts = 0.0;
     r->last_counts = 0.0;
     r->have_last = 0;
-    r->fifo = fifo;
-    r->fifo_cap = fifo_cap;
-    r->fifo_head = r->fifo_n = 0;
-    r->held_back = NAN;
+    hh_wire_init(&r->wire, 1, fifo, fifo_cap);
 }
 
 HH_INLINE int is_parameter_fault(int type)
@@ -176,7 +167,7 @@ int hh_rig_add(hh_rig *r, const hh_fault *f)
     g = &r->fault[r->nfault];
     *g = *f;
     g->stuck = NAN;
-    seed_stream(&g->rng, r->seed, r->nfault);
+    hh_fault_seed(g, r->seed, r->nfault);
     return r->nfault++;
 }
 
@@ -192,7 +183,7 @@ int hh_rig_add_live(hh_rig *r, const hh_fault *f, int64_t k)
     r->fault[i].k_start = k;
     r->fault[i].k_end = HH_NEVER;
     r->fault[i].stuck = NAN;
-    seed_stream(&r->fault[i].rng, r->seed, i);
+    hh_fault_seed(&r->fault[i], r->seed, i);
     if (i == r->nfault)
         r->nfault++;
     hh_rig_begin(r, k);
@@ -210,53 +201,6 @@ int hh_rig_end(hh_rig *r, int slot, int64_t k)
 
 HH_INLINE int active(const hh_rig *r, int i, int type) { return (r->mask >> i & 1) && r->fault[i].type == type; }
 
-/* Network faults on the command sent for this step (NaN: none sent); returns what reaches the plant (NaN: nothing,
- * the plant holds its last command). In slot order; the delay line keeps the newest when a delay shrinks. */
-static double deliver(hh_rig *r, double u)
-{
-    double h = r->sim->h;
-    int64_t delay_steps = 0;
-    int i;
-    for (i = 0; i < r->nfault; i++) {
-        hh_fault *f = &r->fault[i];
-        if (!(r->mask >> i & 1))
-            continue;
-        if (f->type == HH_FAULT_CONTROLLER_SILENCE) {
-            u = NAN;
-        } else if (f->type == HH_FAULT_PACKET_LOSS) {
-            if (!isnan(u) && hh_rng_uniform(&f->rng) - 0x1.0p-53 < f->a)
-                u = NAN;
-        } else if (f->type == HH_FAULT_NETWORK_DELAY) {
-            int64_t n = (int64_t)nearbyint(f->a / h);
-            if (n > delay_steps)
-                delay_steps = n;
-        } else if (f->type == HH_FAULT_REORDERING && !isnan(u)) {
-            if (!isnan(r->held_back)) {            /* the held-back command arrives after this one: stale */
-                r->held_back = NAN;
-            } else if (hh_rng_uniform(&f->rng) - 0x1.0p-53 < f->a) {
-                r->held_back = u;
-                u = NAN;
-            }
-        }
-    }
-    if (delay_steps > r->fifo_cap - 2)        /* the caller sized the line for the longest delay (none: 0) */
-        delay_steps = r->fifo_cap > 2 ? r->fifo_cap - 2 : 0;
-    if (delay_steps || r->fifo_n) {
-        r->fifo[(r->fifo_head + r->fifo_n) % r->fifo_cap] = u;
-        r->fifo_n++;
-        if (r->fifo_n <= delay_steps)
-            return NAN;
-        while (r->fifo_n > delay_steps + 1) {     /* the delay shrank or ended: the newest wins */
-            r->fifo_head = (r->fifo_head + 1) % r->fifo_cap;
-            r->fifo_n--;
-        }
-        u = r->fifo[r->fifo_head];
-        r->fifo_head = (r->fifo_head + 1) % r->fifo_cap;
-        r->fifo_n--;
-    }
-    return u;
-}
-
 static int any_active(const hh_rig *r, int type)
 {
     int i;
@@ -270,6 +214,7 @@ int hh_rig_step(hh_rig *r, int64_t k, int arrived, double u, double *u_valve)
 {
     hh_sim *sim = r->sim;
     double v;
+    int got;
     if (!isfinite(u))                   /* no command at all (the wire refuses one; an offline caller may not) */
         arrived = 0;
     if (r->nfault == 0) {               /* no fault table: the command path alone (the common case, no loops) */
@@ -279,10 +224,11 @@ int hh_rig_step(hh_rig *r, int64_t k, int arrived, double u, double *u_valve)
         return hh_sim_step(sim, v) == HH_OK ? HH_OK : HH_DIVERGED;
     }
     hh_rig_begin(r, k);
-    v = deliver(r, arrived ? u : NAN);
-    if ((arrived && isnan(v)) || any_active(r, HH_FAULT_CONTROLLER_SILENCE))
+    v = u;
+    got = hh_wire_deliver(&r->wire, r->fault, r->nfault, r->mask, sim->h, arrived, &v);   /* (link.c) */
+    if ((arrived && !got) || any_active(r, HH_FAULT_CONTROLLER_SILENCE))
         r->link.k_interfered = k;       /* an injected fault held the controller's command back this step */
-    v = hh_watchdog_command(&r->link, k, !isnan(v), isnan(v) ? 0.0 : v, sim->h, r->timeout, r->hold, r->hold_kp,
+    v = hh_watchdog_command(&r->link, k, got, got ? v : 0.0, sim->h, r->timeout, r->hold, r->hold_kp,
                             sim->out[HH_OUT_Y + HH_XP]);
     if (any_active(r, HH_FAULT_COMMAND_INVERSION))
         v = -v;

@@ -3,6 +3,8 @@ for every rig that has one (the paper's VirtualRig, a circuit's CircuitRig)."""
 
 from __future__ import annotations
 
+WATCHDOG_TIMEOUT = 0.05      # [s]: no command for this long -> the safe state ([hil] watchdog_timeout's default)
+
 
 class WatchdogCounters:
     """``watchdog`` and its counters, read from ``self.link`` (the rig's ``hh_watchdog``)."""

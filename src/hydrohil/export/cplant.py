@@ -239,6 +239,7 @@ def circuit_plant_h(cs) -> str:
     from hydrohil.circuits.build import compile_circuit
     from hydrohil.circuits.link import (PLANT_LOG_HEAD, PLANT_LOG_INTS, check_link_size, circuit_link,
                                         plant_log_columns, side_columns)
+    from hydrohil.circuits.network import delay_slots, fault_steps
     from hydrohil.circuits.run import METHODS, input_table, start_state
     c, lay = cs.circuit, compile_circuit(cs.circuit).layout
     signals, inputs, layout = circuit_link(c, lay)
@@ -290,6 +291,16 @@ def circuit_plant_h(cs) -> str:
     sensor = loop.sensor_vector(cs.step) if loop is not None and loop.sensor else [0.0] * 6
     lines += [f"enum {{ CIRCUIT_SENSOR_N = {len(sensor)} }};   /* hc_sensed's sensor: its transducer, its faults */"]
     lines += arr("double", "CIRCUIT_SENSOR", sensor)
+    network = loop.network if loop is not None else []   # the loop's network faults (circuits/network.py)
+    cap = delay_slots(network, cs.step)
+    lines += [f"enum {{ CIRCUIT_NNET = {len(network)}, CIRCUIT_FIFO_CAP = {cap} }};   /* network faults; "
+              "network_delay's line (slots) */"]
+    lines += arr("int", "CIRCUIT_NET_TYPE", [f"HH_FAULT_{kind.upper()}" for kind, *_ in network], str)
+    lines += arr("double", "CIRCUIT_NET_VALUE", [a for *_, a in network])
+    lines += arr("double", "CIRCUIT_NET_START", [start for _, start, _, _ in network])
+    steps = [fault_steps(start, end, cs.step) for _, start, end, _ in network]
+    lines += arr("int64_t", "CIRCUIT_NET_K0", [k0 for k0, _ in steps], lambda v: f"{v}LL")
+    lines += arr("int64_t", "CIRCUIT_NET_K1", [k1 for _, k1 in steps], lambda v: f"{v}LL")
     lines += arr("char *const", "CIRCUIT_STATE_NAMES", list(lay.states), q)
     lines += arr("char *const", "CIRCUIT_MODE_NAMES", list(lay.modes), q)
     lines += arr("char *const", "CIRCUIT_MODE_WORDS", words, q)

@@ -31,7 +31,7 @@ CONTROLLER_LOG_HEAD = ("seq", "t", "wall", "measured", "reference", "command", "
 
 def make_rig(cs, hil):
     from hydrohil.circuits.rig import CircuitRig
-    return CircuitRig(cs, watchdog_timeout=hil.watchdog_timeout)
+    return CircuitRig(cs, watchdog_timeout=hil.watchdog_timeout, seed=hil.seed)
 
 
 class CircuitPlantServer(PlantServer):
@@ -220,7 +220,7 @@ def replay_applied_inputs(cs, applied: np.ndarray, events: dict | None = None, k
     commands came."""
     from hydrohil.circuits.rig import CircuitRig
     from hydrohil.simulation.steering import apply_circuit_event
-    rig = CircuitRig(cs)
+    rig = CircuitRig(cs, network=False)            # (the inputs as applied: after the network's faults)
     idx = [rig.layout.log_columns.index(s) for s in rig.layout.states]
     events = events or {}
     n = len(applied)

@@ -120,10 +120,12 @@ class SetAction(_Action):
 
 
 class CircuitFaultAction(FaultAction):
-    """A circuit's fault (hydrohil.circuits.faults: a leak, a parameter changed, the loop's sensor failing) from
-    ``at`` until ``until``: the scenario's ``[[faults]]`` entry it becomes (FaultAction.fault_table), its keys
-    those of its type."""
-    type: Literal["leak", "parameter", "sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout"]
+    """A circuit's fault (hydrohil.circuits.faults: a leak, a parameter changed, the loop's sensor failing, the
+    network losing, delaying or reordering its commands, the controller falling silent) from ``at`` until
+    ``until``: the scenario's ``[[faults]]`` entry it becomes (FaultAction.fault_table), its keys those of its
+    type."""
+    type: Literal["leak", "parameter", "sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout",
+                  "packet_loss", "network_delay", "reordering", "controller_silence"]
 
     @model_validator(mode="after")
     def _fault_type(self):                 # (in place of the rig's: a circuit's fault types and keys)
@@ -137,7 +139,7 @@ class CircuitFaultAction(FaultAction):
 
 CircuitAction = Annotated[Union[CircuitStep, CircuitRamp, SetAction, CircuitFaultAction], Field(discriminator="type")]
 CIRCUIT_ACTIONS = ("step", "ramp", "set", "leak", "parameter", "sensor_stuck", "sensor_offset", "sensor_noise",
-                   "sensor_dropout")
+                   "sensor_dropout", "packet_loss", "network_delay", "reordering", "controller_silence")
 
 
 class Sequence(StrictModel):

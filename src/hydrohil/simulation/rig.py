@@ -81,8 +81,9 @@ class VirtualRig(WatchdogCounters):
     def _need_fifo(self, fault) -> None:
         """A network delay needs its delay line: up to 1 s of commands (the schema's bound), made once."""
         if fault.type == "network_delay" and self._fifo is None:
-            self._fifo = np.full(int(np.ceil(1.0 / self.h)) + 2, np.nan)
-            self.c.fifo, self.c.fifo_cap = dptr(self._fifo), len(self._fifo)
+            cap = int(np.ceil(1.0 / self.h)) + 2
+            self._fifo = np.zeros(2 * cap)                  # (slots of 2: hh_wire, link.c)
+            self.c.wire.fifo, self.c.wire.cap = dptr(self._fifo), cap
 
     # -- steering (hydrohil.simulation.steering: the live panel, and its offline replay) ---------------------
     def tune(self, name: str, value: float) -> None:

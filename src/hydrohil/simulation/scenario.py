@@ -22,6 +22,7 @@ from hydrohil.parameters.schema import StrictModel
 from hydrohil.control import ControllerCfg
 from hydrohil.simulation.faults import Fault
 from hydrohil.core import METHODS, lib
+from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
 
 SOLVERS = (*METHODS, "reference")
 EXPERIMENTS_DIR = Path(__file__).resolve().parent.parent / "experiments"    # the paper's experiments, built in
@@ -138,7 +139,7 @@ class HilCfg(StrictModel):
     step: float | None = Field(None, gt=1e-6, le=0.01, description="plant step [s] (default: solver.step)")
     command_delay: float = Field(0.0, ge=0, le=0.1, description="valve command transport delay [s]")
     command_scale: float = Field(1.0, gt=0, le=1e3, description="command units per unit ū (e.g. 10 for ±10 V)")
-    watchdog_timeout: float = Field(0.05, gt=0, le=10, description="no valid command for this long -> safe state [s]")
+    watchdog_timeout: float = Field(WATCHDOG_TIMEOUT, gt=0, le=10, description="no valid command for this long -> safe state [s]")
     safe_state: Literal["centre", "hold"] = Field("centre", description="valve to centre, or hold position")
     hold_kp: float = Field(50.0, gt=0, le=1e5, description="P gain of the 'hold' safe state [1/m]")
     controller_mode: Literal["packet", "clock"] = Field("packet", description="controller driven by sensor "

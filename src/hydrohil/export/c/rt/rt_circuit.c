@@ -1,8 +1,8 @@
 /* rt_circuit.c: a circuit generated from its description behind the standalone plant (rt_plant.h, "what the
- * plant serves"): the generated C's step (circuit.c: hc_step, hc_row, hc_sensed), the core's watchdog
- * (watchdog.c), the SIGNALS / INPUTS packets of protocol v1 (docs/protocol.md) and its plant_log.csv row. The
- * rules are the Python plant's (src/hydrohil/circuits/rig.py, CircuitRig): each step takes the scenario's
- * drives and replaces the inputs the controller has set by their latest values (a loop's command from the
+ * plant serves"): the generated C's step (circuit.c: hc_step, hc_row, hc_sensed), the core's command path
+ * (link.c: the scenario's network faults, then the watchdog), the SIGNALS / INPUTS packets of protocol v1
+ * (docs/protocol.md) and its plant_log.csv row. The rules are the Python plant's (src/hydrohil/circuits/rig.py,
+ * CircuitRig): each step takes the scenario's drives and replaces the inputs the controller has set by their latest values (a loop's command from the
  * start: the one that holds its piston), saturated to their ranges; the watchdog's safe state sets the
  * commanded inputs to 0 (the end of their range nearest to it). The export's values (circuit_plant.h) are
  * fixed: no --set, --initial or --fault. The live panel (--panel, rt_side.c): the circuit's telemetry (time, its
@@ -36,7 +36,10 @@ static struct {
     double hold[CIRCUIT_NU];
     int saturated;
     uint32_t status;                  /* of the last sensor packet (logged) */
-    hh_watchdog link;
+    hh_path path;                     /* the network faults on the packets, the watchdog (link.c) */
+    hh_fault net[CIRCUIT_NNET > 0 ? CIRCUIT_NNET : 1];
+    double fifo[CIRCUIT_FIFO_CAP > 0 ? CIRCUIT_FIFO_CAP * (CIRCUIT_NINPUTS + 2) : 1];
+    double packet[CIRCUIT_NINPUTS + 1];   /* the mask, the values */
     hh_rng rng;                       /* the loop's sensor noise (seeded at each reset) */
     double sensor[CIRCUIT_SENSOR_N];  /* its sensor and faults (a stuck one's memory: new at each reset) */
     double logrow[LOG_HEAD + CIRCUIT_NSIGNALS + CIRCUIT_NINPUTS];
@@ -56,14 +59,34 @@ int model_init(plant *pl)
                 pl->o->step);
         return -1;
     }
-    pl->link = &C.link;
+    pl->link = &C.path.link;
     model_reset(pl);
     return 0;
 }
 
+/* The command path from the export's network faults (circuits/network.py: their steps computed there), its
+ * streams seeded by the run's seed, its watchdog counting from step 0. */
+static void path_reset(const plant *pl)
+{
+    int i;
+    for (i = 0; i < CIRCUIT_NNET; i++) {
+        hh_fault *f = &C.net[i];
+        memset(f, 0, sizeof *f);
+        f->type = CIRCUIT_NET_TYPE[i];
+        f->sensor = -1;
+        f->a = CIRCUIT_NET_VALUE[i];
+        f->start = CIRCUIT_NET_START[i];
+        f->k_start = CIRCUIT_NET_K0[i];
+        f->k_end = CIRCUIT_NET_K1[i];
+        f->stuck = NAN;
+    }
+    hh_path_init(&C.path, C.net, CIRCUIT_NNET, (uint64_t)pl->o->hil[HIL_SEED], CIRCUIT_STEP,
+                 pl->o->hil[HIL_WATCHDOG_TIMEOUT], CIRCUIT_NINPUTS + 1, CIRCUIT_FIFO_CAP > 0 ? C.fifo : NULL,
+                 CIRCUIT_FIFO_CAP);
+}
+
 void model_reset(plant *pl)
 {
-    (void)pl;
     memcpy(C.P, CIRCUIT_P, sizeof C.P);
     memcpy(C.y, CIRCUIT_Y0, sizeof C.y);
     memcpy(C.m, CIRCUIT_M0, sizeof C.m);
@@ -76,7 +99,7 @@ void model_reset(plant *pl)
     C.pending_mask = 0;
     C.saturated = 0;
     C.status = 0;
-    hh_watchdog_init(&C.link);
+    path_reset(pl);
     hh_rng_seed(&C.rng, CIRCUIT_SENSOR_SEED);
     memcpy(C.sensor, CIRCUIT_SENSOR, sizeof C.sensor);
     row_now(0.0);
@@ -131,12 +154,16 @@ int model_step(plant *pl, int64_t k, int arrived, double *u)
     int j;
     (void)u;
     if (arrived) {
-        for (j = 0; j < CIRCUIT_NINPUTS; j++)
-            if (C.pending_mask >> j & 1U)
-                C.cmd[j] = C.pending[j];
-        C.set |= C.pending_mask;
+        C.packet[0] = (double)C.pending_mask;
+        memcpy(C.packet + 1, C.pending, sizeof(double) * CIRCUIT_NINPUTS);
     }
-    hh_watchdog_command(&C.link, k, arrived, 0.0, CIRCUIT_STEP, pl->o->hil[HIL_WATCHDOG_TIMEOUT], 0, 0.0, 0.0);
+    if (hh_path_step(&C.path, k, arrived, C.packet)) {         /* (network faults, the watchdog: link.c) */
+        uint32_t mask = (uint32_t)C.packet[0];
+        for (j = 0; j < CIRCUIT_NINPUTS; j++)
+            if (mask >> j & 1U)
+                C.cmd[j] = C.packet[1 + j];
+        C.set |= mask;
+    }
     if (CIRCUIT_REPEAT && k > 0 && k % CIRCUIT_NSTEPS == 0) {     /* the drives again from their start */
         memcpy(C.drive, CIRCUIT_DRIVE0, sizeof C.drive);
         C.drive_next = 0;
@@ -155,10 +182,10 @@ int model_step(plant *pl, int64_t k, int arrived, double *u)
         double v;
         if (!(C.set >> j & 1U))
             continue;
-        v = C.link.active ? 0.0 : C.cmd[j];           /* the safe state: neutral */
+        v = C.path.link.active ? 0.0 : C.cmd[j];           /* the safe state: neutral */
         if (v < CIRCUIT_LO[j] || v > CIRCUIT_HI[j]) {
             v = v < CIRCUIT_LO[j] ? CIRCUIT_LO[j] : CIRCUIT_HI[j];
-            C.saturated = !C.link.active;
+            C.saturated = !C.path.link.active;
         }
         C.u[j] = v;
     }
@@ -180,7 +207,7 @@ void model_send_sensor(plant *pl, int64_t k, uint32_t status)
     if (CIRCUIT_MEASURE > 0)                        /* the loop's signal through its sensor */
         values[CIRCUIT_MEASURE - CIRCUIT_LOG_T - 1] = hc_sensed(C.row[CIRCUIT_MEASURE], CIRCUIT_HAS_SENSOR ? C.sensor : NULL,
                                                                   &C.rng, k);
-    status |= (pl->o->lockstep ? HH_ST_LOCKSTEP : 0U) | (C.link.active ? HH_ST_WATCHDOG : 0U) |
+    status |= (pl->o->lockstep ? HH_ST_LOCKSTEP : 0U) | (C.path.link.active ? HH_ST_WATCHDOG : 0U) |
               (C.saturated ? HH_ST_SATURATED : 0U);
     C.status = status;
     h.type = HHIL_SIGNALS;
@@ -205,7 +232,7 @@ void model_log_row(plant *pl, int64_t k, double wall, int64_t jitter_ns, int64_t
     r[CPLOG_COMPUTE_US] = (double)compute_ns / 1e3;
     r[CPLOG_CMD_SEQ] = (double)pl->cmd_seq;
     r[CPLOG_CMD_AGE] = pl->cmd_seq >= 0 ? (double)(k - 1 - pl->cmd_echo) : -1.0;
-    r[CPLOG_WATCHDOG] = C.link.active;
+    r[CPLOG_WATCHDOG] = C.path.link.active;
     r[CPLOG_STATUS] = (double)C.status;
     memcpy(r + LOG_HEAD, C.row + CIRCUIT_LOG_T + 1, sizeof(double) * CIRCUIT_NSIGNALS);
     memcpy(r + LOG_HEAD + CIRCUIT_NSIGNALS, C.u, sizeof(double) * CIRCUIT_NINPUTS);
@@ -259,7 +286,7 @@ void model_side_row(plant *pl, double *row, const reading *r, int64_t late_ns, i
     memcpy(row + SIDE_INPUTS, C.u, sizeof(double) * CIRCUIT_NINPUTS);
     row[SIDE_JITTER_US] = (double)late_ns / 1e3;
     row[SIDE_COMPUTE_US] = (double)compute_ns / 1e3;
-    row[SIDE_WATCHDOG] = C.link.active;
+    row[SIDE_WATCHDOG] = C.path.link.active;
 }
 
 /* set: a parameter changed from the next step on. The plant has no derivations of its own: the panel sends the

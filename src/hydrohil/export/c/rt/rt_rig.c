@@ -63,7 +63,7 @@ int model_init(plant *pl)
         for (i = 0; i < o->nfault + o->has_panel; i++)    /* (the panel may switch a network_delay on) */
             if ((i == o->nfault || o->faults[i].type == HH_FAULT_NETWORK_DELAY) && !pl->fifo) {   /* up to 1 s */
                 cap = (int64_t)ceil(1.0 / o->step) + 2;
-                pl->fifo = malloc(sizeof(double) * (size_t)cap);
+                pl->fifo = malloc(sizeof(double) * 2 * (size_t)cap);   /* (slots of 2: hh_wire) */
                 if (!pl->fifo) {
                     fprintf(stderr, "error: out of memory for a network delay of %lld steps\n", (long long)cap);
                     return -1;

@@ -1,0 +1,63 @@
+"""The network between a circuit's controller and its plant: a scenario's network faults on the command packets
+(``packet_loss``, ``network_delay``, ``reordering``, ``controller_silence``: the paper's rig's, docs/faults in
+the README), then the watchdog: the core's command path (core/link.c, ``hh_path``) that the offline loop (the
+generated ``hc_run``), the continuous reference's loop, the Python plant (:class:`~hydrohil.circuits.rig.CircuitRig`)
+and the standalone C plant (rt_circuit.c) all step, so a lock-step HIL run is the offline run bit for bit.
+
+The faults act where the plant receives the controller's packets (simulated there, as the paper's rig does):
+a lost or stale packet leaves the plant on the last command that arrived, a delayed one arrives whole steps
+late, a silent controller trips the watchdog after ``[hil] watchdog_timeout`` (its safe state: the commanded
+inputs at 0, the end of their range nearest to it). Their random draws come from streams seeded by
+``[hil] seed`` and the fault's place in the table; a trip while a fault held packets back is explained (it
+does not make a real-time run INVALID).
+"""
+
+from __future__ import annotations
+
+import math
+
+from hydrohil.core import ffi as core_ffi
+from hydrohil.core import lib as core
+from hydrohil.core.watchdog import WatchdogCounters
+
+NETWORK_FAULTS = ("packet_loss", "network_delay", "reordering", "controller_silence")
+NEVER = 2 ** 62                          # (HH_NEVER: a fault without an end)
+
+
+def fault_steps(start: float, end: float | None, h: float) -> tuple[int, int]:
+    """The steps k of a fault active on start <= k*h < end (the paper's rig's rule, simulation/faults.py)."""
+    return math.ceil(start / h - 1e-9), (math.ceil(end / h - 1e-9) if end is not None else NEVER)
+
+
+def delay_slots(network: list, h: float) -> int:
+    """The delay line's slots for the longest network_delay of ``network`` (0: none)."""
+    delays = [a for kind, _, _, a in network if kind == "network_delay"]
+    return int(math.ceil(max(delays) / h)) + 2 if delays else 0
+
+
+class CommandPath(WatchdogCounters):
+    """``hh_path`` over the network faults ``network`` ((type, start, end or None, a) from
+    :func:`hydrohil.circuits.faults.network_faults`) for packets of ``stride`` values at step ``h``."""
+
+    def __init__(self, network: list, h: float, *, seed: int, timeout: float, stride: int):
+        n = len(network)
+        self._faults = core_ffi.new(f"hh_fault[{max(n, 1)}]")
+        for f, (kind, start, end, a) in zip(self._faults, network):
+            f.type = getattr(core, f"HH_FAULT_{kind.upper()}")
+            f.sensor, f.a, f.b, f.start, f.stuck = -1, float(a), 0.0, float(start), math.nan
+            f.k_start, f.k_end = fault_steps(start, end, h)
+        cap = delay_slots(network, h)
+        self._fifo = core_ffi.new(f"double[{cap * (stride + 1)}]") if cap else core_ffi.NULL
+        self.c = core_ffi.new("hh_path *")
+        core.hh_path_init(self.c, self._faults, n, int(seed), float(h), float(timeout), int(stride), self._fifo, cap)
+        self.packet = core_ffi.new(f"double[{stride}]")
+
+    @property
+    def link(self):
+        """The watchdog (``hh_watchdog``: its safe state and counters)."""
+        return self.c.link
+
+    def step(self, k: int, sent: bool) -> bool:
+        """Step k's packet (in :attr:`packet`; ``sent`` False: none) through the faults and the watchdog: True
+        when a packet reached the plant (then in :attr:`packet`)."""
+        return bool(core.hh_path_step(self.c, k, int(sent), self.packet))
