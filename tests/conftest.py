@@ -1,5 +1,6 @@
 pytest_plugins = ["pytester"]    # tests of the hydrohil pytest plugin (rig fixture) run pytest in pytest
 
+import math
 import subprocess
 import sys
 
@@ -117,3 +118,39 @@ def sanitized_harness(tmp_path, harness: str, src: str, units: list[str], fmi: i
     assert r.returncode == 0 and "ok: 0 failed" in r.stdout, r.stdout + r.stderr
     assert "ERROR: AddressSanitizer" not in r.stderr and "runtime error" not in r.stderr, r.stderr
     return r.stdout
+
+
+class Xoshiro:
+    """xoshiro256** seeded by splitmix64 (Blackman & Vigna) and Box-Muller normals, written here from the published
+    algorithms: the random streams of the rig's faults computed apart from the core's rng.c."""
+    M = (1 << 64) - 1
+
+    @classmethod
+    def stream(cls, seed: int, slot: int) -> "Xoshiro":
+        """A fault's stream: the run's seed and its place in the table (docs: [hil] seed)."""
+        return cls(seed ^ ((0xD1B54A32D192ED03 * (slot + 1)) & cls.M))
+
+    def __init__(self, seed):
+        self.s, x = [], seed & self.M
+        for _ in range(4):
+            x = (x + 0x9E3779B97F4A7C15) & self.M
+            z = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & self.M
+            z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & self.M
+            self.s.append(z ^ (z >> 31))
+
+    def uniform(self):
+        s, M = self.s, self.M
+        rotl = lambda x, k: ((x << k) | (x >> (64 - k))) & M   # noqa: E731
+        out = (rotl((s[1] * 5) & M, 7) * 9) & M
+        t = (s[1] << 17) & M
+        s[2] ^= s[0]
+        s[3] ^= s[1]
+        s[1] ^= s[2]
+        s[0] ^= s[3]
+        s[2] ^= t
+        s[3] = rotl(s[3], 45)
+        return ((out >> 11) + 1) * 2.0 ** -53
+
+    def normal(self):
+        r = math.sqrt(-2.0 * math.log(self.uniform()))
+        return r * math.cos(6.283185307179586 * self.uniform())

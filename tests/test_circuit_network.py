@@ -1,6 +1,6 @@
 """Network faults on a circuit's loop (circuits/network.py, core/link.c): packet loss, delay, reordering and a
 silent controller act on the commands as the paper's rig's do. Checked against rules computed here (the
-random streams by an implementation of xoshiro256** of this file), against the core's hand-written rig on the
+random streams by conftest's xoshiro256**), against the core's hand-written rig on the
 paper's Fig 11, and lock-step HIL on both plants = offline bit for bit."""
 
 import re
@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from conftest import EXAMPLES
+from conftest import EXAMPLES, Xoshiro
 from hydrohil.circuits.run import simulate_circuit
 from hydrohil.circuits.scenario import load_circuit_scenario
 from hydrohil.errors import InputError
@@ -49,40 +49,6 @@ def paper_scenario(tmp_path, faults: str = FAULTS, duration: float = 3.5, name: 
     return f
 
 
-# ---- xoshiro256** seeded by splitmix64 (Blackman & Vigna), written here from the published algorithm ----
-M64 = (1 << 64) - 1
-
-
-class Xoshiro:
-    def __init__(self, seed: int):
-        self.s = []
-        x = seed & M64
-        for _ in range(4):
-            x = (x + 0x9E3779B97F4A7C15) & M64
-            z = x
-            z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & M64
-            z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & M64
-            self.s.append(z ^ (z >> 31))
-
-    def uniform(self) -> float:
-        s = self.s
-        rotl = lambda x, k: ((x << k) | (x >> (64 - k))) & M64     # noqa: E731
-        result = (rotl((s[1] * 5) & M64, 7) * 9) & M64
-        t = (s[1] << 17) & M64
-        s[2] ^= s[0]
-        s[3] ^= s[1]
-        s[1] ^= s[2]
-        s[0] ^= s[3]
-        s[2] ^= t
-        s[3] = rotl(s[3], 45)
-        return ((result >> 11) + 1) * 2.0 ** -53
-
-
-def stream(slot: int) -> Xoshiro:
-    """A fault's stream: the run's seed and its slot in the table (docs: [hil] seed)."""
-    return Xoshiro(SEED ^ ((0xD1B54A32D192ED03 * (slot + 1)) & M64))
-
-
 def expected_applied(sent: np.ndarray, u0: float) -> tuple[np.ndarray, np.ndarray]:
     """What reaches the valve at each step under FAULTS, from what the controller sent, by the documented rules:
     a lost packet (a draw below the probability) or one held back by reordering (then the next one arrives,
@@ -92,7 +58,7 @@ def expected_applied(sent: np.ndarray, u0: float) -> tuple[np.ndarray, np.ndarra
     k_of = lambda t: int(np.ceil(t / H - 1e-9))                      # noqa: E731
     loss, delay, reorder, silence = (k_of(0.6), k_of(1.2)), (k_of(1.3), k_of(1.8)), (k_of(2.0), k_of(2.6)), \
         (k_of(3.1), k_of(3.3))
-    rng_loss, rng_reorder = stream(0), stream(2)
+    rng_loss, rng_reorder = Xoshiro.stream(SEED, 0), Xoshiro.stream(SEED, 2)
     held, k_delivered, held_back = u0, 0, False
     out, dog = np.empty(len(sent)), np.zeros(len(sent), bool)
     for k, s in enumerate(sent):

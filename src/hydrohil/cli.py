@@ -432,6 +432,39 @@ def circuit_draw(circuit: str | None = typer.Argument(None, help="built-in name 
         fail(exc)
 
 
+def circuit_convert(scenario: Path, out: Path, params: Optional[str] = None, sets: Optional[dict] = None) -> dict:
+    """A scenario of the paper's rig (``params``, ``sets`` applied as ``simulate`` does) written as a circuit
+    scenario into the folder ``out`` (circuit.toml, scenario.toml; :mod:`hydrohil.simulation.as_circuit`): what
+    it wrote and the notes on what changed form."""
+    from hydrohil.circuits.scenario import is_circuit_scenario
+    from hydrohil.simulation.as_circuit import convert
+    from hydrohil.simulation.scenario import load_scenario
+    if is_circuit_scenario(scenario):
+        raise InputError("a circuit scenario already (it names its circuit): nothing to convert", source=str(scenario),
+                         key="circuit")
+    cpath, spath, notes = convert(load_scenario(scenario, params=params, sets=sets), out)
+    return {"circuit": str(cpath), "scenario": str(spath), "notes": notes}
+
+
+@circuit_app.command("convert")
+def circuit_convert_cmd(scenario: Path = typer.Argument(..., help="a scenario of the paper's rig (params = ...)"),
+                        out: Path = typer.Option(..., "--out", help="folder for circuit.toml and scenario.toml"),
+                        params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML "
+                                                             "path) in place of the scenario's"),
+                        sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on "
+                                                       "top of the scenario's [overrides]")):
+    """A paper scenario as a circuit scenario: its rig the circuit of its parameters, its drive, loop, encoder,
+    faults and [hil] in a circuit scenario's terms, for the generated code to run (simulate, hil, test, export);
+    its runs are the core's to rounding. What a circuit cannot express is refused, naming the key."""
+    try:
+        r = circuit_convert(scenario, out, params, _parse_sets(sets))
+    except HydrohilError as exc:
+        fail(exc)
+    for note in r["notes"]:
+        typer.echo(f"note: {note}")
+    typer.echo(f"wrote {r['circuit']}, {r['scenario']}")
+
+
 @circuit_app.command("run")
 def circuit_run(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or circuit TOML"),
                 out: Path = typer.Option(..., "--out", help="folder for log.csv and plot.png"),
@@ -546,7 +579,7 @@ def export_fmu(out: Path, params: str = "ferreira2004", fmi: int = 2, step: Opti
     if circuit is not None or scenario is not None:
         from hydrohil.circuits.scenario import circuit_scenario
         cs = circuit_scenario(circuit=circuit, scenario=scenario, sets=sets, step=step)
-        return export_circuit_fmu(cs.circuit, out, fmi=fmi, step=cs.step, loop=cs.loop)
+        return export_circuit_fmu(cs.circuit, out, fmi=fmi, step=cs.step, loop=cs.loop, rest=cs.rest)
     if sets:
         raise InputError("--set applies to a circuit's FMU (--circuit or --scenario); a parameter set's values: "
                          "--params FILE", source="--set", key=next(iter(sets)))

@@ -408,10 +408,22 @@ def _drive(drive, prm, source: str, where: str):
         ts = np.array([to_si(x, "s") for x in t])
     except ValueError as exc:
         raise _err(source, f"{where}.t", str(exc)) from None
-    if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
-        raise _err(source, f"{where}.t", "times start at 0 and increase")
+    if not valid_table_times(ts, interp == "linear"):
+        raise _err(source, f"{where}.t", TABLE_TIMES)
     vs = np.array([_value({"value": x}, "value", prm, source, where) for x in v])
     return Drive(ts, vs, interp == "linear")
+
+
+TABLE_TIMES = ("times start at 0 and increase (a linear table may give a time twice: a jump there, the value "
+               "after it from that instant)")
+
+
+def valid_table_times(ts: np.ndarray, linear: bool) -> bool:
+    """A table's times as a drive or a reference takes them: from 0, increasing; a linear one may repeat a time
+    once (a jump: np.interp takes the later value from that instant)."""
+    dt = np.diff(ts)
+    return bool(ts[0] == 0.0 and np.all(dt >= 0 if linear else dt > 0)
+                and not np.any((dt[:-1] == 0) & (dt[1:] == 0)))
 
 
 def component_values(ctype: ComponentType, params: dict, fluid: dict) -> dict:

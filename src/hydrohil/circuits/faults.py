@@ -9,7 +9,8 @@ parameter as inputs, for its importer to drive).
     type = "leak"                 # a burst hose, a broken fitting: an orifice from a node to tank opens
     orifice = "burst"             # the orifice's name in the logs (burst.q, burst.opening); default leak_<node>
     node = "line_a"
-    area = "30 mm2"               # (discharge_coefficient = 0.61; to = "tank": default the node a tank fixes)
+    area = "30 mm2"               # (discharge_coefficient = 0.61, transition_pressure = 1 bar: the orifice's;
+                                  # to = "tank": default the node a tank fixes)
     start = 1.5                   # [s]: active on the steps k with start <= k*h < end
     end = 3.0                     # [s] (omit: to the end of the run)
 
@@ -21,15 +22,15 @@ parameter as inputs, for its importer to drive).
 
     [[faults]]
     type = "sensor_offset"        # the closed loop's measurement fails (sensor_stuck, sensor_offset with
-    offset = "2 bar"              # offset and drift, sensor_noise with std, sensor_dropout: it reads 0), in
-    drift = 0.0                   # its signal's unit
+    offset = "2 bar"              # offset and drift, sensor_noise with std, sensor_dropout: it reads 0,
+    drift = 0.0                   # encoder_count_loss with fraction), in its signal's unit
     start = 3.0
 
     [[faults]]
     type = "packet_loss"          # the network between the controller and the plant (packet_loss and
     probability = 0.3             # reordering with probability, network_delay with delay [s],
-    start = 1.0                   # controller_silence): on the loop's commands, as the paper's rig's
-    end = 2.0                     # (circuits/network.py)
+    start = 1.0                   # controller_silence; command_inversion): on the loop's commands, as the
+    end = 2.0                     # paper's rig's (circuits/network.py)
 
 A leak is an orifice component added to the circuit, its opening a signal driven 0 -> 1 -> 0. A parameter
 fault makes its parameter an input signal of the circuit, held at its value outside the fault and at
@@ -38,6 +39,8 @@ mass, a relief valve's flow gain from its cracking pressure), computed here at e
 A fault on a signal replaces its drive during the fault. The log shows each as applied (``cyl.damping``).
 A sensor fault acts where the loop reads its signal (the generated C's hc_sensed, the loop's transducer: an
 ideal one when the scenario gives none), in every layer that reads it; the log's ``<measure>.sensed`` shows it.
+A fault's random draws come from its own stream, seeded by ``[hil] seed`` and its place in ``[[faults]]`` (the
+paper's rig's rule).
 """
 
 from __future__ import annotations
@@ -49,14 +52,18 @@ import numpy as np
 from hydrohil.circuits.network import NETWORK_FAULTS
 from hydrohil.errors import InputError
 
-SENSOR_FAULTS = ("sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout")   # (hc_sensed's order)
+SENSOR_FAULTS = ("sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout",
+                 "encoder_count_loss")   # (hc_sensed's order)
 TYPES = ("leak", "parameter", *SENSOR_FAULTS, *NETWORK_FAULTS)
-KEYS = {"leak": {"type", "orifice", "node", "area", "to", "discharge_coefficient", "start", "end"},
+KEYS = {"leak": {"type", "orifice", "node", "area", "to", "discharge_coefficient", "transition_pressure", "start",
+                 "end"},
         "parameter": {"type", "target", "value", "start", "end"},
         "sensor_stuck": {"type", "start", "end"}, "sensor_offset": {"type", "offset", "drift", "start", "end"},
         "sensor_noise": {"type", "std", "start", "end"}, "sensor_dropout": {"type", "start", "end"},
+        "encoder_count_loss": {"type", "fraction", "start", "end"},
         "packet_loss": {"type", "probability", "start", "end"}, "network_delay": {"type", "delay", "start", "end"},
-        "reordering": {"type", "probability", "start", "end"}, "controller_silence": {"type", "start", "end"}}
+        "reordering": {"type", "probability", "start", "end"}, "controller_silence": {"type", "start", "end"},
+        "command_inversion": {"type", "start", "end"}}
 # each network fault's value: key, unit, range (the paper's rig's, simulation/faults.py; a delay line up to 1 s)
 NETWORK_VALUE = {"packet_loss": ("probability", "-", 0.0, 1.0), "network_delay": ("delay", "s", 0.0, 1.0),
                  "reordering": ("probability", "-", 0.0, 1.0)}
@@ -126,9 +133,10 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
         kind = f.get("type")
         if kind not in TYPES:
             raise InputError(f"a circuit's faults are {', '.join(TYPES)} (a leak at a node, a parameter changed, "
-                             f"the loop's sensor failing, the network losing, delaying or reordering its commands "
-                             f"or the controller falling silent; the rig's other fault types act on the paper's "
-                             f"rig), got {kind!r}", source=source, key=f"{where}.type")
+                             f"the loop's sensor failing, the network losing, delaying or reordering its commands, "
+                             f"the controller falling silent, the commands inverted; the rig's other fault types "
+                             f"are a leak or a parameter here: hydrohil circuit convert writes them), got {kind!r}",
+                             source=source, key=f"{where}.type")
         unknown = set(f) - KEYS[kind]
         if unknown:
             raise InputError(f"unknown key (keys of a {kind} fault: {', '.join(sorted(KEYS[kind]))})", source=source,
@@ -152,12 +160,11 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
             if "area" not in f:
                 raise InputError("required: the leak's area [m2] (e.g. \"30 mm2\")", source=source,
                                  key=f"{where}.area")
-            for k in ("area", "discharge_coefficient"):
+            for k in ("area", "discharge_coefficient", "transition_pressure"):
                 if k in f:
                     _value(f, k, COMPONENTS["orifice"].params[k], source, where)
             comps[name] = {"type": "orifice", "a": node, "b": to, "area": f["area"],
-                           **({"discharge_coefficient": f["discharge_coefficient"]}
-                              if "discharge_coefficient" in f else {})}
+                           **{k: f[k] for k in ("discharge_coefficient", "transition_pressure") if k in f}}
             inputs[f"{name}.opening"] = windowed_drive(0.0, 1.0, start, end)
             continue
         target = f.get("target")
@@ -214,8 +221,8 @@ def follows_fault(c, comp: str) -> bool:
 
 
 def _loop_faults(faults: list, kinds: tuple, loop, what: str, source: str):
-    """(table, type, its key, start, end) of each of ``faults`` of the ``kinds`` acting on the loop's ``what``;
-    an error naming the fault when the scenario has no loop."""
+    """(place, table, type, its key, start, end) of each of ``faults`` of the ``kinds`` acting on the loop's
+    ``what``; an error naming the fault when the scenario has no loop."""
     for i, f in enumerate(faults):
         kind = f.get("type")
         if kind not in kinds:
@@ -224,15 +231,16 @@ def _loop_faults(faults: list, kinds: tuple, loop, what: str, source: str):
         if loop is None:
             raise InputError(f"a {kind} acts on the closed loop's {what}: this scenario has no [controller]",
                              source=source, key=f"{where}.type")
-        yield (f, kind, where, *_window(f, where, source))
+        yield (i, f, kind, where, *_window(f, where, source))
 
 
 def sensor_faults(faults: list, loop, unit: str, source: str) -> list:
     """The sensor faults among a scenario's ``faults`` (checked by :func:`apply_faults`), as the loop's
-    sensor takes them: (type, start, end or None, a, b) with an offset [unit] and drift [unit/s], or a noise's
-    standard deviation [unit], in SI (``unit``: the measured signal's)."""
+    sensor takes them: (type, start, end or None, a, b, slot) with an offset [unit] and drift [unit/s], a noise's
+    standard deviation [unit], in SI (``unit``: the measured signal's), or the fraction of an encoder's counts
+    missed."""
     out = []
-    for f, kind, where, start, end in _loop_faults(faults, SENSOR_FAULTS, loop, "measurement", source):
+    for slot, f, kind, where, start, end in _loop_faults(faults, SENSOR_FAULTS, loop, "measurement", source):
         a = b = 0.0
         if kind == "sensor_offset":
             a = _number(f.get("offset", 0.0), "offset", where, source, unit)
@@ -245,7 +253,15 @@ def sensor_faults(faults: list, loop, unit: str, source: str) -> list:
             if not a > 0:
                 raise InputError(f"a standard deviation > 0 [{unit}], got {f['std']!r}", source=source,
                                  key=f"{where}.std")
-        out.append((kind, start, end, a, b))
+        elif kind == "encoder_count_loss":
+            a = _number(f.get("fraction"), "fraction", where, source, "-") if "fraction" in f else math.nan
+            if not 0 < a <= 1:
+                raise InputError(f"the fraction of the counts missed, in (0, 1], got {f.get('fraction')!r}",
+                                 source=source, key=f"{where}.fraction")
+            if loop.sensor is None or not loop.sensor[0] > 0:
+                raise InputError("an encoder's counts: give the loop's sensor_resolution (its count size)",
+                                 source=source, key=f"{where}.type")
+        out.append((kind, start, end, a, b, slot))
     return out
 
 
@@ -276,10 +292,10 @@ def follow_derived(c, source: str) -> None:
 
 def network_faults(faults: list, loop, source: str) -> list:
     """The network faults among a scenario's ``faults`` (checked by :func:`apply_faults`), as the command path
-    takes them (:class:`hydrohil.circuits.network.CommandPath`): (type, start, end or None, value) with a
-    probability, or a delay [s]; 0 for a controller_silence."""
+    takes them (:class:`hydrohil.circuits.network.CommandPath`): (type, start, end or None, value, slot) with a
+    probability, or a delay [s]; 0 for a controller_silence; slot: its place in ``faults`` (its random stream's)."""
     out = []
-    for f, kind, where, start, end in _loop_faults(faults, NETWORK_FAULTS, loop, "commands", source):
+    for slot, f, kind, where, start, end in _loop_faults(faults, NETWORK_FAULTS, loop, "commands", source):
         a = 0.0
         if kind in NETWORK_VALUE:
             key, unit, lo, hi = NETWORK_VALUE[kind]
@@ -290,5 +306,5 @@ def network_faults(faults: list, loop, source: str) -> list:
             if not lo < a <= hi:
                 raise InputError(f"a {key} [{unit}] in ({lo:g}, {hi:g}], got {f[key]!r}", source=source,
                                  key=f"{where}.{key}")
-        out.append((kind, start, end, a))
+        out.append((kind, start, end, a, slot))
     return out

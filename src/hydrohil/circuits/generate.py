@@ -139,6 +139,8 @@ def generate(c: Circuit) -> tuple[str, Layout]:
                        "        return 2;"]
     else:
         step_inputs = ["    const double *u = u_in;"]
+    step_inputs += [f"    {_mode_update(comp, e, lay)}   /* {comp.name}: its clamp of a driven parameter, from now */"
+                    for comp, e in emits if any(f"{comp.name}.{k}" in lay.inputs for k in e.clamps)]
 
     nout = len(outs)
     cols = ["t"] + [f"{n}.p" for n in c.nodes] + [n for n, _ in lay.outputs] + lay.modes
@@ -489,43 +491,95 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
 }}
 
 /* What the loop's sensor reports of a signal x at step k (SPEC §10): x plus white noise of standard deviation
- * sensor[3] (one normal sample of the generator rng per reading; 0 or rng NULL: none), to the nearest multiple of
- * its quantum sensor[0] (0: ideal; the encoder's rounding, sensors.c), within its range [sensor[1], sensor[2]];
- * and its faults (circuits/faults.py), sensor[4] of them after the head of HC_SENSOR_HEAD doubles (sensor[5]:
- * the step h), each HC_SENSOR_FAULT doubles (type, first step, step after the last, a, b, memory) active on the
- * steps k_first <= k < k_end: an offset a + drift b*(t - start) (memory: start) and added noise of standard
- * deviation a (one more sample) before the transducer's model, stuck at the reading of its first step (memory:
- * that reading, NaN until then), a dropout reporting 0. sensor NULL: x itself. */
-enum {{ HC_SENSOR_HEAD = 6, HC_SENSOR_FAULT = 6, HC_SENSOR_STUCK = 1, HC_SENSOR_OFFSET, HC_SENSOR_NOISE,
-       HC_SENSOR_DROPOUT }};
+ * sensor[3] (one normal sample of rng[0] per reading; 0 or rng NULL: none), to the nearest multiple of its
+ * quantum sensor[0] (0: ideal; the encoder's rounding, sensors.c), within its range [sensor[1], sensor[2]]; and
+ * its faults (circuits/faults.py), sensor[4] of them after the head of HC_SENSOR_HEAD doubles (sensor[5]: the
+ * step h; sensor[6]: 1 for an encoder), each HC_SENSOR_FAULT doubles (type, first step, step after the last, a,
+ * b, memory) active on the steps k_first <= k < k_end: an offset a + drift b*(t - start) (memory: start), an
+ * added noise of standard deviation a (a sample of its own stream rng[1 + i], i its row), stuck at the reading
+ * of its first step (memory: that reading, NaN until then and after), a dropout reporting 0, an encoder missing
+ * a fraction a of its counts (the paper's rig's encoder_count_loss: while active, a of each change of count
+ * lost, the lost counts staying lost; memory b: the counts lost, then the last count, NaN until the first
+ * reading). A transducer takes the offset and the noise on its signal, before its own model, stuck and dropout
+ * on its reading; an encoder (the paper's rig's, rig.c) counts first (less the counts lost), the faults act in
+ * their order on the reading in its unit, then counted again. sensor NULL: x itself. */
+enum {{ HC_SENSOR_HEAD = 7, HC_SENSOR_FAULT = 6, HC_SENSOR_STUCK = 1, HC_SENSOR_OFFSET, HC_SENSOR_NOISE,
+       HC_SENSOR_DROPOUT, HC_SENSOR_COUNT_LOSS }};
 double hc_sensed(double x, double *sensor, void *rng, int64_t k)
 {{
-    double v = x, z, *stuck = 0;
-    int f, nf, dropout = 0;
+    hh_rng *r = (hh_rng *)rng;
+    double v = x, z, t, *stuck = 0;
+    int f, nf, dropout = 0, encoder, any = 0;
     if (!sensor)
         return x;
     nf = (int)sensor[4];
+    encoder = sensor[6] != 0.0;
+    t = (double)k * sensor[5];
     for (f = 0; f < nf; f++) {{
         double *F = sensor + HC_SENSOR_HEAD + HC_SENSOR_FAULT * f;
-        if ((double)k < F[1] || (double)k >= F[2])
+        if ((double)k < F[1] || (double)k >= F[2]) {{
+            if ((int)F[0] == HC_SENSOR_STUCK)
+                F[5] = NAN;                 /* (a window that ends lets go) */
             continue;
+        }}
+        if ((int)F[0] != HC_SENSOR_COUNT_LOSS)
+            any = 1;
+        if (encoder)
+            continue;                       /* (an encoder's faults act on its reading, below) */
         switch ((int)F[0]) {{
         case HC_SENSOR_STUCK: stuck = F; break;
-        case HC_SENSOR_OFFSET: v += F[3] + F[4] * ((double)k * sensor[5] - F[5]); break;
+        case HC_SENSOR_OFFSET: v += F[3] + F[4] * (t - F[5]); break;
         case HC_SENSOR_NOISE:
-            if (rng) {{
-                hh_rng_normals((hh_rng *)rng, 1, &z);
+            if (r) {{
+                hh_rng_normals(&r[1 + f], 1, &z);
                 v += F[3] * z;
             }}
             break;
-        default: dropout = 1; break;
+        case HC_SENSOR_DROPOUT: dropout = 1; break;
+        default: break;
         }}
     }}
-    if (sensor[3] > 0.0 && rng) {{
-        hh_rng_normals((hh_rng *)rng, 1, &z);
+    if (sensor[3] > 0.0 && r) {{
+        hh_rng_normals(&r[0], 1, &z);
         v = v + sensor[3] * z;
     }}
-    v = sensor[0] > 0.0 ? encoder_counts(v, sensor[0]) * sensor[0] : v;
+    if (sensor[0] > 0.0) {{
+        double counts = encoder_counts(v, sensor[0]), lost = 0.0;
+        for (f = 0; f < nf; f++) {{             /* counts lost: every reading remembered, lost while active */
+            double *F = sensor + HC_SENSOR_HEAD + HC_SENSOR_FAULT * f;
+            if ((int)F[0] != HC_SENSOR_COUNT_LOSS)
+                continue;
+            if ((double)k >= F[1] && (double)k < F[2] && !isnan(F[5]))
+                F[4] += copysign(F[3] * fabs(counts - F[5]), counts - F[5]);
+            F[5] = counts;
+            lost += F[4];
+        }}
+        v = (counts - nearbyint(lost)) * sensor[0];
+    }}
+    if (encoder && any) {{                     /* the reading's faults in their order, counted again */
+        for (f = 0; f < nf; f++) {{
+            double *F = sensor + HC_SENSOR_HEAD + HC_SENSOR_FAULT * f;
+            if ((double)k < F[1] || (double)k >= F[2])
+                continue;
+            switch ((int)F[0]) {{
+            case HC_SENSOR_STUCK:
+                if (isnan(F[5]))
+                    F[5] = v;
+                v = F[5];
+                break;
+            case HC_SENSOR_OFFSET: v += F[3] + F[4] * hh_max(t - F[5], 0.0); break;
+            case HC_SENSOR_NOISE:
+                if (r) {{
+                    hh_rng_normals(&r[1 + f], 1, &z);
+                    v += F[3] * z;
+                }}
+                break;
+            case HC_SENSOR_DROPOUT: v = 0.0; break;
+            default: break;
+            }}
+        }}
+        v = encoder_counts(v, sensor[0]) * sensor[0];
+    }}
     v = v < sensor[1] ? sensor[1] : v > sensor[2] ? sensor[2] : v;
     if (stuck) {{
         if (isnan(stuck[5]))
@@ -632,14 +686,15 @@ static int method_step(int method, double h, double *y, int64_t *m, const double
  * ref[k] (slope dref[k]); rng: its sensor's noise generator (hc_sensed); `sign` -1: a reverse-acting loop (the law on -ref, -dref and the signal's negative, so
  * that a larger command lowers the signal; 1: direct, exact). path (not NULL: the scenario's network faults,
  * an hh_path of packets of one value): the controller's command goes through it (link.c: network faults, then
- * the watchdog) as to a plant over the network: the last one that arrived drives the step, `safe` in the
- * watchdog's safe state; sent[k] (when not NULL): what the controller sent for step k. Returns 0, or 1 when
+ * the watchdog) as to a plant over the network: the last one that arrived drives the step, 0 in the watchdog's
+ * safe state, negated under a command_inversion, saturated to the input's range [lo, hi]; sent[k] (when not
+ * NULL): what the controller sent for step k. Returns 0, or 1 when
  * the state went non-finite, 2 when h is not the step the state was made for (hc_init) (rows so far written,
  * *rows set). */
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
-           double safe, double *sent)
+           double lo, double hi, double *sent)
 {{
     double seen[NLOG], held = 0.0;
     int64_t step, row = 0;
@@ -656,11 +711,13 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                                      sign * ref[step], sign * dref[step], sign * hc_sensed(seen[meas], sensor, rng, step),
                                      0.0, 0.0);
             if (path) {{
+                hh_path *pa = (hh_path *)path;
                 if (sent)
                     sent[step] = c;
-                if (hh_path_step((hh_path *)path, step, 1, &c))
+                if (hh_path_step(pa, step, 1, &c))
                     held = c;
-                c = ((hh_path *)path)->link.active ? safe : held;
+                c = pa->link.active ? 0.0 : held;
+                c = hh_clamp(pa->inverted ? -c : c, lo, hi);
             }}
             uk[cmd] = c;
         }}

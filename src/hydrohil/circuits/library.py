@@ -73,6 +73,9 @@ class Emit:
     at_rest: dict = field(default_factory=dict)          # state -> C: its value once the nodes settled at rest
     delays: list = field(default_factory=list)           # (input key, delay's parameter key): seen that late
     mode_at_rest: str | None = None
+    # the parameters its mode_update's clamps read: one driven (a fault, the panel) is applied at the step's start
+    # too, so a clamp tightened between steps holds from then (a spool's speed limit set to 0: stuck at once)
+    clamps: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -362,12 +365,15 @@ def _emit_servo_valve(c):
     spool = f"{c.par('wn')}, {c.par('xi')}, {c.par('la')}, {c.par('lv')}"
     P, T, A, B = (c.p(n) for n in ("P", "T", "A", "B"))
 
-    def edge(sign, coeffs, a, b):
-        return f"hc_sqrt_law(hc_section({sign}{xc}, {coeffs}) * HH_LPM_PER_SQRT_BAR, {a} - {b}, {dpt})"
+    wear = c.par("wear")
+
+    def edge(sign, coeffs, a, b):                 # (eq 3's section, plus the worn lands' leakage section)
+        return f"hc_sqrt_law((hc_section({sign}{xc}, {coeffs}) + {wear}) * HH_LPM_PER_SQRT_BAR, {a} - {b}, {dpt})"
 
     def edge_flow(sign, coeffs, a, b):            # (its ports, flow, conductance, rate with the pressures held)
         dp = f"{c.p(a)} - {c.p(b)}"
-        return (a, b, edge(sign, coeffs, c.p(a), c.p(b)), f"hc_servo_edge_slope({sign}1, {x}, {coeffs}, {dp}, {dpt})",
+        return (a, b, edge(sign, coeffs, c.p(a), c.p(b)),
+                f"hc_servo_edge_slope({sign}1, {x}, {coeffs}, {wear}, {dp}, {dpt})",
                 f"hc_servo_edge_rate({sign}1, {x}, {c.dx('x')}, {coeffs}, {dp}, {dpt})")
     qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T), "PB": edge("", k, P, B), "BT": edge("-", kt, B, T)}
     u = c.par("command")
@@ -377,7 +383,7 @@ def _emit_servo_valve(c):
                              "v": f"hc_servo_spool_accel({x}, {v}, {u}, {spool})"},
                 initial={"x": f"hh_clamp({u}, -1.0, 1.0)", "v": "0.0"},
                 mode_update=f"hc_spool_project(&{x}, &{v}, {c.par('lv')}); "
-                            f"{c.mode} = hc_spool_region({x}, {v}, {u}, {spool});",
+                            f"{c.mode} = hc_spool_region({x}, {v}, {u}, {spool});", clamps=("lv",),
                 reference={"x": v, "v": f"hc_servo_spool_accel_free({x}, {v}, {u}, {spool})"},
                 outputs={"x": (x, "-"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}})
 
@@ -657,7 +663,9 @@ TYPES["servo_valve"] = ComponentType(
      "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", 1007.01, lo_strict=True),
      "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.48, lo_strict=True),
      "la": Param("1/s2", 0.0, 1e9, "spool acceleration limit (normalised stroke)", 81184.24, lo_strict=True),
-     "lv": Param("1/s", 0.0, 1e6, "spool velocity limit (normalised stroke)", 125.56, lo_strict=True),
+     "lv": Param("1/s", 0.0, 1e6, "spool velocity limit (normalised stroke; 0: a spool that cannot move, stuck)",
+                 125.56),
+     "wear": Param("-", 0.0, 10.0, f"worn lands: a leakage section added to each edge's [{_SECTION}]", 0.0),
      "delay": Param("s", 0.0, 0.1, "pure delay of a driven command (the core's delay line, SPEC §3.1)", 7.625e-4)},
     modes=("linear", "acc_limited", "vel_limited", "at_end"), inputs=("command",), states=(("x", "-"), ("v", "1/s")))
 

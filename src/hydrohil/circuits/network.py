@@ -1,6 +1,7 @@
 """The network between a circuit's controller and its plant: a scenario's network faults on the command packets
 (``packet_loss``, ``network_delay``, ``reordering``, ``controller_silence``: the paper's rig's, docs/faults in
-the README), then the watchdog: the core's command path (core/link.c, ``hh_path``) that the offline loop (the
+the README), then the watchdog, and a ``command_inversion`` (the commands negated at the plant, a swapped
+connector): the core's command path (core/link.c, ``hh_path``) that the offline loop (the
 generated ``hc_run``), the continuous reference's loop, the Python plant (:class:`~hydrohil.circuits.rig.CircuitRig`)
 and the standalone C plant (rt_circuit.c) all step, so a lock-step HIL run is the offline run bit for bit.
 
@@ -20,7 +21,7 @@ from hydrohil.core import ffi as core_ffi
 from hydrohil.core import lib as core
 from hydrohil.core.watchdog import WatchdogCounters
 
-NETWORK_FAULTS = ("packet_loss", "network_delay", "reordering", "controller_silence")
+NETWORK_FAULTS = ("packet_loss", "network_delay", "reordering", "controller_silence", "command_inversion")
 NEVER = 2 ** 62                          # (HH_NEVER: a fault without an end)
 
 
@@ -31,31 +32,39 @@ def fault_steps(start: float, end: float | None, h: float) -> tuple[int, int]:
 
 def delay_slots(network: list, h: float) -> int:
     """The delay line's slots for the longest network_delay of ``network`` (0: none)."""
-    delays = [a for kind, _, _, a in network if kind == "network_delay"]
+    delays = [a for kind, _, _, a, _ in network if kind == "network_delay"]
     return int(math.ceil(max(delays) / h)) + 2 if delays else 0
 
 
 class CommandPath(WatchdogCounters):
-    """``hh_path`` over the network faults ``network`` ((type, start, end or None, a) from
-    :func:`hydrohil.circuits.faults.network_faults`) for packets of ``stride`` values at step ``h``."""
+    """``hh_path`` over the network faults ``network`` ((type, start, end or None, a, slot) from
+    :func:`hydrohil.circuits.faults.network_faults`; slot: its place in the scenario's [[faults]], which with
+    ``seed`` seeds its stream, as the paper's rig's) for packets of ``stride`` values at step ``h``."""
 
     def __init__(self, network: list, h: float, *, seed: int, timeout: float, stride: int):
         n = len(network)
         self._faults = core_ffi.new(f"hh_fault[{max(n, 1)}]")
-        for f, (kind, start, end, a) in zip(self._faults, network):
+        for i, (kind, start, end, a, slot) in enumerate(network):
+            f = self._faults + i
             f.type = getattr(core, f"HH_FAULT_{kind.upper()}")
             f.sensor, f.a, f.b, f.start, f.stuck = -1, float(a), 0.0, float(start), math.nan
             f.k_start, f.k_end = fault_steps(start, end, h)
+            core.hh_fault_seed(f, int(seed), int(slot))
         cap = delay_slots(network, h)
         self._fifo = core_ffi.new(f"double[{cap * (stride + 1)}]") if cap else core_ffi.NULL
         self.c = core_ffi.new("hh_path *")
-        core.hh_path_init(self.c, self._faults, n, int(seed), float(h), float(timeout), int(stride), self._fifo, cap)
+        core.hh_path_init(self.c, self._faults, n, float(h), float(timeout), int(stride), self._fifo, cap)
         self.packet = core_ffi.new(f"double[{stride}]")
 
     @property
     def link(self):
         """The watchdog (``hh_watchdog``: its safe state and counters)."""
         return self.c.link
+
+    @property
+    def inverted(self) -> bool:
+        """A command_inversion is active at the last step: the plant applies each command negated."""
+        return bool(self.c.inverted)
 
     def step(self, k: int, sent: bool) -> bool:
         """Step k's packet (in :attr:`packet`; ``sent`` False: none) through the faults and the watchdog: True

@@ -23,7 +23,7 @@ import numpy as np
 from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.link import wire_lists
 from hydrohil.circuits.network import CommandPath
-from hydrohil.circuits.run import METHODS, input_table, new_rng, start_state
+from hydrohil.circuits.run import METHODS, input_table, start_state
 from hydrohil.core.watchdog import WATCHDOG_TIMEOUT, WatchdogCounters
 from hydrohil.errors import InputError, SimulationDiverged
 
@@ -68,7 +68,7 @@ class CircuitRig(WatchdogCounters):
         ffi = self.cc.ffi
         self.y, self.m = self.y0.copy(), self.m0.copy()
         if self.loop is not None:                       # its sensor's noise from its seed again
-            self._rng = new_rng(self.loop.seed)
+            self._rng = self.loop.streams()
             self._sensor = self.loop.sensor_args(self.cc, self._rng, self.h)
         self.u = self.u0.copy()                         # the inputs of the last step (applied)
         self._c = [ffi.from_buffer("double[]", self.P), ffi.from_buffer("double[]", self.y),
@@ -116,6 +116,7 @@ class CircuitRig(WatchdogCounters):
         self.saturated = False
         for j in self.set_inputs:
             v = self.cmd[j] if not self.watchdog else 0.0           # (the safe state: neutral)
+            v = -v if self.path.inverted else v                     # (a command_inversion)
             lo, hi = self.lo[j], self.hi[j]
             if v < lo or v > hi:
                 v = lo if v < lo else hi

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -204,10 +205,11 @@ class Loop:
     sensor: tuple | None = None         # (quantum, lo, hi, noise) of what the controller reads; None: the signal
     sign: float = 1.0                   # -1: reverse-acting (a larger command lowers the signal)
     seed: int = 0                       # of the sensor's noise (one normal sample per reading)
-    sensor_faults: list = field(default_factory=list)   # (type, start, end or None, a, b): circuits/faults.py
+    sensor_faults: list = field(default_factory=list)   # (type, start, end, a, b, slot): circuits/faults.py
+    encoder: bool = False               # its sensor counts (a position with a resolution: hc_sensed's encoder)
     h: float | None = None              # the step it is sampled at (its scenario's; start(h) sets it)
-    network: list = field(default_factory=list)   # (type, start, end or None, value): circuits/network.py
-    link: tuple = (0, WATCHDOG_TIMEOUT)  # ([hil] seed, watchdog_timeout [s]) of the network's command path
+    network: list = field(default_factory=list)   # (type, start, end, value, slot): circuits/network.py
+    link: tuple = (0, WATCHDOG_TIMEOUT)  # ([hil] seed, watchdog_timeout [s]): its faults' streams, the watchdog
     sent: np.ndarray | None = None      # the last run's commands as the controller sent them (network faults)
 
     def __post_init__(self):
@@ -225,25 +227,36 @@ class Loop:
         noise generator from its seed."""
         from hydrohil.control import BuiltinController
         self.controller = BuiltinController(self.cfg, None, h, limits=self.limits)   # (the law's clamp: in its range)
-        self.rng = new_rng(self.seed)
+        self.rng = self.streams()
         self.h = h
 
+    def streams(self):
+        """Its sensor's noise generators (hc_sensed's rng): [0] its transducer's, seeded by its seed; [1 + i] its
+        i-th fault's, seeded by [hil] seed and the fault's place in the scenario's [[faults]] (the paper's rig's
+        streams, core/link.c)."""
+        from hydrohil.core import ffi as core_ffi, lib as core
+        rng = core_ffi.new(f"hh_rng[{1 + len(self.sensor_faults)}]")
+        core.hh_rng_seed(rng, int(self.seed))
+        for i, (*_, slot) in enumerate(self.sensor_faults):
+            core.hh_rng_stream(rng + 1 + i, int(self.link[0]), int(slot))
+        return rng
+
     def sensor_vector(self, h: float) -> list[float]:
-        """The sensor as the generated C's hc_sensed reads it: its transducer (quantum, range, noise), then its
-        faults with their steps at step h (a fresh memory: a stuck sensor not yet stuck)."""
+        """The sensor as the generated C's hc_sensed reads it: its transducer (quantum, range, noise), an encoder
+        or not, then its faults with their steps at step h (a fresh memory: a stuck sensor not yet stuck)."""
         from hydrohil.circuits.faults import SENSOR_FAULTS
-        out = [*self.sensor, float(len(self.sensor_faults)), float(h)]
-        for kind, start, end, a, b in self.sensor_faults:
+        out = [*self.sensor, float(len(self.sensor_faults)), float(h), float(self.encoder)]
+        for kind, start, end, a, b, _ in self.sensor_faults:
             k0 = math.ceil(start / h - 1e-9)
             k1 = math.ceil(end / h - 1e-9) if end is not None else 2.0 ** 62
             out += [float(SENSOR_FAULTS.index(kind) + 1), float(k0), float(k1), float(a), float(b),
-                    math.nan if kind == "sensor_stuck" else float(start)]
+                    math.nan if kind in ("sensor_stuck", "encoder_count_loss") else float(start)]
         return out
 
     def sensor_args(self, cc, rng=None, h: float | None = None):
         """(sensor, rng) as the generated C's hc_sensed / hc_run take them (NULL: an ideal reading), a fresh
-        sensor (its faults' memory new, their steps at step ``h``, default the step of :meth:`start`); ``rng``: a
-        generator of :func:`new_rng` in place of this loop's own."""
+        sensor (its faults' memory new, their steps at step ``h``, default the step of :meth:`start`); ``rng``:
+        generators of :meth:`streams` in place of this loop's own."""
         ffi = cc.ffi
         if self.sensor is None:
             return ffi.NULL, ffi.NULL
@@ -276,17 +289,18 @@ class Loop:
             return r, np.zeros_like(r)
         ts, vs = self.reference
         seg = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, max(len(ts) - 2, 0))
-        slope = np.diff(vs) / np.diff(ts) if len(ts) > 1 else np.zeros(1)
+        dt = np.diff(ts)
+        slope = np.where(dt > 0, np.diff(vs) / np.where(dt > 0, dt, 1.0), 0.0) if len(ts) > 1 else np.zeros(1)
         dr = np.where(t < ts[-1], slope[seg], 0.0) if len(ts) > 1 else np.zeros_like(t)
         return r, np.ascontiguousarray(dr, dtype=float)
 
 
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
-                     inputs: dict | None = None, rest: bool = True, progress=None,
+                     inputs: dict | None = None, rest: bool | Hold = True, progress=None,
                      loop: Loop | None = None) -> CircuitResult:
     """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
     (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
-    circuit's ``[initial]`` keeps its value). ``method`` "reference": the continuous reference generated from
+    circuit's ``[initial]`` keeps its value; a :class:`Hold`: with a piston held by an input's value). ``method`` "reference": the continuous reference generated from
     the same description (:mod:`hydrohil.circuits.reference`), from the same state at rest (settled by RK3 at
     ``h``), its log on the same grid; ``progress(step)`` is called now and then. Raises SimulationDiverged with
     the time, the modes and the state when the state leaves the finite (or the reference's solvers fail).
@@ -312,8 +326,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         return _with_drives(c, cc, res, u, every, loop)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
-    ctl = (_loop_args(cc, lay, loop, n, h, safe_value(c, loop.command)) if loop is not None else
-           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, ffi.NULL))
+    ctl = (_loop_args(cc, lay, loop, n, h, input_range(c, loop.command)) if loop is not None else
+           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, 0.0, ffi.NULL))
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
@@ -336,11 +350,20 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     return _with_drives(c, cc, res, u, every, loop)
 
 
-def start_state(c: Circuit, *, h: float = 5e-4, method: str = "rk3", inputs: dict | None = None, rest: bool = True,
-                loop: Loop | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+class Hold(NamedTuple):
+    """An open loop's start with a piston held (a scenario's ``rest = {hold, by}``): the piston ``measure``
+    (``<component>.x``) held at rest by the value of input ``command`` that holds it, found as a closed loop's
+    start is (:func:`_held_by_loop`); the drives take over from step 0, a delayed input seeing the holding value
+    until its delay has passed (the paper's rig's open-loop start, SPEC §12.5)."""
+    measure: str
+    command: str
+
+
+def start_state(c: Circuit, *, h: float = 5e-4, method: str = "rk3", inputs: dict | None = None,
+                rest: bool | Hold = True, loop: Loop | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The state a run of ``c`` starts from (states y, modes m) and the inputs of its step 0 (a closed loop's
-    command: the one that holds its piston): what :func:`simulate_circuit` starts from, and an exported plant's
-    initial state."""
+    command, or a Hold's: the one that holds its piston): what :func:`simulate_circuit` starts from, and an
+    exported plant's initial state."""
     cc = compile_circuit(c)
     u = np.ascontiguousarray(input_table(c, 1, h, inputs))
     if loop is not None:
@@ -354,10 +377,12 @@ def new_state(cc, P, h: float) -> np.ndarray:
     return np.zeros(max(int(cc.lib.hc_state_size(cc.ffi.from_buffer("double[]", P), float(h))), 1))
 
 
-def _start(c: Circuit, cc, P, u, h: float, method: str, rest: bool, loop: Loop | None):
+def _start(c: Circuit, cc, P, u, h: float, method: str, rest: bool | Hold, loop: Loop | None):
     ffi, lib, lay = cc.ffi, cc.lib, cc.layout
     if rest and loop is not None:
-        return _held_by_loop(c, cc, P, u, h, method, loop)
+        return _held_by_loop(c, cc, P, u, h, method, loop.measure, loop.command)
+    if isinstance(rest, Hold):
+        return _held_by_loop(c, cc, P, u, h, method, rest.measure, rest.command)
     y = new_state(cc, P, h)
     m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
     lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), float(h),
@@ -367,7 +392,7 @@ def _start(c: Circuit, cc, P, u, h: float, method: str, rest: bool, loop: Loop |
     return y, m, u[0].copy()
 
 
-def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
+def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, measure: str, command: str):
     """The state at rest of a closed loop (SPEC §12.5): the command that holds the piston the loop measures
     (the net force on it zero, its chambers at their rest pressures; what `hydrohil linear` computes for the
     paper's rig), found by root finding over the command's range, its valve there and the nodes settled; the
@@ -376,8 +401,8 @@ def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
     import warnings
     from scipy.optimize import brentq
     ffi, lib, lay = cc.ffi, cc.lib, cc.layout
-    comp = c.components.get(loop.measure.rsplit(".", 1)[0])
-    j = lay.inputs.index(loop.command)
+    comp = c.components.get(measure.rsplit(".", 1)[0])
+    j = lay.inputs.index(command)
 
     def state(u0):
         uu = u.copy()
@@ -399,8 +424,8 @@ def _held_by_loop(c: Circuit, cc, P, u, h: float, method: str, loop: Loop):
         return row[lay.log_columns.index(net_force_column(comp))]
     if comp is not None and comp.coupled:                   # a coupled rod's position is its load's
         comp = c.components[comp.coupled]
-    if comp is not None and comp.type.name in MOVING and loop.measure.endswith(".x"):
-        prm = c.input_param(loop.command)
+    if comp is not None and comp.type.name in MOVING and measure.endswith(".x"):
+        prm = c.input_param(command)
         lo, hi = max(prm.lo, -1.0), min(prm.hi, 1.0)
         try:
             f_lo, f_hi = force(lo), force(hi)
@@ -423,10 +448,10 @@ def _check_loop(c: Circuit, lay, loop: Loop) -> None:
                          key="controller.command")
 
 
-def _loop_args(cc, lay, loop: Loop, n: int, h: float, safe: float):
+def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float]):
     """hc_run's closed-loop arguments: the core's controller and its state (the core module's structs, passed
     by address: the same header, the same compiler), the reference and its slope per step, the indices, the
-    command path of its network faults (the command ``safe`` in the watchdog's safe state)."""
+    command path of its network faults (the command saturated to ``limits``, its input's range)."""
     from hydrohil.core import ffi as core_ffi
     ffi = cc.ffi
     ref, dref = loop.table(n, h)
@@ -437,7 +462,7 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, safe: float):
     loop._keep = (ref, dref, sensor, path)                       # alive while hc_run reads them
     return (addr(loop.controller.c), addr(loop.controller.state), ffi.from_buffer("double[]", ref),
             ffi.from_buffer("double[]", dref), lay.log_columns.index(loop.measure), cc.layout.inputs.index(loop.command),
-            sensor, rng, float(loop.sign), addr(path.c) if path is not None else ffi.NULL, safe,
+            sensor, rng, float(loop.sign), addr(path.c) if path is not None else ffi.NULL, *limits,
             ffi.from_buffer("double[]", loop.sent) if path is not None else ffi.NULL)
 
 
@@ -461,19 +486,11 @@ def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, 
     return res
 
 
-def new_rng(seed: int):
-    """A noise generator (the core's hh_rng, rng.c) seeded with ``seed``."""
-    from hydrohil.core import ffi as core_ffi, lib as core
-    rng = core_ffi.new("hh_rng *")
-    core.hh_rng_seed(rng, int(seed))
-    return rng
-
-
 def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
     """What the loop's sensor read of the signal ``x`` logged every ``every`` steps: the readings the controller
     got, its noise drawn again from the seed, one sample per step in order (the samples of the steps between
     rows drawn and left)."""
-    generator = new_rng(loop.seed)
+    generator = loop.streams()
     sensor, rng = loop.sensor_args(cc, generator)
     out = np.empty(len(x))
     for i, v in enumerate(x):
@@ -484,11 +501,11 @@ def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
     return out
 
 
-def safe_value(c: Circuit, sig: str) -> float:
-    """An input commanded by a controller in the watchdog's safe state: 0, or the end of its range nearest to
-    it (a valve centred, an orifice closed, a pump stopped)."""
+def input_range(c: Circuit, sig: str) -> tuple[float, float]:
+    """An input's range [lo, hi] (its parameter's): what a command to it is saturated to; in the watchdog's safe
+    state 0 in it, or the end nearest to 0 (a valve centred, an orifice closed, a pump stopped)."""
     p = c.input_param(sig)
-    return min(max(0.0, float(p.lo)), float(p.hi))
+    return float(p.lo), float(p.hi)
 
 
 def input_unit(c: Circuit, sig: str) -> str:
@@ -520,7 +537,7 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         sensor, rng = loop.sensor_args(cc)
         path = loop.command_path(h)            # (its network faults: hc_run's rule, the same C)
         loop.sent = np.zeros(n) if path is not None else None
-        safe, held = safe_value(c, loop.command), [u[0, cmd]]
+        (lo, hi), held = input_range(c, loop.command), [u[0, cmd]]
 
         def control(k, row):
             u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng, k))
@@ -528,7 +545,8 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
                 loop.sent[k] = path.packet[0] = u[k, cmd]
                 if path.step(k, True):
                     held[0] = path.packet[0]
-                u[k, cmd] = safe if path.watchdog else held[0]
+                v = 0.0 if path.watchdog else held[0]
+                u[k, cmd] = min(max(-v if path.inverted else v, lo), hi)
             if seen is not None:
                 u_seen[k] = seen(u[k])
 

@@ -7,6 +7,10 @@ values on top of the circuit's, and drives of its signals in place of the circui
     duration = 7.5                    # [s] (default: the drive's last change + 2 s)
     repeat = false                    # true: the drives and the reference start again every duration (what
                                       # a live panel session, running until stopped, writes)
+    rest = true                       # start at rest (SPEC §12.5); false: as the file gives it; in open loop
+                                      # {hold = "cyl.x", by = "valve.command"}: the piston held at the start by
+                                      # that input's value that holds it, the drives from t = 0 (the paper's
+                                      # rig's open-loop start)
     [solver]
     method = "rk3"                    # euler, heun, rk3, rk4 or reference (the continuous model, LSODA)
     step = 0.0005                     # [s]
@@ -49,9 +53,9 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
-from hydrohil.circuits.circuit import Circuit, circuit_from_dict, circuit_path
+from hydrohil.circuits.circuit import TABLE_TIMES, Circuit, circuit_from_dict, circuit_path, valid_table_times
 from hydrohil.circuits.faults import apply_faults, follow_derived
-from hydrohil.circuits.run import SOLVERS, Loop
+from hydrohil.circuits.run import SOLVERS, Hold, Loop
 from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
 from hydrohil.errors import InputError
 
@@ -71,7 +75,7 @@ class CircuitScenario:
     method: str = "rk3"
     step: float = 5e-4
     every: int = 1
-    rest: bool = True
+    rest: bool | Hold = True                       # (a Hold: an open loop starting with a piston held)
     description: str = ""
     sets: dict = field(default_factory=dict)       # "component.key" -> value as given (scenario [set] + --set)
     loop: Loop | None = None                       # closed loop ([controller] + [reference])
@@ -169,9 +173,14 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
                          key="duration")
     rest, repeat = data.get("rest", True), data.get("repeat", False)
     for key, v in (("rest", rest), ("repeat", repeat)):
-        if not isinstance(v, bool):
-            raise InputError(f"true or false, got {v!r}", source=source, key=key)
+        if not isinstance(v, bool) and not (key == "rest" and isinstance(v, dict)):
+            raise InputError(f"true or false{' (or {hold, by})' if key == 'rest' else ''}, got {v!r}", source=source,
+                             key=key)
     loop = _loop(data, c, source)
+    if loop is not None:                          # its faults' streams and watchdog: the scenario's [hil]
+        loop.link = _link(data.get("hil", {}), source)
+    if isinstance(rest, dict):
+        rest = _hold(rest, c, loop, source)
     if loop is not None:
         loop.h = float(h)                         # (sampled at the scenario's step)
     if data.get("faults"):                        # the loop's sensor failing (an ideal one to fail if none given)
@@ -186,7 +195,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
                 loop.sensor = (0.0, -1e300, 1e300, 0.0)
         network = network_faults(data["faults"], loop, source)
         if network:                               # the loop's commands through the network (circuits/network.py)
-            loop.network, loop.link = network, _link(data.get("hil", {}), source)
+            loop.network = network
     if loop is not None and loop.command in given:
         raise InputError(f"{loop.command} is the closed loop's command (its controller drives it): a value set "
                          "for it would be overridden", source=source if loop.command in data.get("set", {}) else
@@ -312,10 +321,32 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     except ValueError as exc:
         raise InputError(f"{exc} (the reference of {measure} [{units[measure]}])", source=source,
                          key="reference") from None
-    if ts[0] != 0.0 or np.any(np.diff(ts) <= 0):
-        raise InputError("times start at 0 and increase", source=source, key="reference.t")
+    if not valid_table_times(ts, ref.get("interpolation") == "linear"):
+        raise InputError(TABLE_TIMES, source=source, key="reference.t")
+    encoder = sensor is not None and sensor[0] > 0 and units[measure] in ("m", "rad")   # (counts: a position)
     return Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi),
-                sensor=sensor, sign=-1.0 if action == "reverse" else 1.0, seed=seed)
+                sensor=sensor, sign=-1.0 if action == "reverse" else 1.0, seed=seed, encoder=encoder)
+
+
+def _hold(table: dict, c: Circuit, loop, source: str) -> Hold:
+    """``rest = {hold = "<piston>.x", by = "<input>"}``: an open loop starting with the piston held by the input's
+    value that holds it (run.Hold)."""
+    from hydrohil.circuits.build import compile_circuit
+    if set(table) != {"hold", "by"}:
+        raise InputError("rest = {hold = \"<component>.x\", by = \"<input>\"}: the piston held at the start and the "
+                         "input that holds it", source=source, key="rest")
+    if loop is not None:
+        raise InputError("a closed loop starts with its piston held by its own command already: rest = true",
+                         source=source, key="rest")
+    lay = compile_circuit(c).layout
+    if not (isinstance(table["hold"], str) and table["hold"].endswith(".x") and table["hold"] in lay.log_columns):
+        xs = [x for x in lay.log_columns if x.endswith(".x")]
+        raise InputError(f"a position signal to hold, one of {', '.join(xs) or 'none'}, got {table['hold']!r}",
+                         source=source, key="rest.hold")
+    if table["by"] not in c.inputs:
+        raise InputError(f"an input of circuit {c.name!r} (inputs: {', '.join(c.inputs) or 'none'}), got "
+                         f"{table['by']!r}", source=source, key="rest.by")
+    return Hold(table["hold"], table["by"])
 
 
 def _apply(raw: dict, key: str, value, source: str) -> None:

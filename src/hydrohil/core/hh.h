@@ -259,22 +259,25 @@ typedef struct {
     int held_back;              /* reordering: a packet held back (it arrives after the next, stale) */
 } hh_wire;
 void hh_wire_init(hh_wire *w, int stride, double *fifo, int64_t cap);
-void hh_fault_seed(hh_fault *f, uint64_t seed, int slot);      /* its stream: the run's seed and its slot */
+void hh_rng_stream(hh_rng *r, uint64_t seed, int slot);        /* a fault's stream: the run's seed, its slot */
+void hh_fault_seed(hh_fault *f, uint64_t seed, int slot);      /* hh_rng_stream of its rng */
 uint64_t hh_fault_mask(const hh_fault *f, int n, int64_t k);   /* bit i: fault i active at step k */
 /* The packet sent for a step (sent 0: none) through the active (mask) network faults: 1 when a packet reaches
  * the plant (in packet), 0 when none does. */
 int hh_wire_deliver(hh_wire *w, hh_fault *fault, int nfault, uint64_t mask, double h, int sent, double *packet);
-/* A circuit's command path: its network faults (hh_fault with k_start, k_end; streams seeded here), the wire,
- * the watchdog (link.active: the safe state; trips unexplained when no injected fault held a packet back). */
+/* A circuit's command path: its network faults (hh_fault with k_start, k_end, their streams seeded by
+ * hh_fault_seed with their place in the scenario's table), the wire, the watchdog (link.active: the safe
+ * state; trips unexplained when no injected fault held a packet back). */
 typedef struct {
     hh_fault *fault;
     int nfault;
     hh_wire wire;
     hh_watchdog link;
     double h, timeout;
+    int inverted;               /* a command_inversion active at the step: the plant applies each command negated */
 } hh_path;
-void hh_path_init(hh_path *p, hh_fault *fault, int nfault, uint64_t seed, double h, double timeout, int stride,
-                  double *fifo, int64_t cap);
+void hh_path_init(hh_path *p, hh_fault *fault, int nfault, double h, double timeout, int stride, double *fifo,
+                  int64_t cap);
 /* Step k's packet (sent 0: none) through the faults of step k and the watchdog: 1 when it reaches the plant. */
 int hh_path_step(hh_path *p, int64_t k, int sent, double *packet);
 

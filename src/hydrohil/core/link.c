@@ -1,6 +1,7 @@
 /* link.c: the network between a controller and a plant (SPEC §10; docs/protocol.md; the fault types:
  * simulation/faults.py): what the injected network faults of a run's fault table (packet_loss, network_delay,
- * reordering, controller_silence) let through of the command packet sent for each step, then the watchdog.
+ * reordering, controller_silence) let through of the command packet sent for each step, then the watchdog
+ * (and whether a command_inversion swaps the command's sign at the plant).
  * Any plant's packets: the paper's rig (rig.c) sends one command a packet, a circuit's plant (the generated C
  * includes this file; its Python and standalone plants and its offline loop call hh_path_step) the values of
  * its inputs. Needs rng.c and watchdog.c before it in the translation unit. */
@@ -14,11 +15,13 @@ void hh_wire_init(hh_wire *w, int stride, double *fifo, int64_t cap)
     w->held_back = 0;
 }
 
-/* A stream of its own for slot i: splitmix64 from the run's seed and the slot. */
-void hh_fault_seed(hh_fault *f, uint64_t seed, int slot)
+/* A stream of its own for a fault in slot i of a run's table: splitmix64 from the run's seed and the slot. */
+void hh_rng_stream(hh_rng *r, uint64_t seed, int slot)
 {
-    hh_rng_seed(&f->rng, seed ^ (0xD1B54A32D192ED03ULL * (uint64_t)(slot + 1)));
+    hh_rng_seed(r, seed ^ (0xD1B54A32D192ED03ULL * (uint64_t)(slot + 1)));
 }
+
+void hh_fault_seed(hh_fault *f, uint64_t seed, int slot) { hh_rng_stream(&f->rng, seed, slot); }
 
 uint64_t hh_fault_mask(const hh_fault *f, int n, int64_t k)
 {
@@ -84,18 +87,16 @@ int hh_wire_deliver(hh_wire *w, hh_fault *fault, int nfault, uint64_t mask, doub
     return sent;
 }
 
-void hh_path_init(hh_path *p, hh_fault *fault, int nfault, uint64_t seed, double h, double timeout, int stride,
-                  double *fifo, int64_t cap)
+void hh_path_init(hh_path *p, hh_fault *fault, int nfault, double h, double timeout, int stride, double *fifo,
+                  int64_t cap)
 {
-    int i;
     p->fault = fault;
     p->nfault = nfault;
-    for (i = 0; i < nfault; i++)
-        hh_fault_seed(&fault[i], seed, i);
     p->h = h;
     p->timeout = timeout;
     hh_wire_init(&p->wire, stride, fifo, cap);
     hh_watchdog_init(&p->link);
+    p->inverted = 0;
 }
 
 int hh_path_step(hh_path *p, int64_t k, int sent, double *packet)
@@ -103,9 +104,12 @@ int hh_path_step(hh_path *p, int64_t k, int sent, double *packet)
     uint64_t mask = hh_fault_mask(p->fault, p->nfault, k);
     int got = mask || p->wire.n ? hh_wire_deliver(&p->wire, p->fault, p->nfault, mask, p->h, sent, packet) : sent;
     int i, silenced = 0;
+    p->inverted = 0;
     for (i = 0; i < p->nfault; i++)
-        if ((mask >> i & 1) && p->fault[i].type == HH_FAULT_CONTROLLER_SILENCE)
-            silenced = 1;
+        if (mask >> i & 1) {
+            silenced |= p->fault[i].type == HH_FAULT_CONTROLLER_SILENCE;
+            p->inverted |= p->fault[i].type == HH_FAULT_COMMAND_INVERSION;
+        }
     if ((sent && !got) || silenced)
         p->link.k_interfered = k;       /* an injected fault held the controller's packet back this step */
     hh_watchdog_command(&p->link, k, got, 0.0, p->h, p->timeout, 0, 0.0, 0.0);

@@ -288,17 +288,21 @@ def circuit_plant_h(cs) -> str:
     lines += arr("double", "CIRCUIT_DRIVE_VALUE", [v for _, _, v in changes])
     lines += arr("double", "CIRCUIT_LO", [p.lo for p in prm])
     lines += arr("double", "CIRCUIT_HI", [p.hi for p in prm])
-    sensor = loop.sensor_vector(cs.step) if loop is not None and loop.sensor else [0.0] * 6
-    lines += [f"enum {{ CIRCUIT_SENSOR_N = {len(sensor)} }};   /* hc_sensed's sensor: its transducer, its faults */"]
+    sensor = loop.sensor_vector(cs.step) if loop is not None and loop.sensor else [0.0] * 7
+    slots = [f[-1] for f in loop.sensor_faults] if loop is not None and loop.sensor else []
+    lines += [f"enum {{ CIRCUIT_SENSOR_N = {len(sensor)}, CIRCUIT_SENSOR_NF = {len(slots)} }};   /* hc_sensed's "
+              "sensor: its transducer, its faults */"]
     lines += arr("double", "CIRCUIT_SENSOR", sensor)
+    lines += arr("int", "CIRCUIT_SENSOR_SLOT", slots, str)      # (each fault's place in [[faults]]: its stream)
     network = loop.network if loop is not None else []   # the loop's network faults (circuits/network.py)
     cap = delay_slots(network, cs.step)
     lines += [f"enum {{ CIRCUIT_NNET = {len(network)}, CIRCUIT_FIFO_CAP = {cap} }};   /* network faults; "
               "network_delay's line (slots) */"]
     lines += arr("int", "CIRCUIT_NET_TYPE", [f"HH_FAULT_{kind.upper()}" for kind, *_ in network], str)
-    lines += arr("double", "CIRCUIT_NET_VALUE", [a for *_, a in network])
-    lines += arr("double", "CIRCUIT_NET_START", [start for _, start, _, _ in network])
-    steps = [fault_steps(start, end, cs.step) for _, start, end, _ in network]
+    lines += arr("double", "CIRCUIT_NET_VALUE", [a for _, _, _, a, _ in network])
+    lines += arr("double", "CIRCUIT_NET_START", [start for _, start, _, _, _ in network])
+    lines += arr("int", "CIRCUIT_NET_SLOT", [slot for *_, slot in network], str)
+    steps = [fault_steps(start, end, cs.step) for _, start, end, _, _ in network]
     lines += arr("int64_t", "CIRCUIT_NET_K0", [k0 for k0, _ in steps], lambda v: f"{v}LL")
     lines += arr("int64_t", "CIRCUIT_NET_K1", [k1 for _, k1 in steps], lambda v: f"{v}LL")
     lines += arr("char *const", "CIRCUIT_STATE_NAMES", list(lay.states), q)

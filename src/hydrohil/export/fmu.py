@@ -370,17 +370,19 @@ def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str) -> 
                              f"fixed {step * 1e3:g} ms step, parameters as exported", feedthrough=True)
 
 
-def export_circuit_fmu(c, out: Path, *, fmi: int = 2, step: float = 5e-4, loop=None, cc: str | None = None) -> Path:
+def export_circuit_fmu(c, out: Path, *, fmi: int = 2, step: float = 5e-4, loop=None, rest=True,
+                       cc: str | None = None) -> Path:
     """Write circuit ``c`` as an FMU (FMI ``fmi`` = 2 or 3) to ``out``: its generated C (the same file
     ``simulate`` compiles) behind the shared FMI layer, starting at rest as a run of the circuit does (``loop``:
-    a closed loop's start, the command that holds its piston as the command input's start value)."""
+    a closed loop's start, the command that holds its piston as the command input's start value; ``rest``: a
+    scenario's, its Hold an open loop's held start)."""
     from hydrohil.circuits.build import compile_circuit
     from hydrohil.circuits.generate import generate
     from hydrohil.circuits.run import start_state
     out = _checked(out, fmi, step)
     source, lay = generate(c)
     compile_circuit(c)
-    y0, m0, u0 = start_state(c, h=step, loop=loop)
+    y0, m0, u0 = start_state(c, h=step, loop=loop, rest=rest)
     token = "{" + str(uuid.UUID(hashlib.md5(f"{source}|{lay.values().tobytes().hex()}|{y0.tobytes().hex()}|"
                                             f"{u0.tobytes().hex()}|{fmi}|{step}".encode()).hexdigest())) + "}"
     model = HERE / "c" / "circuit_fmu"

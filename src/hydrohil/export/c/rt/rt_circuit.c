@@ -40,7 +40,7 @@ static struct {
     hh_fault net[CIRCUIT_NNET > 0 ? CIRCUIT_NNET : 1];
     double fifo[CIRCUIT_FIFO_CAP > 0 ? CIRCUIT_FIFO_CAP * (CIRCUIT_NINPUTS + 2) : 1];
     double packet[CIRCUIT_NINPUTS + 1];   /* the mask, the values */
-    hh_rng rng;                       /* the loop's sensor noise (seeded at each reset) */
+    hh_rng rng[1 + CIRCUIT_SENSOR_NF];  /* the loop's sensor noise, its faults' streams (seeded at each reset) */
     double sensor[CIRCUIT_SENSOR_N];  /* its sensor and faults (a stuck one's memory: new at each reset) */
     double logrow[LOG_HEAD + CIRCUIT_NSIGNALS + CIRCUIT_NINPUTS];
 } C;
@@ -64,8 +64,8 @@ int model_init(plant *pl)
     return 0;
 }
 
-/* The command path from the export's network faults (circuits/network.py: their steps computed there), its
- * streams seeded by the run's seed, its watchdog counting from step 0. */
+/* The command path from the export's network faults (circuits/network.py: their steps computed there), their
+ * streams seeded by the run's seed and their places in the scenario's faults, its watchdog counting from 0. */
 static void path_reset(const plant *pl)
 {
     int i;
@@ -79,10 +79,10 @@ static void path_reset(const plant *pl)
         f->k_start = CIRCUIT_NET_K0[i];
         f->k_end = CIRCUIT_NET_K1[i];
         f->stuck = NAN;
+        hh_fault_seed(f, (uint64_t)pl->o->hil[HIL_SEED], CIRCUIT_NET_SLOT[i]);   /* (its place in [[faults]]) */
     }
-    hh_path_init(&C.path, C.net, CIRCUIT_NNET, (uint64_t)pl->o->hil[HIL_SEED], CIRCUIT_STEP,
-                 pl->o->hil[HIL_WATCHDOG_TIMEOUT], CIRCUIT_NINPUTS + 1, CIRCUIT_FIFO_CAP > 0 ? C.fifo : NULL,
-                 CIRCUIT_FIFO_CAP);
+    hh_path_init(&C.path, C.net, CIRCUIT_NNET, CIRCUIT_STEP, pl->o->hil[HIL_WATCHDOG_TIMEOUT], CIRCUIT_NINPUTS + 1,
+                 CIRCUIT_FIFO_CAP > 0 ? C.fifo : NULL, CIRCUIT_FIFO_CAP);
 }
 
 void model_reset(plant *pl)
@@ -100,7 +100,12 @@ void model_reset(plant *pl)
     C.saturated = 0;
     C.status = 0;
     path_reset(pl);
-    hh_rng_seed(&C.rng, CIRCUIT_SENSOR_SEED);
+    {
+        int i;
+        hh_rng_seed(&C.rng[0], CIRCUIT_SENSOR_SEED);
+        for (i = 0; i < CIRCUIT_SENSOR_NF; i++)   /* (circuits/run.py Loop.streams) */
+            hh_rng_stream(&C.rng[1 + i], (uint64_t)pl->o->hil[HIL_SEED], CIRCUIT_SENSOR_SLOT[i]);
+    }
     memcpy(C.sensor, CIRCUIT_SENSOR, sizeof C.sensor);
     row_now(0.0);
 }
@@ -183,6 +188,7 @@ int model_step(plant *pl, int64_t k, int arrived, double *u)
         if (!(C.set >> j & 1U))
             continue;
         v = C.path.link.active ? 0.0 : C.cmd[j];           /* the safe state: neutral */
+        v = C.path.inverted ? -v : v;                       /* (a command_inversion) */
         if (v < CIRCUIT_LO[j] || v > CIRCUIT_HI[j]) {
             v = v < CIRCUIT_LO[j] ? CIRCUIT_LO[j] : CIRCUIT_HI[j];
             C.saturated = !C.path.link.active;
@@ -206,7 +212,7 @@ void model_send_sensor(plant *pl, int64_t k, uint32_t status)
     memcpy(values, C.row + CIRCUIT_LOG_T + 1, sizeof values);   /* the signals: every column after time */
     if (CIRCUIT_MEASURE > 0)                        /* the loop's signal through its sensor */
         values[CIRCUIT_MEASURE - CIRCUIT_LOG_T - 1] = hc_sensed(C.row[CIRCUIT_MEASURE], CIRCUIT_HAS_SENSOR ? C.sensor : NULL,
-                                                                  &C.rng, k);
+                                                                  C.rng, k);
     status |= (pl->o->lockstep ? HH_ST_LOCKSTEP : 0U) | (C.path.link.active ? HH_ST_WATCHDOG : 0U) |
               (C.saturated ? HH_ST_SATURATED : 0U);
     C.status = status;

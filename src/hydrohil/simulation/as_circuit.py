@@ -1,0 +1,191 @@
+"""A scenario of the paper's rig (``params = "ferreira2004"`` or a parameter file of its shape) as a circuit
+scenario: its rig the circuit of its parameters (:func:`hydrohil.circuits.parameter_set.paper_tables`, the
+``ferreira2004`` circuit for the built-in set), its drive, loop, encoder, faults and [hil] settings written in
+a circuit scenario's terms, so that the generated code runs it (``hydrohil circuit convert``; then simulate,
+hil, test, export as any circuit scenario). Its runs are the core's to rounding (README: the table per example);
+what a circuit cannot express is refused, naming the key and why.
+
+The translation, key by key:
+
+=========================  ==========================================================================================
+paper scenario             circuit scenario
+=========================  ==========================================================================================
+params, [overrides]        the circuit of the parameters (circuit.toml beside the scenario; ``initial.xp`` its x0)
+[input] table / sine       ``[inputs] "valve.command"``: a table (linear) as written; a sine held per step
+[controller] p/pi/pid/     the same law on ``cyl.x`` -> ``valve.command``, reading the encoder's counts
+p_ff, [reference]          (``sensor_resolution`` = the count size); the reference table linear, as written
+initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "valve.command"}`` (the rig's start:
+                           the piston held by the spool offset at rest); given, the first command (a circuit starts
+                           at rest under it)
+[hil]                      as given; ``command_delay`` added to the valve's delay (the core's series delay)
+faults: network            the same faults on the loop's commands (packet_loss, network_delay, reordering,
+                           controller_silence; the same streams: seed and place in the table)
+faults: sensor (position)  the loop's sensor faults (stuck, offset, noise, dropout; in m; encoder_count_loss)
+faults: sensor (pressure)  not carried, with a note: the loop reads the piston only (the run is the same)
+command_inversion          the same fault on the loop's commands
+spool_stuck                ``parameter`` on valve.lv = 0 (the spool's clamp at the step's start: stopped at once)
+valve_leakage              ``parameter`` on valve.wear (the worn lands' section on each edge)
+hose_burst                 ``leak`` from the line's chamber to tank, the orifice of the section's flow (eq 3's law)
+supply_pressure            ``parameter`` on supply.pressure (at least the tank's)
+seal_wear                  ``parameter`` on cyl.leakage
+valve_bandwidth            ``parameter`` on valve.wn (its value times the factor)
+load_change                ``parameter`` on cyl.mass and/or cyl.force
+=========================  ==========================================================================================
+
+Refused (InputError naming the key): a Python controller, state feedback (it reads the chamber pressures),
+initial chamber pressures, an initial spool position other than the first command in open loop, a repeating
+reference, ``safe_state = "hold"`` and ``controller_mode = "clock"``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from hydrohil.circuits.library import FLUID
+from hydrohil.errors import InputError
+
+LOOP_TYPES = ("p", "pi", "pid", "p_ff")
+NETWORK = ("packet_loss", "network_delay", "reordering", "controller_silence", "command_inversion")
+SENSOR = ("sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout", "encoder_count_loss")
+# the rig's fault types a circuit writes as a parameter changed: type -> [(key of the rig's fault, circuit target,
+# its value from the rig's fault's value and the parameters)]
+PARAMETER = {
+    "supply_pressure": [("ps", "supply.pressure", lambda v, p: max(v, p.supply.pt))],
+    "seal_wear": [("g_lkc", "cyl.leakage", lambda v, p: v)],
+    "valve_bandwidth": [("factor", "valve.wn", lambda v, p: p.spool.wn * v)],
+    "load_change": [("mass", "cyl.mass", lambda v, p: v), ("force", "cyl.force", lambda v, p: v)],
+    "spool_stuck": [(None, "valve.lv", lambda v, p: 0.0)],       # (its clamp at the step's start: velocity 0)
+    "valve_leakage": [("section", "valve.wear", lambda v, p: v)],
+}
+CD = 0.61                                   # the leak orifice's discharge coefficient (a hose_burst's section)
+HIL_DROPPED = ("command_scale",)
+LPM_PER_SQRT_BAR = 1.0 / 60000.0 / math.sqrt(1e5)   # (l/min)/sqrt(bar) in (m3/s)/sqrt(Pa) (hh.h's)           # the wire's unit of the paper's rig: a circuit's inputs are SI
+
+
+def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
+    """The paper scenario ``ls`` (:class:`~hydrohil.simulation.scenario.LoadedScenario`) as (the circuit file's
+    tables, the circuit scenario's tables, notes on what changed form). InputError for what a circuit cannot
+    run, naming the scenario's key."""
+    from hydrohil.circuits.parameter_set import paper_tables
+    from hydrohil.models.sensors import count_size
+    s, p, src = ls.scenario, ls.params, ls.source
+    notes: list[str] = []
+    ini = s.initial
+    for key in ("p1", "p2"):
+        if getattr(ini, key) is not None:
+            raise InputError("a circuit starts with its chambers at rest (SPEC §12.5): no initial chamber "
+                             "pressure", source=src, key=f"initial.{key}")
+    circuit = paper_tables(p, ini.xp)
+    circuit["name"] = Path(src).stem
+    circuit["description"] = f"the paper's rig of {Path(src).name} (params = {s.params!r}, its overrides applied)"
+    hil = s.hil.model_dump(exclude_defaults=True)
+    if s.hil.command_delay > 0:             # in series with the spool's delay (load_scenario: offline and HIL)
+        hil.pop("command_delay")
+        notes.append(f"hil.command_delay {s.hil.command_delay:g} s: in the valve's delay "
+                     f"({circuit['components']['valve']['delay']:g} s)")
+    for key in HIL_DROPPED:
+        if key in hil:
+            notes.append(f"hil.{key}: dropped (a circuit's inputs travel in SI units)")
+            hil.pop(key)
+    for key, value in (("safe_state", "hold"), ("controller_mode", "clock")):
+        if getattr(s.hil, key) == value:
+            raise InputError(f"a circuit's plant has no {key} = {value!r} (its safe state sets the commanded "
+                             "inputs to 0; its controller answers each packet)", source=src, key=f"hil.{key}")
+    scen: dict = {"circuit": "circuit.toml", "description": f"{Path(src).name} on the generated code",
+                  "duration": s.duration, "solver": {"method": s.solver.method, "step": s.solver.step,
+                                                    "output_every": s.solver.output_every}}
+    t = np.arange(s.n_steps() + 1) * s.solver.step
+    if s.controller is None:
+        u0 = _open_loop(s, t, scen, src)
+        if ini.xs is None:                  # the rig's default: the piston held by the spool offset at rest
+            scen["rest"] = {"hold": "cyl.x", "by": "valve.command"}
+        elif ini.xs != u0:
+            raise InputError(f"a circuit starts an open loop at rest under its first command ({u0:g}), or with its "
+                             f"piston held (initial.xs omitted), not with the spool at xs = {ini.xs:g}", source=src,
+                             key="initial.xs")
+    else:
+        if ini.xs is not None:
+            raise InputError("a circuit's loop starts at the command that holds its piston (SPEC §12.5): no "
+                             "initial spool position", source=src, key="initial.xs")
+        _loop(s, p, scen, src, count_size(p.sensors.encoder_resolution))
+    faults = _faults(s, p, src, notes)
+    if faults:
+        scen["faults"] = faults
+    if hil:
+        scen["hil"] = hil
+    return circuit, scen, notes
+
+
+def _open_loop(s, t: np.ndarray, scen: dict, src: str) -> float:
+    """The valve's command as the circuit's input (a table as written, a sine per step): its first value."""
+    from hydrohil.simulation.scenario import SineInput
+    inp = s.input
+    if isinstance(inp, SineInput):          # held over each step, as the core samples it
+        u = s.commands()[:-1]
+        scen["inputs"] = {"valve.command": {"t": t[:-1].tolist(), "value": u.tolist()}}
+        return float(u[0])
+    scen["inputs"] = {"valve.command": {"t": list(inp.t), "value": list(inp.u), "interpolation": "linear"}}
+    return float(np.interp(0.0, inp.t, inp.u))
+
+
+def _loop(s, p, scen: dict, src: str, count: float) -> None:
+    ctl = s.controller
+    if ctl.type not in LOOP_TYPES:
+        why = ("a Python controller runs beside the rig (hydrohil hil --controller)" if ctl.type == "python" else
+               "state feedback reads the chamber pressures; a circuit's loop reads one signal")
+        raise InputError(f"a circuit's loop runs the core's laws {', '.join(LOOP_TYPES)}: {why}", source=src,
+                         key="controller.type")
+    if s.reference.repeat:
+        raise InputError("a circuit repeats its reference only in a live panel session (repeat = true)",
+                         source=src, key="reference.repeat")
+    table = ctl.model_dump(exclude_defaults=True)
+    table["type"] = ctl.type
+    scen["controller"] = {**table, "measure": "cyl.x", "command": "valve.command", "sensor_resolution": count}
+    scen["reference"] = {"t": list(s.reference.t), "value": list(s.reference.x), "interpolation": "linear"}
+
+
+def _faults(s, p, src: str, notes: list[str]) -> list[dict]:
+    out = []
+    for i, f in enumerate(s.faults):
+        where = f"faults[{i}]"
+        window = {"start": f.start, **({"end": f.end} if f.end is not None else {})}
+        if f.type in NETWORK:
+            out.append(f.model_dump(exclude_none=True))
+        elif f.type in SENSOR:
+            if getattr(f, "sensor", "position") != "position":    # (what the rig's log reports of a pressure)
+                notes.append(f"{where} ({f.type} on the {f.sensor} transducer): not carried: the loop reads the "
+                             "piston only, so it changes nothing in the run (the rig's log shows it in its reading)")
+                continue
+            out.append({k: v for k, v in f.model_dump(exclude_none=True).items() if k != "sensor"})
+        elif f.type == "hose_burst":          # the rig's burst: its section to tank by eq 3's law (cylinder.c)
+            k = f.section * LPM_PER_SQRT_BAR        # [m3/s/sqrt(Pa)] = Cd*A*sqrt(2/rho)
+            area = k / (CD * math.sqrt(2.0 / FLUID["density"].default))
+            node = ("cap", "rod")[f.line - 1]
+            out.append({"type": "leak", "orifice": "burst", "node": node, "area": area, "discharge_coefficient": CD,
+                        "transition_pressure": p.valve.dp_laminar, **window})
+            notes.append(f"{where} (hose_burst): a leak of {area * 1e6:.4g} mm2 from {node} to tank (the flow of "
+                         "its section; the rig adds it to the valve's edge to tank, a circuit beside it)")
+        else:
+            given = [(k, t, v) for k, t, v in PARAMETER[f.type] if k is None or getattr(f, k) is not None]
+            for key, target, value in given:
+                out.append({"type": "parameter", "target": target,
+                            "value": value(getattr(f, key) if key else None, p), **window})
+            notes.append(f"{where} ({f.type}): a parameter fault on {', '.join(t for _, t, _ in given)}")
+    return out
+
+
+def convert(ls, out: str | Path) -> tuple[Path, Path, list[str]]:
+    """:func:`circuit_tables` written into the folder ``out`` (circuit.toml, scenario.toml): the paths and the
+    notes."""
+    import tomli_w
+    circuit, scen, notes = circuit_tables(ls)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    head = f"# {Path(ls.source).name} as a circuit scenario (hydrohil circuit convert): the generated code runs it\n"
+    cpath, spath = out / "circuit.toml", out / "scenario.toml"
+    cpath.write_text(head + tomli_w.dumps(circuit))
+    spath.write_text(head + "".join(f"# {n}\n" for n in notes) + tomli_w.dumps(scen))
+    return cpath, spath, notes
