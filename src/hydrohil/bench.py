@@ -188,7 +188,9 @@ def paper_circuit(duration: float = 60.0, repeats: int = 7, steps: int | None = 
     """The paper's rig as a generated circuit beside the hand-written core, in one run: median ns per RK3 step
     of each loop (Fig 10 open loop) and, with valgrind, machine instructions per step inside ``hh_sim_run`` and
     ``hc_run`` (the first ``steps`` steps). The same work: both locate their events inside the step, slow
-    their stiff chambers (nodes) and delay the valve's command. ``steps`` None: no instruction count."""
+    their stiff chambers (nodes) and delay the valve's command. ``steps`` None: no instruction count. Through
+    Python the core's run costs some 230 instructions a step more than in a plain C loop (not located):
+    benchmarks/paper_circuit_c.py compares the two like for like (the README's figures)."""
     import shutil
     import subprocess
     n, core, circuit = _paper_runs(duration)
