@@ -367,18 +367,23 @@ def _emit_servo_valve(c):
 
     wear = c.par("wear")
 
-    def edge(sign, coeffs, a, b):                 # (eq 3's section, plus the worn lands' leakage section)
-        return f"hc_sqrt_law((hc_section({sign}{xc}, {coeffs}) + {wear}) * HH_LPM_PER_SQRT_BAR, {a} - {b}, {dpt})"
+    def section(sign, coeffs):                    # (eq 3's section, plus the worn lands' leakage section)
+        return f"(hc_section({sign}{xc}, {coeffs}) + {wear})"
 
-    def edge_flow(sign, coeffs, a, b):            # (its ports, flow, conductance, rate with the pressures held)
-        dp = f"{c.p(a)} - {c.p(b)}"
-        return (a, b, edge(sign, coeffs, c.p(a), c.p(b)),
-                f"hc_servo_edge_slope({sign}1, {x}, {coeffs}, {wear}, {dp}, {dpt})",
+    def edge(sign, coeffs, a, b, s=None):
+        return f"hc_sqrt_law({s or section(sign, coeffs)} * HH_LPM_PER_SQRT_BAR, {a} - {b}, {dpt})"
+
+    def edge_flow(name, sign, coeffs, a, b):      # (its ports, flow, conductance, rate with the pressures held)
+        dp, s = f"{c.p(a)} - {c.p(b)}", c.v(name)     # (its section once per right-hand side: flow and conductance)
+        return (a, b, edge(sign, coeffs, c.p(a), c.p(b), s), f"hc_sqrt_law_slope({s} * HH_LPM_PER_SQRT_BAR, {dp}, {dpt})",
                 f"hc_servo_edge_rate({sign}1, {x}, {c.dx('x')}, {coeffs}, {dp}, {dpt})")
     qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T), "PB": edge("", k, P, B), "BT": edge("-", kt, B, T)}
     u = c.par("command")
-    return Emit(flows=[edge_flow("-", k, "P", "A"), edge_flow("", kt, "A", "T"), edge_flow("", k, "P", "B"),
-                       edge_flow("-", kt, "B", "T")], delays=[("command", "delay")],
+    return Emit(pre=[("s_pa", section("-", k)), ("s_at", section("", kt)), ("s_pb", section("", k)),
+                     ("s_bt", section("-", kt))],
+                flows=[edge_flow("s_pa", "-", k, "P", "A"), edge_flow("s_at", "", kt, "A", "T"),
+                       edge_flow("s_pb", "", k, "P", "B"), edge_flow("s_bt", "-", kt, "B", "T")],
+                delays=[("command", "delay")],
                 derivatives={"x": f"hc_servo_spool_speed({x}, {v})",
                              "v": f"hc_servo_spool_accel({x}, {v}, {u}, {spool})"},
                 initial={"x": f"hh_clamp({u}, -1.0, 1.0)", "v": "0.0"},

@@ -24,16 +24,8 @@ HH_INLINE double hc_section_slope(double x, double k1, double k2, double k3, dou
     return r > 0.0 ? k1 + (2.0 * k3 * x + k4) / (2.0 * r) : k1;
 }
 
-/* The flow of an edge of section s(+-x) + wear [(l/min)/sqrt(bar)] under dp (eq 3 with the laminar transition),
- * its conductance d(q)/d(dp) and its rate d(q)/dt with the pressures held, the spool at x (clamped to [-1, 1]:
- * no change beyond) moving at dx [1/s]; sign +1: s(x), -1: s(-x) */
-HH_INLINE double hc_servo_edge_slope(int sign, double x, double k1, double k2, double k3, double k4, double k5,
-                                     double wear, double dp, double dp_t)
-{
-    double xc = hh_clamp(x, -1.0, 1.0);
-    return hc_sqrt_law_slope((hc_section(sign * xc, k1, k2, k3, k4, k5) + wear) * HH_LPM_PER_SQRT_BAR, dp, dp_t);
-}
-
+/* The rate d(q)/dt of an edge's flow (eq 3 with the laminar transition) with the pressures held, the spool at
+ * x (clamped to [-1, 1]: no change beyond) moving at dx [1/s]; sign +1: s(x), -1: s(-x) (wear is constant) */
 HH_INLINE double hc_servo_edge_rate(int sign, double x, double dx, double k1, double k2, double k3, double k4,
                                     double k5, double dp, double dp_t)
 {
