@@ -86,8 +86,9 @@ def expected_applied(sent: np.ndarray, u0: float) -> tuple[np.ndarray, np.ndarra
 def test_network_faults_deliver_the_commands_by_their_rules(tmp_path):
     """Offline, the valve gets exactly what the rules computed here give from the controller's commands: losses
     and reorderings at the draws of an independent xoshiro256**, the 20-step delay, the watchdog's trip 50 ms
-    into the silence and its recovery. (The faults acted: 30 % of the loss window's commands held, 20 steps of
-    delay, the safe state for 0.15 s.)"""
+    into the silence and its recovery. (The faults acted: 28 % of the loss window's commands differ from what was
+    sent — a lost one often equals the last, the loop's commands being quantised —, 20 steps of delay, the safe
+    state for 0.15 s.)"""
     cs = load_circuit_scenario(paper_scenario(tmp_path))
     r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
     sent, applied = r.column("valve.command.sent"), r.column("valve.command")
@@ -102,9 +103,10 @@ def test_network_faults_deliver_the_commands_by_their_rules(tmp_path):
 
 def test_the_circuit_loses_delays_and_reorders_as_the_cores_rig(tmp_path):
     """The paper's Fig 11 with the same four network faults run by the core's hand-written rig (rig.c, its own
-    command path and model) and by the ferreira2004 circuit (the generated loop): the same command reaches the
+    loop, sensing and model) and by the ferreira2004 circuit (the generated loop): the same command reaches the
     valve at every step, the piston within 4e-15 m RMS (measured 1.3e-15), the watchdog trips at the same
-    steps."""
+    steps. (Both deliver through core/link.c: this checks the two plumbings around it and the models; the
+    delivery rule itself is checked apart above.)"""
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import load_scenario
     core_toml = (EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 3.5")

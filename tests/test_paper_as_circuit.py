@@ -76,9 +76,35 @@ def test_the_conversion_says_what_changed_form(tmp_path):
     text = (tmp_path / "a" / "as_circuit" / "scenario.toml").read_text()
     assert "# faults[0] (hose_burst)" in text
     _, _, notes = run_both("faults/sensor_dropout.toml", tmp_path / "b")
-    assert any("p1 transducer): not carried" in n for n in notes), notes
+    assert any("p1 sensor): not carried" in n for n in notes), notes
     _, _, notes = run_both("faults/seal_wear.toml", tmp_path / "c")            # (open loop, xs not given)
     assert 'hold = "cyl.x"' in (tmp_path / "c" / "as_circuit" / "scenario.toml").read_text()
+
+
+def test_a_conversion_keeps_each_faults_random_stream(tmp_path):
+    """Fig 11 with a pressure sensor's fault (not carried) or a load change (two parameter faults) before a packet
+    loss: the loss keeps the rig's stream (``stream``: its place in the rig's table), the same commands reach the
+    valve as on the core's rig at every step; an open loop's packet loss (the rig's acts on the drive's commands)
+    is refused, naming the rig's key."""
+    base = (EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 1.5")
+    loss = '[[faults]]\ntype = "packet_loss"\nprobability = 0.4\nstart = 0.6\nend = 1.2\n'
+    for i, first in enumerate(('[[faults]]\ntype = "sensor_offset"\nsensor = "p1"\noffset = 1e5\nstart = 0.1\n',
+                               '[[faults]]\ntype = "load_change"\nmass = 90.0\nforce = 50.0\nstart = 0.1\n')):
+        f = tmp_path / f"two{i}.toml"
+        f.write_text(base + "[hil]\nseed = 7\n" + first + loss)
+        ls = load_scenario(f)
+        _, spath, _ = convert(ls, tmp_path / f"c{i}")
+        cs = load_circuit_scenario(spath)
+        assert cs.loop.network[0][-1] == 1                       # (its stream: the rig's place)
+        core = run_scenario(ls)
+        r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop, rest=cs.rest)
+        held = r.column("valve.command")[:-1] != r.column("valve.command.sent")[:-1]
+        assert held.sum() > 100 and np.array_equal(core.column("u")[:-1], r.column("valve.command")[:-1])
+    f = tmp_path / "open.toml"
+    f.write_text((EXAMPLES / "faults" / "seal_wear.toml").read_text().split("[[faults]]")[0] + loss)
+    with pytest.raises(InputError, match="acts on a closed loop's commands") as e:
+        convert(load_scenario(f), tmp_path / "o")
+    assert e.value.key == "faults[0].type" and not (tmp_path / "o").exists()
 
 
 def test_circuit_convert_on_the_command_line(tmp_path):
@@ -98,10 +124,13 @@ def test_circuit_convert_on_the_command_line(tmp_path):
 K = (-2.136, 1.602e-2, 4.561, -8.084e-2, 1.563e-2)
 
 
+KT = (-2.145, 7.276e-3, 4.602, -4.208e-2, 1.092e-2)
+
+
 def test_worn_lands_add_their_section_to_every_edge():
     """A servo valve's wear w [(l/min)/sqrt(bar)]: each edge passes (section(x) + w)*sqrt(dp in bar) l/min (eq 3
     with the paper's coefficients, computed here), at the centre where eq 3 alone gives its small overlap flow."""
-    section = max(K[1] + math.sqrt(K[4]), 0.0)               # eq 3 at x = 0
+    s_k, s_kt = (max(c[1] + math.sqrt(c[4]), 0.0) for c in (K, KT))    # eq 3 at x = 0
     for w in (0.0, 0.5):
         c = circuit_from_dict({"components": {
             "s": {"type": "pressure_source", "p": "s", "pressure": "70 bar"}, "t": {"type": "tank", "p": "t"},
@@ -109,7 +138,8 @@ def test_worn_lands_add_their_section_to_every_edge():
             "b": {"type": "pressure_source", "p": "b", "pressure": "20 bar"},
             "v": {"type": "servo_valve", "P": "s", "T": "t", "A": "a", "B": "b", "wear": w}}}, "test.toml")
         r = simulate_circuit(c, 0.0)
-        assert r.column("v.q_pa")[0] == pytest.approx((section + w) * math.sqrt(40) / 60000, rel=1e-14)
+        for edge, s, dp in (("pa", s_k, 40), ("pb", s_k, 50), ("at", s_kt, 30), ("bt", s_kt, 20)):
+            assert r.column(f"v.q_{edge}")[0] == pytest.approx((s + w) * math.sqrt(dp) / 60000, rel=1e-14), edge
 
 
 def paper(tmp_path, faults: str, duration: float = 2.0, extra: str = ""):
@@ -207,6 +237,7 @@ def test_an_open_loop_can_start_with_its_piston_held(tmp_path):
     assert r.column("valve.command")[0] == 0.0 and r.column("valve.x")[1] == r.column("valve.x")[0]   # (delayed)
     assert abs(r.column("valve.x")[-1]) < abs(xs) / 2
     for bad, key in (('{hold = "cyl.v", by = "valve.command"}', "rest.hold"),
+                     ('{hold = "valve.x", by = "valve.command"}', "rest.hold"),       # (a spool: no piston)
                      ('{hold = "cyl.x", by = "valve.x"}', "rest.by"), ('{hold = "cyl.x"}', "rest")):
         f.write_text(f.read_text().replace(f.read_text().splitlines()[2], f"rest = {bad}"))
         with pytest.raises(InputError) as e:
@@ -217,8 +248,8 @@ def test_an_open_loop_can_start_with_its_piston_held(tmp_path):
 def test_a_linear_reference_may_jump_at_a_repeated_time(tmp_path):
     """t = [0, 0.5, 0.5, 1.0]: linear to 0.5 s, the value after the jump from that instant, its slope 0 over the
     jump (p_ff's feed-forward sees no spike); a time given three times or going back is refused."""
-    cs, r = paper(tmp_path, "", duration=1.0)
     from hydrohil.circuits.run import Loop
+    cs = load_circuit_scenario(EXAMPLES / "circuits" / "ferreira2004" / "scenario.toml")
     loop = Loop(cs.loop.cfg, "cyl.x", "valve.command", (np.array([0.0, 0.5, 0.5, 1.0]),
                                                         np.array([0.03, 0.05, 0.10, 0.10])), linear=True)
     ref, slope = loop.table(2000, 5e-4)

@@ -40,7 +40,8 @@ A fault on a signal replaces its drive during the fault. The log shows each as a
 A sensor fault acts where the loop reads its signal (the generated C's hc_sensed, the loop's transducer: an
 ideal one when the scenario gives none), in every layer that reads it; the log's ``<measure>.sensed`` shows it.
 A fault's random draws come from its own stream, seeded by ``[hil] seed`` and its place in ``[[faults]]`` (the
-paper's rig's rule).
+paper's rig's rule; ``stream = N`` draws from place N's instead: what ``hydrohil circuit convert`` writes where
+the rig's table had another order).
 """
 
 from __future__ import annotations
@@ -64,6 +65,9 @@ KEYS = {"leak": {"type", "orifice", "node", "area", "to", "discharge_coefficient
         "packet_loss": {"type", "probability", "start", "end"}, "network_delay": {"type", "delay", "start", "end"},
         "reordering": {"type", "probability", "start", "end"}, "controller_silence": {"type", "start", "end"},
         "command_inversion": {"type", "start", "end"}}
+for _kind in (*SENSOR_FAULTS, *NETWORK_FAULTS):      # (a loop's fault may name the random stream it draws from)
+    KEYS[_kind] = KEYS[_kind] | {"stream"}
+MAX_LOOP_FAULTS = 53                                 # (the command path's fault mask: core HH_MAX_FAULTS)
 # each network fault's value: key, unit, range (the paper's rig's, simulation/faults.py; a delay line up to 1 s)
 NETWORK_VALUE = {"packet_loss": ("probability", "-", 0.0, 1.0), "network_delay": ("delay", "s", 0.0, 1.0),
                  "reordering": ("probability", "-", 0.0, 1.0)}
@@ -221,8 +225,11 @@ def follows_fault(c, comp: str) -> bool:
 
 
 def _loop_faults(faults: list, kinds: tuple, loop, what: str, source: str):
-    """(place, table, type, its key, start, end) of each of ``faults`` of the ``kinds`` acting on the loop's
-    ``what``; an error naming the fault when the scenario has no loop."""
+    """(stream, table, type, its key, start, end) of each of ``faults`` of the ``kinds`` acting on the loop's
+    ``what`` (stream: its ``stream`` key, else its place in ``faults``: the random stream it draws from, seeded
+    with ``[hil] seed``, as the paper's rig's); an error naming the fault when the scenario has no loop, or
+    when there are more than MAX_LOOP_FAULTS of them."""
+    n = 0
     for i, f in enumerate(faults):
         kind = f.get("type")
         if kind not in kinds:
@@ -231,7 +238,15 @@ def _loop_faults(faults: list, kinds: tuple, loop, what: str, source: str):
         if loop is None:
             raise InputError(f"a {kind} acts on the closed loop's {what}: this scenario has no [controller]",
                              source=source, key=f"{where}.type")
-        yield (i, f, kind, where, *_window(f, where, source))
+        n += 1
+        if n > MAX_LOOP_FAULTS:
+            raise InputError(f"at most {MAX_LOOP_FAULTS} faults on the loop's {what}", source=source,
+                             key=f"{where}.type")
+        stream = f.get("stream", i)
+        if not (isinstance(stream, int) and not isinstance(stream, bool) and 0 <= stream < 2 ** 31):
+            raise InputError(f"a whole number in [0, 2^31) (the place whose random stream it draws from; default its "
+                             f"own, {i}), got {stream!r}", source=source, key=f"{where}.stream")
+        yield (stream, f, kind, where, *_window(f, where, source))
 
 
 def sensor_faults(faults: list, loop, unit: str, source: str) -> list:
@@ -240,7 +255,7 @@ def sensor_faults(faults: list, loop, unit: str, source: str) -> list:
     standard deviation [unit], in SI (``unit``: the measured signal's), or the fraction of an encoder's counts
     missed."""
     out = []
-    for slot, f, kind, where, start, end in _loop_faults(faults, SENSOR_FAULTS, loop, "measurement", source):
+    for stream, f, kind, where, start, end in _loop_faults(faults, SENSOR_FAULTS, loop, "measurement", source):
         a = b = 0.0
         if kind == "sensor_offset":
             a = _number(f.get("offset", 0.0), "offset", where, source, unit)
@@ -258,10 +273,10 @@ def sensor_faults(faults: list, loop, unit: str, source: str) -> list:
             if not 0 < a <= 1:
                 raise InputError(f"the fraction of the counts missed, in (0, 1], got {f.get('fraction')!r}",
                                  source=source, key=f"{where}.fraction")
-            if loop.sensor is None or not loop.sensor[0] > 0:
-                raise InputError("an encoder's counts: give the loop's sensor_resolution (its count size)",
-                                 source=source, key=f"{where}.type")
-        out.append((kind, start, end, a, b, slot))
+            if not loop.encoder:
+                raise InputError("an encoder's counts: the loop measuring a position (m or rad) with its "
+                                 "sensor_resolution (its count size)", source=source, key=f"{where}.type")
+        out.append((kind, start, end, a, b, stream))
     return out
 
 
@@ -295,7 +310,7 @@ def network_faults(faults: list, loop, source: str) -> list:
     takes them (:class:`hydrohil.circuits.network.CommandPath`): (type, start, end or None, value, slot) with a
     probability, or a delay [s]; 0 for a controller_silence; slot: its place in ``faults`` (its random stream's)."""
     out = []
-    for slot, f, kind, where, start, end in _loop_faults(faults, NETWORK_FAULTS, loop, "commands", source):
+    for stream, f, kind, where, start, end in _loop_faults(faults, NETWORK_FAULTS, loop, "commands", source):
         a = 0.0
         if kind in NETWORK_VALUE:
             key, unit, lo, hi = NETWORK_VALUE[kind]
@@ -306,5 +321,5 @@ def network_faults(faults: list, loop, source: str) -> list:
             if not lo < a <= hi:
                 raise InputError(f"a {key} [{unit}] in ({lo:g}, {hi:g}], got {f[key]!r}", source=source,
                                  key=f"{where}.{key}")
-        out.append((kind, start, end, a, slot))
+        out.append((kind, start, end, a, stream))
     return out

@@ -528,7 +528,7 @@ double hc_sensed(double x, double *sensor, void *rng, int64_t k)
             continue;                       /* (an encoder's faults act on its reading, below) */
         switch ((int)F[0]) {{
         case HC_SENSOR_STUCK: stuck = F; break;
-        case HC_SENSOR_OFFSET: v += F[3] + F[4] * (t - F[5]); break;
+        case HC_SENSOR_OFFSET: v += F[3] + F[4] * hh_max(t - F[5], 0.0); break;
         case HC_SENSOR_NOISE:
             if (r) {{
                 hh_rng_normals(&r[1 + f], 1, &z);
@@ -716,8 +716,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                     sent[step] = c;
                 if (hh_path_step(pa, step, 1, &c))
                     held = c;
-                c = pa->link.active ? 0.0 : held;
-                c = hh_clamp(pa->inverted ? -c : c, lo, hi);
+                c = hh_path_apply(pa, held, lo, hi, 0);
             }}
             uk[cmd] = c;
         }}

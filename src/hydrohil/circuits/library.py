@@ -73,8 +73,9 @@ class Emit:
     at_rest: dict = field(default_factory=dict)          # state -> C: its value once the nodes settled at rest
     delays: list = field(default_factory=list)           # (input key, delay's parameter key): seen that late
     mode_at_rest: str | None = None
-    # the parameters its mode_update's clamps read: one driven (a fault, the panel) is applied at the step's start
-    # too, so a clamp tightened between steps holds from then (a spool's speed limit set to 0: stuck at once)
+    # the parameters its mode_update's clamps read: one a fault drives (an input of the circuit) is applied at the
+    # step's start too, so a clamp tightened between steps holds from then (a spool's speed limit set to 0: stuck
+    # at once; a live panel's `set` changes the parameter itself: its clamp acts from the step's end)
     clamps: tuple = ()
 
 

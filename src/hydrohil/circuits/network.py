@@ -47,7 +47,7 @@ class CommandPath(WatchdogCounters):
         for i, (kind, start, end, a, slot) in enumerate(network):
             f = self._faults + i
             f.type = getattr(core, f"HH_FAULT_{kind.upper()}")
-            f.sensor, f.a, f.b, f.start, f.stuck = -1, float(a), 0.0, float(start), math.nan
+            f.sensor, f.a, f.b, f.stuck = -1, float(a), 0.0, math.nan
             f.k_start, f.k_end = fault_steps(start, end, h)
             core.hh_fault_seed(f, int(seed), int(slot))
         cap = delay_slots(network, h)
@@ -65,6 +65,11 @@ class CommandPath(WatchdogCounters):
     def inverted(self) -> bool:
         """A command_inversion is active at the last step: the plant applies each command negated."""
         return bool(self.c.inverted)
+
+    def apply(self, held: float, lo: float, hi: float) -> float:
+        """What a commanded input gets after :meth:`step` (hh_path_apply: the last command, 0 in the safe state,
+        negated under a command_inversion, saturated to [lo, hi])."""
+        return float(core.hh_path_apply(self.c, float(held), float(lo), float(hi), core_ffi.NULL))
 
     def step(self, k: int, sent: bool) -> bool:
         """Step k's packet (in :attr:`packet`; ``sent`` False: none) through the faults and the watchdog: True

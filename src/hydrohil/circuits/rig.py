@@ -24,16 +24,19 @@ from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.link import wire_lists
 from hydrohil.circuits.network import CommandPath
 from hydrohil.circuits.run import METHODS, input_table, start_state
-from hydrohil.core.watchdog import WATCHDOG_TIMEOUT, WatchdogCounters
+from hydrohil.core import ffi as core_ffi
+from hydrohil.core import lib as core
+from hydrohil.core.watchdog import WatchdogCounters
 from hydrohil.errors import InputError, SimulationDiverged
 
 
 class CircuitRig(WatchdogCounters):
     """The circuit of a scenario (:class:`~hydrohil.circuits.scenario.CircuitScenario`) behind its inputs.
     ``signals`` / ``inputs``: (name, SI unit) of what it reports and what it takes, in wire order. The command
-    path's watchdog timeout and the seed of its network faults' streams: the scenario's [hil]."""
+    path's watchdog timeout (``watchdog_timeout`` in its place: a test's) and the seed of its faults' streams: the
+    scenario's [hil], as its offline run's."""
 
-    def __init__(self, cs, *, watchdog_timeout: float = WATCHDOG_TIMEOUT, seed: int = 0, network: bool = True):
+    def __init__(self, cs, *, watchdog_timeout: float | None = None, network: bool = True):
         if cs.method == "reference":
             raise InputError("a real-time plant steps the hybrid model: give a fixed-step method (rk3, ...), not "
                              "the continuous reference", source=cs.source, key="solver.method")
@@ -47,7 +50,8 @@ class CircuitRig(WatchdogCounters):
         self.lo, self.hi = [float(p.lo) for p in ranges], [float(p.hi) for p in ranges]     # (saturation)
         self.P = np.ascontiguousarray(lay.values())
         self.method = METHODS.index(cs.method)
-        self.watchdog_timeout, self.seed = float(watchdog_timeout), int(seed)
+        self.seed, timeout = cs.link                              # (the scenario's [hil], as offline)
+        self.watchdog_timeout = float(timeout if watchdog_timeout is None else watchdog_timeout)
         # the loop's network faults (network False: none, a replay of the inputs as applied after them)
         self.network = cs.loop.network if network and cs.loop is not None else []
         self.loop = cs.loop
@@ -81,6 +85,7 @@ class CircuitRig(WatchdogCounters):
         self.path = CommandPath(self.network, self.h, seed=self.seed,
                                 timeout=self.watchdog_timeout, stride=1 + len(self.inputs))   # (mask, values)
         self.link = self.path.link                      # its watchdog (counts from step 0)
+        self._sat = core_ffi.new("int *")
         self.saturated = False
         self.k = 0
         self._row(0.0)
@@ -114,14 +119,9 @@ class CircuitRig(WatchdogCounters):
         for j, v in self.held.items():
             u[j] = v
         self.saturated = False
-        for j in self.set_inputs:
-            v = self.cmd[j] if not self.watchdog else 0.0           # (the safe state: neutral)
-            v = -v if self.path.inverted else v                     # (a command_inversion)
-            lo, hi = self.lo[j], self.hi[j]
-            if v < lo or v > hi:
-                v = lo if v < lo else hi
-                self.saturated = not self.watchdog
-            u[j] = v
+        for j in self.set_inputs:           # (the safe state, a command_inversion, the range: hh_path_apply)
+            u[j] = core.hh_path_apply(self.path.c, self.cmd[j], self.lo[j], self.hi[j], self._sat)
+            self.saturated |= bool(self._sat[0])
         P, y, m, uc, _ = self._c
         status = self.cc.lib.hc_step(P, y, m, uc, self.method, self.h)
         self.k = k + 1

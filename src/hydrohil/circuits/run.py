@@ -245,10 +245,10 @@ class Loop:
         """The sensor as the generated C's hc_sensed reads it: its transducer (quantum, range, noise), an encoder
         or not, then its faults with their steps at step h (a fresh memory: a stuck sensor not yet stuck)."""
         from hydrohil.circuits.faults import SENSOR_FAULTS
+        from hydrohil.circuits.network import fault_steps
         out = [*self.sensor, float(len(self.sensor_faults)), float(h), float(self.encoder)]
         for kind, start, end, a, b, _ in self.sensor_faults:
-            k0 = math.ceil(start / h - 1e-9)
-            k1 = math.ceil(end / h - 1e-9) if end is not None else 2.0 ** 62
+            k0, k1 = fault_steps(start, end, h)
             out += [float(SENSOR_FAULTS.index(kind) + 1), float(k0), float(k1), float(a), float(b),
                     math.nan if kind in ("sensor_stuck", "encoder_count_loss") else float(start)]
         return out
@@ -545,8 +545,7 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
                 loop.sent[k] = path.packet[0] = u[k, cmd]
                 if path.step(k, True):
                     held[0] = path.packet[0]
-                v = 0.0 if path.watchdog else held[0]
-                u[k, cmd] = min(max(-v if path.inverted else v, lo), hi)
+                u[k, cmd] = path.apply(held[0], lo, hi)
             if seen is not None:
                 u_seen[k] = seen(u[k])
 

@@ -82,6 +82,7 @@ class CircuitScenario:
     hil: dict = field(default_factory=dict)        # [hil] as given (checked by hydrohil.hil.circuit)
     faults: list = field(default_factory=list)     # [[faults]] as given (compiled into the circuit: faults.py)
     repeat: bool = False                           # drives and reference again every duration (a panel session)
+    link: tuple = (0, WATCHDOG_TIMEOUT)            # ([hil] seed, watchdog_timeout): the command path's, the faults'
 
     @cached_property
     def layout(self):
@@ -177,8 +178,9 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
             raise InputError(f"true or false{' (or {hold, by})' if key == 'rest' else ''}, got {v!r}", source=source,
                              key=key)
     loop = _loop(data, c, source)
-    if loop is not None:                          # its faults' streams and watchdog: the scenario's [hil]
-        loop.link = _link(data.get("hil", {}), source)
+    link = _link(data.get("hil", {}), source)     # the faults' streams and the watchdog: the scenario's [hil]
+    if loop is not None:
+        loop.link = link
     if isinstance(rest, dict):
         rest = _hold(rest, c, loop, source)
     if loop is not None:
@@ -201,7 +203,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
                          "for it would be overridden", source=source if loop.command in data.get("set", {}) else
                          "--set", key=loop.command)
     return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
-                           given, loop, dict(data.get("hil", {})), list(data.get("faults", [])), repeat)
+                           given, loop, dict(data.get("hil", {})), list(data.get("faults", [])), repeat, link)
 
 
 def _link(hil: dict, source: str) -> tuple[int, float]:
@@ -338,9 +340,14 @@ def _hold(table: dict, c: Circuit, loop, source: str) -> Hold:
     if loop is not None:
         raise InputError("a closed loop starts with its piston held by its own command already: rest = true",
                          source=source, key="rest")
+    from hydrohil.circuits.run import MOVING
     lay = compile_circuit(c).layout
-    if not (isinstance(table["hold"], str) and table["hold"].endswith(".x") and table["hold"] in lay.log_columns):
-        xs = [x for x in lay.log_columns if x.endswith(".x")]
+    comp = c.components.get(str(table["hold"]).rsplit(".", 1)[0])
+    if comp is not None and comp.coupled:                 # (a coupled rod's position is its load's)
+        comp = c.components[comp.coupled]
+    if not (isinstance(table["hold"], str) and table["hold"].endswith(".x") and table["hold"] in lay.log_columns
+            and comp is not None and comp.type.name in MOVING):
+        xs = [x for x in lay.log_columns if x.endswith(".x") and c.components[x.rsplit(".", 1)[0]].type.name in MOVING]
         raise InputError(f"a position signal to hold, one of {', '.join(xs) or 'none'}, got {table['hold']!r}",
                          source=source, key="rest.hold")
     if table["by"] not in c.inputs:

@@ -280,6 +280,10 @@ void hh_path_init(hh_path *p, hh_fault *fault, int nfault, double h, double time
                   int64_t cap);
 /* Step k's packet (sent 0: none) through the faults of step k and the watchdog: 1 when it reaches the plant. */
 int hh_path_step(hh_path *p, int64_t k, int sent, double *packet);
+/* What a commanded input receives at the plant after hh_path_step: the last command that arrived (held), 0 in the
+ * watchdog's safe state, negated under a command_inversion, saturated to the input's range [lo, hi];
+ * *saturated (when not NULL): 1 when a command was clamped (not the safe state's 0). */
+double hh_path_apply(const hh_path *p, double held, double lo, double hi, int *saturated);
 
 /* The rig around one sim: the faults act on the parameters through a copy of the fault-free ones (base), the
  * model reads only sim->p. wire: commands of one value (hh_rig_init's fifo: 2 doubles per slot, fifo_cap slots

@@ -115,3 +115,13 @@ int hh_path_step(hh_path *p, int64_t k, int sent, double *packet)
     hh_watchdog_command(&p->link, k, got, 0.0, p->h, p->timeout, 0, 0.0, 0.0);
     return got;
 }
+
+double hh_path_apply(const hh_path *p, double held, double lo, double hi, int *saturated)
+{
+    double v = p->link.active ? 0.0 : held, c;
+    v = p->inverted ? -v : v;
+    c = hh_clamp(v, lo, hi);
+    if (saturated)
+        *saturated = c != v && !p->link.active;
+    return c;
+}

@@ -300,7 +300,6 @@ def circuit_plant_h(cs) -> str:
               "network_delay's line (slots) */"]
     lines += arr("int", "CIRCUIT_NET_TYPE", [f"HH_FAULT_{kind.upper()}" for kind, *_ in network], str)
     lines += arr("double", "CIRCUIT_NET_VALUE", [a for _, _, _, a, _ in network])
-    lines += arr("double", "CIRCUIT_NET_START", [start for _, start, _, _, _ in network])
     lines += arr("int", "CIRCUIT_NET_SLOT", [slot for *_, slot in network], str)
     steps = [fault_steps(start, end, cs.step) for _, start, end, _, _ in network]
     lines += arr("int64_t", "CIRCUIT_NET_K0", [k0 for k0, _ in steps], lambda v: f"{v}LL")

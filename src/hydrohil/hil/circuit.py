@@ -29,18 +29,14 @@ from hydrohil.simulation.scenario import circuit_hil
 CONTROLLER_LOG_HEAD = ("seq", "t", "wall", "measured", "reference", "command", "status")
 
 
-def make_rig(cs, hil):
-    from hydrohil.circuits.rig import CircuitRig
-    return CircuitRig(cs, watchdog_timeout=hil.watchdog_timeout, seed=hil.seed)
-
-
 class CircuitPlantServer(PlantServer):
     """:class:`~hydrohil.hil.plant.PlantServer` (clock, lock-step, watchdog, counters, verdict) serving a
     circuit: SIGNALS out, INPUTS in, its own ``plant_log.csv`` columns."""
 
     def __init__(self, cs, *, hil, duration: float, log: Path | None = None, **kw):
         self.cs = cs
-        rig = make_rig(cs, hil)
+        from hydrohil.circuits.rig import CircuitRig
+        rig = CircuitRig(cs)                # (its watchdog, its faults' seed: the scenario's [hil], as offline)
         check_link_size(rig.signals, rig.inputs, cs.source)
         self.layout = pr.layout_id(rig.signals, rig.inputs)
         self.columns = plant_log_columns(rig.signals, rig.inputs)

@@ -46,6 +46,7 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import Field, TypeAdapter, ValidationError, model_validator
 
+from hydrohil.circuits.faults import TYPES as CIRCUIT_FAULTS
 from hydrohil.errors import InputError
 from hydrohil.parameters import format_validation_error, read_toml
 from hydrohil.parameters.schema import StrictModel
@@ -124,8 +125,7 @@ class CircuitFaultAction(FaultAction):
     network losing, delaying or reordering its commands, the controller falling silent) from ``at`` until
     ``until``: the scenario's ``[[faults]]`` entry it becomes (FaultAction.fault_table), its keys those of its
     type."""
-    type: Literal["leak", "parameter", "sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout",
-                  "packet_loss", "network_delay", "reordering", "controller_silence"]
+    type: Literal[CIRCUIT_FAULTS]
 
     @model_validator(mode="after")
     def _fault_type(self):                 # (in place of the rig's: a circuit's fault types and keys)
@@ -138,8 +138,7 @@ class CircuitFaultAction(FaultAction):
 
 
 CircuitAction = Annotated[Union[CircuitStep, CircuitRamp, SetAction, CircuitFaultAction], Field(discriminator="type")]
-CIRCUIT_ACTIONS = ("step", "ramp", "set", "leak", "parameter", "sensor_stuck", "sensor_offset", "sensor_noise",
-                   "sensor_dropout", "packet_loss", "network_delay", "reordering", "controller_silence")
+CIRCUIT_ACTIONS = ("step", "ramp", "set", *CIRCUIT_FAULTS)
 
 
 class Sequence(StrictModel):

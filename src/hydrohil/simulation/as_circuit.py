@@ -19,9 +19,10 @@ initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "v
                            at rest under it)
 [hil]                      as given; ``command_delay`` added to the valve's delay (the core's series delay)
 faults: network            the same faults on the loop's commands (packet_loss, network_delay, reordering,
-                           controller_silence; the same streams: seed and place in the table)
+                           controller_silence; the same streams: seed and the rig's place, ``stream``)
 faults: sensor (position)  the loop's sensor faults (stuck, offset, noise, dropout; in m; encoder_count_loss)
-faults: sensor (pressure)  not carried, with a note: the loop reads the piston only (the run is the same)
+faults: sensor (pressure)  not carried, with a note: the loop reads the piston only (the run is the same);
+                           in open loop a position sensor's too (no loop reads it)
 command_inversion          the same fault on the loop's commands
 spool_stuck                ``parameter`` on valve.lv = 0 (the spool's clamp at the step's start: stopped at once)
 valve_leakage              ``parameter`` on valve.wear (the worn lands' section on each edge)
@@ -34,7 +35,8 @@ load_change                ``parameter`` on cyl.mass and/or cyl.force
 
 Refused (InputError naming the key): a Python controller, state feedback (it reads the chamber pressures),
 initial chamber pressures, an initial spool position other than the first command in open loop, a repeating
-reference, ``safe_state = "hold"`` and ``controller_mode = "clock"``.
+reference, a network fault in open loop (the rig's acts on the drive's commands; a circuit's inputs take them
+without a network), ``safe_state = "hold"`` and ``controller_mode = "clock"``.
 """
 
 from __future__ import annotations
@@ -44,12 +46,11 @@ from pathlib import Path
 
 import numpy as np
 
+from hydrohil.circuits.faults import NETWORK_FAULTS, SENSOR_FAULTS
 from hydrohil.circuits.library import FLUID
 from hydrohil.errors import InputError
 
 LOOP_TYPES = ("p", "pi", "pid", "p_ff")
-NETWORK = ("packet_loss", "network_delay", "reordering", "controller_silence", "command_inversion")
-SENSOR = ("sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout", "encoder_count_loss")
 # the rig's fault types a circuit writes as a parameter changed: type -> [(key of the rig's fault, circuit target,
 # its value from the rig's fault's value and the parameters)]
 PARAMETER = {
@@ -61,8 +62,8 @@ PARAMETER = {
     "valve_leakage": [("section", "valve.wear", lambda v, p: v)],
 }
 CD = 0.61                                   # the leak orifice's discharge coefficient (a hose_burst's section)
-HIL_DROPPED = ("command_scale",)
-LPM_PER_SQRT_BAR = 1.0 / 60000.0 / math.sqrt(1e5)   # (l/min)/sqrt(bar) in (m3/s)/sqrt(Pa) (hh.h's)           # the wire's unit of the paper's rig: a circuit's inputs are SI
+HIL_DROPPED = ("command_scale",)          # the wire's unit of the paper's rig: a circuit's inputs are SI
+LPM_PER_SQRT_BAR = 1.0 / 60000.0 / math.sqrt(1e5)   # (l/min)/sqrt(bar) in (m3/s)/sqrt(Pa) (hh.h's)
 
 
 def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
@@ -148,18 +149,27 @@ def _loop(s, p, scen: dict, src: str, count: float) -> None:
 
 
 def _faults(s, p, src: str, notes: list[str]) -> list[dict]:
+    """The faults in a circuit scenario's terms; a loop's fault keeps its random stream, the rig's (``stream``:
+    its place in the rig's table, where the circuit's has another)."""
     out = []
     for i, f in enumerate(s.faults):
         where = f"faults[{i}]"
         window = {"start": f.start, **({"end": f.end} if f.end is not None else {})}
-        if f.type in NETWORK:
-            out.append(f.model_dump(exclude_none=True))
-        elif f.type in SENSOR:
-            if getattr(f, "sensor", "position") != "position":    # (what the rig's log reports of a pressure)
-                notes.append(f"{where} ({f.type} on the {f.sensor} transducer): not carried: the loop reads the "
-                             "piston only, so it changes nothing in the run (the rig's log shows it in its reading)")
+        stream = {"stream": i} if len(out) != i else {}
+        if f.type in NETWORK_FAULTS:
+            if s.controller is None:
+                raise InputError(f"a circuit's {f.type} acts on a closed loop's commands; in the rig's open loop it "
+                                 "acts on the commands of the drive, which a circuit's inputs take without a network",
+                                 source=src, key=f"{where}.type")
+            out.append({**f.model_dump(exclude_none=True), **stream})
+        elif f.type in SENSOR_FAULTS:
+            sensor = getattr(f, "sensor", "position")
+            if sensor != "position" or s.controller is None:     # (only what the rig's log reports of it)
+                notes.append(f"{where} ({f.type} on the {sensor} sensor): not carried: "
+                             f"{'no loop reads it' if s.controller is None else 'the loop reads the piston only'}, so "
+                             "it changes nothing in the run (the rig's log shows it in its reading)")
                 continue
-            out.append({k: v for k, v in f.model_dump(exclude_none=True).items() if k != "sensor"})
+            out.append({**{k: v for k, v in f.model_dump(exclude_none=True).items() if k != "sensor"}, **stream})
         elif f.type == "hose_burst":          # the rig's burst: its section to tank by eq 3's law (cylinder.c)
             k = f.section * LPM_PER_SQRT_BAR        # [m3/s/sqrt(Pa)] = Cd*A*sqrt(2/rho)
             area = k / (CD * math.sqrt(2.0 / FLUID["density"].default))

@@ -75,7 +75,6 @@ static void path_reset(const plant *pl)
         f->type = CIRCUIT_NET_TYPE[i];
         f->sensor = -1;
         f->a = CIRCUIT_NET_VALUE[i];
-        f->start = CIRCUIT_NET_START[i];
         f->k_start = CIRCUIT_NET_K0[i];
         f->k_end = CIRCUIT_NET_K1[i];
         f->stuck = NAN;
@@ -183,17 +182,12 @@ int model_step(plant *pl, int64_t k, int arrived, double *u)
         if (C.held >> j & 1U)
             C.u[j] = C.hold[j];
     C.saturated = 0;
-    for (j = 0; j < CIRCUIT_NINPUTS; j++) {
-        double v;
+    for (j = 0; j < CIRCUIT_NINPUTS; j++) {   /* (the safe state, a command_inversion, the range: link.c) */
+        int saturated;
         if (!(C.set >> j & 1U))
             continue;
-        v = C.path.link.active ? 0.0 : C.cmd[j];           /* the safe state: neutral */
-        v = C.path.inverted ? -v : v;                       /* (a command_inversion) */
-        if (v < CIRCUIT_LO[j] || v > CIRCUIT_HI[j]) {
-            v = v < CIRCUIT_LO[j] ? CIRCUIT_LO[j] : CIRCUIT_HI[j];
-            C.saturated = !C.path.link.active;
-        }
-        C.u[j] = v;
+        C.u[j] = hh_path_apply(&C.path, C.cmd[j], CIRCUIT_LO[j], CIRCUIT_HI[j], &saturated);
+        C.saturated |= saturated;
     }
     if (hc_step(C.P, C.y, C.m, C.u, CIRCUIT_METHOD, CIRCUIT_STEP) != 0) {
         describe_divergence(pl, (double)(k + 1) * CIRCUIT_STEP);
