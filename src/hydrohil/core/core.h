@@ -16,6 +16,23 @@
 #define HH_INLINE static inline
 #endif
 
+/* a loop over a tableau's stages unrolled, so that its coefficients are constants and its zeros drop out
+ * (the generated circuit's step; gcc and clang), and what the compiler may take as true there (a tableau's
+ * stages: at most HH_MAX_STAGES, where it is not a constant) */
+#if defined(__GNUC__)
+#define HH_UNROLL _Pragma("GCC unroll 4")   /* (HH_MAX_STAGES) */
+#define HH_ASSUME(cond) do { if (!(cond)) __builtin_unreachable(); } while (0)
+#else
+#define HH_UNROLL
+#define HH_ASSUME(cond) ((void)0)
+#endif
+
+#if defined(_MSC_VER) && !defined(__clang__)
+#define HH_RESTRICT __restrict
+#else
+#define HH_RESTRICT restrict
+#endif
+
 #define HC_PI 3.14159265358979323846      /* (M_PI is not C99) */
 
 HH_INLINE double hh_min(double a, double b) { return a < b ? a : b; }
