@@ -131,7 +131,9 @@ def test_a_scenario_names_its_circuit_and_sets_its_values(tmp_path):
     for old, new, key, message in [
         ('measure = "motor.w"', 'measure = "motor.speed"', "controller.measure", "not a signal of circuit"),
         ('command = "valve.command"', 'command = "pump.speed"', "controller.command", "not an input of circuit"),
-        ('type = "pi"', 'type = "state_feedback"', "controller.type", "p, pi, pid, p_ff"),
+        ('type = "pi"', 'type = "lqr"', "controller.type", "p, pi, pid, p_ff, state_feedback, python"),
+        ('type = "pi"', 'type = "state_feedback"', "controller.load_pressure",
+         "cylinders of circuit 'motor_speed': none"),
         ("ki = 0.08", "ki = -1", "controller.ki", "greater than 0"),
         ('"500 rpm"', '"500 bar"', "reference", "rad/s is wanted"),
         ("[reference]\nt = [0, 1]\nvalue = [\"0 rpm\", \"500 rpm\"]\n", "", "reference", r"both \[controller\]"),

@@ -25,8 +25,6 @@ from hydrohil.simulation.scenario import load_scenario
 PAPER_SCENARIOS = sorted(p.replace(str(EXAMPLES) + "/", "") for p in
                          glob.glob(str(EXAMPLES / "*.toml")) + glob.glob(str(EXAMPLES / "controllers" / "*.toml")) +
                          glob.glob(str(EXAMPLES / "faults" / "*.toml")))
-REFUSED = {"controllers/fig11_python_pi.toml": "controller.type",              # (a Python controller)
-           "controllers/fig12_pressure_feedback.toml": "controller.type"}      # (state feedback: the pressures)
 FAST = ("fig11_p_control.toml", "sine_open_loop.toml", "faults/hose_burst.toml", "faults/sensor_noise.toml")
 
 
@@ -49,13 +47,8 @@ def test_every_paper_example_runs_on_the_generated_code_as_on_the_core(path, tmp
     generated circuit the core's run: the piston within 1.5e-14 m RMS (measured at most 4.0e-15, Fig 10), the
     chambers within 2e-5 Pa RMS (6.5e-6), the same travel and friction modes at every step. Not the same bits: a
     node's sum adds in another order than the core's chamber, a burst line's flow is an orifice of its own beside
-    the valve's edge. Two are refused, naming the key: a Python controller and state feedback (it reads the
-    chamber pressures, a circuit's loop one signal)."""
-    if path in REFUSED:
-        with pytest.raises(InputError) as e:
-            run_both(path, tmp_path)
-        assert e.value.key == REFUSED[path]
-        return
+    the valve's edge. The state feedback and the Python controller read the chambers through the rig's
+    transducers (Fig 12's state feedback: 9.3e-16 m, 4.2e-6 Pa; Fig 11's Python PI: 9.8e-16 m, 2.1e-6 Pa)."""
     core, r, _ = run_both(path, tmp_path)
     assert len(core.column("t")) == len(r.column("t"))
     rms = lambda a, b: float(np.sqrt(np.mean((core.column(a) - r.column(b)) ** 2)))   # noqa: E731
@@ -113,8 +106,10 @@ def test_circuit_convert_on_the_command_line(tmp_path):
     assert (tmp_path / "c" / "circuit.toml").is_file() and "wrote" in r.stdout
     s = hh("simulate", tmp_path / "c" / "scenario.toml", "--out", tmp_path / "run", "--no-plot")
     assert s.returncode == 0, s.stderr
-    bad = hh("circuit", "convert", EXAMPLES / "controllers" / "fig11_python_pi.toml", "--out", tmp_path / "d")
-    assert bad.returncode == 2 and "controller.type" in bad.stderr and not (tmp_path / "d").exists()
+    pressed = tmp_path / "pressed.toml"               # (a circuit starts with its chambers at rest)
+    pressed.write_text((EXAMPLES / "fig11_p_control.toml").read_text().replace("xp = 0.03", "xp = 0.03\np1 = 2e6"))
+    bad = hh("circuit", "convert", pressed, "--out", tmp_path / "d")
+    assert bad.returncode == 2 and "initial.p1" in bad.stderr and not (tmp_path / "d").exists()
     again = hh("circuit", "convert", tmp_path / "c" / "scenario.toml", "--out", tmp_path / "e")
     assert again.returncode == 2 and "a circuit scenario already" in again.stderr
 

@@ -149,12 +149,15 @@ class BuiltinController:
     """A built-in law of the core (``hh_controller``): ``ctl(measurement) -> ū``, or :meth:`update`.
 
     ``h`` is the sample time [s] (the plant step: one command per sensor packet). ``limits``: the command's
-    clamp (u_min, u_max) in place of the config's (a circuit's loop: its command's range), kept by a retune."""
+    clamp (u_min, u_max) in place of the config's (a circuit's loop: its command's range), kept by a retune.
+    ``area_ratio``: A2/A1 of the load pressure in place of the parameters' cylinder's (a circuit's state
+    feedback: its cylinder's area_b/area_a)."""
 
-    def __init__(self, cfg: ControllerCfg, params: Parameters | None, h: float, limits: tuple | None = None):
+    def __init__(self, cfg: ControllerCfg, params: Parameters | None, h: float, limits: tuple | None = None,
+                 area_ratio: float | None = None):
         if cfg.type not in BUILTIN_TYPES:
             raise ValueError(f"'{cfg.type}' is not a built-in controller ({', '.join(BUILTIN_TYPES)})")
-        self.h, self.params, self.limits = float(h), params, limits
+        self.h, self.params, self.limits, self.area_ratio = float(h), params, limits, area_ratio
         self.c = ffi.new("hh_controller *")
         self._load(cfg)
         self.state = ffi.new("hh_controller_state *")
@@ -178,8 +181,8 @@ class BuiltinController:
         c.e_deadband = getattr(cfg, "e_deadband", 1e-4)
         c.kpl = getattr(cfg, "kpl", 0.0)
         c.tpl = getattr(cfg, "tpl", 0.0)
-        c.area_ratio = params.cylinder.a2 / params.cylinder.a1 if params is not None else 0.0   # (a circuit's
-        # loop: no load-pressure feedback)
+        c.area_ratio = (self.area_ratio if self.area_ratio is not None else      # (a circuit's loop: its cylinder's)
+                        params.cylinder.a2 / params.cylinder.a1 if params is not None else 0.0)
         c.u_min, c.u_max = self.limits if self.limits is not None else (cfg.u_min, cfg.u_max)
 
     def retune(self, **gains: float) -> None:

@@ -688,6 +688,14 @@ static int method_step(int method, double h, double *y, int64_t *m, const double
     }}
 }}
 
+/* A state feedback's reading of a chamber's pressure p [Pa]: through its loop's transducer (press[2] its full
+ * scale, press[3] its resolution: sensors.c, the rig's; full scale 0: none, the pressure itself) */
+double hc_pressure_read(double p, const double *press)
+{{
+    int saturated;
+    return press[2] > 0.0 ? pressure_reading(p, press[2], press[3], 0.0, &saturated) : p;
+}}
+
 /* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it); a row every `every`
  * steps from step 0 (the state before the step). Closed loop (ctl not NULL, the core's controller law,
  * control.c): at each step k the controller reads log column `meas` of the state at t_k (under the command
@@ -697,28 +705,42 @@ static int method_step(int method, double h, double *y, int64_t *m, const double
  * an hh_path of packets of one value): the controller's command goes through it (link.c: network faults, then
  * the watchdog) as to a plant over the network: the last one that arrived drives the step, 0 in the watchdog's
  * safe state, negated under a command_inversion, saturated to the input's range [lo, hi]; sent[k] (when not
- * NULL): what the controller sent for step k. Returns 0, or 1 when
- * the state went non-finite, 2 when h is not the step the state was made for (hc_init) (rows so far written,
- * *rows set). */
+ * NULL): what the controller sent for step k. press (not NULL: a state feedback's load pressure, [the log
+ * columns of its cylinder's two chambers, its transducers' full scale, resolution]): the law reads them too, each
+ * through hc_pressure_read. command (not NULL, ctl NULL: a user's controller, called back) gives step k's command
+ * from the signal as sensed and the chambers as read in place of the core's law; NaN: it failed (3 returned).
+ * Returns 0, or 1 when the state went non-finite, 2 when h is not the step the state was made for (hc_init), 3
+ * when the command callback failed (rows so far written, *rows set). */
+typedef double (*hc_command_fn)(int64_t k, double sensed, double p1, double p2);
+
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
-           double lo, double hi, double *sent)
+           double lo, double hi, double *sent, const double *press, void *command)
 {{
     double seen[NLOG], held = 0.0;
     int64_t step, row = 0;
     for (step = 0; step <= n; step++) {{
         double *uk = u + (step < n ? step : n - 1 > 0 ? n - 1 : 0) * NU;
-        if (ctl && step < n) {{   /* the controller measures under the command last applied (step 0: as set) */
-            double c;
+        if ((ctl || command) && step < n) {{   /* it measures under the command last applied (step 0: as set) */
+            double c, sensed, p1, p2;
             if (step > 0)
                 uk[cmd] = uk[cmd - NU];
             else
                 held = uk[cmd];           /* (the command that holds the piston until one arrives) */
             log_row((double)step * h, y, m, uk, P, seen);
-            c = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
-                                     sign * ref[step], sign * dref[step], sign * hc_sensed(seen[meas], sensor, rng, step),
-                                     0.0, 0.0);
+            sensed = hc_sensed(seen[meas], sensor, rng, step);
+            p1 = press ? hc_pressure_read(seen[(int64_t)press[0]], press) : 0.0;
+            p2 = press ? hc_pressure_read(seen[(int64_t)press[1]], press) : 0.0;
+            if (command) {{
+                c = ((hc_command_fn)command)(step, sensed, p1, p2);
+                if (c != c) {{
+                    *rows = row;
+                    return 3;
+                }}
+            }} else
+                c = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
+                                         sign * ref[step], sign * dref[step], sign * sensed, p1, p2);
             if (path) {{
                 hh_path *pa = (hh_path *)path;
                 if (sent)

@@ -211,22 +211,84 @@ class Loop:
     network: list = field(default_factory=list)   # (type, start, end, value, slot): circuits/network.py
     link: tuple = (0, WATCHDOG_TIMEOUT)  # ([hil] seed, watchdog_timeout [s]): its faults' streams, the watchdog
     sent: np.ndarray | None = None      # the last run's commands as the controller sent them (network faults)
+    # a state feedback's load pressure pL = p1 - area_ratio * p2 (the law's kpl, tpl): the log columns of its
+    # cylinder's two chambers, A_b/A_a, and their transducers (full scale, resolution [Pa]; full scale 0: none)
+    pressures: tuple | None = None
+    area_ratio: float = 0.0
+    pressure_sensor: tuple = (0.0, 0.0)
+    base: object = None                 # a user's controller (cfg.type "python"): the folder its module is in
+    source: str | None = None           # (the scenario, named by its errors)
+
+    @property
+    def python(self) -> bool:
+        """A user's controller (``type = "python"``), called back each step, not the core's law."""
+        return self.cfg.type == "python"
 
     def __post_init__(self):
         if self.sensor is not None and len(self.sensor) == 3:     # (quantum, lo, hi): a noiseless sensor
             self.sensor = (*self.sensor, 0.0)
 
-    def update(self, ref: float, dref: float, sensed: float) -> float:
+    def update(self, ref: float, dref: float, sensed: float, p1: float = 0.0, p2: float = 0.0,
+               t: float = 0.0) -> float:
         """The law's command for the reference (and slope) and the signal as sensed, as the generated loop
-        computes it (hc_run: the law on sign·ref, sign·dref, sign·signal)."""
+        computes it (hc_run: the law on sign·ref, sign·dref, sign·signal; a state feedback's chamber pressures
+        p1, p2 as read, :meth:`read_pressures`). A user's controller is called with a
+        :class:`hydrohil.control.Measurement` at the plant's time ``t`` (x: the signal as sensed; p1, p2: the
+        chambers of ``load_pressure`` as read, else 0; ps, pt: NaN, a circuit has no rig's supply and tank
+        transducers), its command kept in the loop's limits; one that raises or returns no finite number stops
+        the run (ControllerError naming the time)."""
+        if self.python:
+            from hydrohil.control import Measurement, call_controller
+            u = call_controller(self.controller, Measurement(float(t), float(ref), float(dref), float(sensed),
+                                                             float(p1), float(p2), math.nan, math.nan, 0))
+            return min(max(u, self.limits[0]), self.limits[1])
         s = self.sign
-        return self.controller.update(s * ref, s * dref, s * sensed)
+        return self.controller.update(s * ref, s * dref, s * sensed, p1, p2)
+
+    def command_callback(self, cc, ref, dref, h: float):
+        """hc_run's ``command`` for a user's controller (NULL for the core's law): step k's command from the
+        signal as sensed and the chambers as read (:meth:`update`); what it raises is kept in ``self.error`` and
+        NaN returned (hc_run stops, 3)."""
+        if not self.python:
+            return cc.ffi.NULL
+        self.error = None
+
+        def command(k, sensed, p1, p2):
+            try:
+                return self.update(ref[k], dref[k], sensed, p1, p2, t=k * h)
+            except BaseException as exc:     # noqa: BLE001 - raised again once hc_run has stopped
+                self.error = exc
+                return math.nan
+        return cc.ffi.callback("double(int64_t, double, double, double)", command)
+
+    def pressure_args(self, cc):
+        """hc_run's ``press`` (NULL: no load pressure read): [column of p1, column of p2, full scale,
+        resolution]."""
+        if self.pressures is None:
+            return cc.ffi.NULL
+        cols = cc.layout.log_columns
+        buf = cc.ffi.new("double[4]", [float(cols.index(self.pressures[0])), float(cols.index(self.pressures[1])),
+                                       *map(float, self.pressure_sensor)])
+        self._press_buf = buf                            # (alive while the C reads it)
+        return buf
+
+    def read_pressures(self, cc, p1: float, p2: float) -> tuple[float, float]:
+        """The chamber pressures as the law reads them (the generated C's hc_pressure_read, hc_run's rule);
+        (0, 0) without a load pressure."""
+        if self.pressures is None:
+            return 0.0, 0.0
+        press = self.pressure_args(cc)
+        return cc.lib.hc_pressure_read(float(p1), press), cc.lib.hc_pressure_read(float(p2), press)
 
     def start(self, h: float) -> None:
         """A fresh controller sampled at h (no integrator or filter state from another run) and its sensor's
         noise generator from its seed."""
-        from hydrohil.control import BuiltinController
-        self.controller = BuiltinController(self.cfg, None, h, limits=self.limits)   # (the law's clamp: in its range)
+        from hydrohil.control import BuiltinController, make_controller
+        if self.python:                                 # (a class instantiated afresh: no state from another run)
+            self.controller = make_controller(self.cfg, None, h, base=self.base, source=self.source)
+        else:
+            self.controller = BuiltinController(self.cfg, None, h, limits=self.limits,   # (the law's clamp: its range)
+                                                area_ratio=self.area_ratio)
         self.rng = self.streams()
         self.h = h
 
@@ -327,7 +389,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     rows = ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h, input_range(c, loop.command)) if loop is not None else
-           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, 0.0, ffi.NULL))
+           (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, 0.0, ffi.NULL,
+            ffi.NULL, ffi.NULL))
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
@@ -336,6 +399,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     log = log[:rows[0]]
     res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method,
                         wall, states=lay.states[len(c.state_nodes):])
+    if status == 3:                       # (a user's controller failed: its error, with the time)
+        raise loop.error
     if status == 2:                       # (a state sized for another step: not from simulate_circuit)
         raise HydrohilError(f"circuit {c.name!r}: the step {h} s is not the one its state's delay lines were sized "
                             "for (hc_init)")
@@ -459,11 +524,14 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
     sensor, rng = loop.sensor_args(cc)
     path = loop.command_path(h)                                  # (its network faults: circuits/network.py)
     loop.sent = np.zeros(n) if path is not None else None        # what the controller sent (the path's input)
-    loop._keep = (ref, dref, sensor, path)                       # alive while hc_run reads them
-    return (addr(loop.controller.c), addr(loop.controller.state), ffi.from_buffer("double[]", ref),
+    press = loop.pressure_args(cc)                              # (a state feedback's load pressure)
+    command = loop.command_callback(cc, ref, dref, h)            # (a user's controller, called back)
+    loop._keep = (ref, dref, sensor, path, press, command)       # alive while hc_run reads them
+    law = (ffi.NULL, ffi.NULL) if loop.python else (addr(loop.controller.c), addr(loop.controller.state))
+    return (*law, ffi.from_buffer("double[]", ref),
             ffi.from_buffer("double[]", dref), lay.log_columns.index(loop.measure), cc.layout.inputs.index(loop.command),
             sensor, rng, float(loop.sign), addr(path.c) if path is not None else ffi.NULL, *limits,
-            ffi.from_buffer("double[]", loop.sent) if path is not None else ffi.NULL)
+            ffi.from_buffer("double[]", loop.sent) if path is not None else ffi.NULL, press, command)
 
 
 def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
@@ -539,8 +607,11 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         loop.sent = np.zeros(n) if path is not None else None
         (lo, hi), held = input_range(c, loop.command), [u[0, cmd]]
 
+        press = [lay.log_columns.index(x) for x in loop.pressures] if loop.pressures is not None else None
+
         def control(k, row):
-            u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng, k))
+            p12 = loop.read_pressures(cc, row[press[0]], row[press[1]]) if press is not None else (0.0, 0.0)
+            u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng, k), *p12, t=k * h)
             if path is not None:
                 loop.sent[k] = path.packet[0] = u[k, cmd]
                 if path.step(k, True):

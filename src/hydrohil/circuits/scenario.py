@@ -21,7 +21,10 @@ values on top of the circuit's, and drives of its signals in place of the circui
     [inputs]                          # drives of the circuit's signals, as in its [inputs] (held from each
     "valve1.command" = { t = [0, 0.5], value = [0, 0.6] }  # t, or interpolation = "linear")
     [controller]                      # optional closed loop: the core's law (control.h) on any signal
-    type = "pi"                       # p, pi, pid or p_ff
+    type = "pi"                       # p, pi, pid, p_ff or state_feedback (load_pressure = "<cylinder>": its
+                                      # chambers read too, through pressure_range/_resolution transducers),
+                                      # or python (callable = "file.py:Name", options: a user's controller,
+                                      # called each step with a hydrohil.control.Measurement)
     measure = "motor.w"               # the signal it reads (a log column)
     command = "valve.command"         # the input it drives (one of the circuit's [inputs])
     kp = 0.002                        # gains in the command's unit per the measured signal's SI unit
@@ -63,7 +66,7 @@ from hydrohil.errors import InputError
 NO_PARAMETER_SET = "a circuit scenario has no parameter set: give its values with --set component.key=value"
 KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "controller", "reference", "hil",
         "repeat", "faults"}
-LOOP_TYPES = ("p", "pi", "pid", "p_ff")
+LOOP_TYPES = ("p", "pi", "pid", "p_ff", "state_feedback", "python")
 SOLVER_KEYS = {"method", "step", "output_every"}
 
 
@@ -177,7 +180,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
         if not isinstance(v, bool) and not (key == "rest" and isinstance(v, dict)):
             raise InputError(f"true or false{' (or {hold, by})' if key == 'rest' else ''}, got {v!r}", source=source,
                              key=key)
-    loop = _loop(data, c, source)
+    loop = _loop(data, c, source, base)
     link = _link(data.get("hil", {}), source)     # the faults' streams and the watchdog: the scenario's [hil]
     if loop is not None:
         loop.link = link
@@ -237,7 +240,7 @@ def write_circuit_scenario(path: str | Path, dest: str | Path, *, sets: dict, re
     return dest
 
 
-def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
+def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
     """The closed loop of [controller] + [reference]: the core's built-in law (hydrohil.control) with its gains
     checked as a paper scenario's are, the measured signal and the driven input named, the reference in the
     measured signal's unit."""
@@ -245,8 +248,10 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     from pydantic import ValidationError
     from hydrohil.circuits.build import compile_circuit
     from hydrohil.circuits.units import to_si
-    from hydrohil.control import PControllerCfg, PFFControllerCfg, PIControllerCfg, PIDControllerCfg
-    LOOP_CFG = {"p": PControllerCfg, "pi": PIControllerCfg, "pid": PIDControllerCfg, "p_ff": PFFControllerCfg}
+    from hydrohil.control import (PControllerCfg, PFFControllerCfg, PIControllerCfg, PIDControllerCfg,
+                                  PythonControllerCfg, StateFeedbackControllerCfg, make_controller)
+    LOOP_CFG = {"p": PControllerCfg, "pi": PIControllerCfg, "pid": PIDControllerCfg, "p_ff": PFFControllerCfg,
+                "state_feedback": StateFeedbackControllerCfg, "python": PythonControllerCfg}
     if "controller" not in data and "reference" not in data:
         return None
     if not isinstance(data.get("controller"), dict) or not isinstance(data.get("reference"), dict):
@@ -260,6 +265,7 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     limits = {k: table.pop(k) for k in ("u_min", "u_max") if k in table}     # (the command's unit, not ū)
     sensor_keys = {k: table.pop(k) for k in ("sensor_resolution", "sensor_min", "sensor_max", "sensor_noise")
                    if k in table}
+    feedback = {k: table.pop(k) for k in ("load_pressure", "pressure_range", "pressure_resolution") if k in table}
     seed = table.pop("sensor_seed", 0)
     if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2 ** 63):
         raise InputError(f"a whole number >= 0, got {seed!r}", source=source, key="controller.sensor_seed")
@@ -268,8 +274,8 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
         raise InputError(f"\"direct\" (a larger command raises the measured signal) or \"reverse\" (lowers it), "
                          f"got {action!r}", source=source, key="controller.action")
     if table.get("type") not in LOOP_TYPES:
-        raise InputError(f"a circuit's loop runs the core's laws: type one of {', '.join(LOOP_TYPES)}, got "
-                         f"{table.get('type')!r}", source=source, key="controller.type")
+        raise InputError(f"a circuit's loop runs the core's laws or a user's controller: type one of "
+                         f"{', '.join(LOOP_TYPES)}, got {table.get('type')!r}", source=source, key="controller.type")
     try:
         cfg = LOOP_CFG[table["type"]].model_validate(table)
     except ValidationError as exc:
@@ -326,8 +332,51 @@ def _loop(data: dict, c: Circuit, source: str) -> Loop | None:
     if not valid_table_times(ts, ref.get("interpolation") == "linear"):
         raise InputError(TABLE_TIMES, source=source, key="reference.t")
     encoder = sensor is not None and sensor[0] > 0 and units[measure] in ("m", "rad")   # (counts: a position)
-    return Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi),
-                sensor=sensor, sign=-1.0 if action == "reverse" else 1.0, seed=seed, encoder=encoder)
+    loop = Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi),
+                sensor=sensor, sign=-1.0 if action == "reverse" else 1.0, seed=seed, encoder=encoder,
+                base=base, source=source)
+    if loop.python:
+        if loop.sign < 0:
+            raise InputError("a user's controller computes its own command's sign: no action = \"reverse\"",
+                             source=source, key="controller.action")
+        make_controller(cfg, None, 5e-4, base=base, source=source)      # (its module and class checked now)
+    _load_pressure(loop, feedback, c, source)
+    return loop
+
+
+def _load_pressure(loop: Loop, feedback: dict, c: Circuit, source: str) -> None:
+    """A state feedback's load pressure (``load_pressure = "<cylinder>"``: pL = p_a - (A_b/A_a)·p_b of its two
+    chambers' nodes; ``pressure_range``, ``pressure_resolution``: their transducers, the rig's, SPEC §10; none:
+    the pressures themselves) into ``loop``."""
+    from hydrohil.circuits.units import to_si
+    reads = loop.cfg.type in ("state_feedback", "python")
+    if not reads or (loop.python and not feedback):     # (a user's controller reads them when it names them)
+        if feedback:
+            raise InputError(f"only a state feedback or a user's controller reads a load pressure, not a "
+                             f"{loop.cfg.type!r} loop", source=source, key=f"controller.{next(iter(feedback))}")
+        return
+    name = feedback.get("load_pressure")
+    comp = c.components.get(name) if isinstance(name, str) else None
+    cylinders = [n for n, x in c.components.items() if {"a", "b"} <= set(x.ports) and "area_a" in x.values
+                 and "area_b" in x.values]
+    if comp is None or name not in cylinders:
+        raise InputError(f"a state feedback reads the load pressure of a cylinder: load_pressure = \"<its name>\" "
+                         f"(cylinders of circuit {c.name!r}: {', '.join(cylinders) or 'none'}), got {name!r}",
+                         source=source, key="controller.load_pressure")
+    if loop.sign < 0:          # (a user's controller: refused above)
+        raise InputError("a state feedback acts directly (its load pressure's sign is its cylinder's): no "
+                         "action = \"reverse\"", source=source, key="controller.action")
+    try:
+        sensor = tuple(to_si(feedback.get(k, 0.0), "Pa") for k in ("pressure_range", "pressure_resolution"))
+    except ValueError as exc:
+        raise InputError(f"{exc} (the chambers' pressure transducers)", source=source,
+                         key="controller.pressure_range") from None
+    if not (sensor[0] >= 0 and sensor[1] >= 0) or (sensor[1] > 0 and sensor[0] == 0):
+        raise InputError(f"a full scale >= 0 (0: no transducer, the pressures themselves) and a resolution >= 0 "
+                         f"(with a full scale), got {sensor} Pa", source=source, key="controller.pressure_range")
+    loop.pressures = (f"{comp.ports['a']}.p", f"{comp.ports['b']}.p")
+    loop.area_ratio = comp.values["area_b"] / comp.values["area_a"]
+    loop.pressure_sensor = sensor
 
 
 def _hold(table: dict, c: Circuit, loop, source: str) -> Hold:

@@ -5,16 +5,11 @@
  * bit for bit whichever plant serves it. */
 
 /* ---- pressure transducer + ADC ------------------------------------------------------------------ */
-/* Reading [Pa gauge] of a true pressure p with a noise sample [Pa]: clipped to [0, full_scale], quantised to
- * resolution (<= 0: none); *saturated = 1 when clipped. */
+/* Reading [Pa gauge] of a true pressure p with a noise sample [Pa]: sensors.c's transducer (clipped to
+ * [0, full_scale], quantised to resolution, <= 0: none; *saturated = 1 when clipped), exported. */
 double hh_pressure_reading(double p, double full_scale, double resolution, double noise, int *saturated)
 {
-    double v = p + noise;
-    *saturated = v < 0.0 || v > full_scale;
-    v = hh_clamp(v, 0.0, full_scale);
-    if (resolution > 0.0)
-        v = floor(v / resolution + 0.5) * resolution;
-    return v;
+    return pressure_reading(p, full_scale, resolution, noise, saturated);
 }
 
 int64_t hh_count_to_int(double c) { return count_to_int(c); }

@@ -18,3 +18,16 @@ HH_INLINE int64_t encoder_reading(double xp, double count) { return count_to_int
 
 /* Size [m] of one count as the rig reports it: the resolution, or HH_IDEAL_COUNT for an ideal encoder. */
 HH_INLINE double count_size(double resolution) { return resolution > 0.0 ? resolution : HH_IDEAL_COUNT; }
+
+/* What a pressure transducer reports [Pa] of pressure p [Pa] with its noise sample `noise` [Pa] added: clamped to
+ * [0, full_scale] (*saturated set when outside), to its ADC quantum `resolution` (0: none). The rig's transducers
+ * (rig.c) and a circuit's state feedback (generated hc_run) read through it. */
+HH_INLINE double pressure_reading(double p, double full_scale, double resolution, double noise, int *saturated)
+{
+    double v = p + noise;
+    *saturated = v < 0.0 || v > full_scale;
+    v = hh_clamp(v, 0.0, full_scale);
+    if (resolution > 0.0)
+        v = floor(v / resolution + 0.5) * resolution;
+    return v;
+}

@@ -7,5 +7,6 @@ HH_INLINE double encoder_counts(double xp, double resolution);
 HH_INLINE double count_size(double resolution);
 HH_INLINE int64_t count_to_int(double c);
 HH_INLINE int64_t encoder_reading(double xp, double count);
+HH_INLINE double pressure_reading(double p, double full_scale, double resolution, double noise, int *saturated);
 
 #endif

@@ -148,7 +148,12 @@ class Drives:
         if self.loop is not None:
             self.loop.start(cs.step)
             self.ref, self.dref = self.loop.table(self.n, cs.step)
-            self.meas = lay.log_columns.index(self.loop.measure) - lay.log_columns.index("t") - 1   # (in SIGNALS)
+            at = lambda col: lay.log_columns.index(col) - lay.log_columns.index("t") - 1       # noqa: E731 (in SIGNALS)
+            self.meas = at(self.loop.measure)
+            self.press = None
+            if self.loop.pressures is not None:     # (a state feedback: its transducers, the generated C's rule)
+                from hydrohil.circuits.build import compile_circuit
+                self.press, self.cc = [at(x) for x in self.loop.pressures], compile_circuit(cs.circuit)
             self.cmd = lay.inputs.index(self.loop.command)
             self.mask = 1 << self.cmd
             self.steer = SteerableController(self.loop.controller, None)
@@ -160,7 +165,9 @@ class Drives:
             held = self.steer.held
             ref, dref = (held, 0.0) if held is not None else (float(self.ref[k]), float(self.dref[k]))
             self.measured, self.reference = s.values[self.meas], ref
-            self.values[self.cmd] = self.loop.update(ref, dref, self.measured)
+            p12 = ((0.0, 0.0) if self.press is None else      # (a state feedback's chambers, through its transducers)
+                   self.loop.read_pressures(self.cc, s.values[self.press[0]], s.values[self.press[1]]))
+            self.values[self.cmd] = self.loop.update(ref, dref, self.measured, *p12, t=s.t_sim)
         return self.values
 
 

@@ -13,7 +13,10 @@ paper scenario             circuit scenario
 params, [overrides]        the circuit of the parameters (circuit.toml beside the scenario; ``initial.xp`` its x0)
 [input] table / sine       ``[inputs] "valve.command"``: a table (linear) as written; a sine held per step
 [controller] p/pi/pid/     the same law on ``cyl.x`` -> ``valve.command``, reading the encoder's counts
-p_ff, [reference]          (``sensor_resolution`` = the count size); the reference table linear, as written
+p_ff/state_feedback/       (``sensor_resolution`` = the count size); the reference table linear, as written; a state
+python, [reference]        feedback's load pressure of ``cyl`` through the rig's transducers (sensors.pressure_range,
+                           _resolution; noiseless: a noise is refused); a Python controller the same callable,
+                           called each step with the rig's measurement (``path``: its module's folder; ps, pt NaN)
 initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "valve.command"}`` (the rig's start:
                            the piston held by the spool offset at rest); given, the first command (a circuit starts
                            at rest under it)
@@ -33,8 +36,8 @@ valve_bandwidth            ``parameter`` on valve.wn (its value times the factor
 load_change                ``parameter`` on cyl.mass and/or cyl.force
 =========================  ==========================================================================================
 
-Refused (InputError naming the key): a Python controller, state feedback (it reads the chamber pressures),
-initial chamber pressures, an initial spool position other than the first command in open loop, a repeating
+Refused (InputError naming the key): a state feedback or a Python controller with noisy pressure transducers or
+a fault on a pressure sensor, initial chamber pressures, an initial spool position other than the first command in open loop, a repeating
 reference, a network fault in open loop (the rig's acts on the drive's commands; a circuit's inputs take them
 without a network), ``safe_state = "hold"`` and ``controller_mode = "clock"``.
 """
@@ -50,7 +53,7 @@ from hydrohil.circuits.faults import NETWORK_FAULTS, SENSOR_FAULTS
 from hydrohil.circuits.library import FLUID
 from hydrohil.errors import InputError
 
-LOOP_TYPES = ("p", "pi", "pid", "p_ff")
+LOOP_TYPES = ("p", "pi", "pid", "p_ff", "state_feedback", "python")
 # the rig's fault types a circuit writes as a parameter changed: type -> [(key of the rig's fault, circuit target,
 # its value from the rig's fault's value and the parameters)]
 PARAMETER = {
@@ -111,7 +114,7 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
         if ini.xs is not None:
             raise InputError("a circuit's loop starts at the command that holds its piston (SPEC §12.5): no "
                              "initial spool position", source=src, key="initial.xs")
-        _loop(s, p, scen, src, count_size(p.sensors.encoder_resolution))
+        _loop(s, p, scen, src, count_size(p.sensors.encoder_resolution), notes)
     faults = _faults(s, p, src, notes)
     if faults:
         scen["faults"] = faults
@@ -132,19 +135,26 @@ def _open_loop(s, t: np.ndarray, scen: dict, src: str) -> float:
     return float(np.interp(0.0, inp.t, inp.u))
 
 
-def _loop(s, p, scen: dict, src: str, count: float) -> None:
+def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
     ctl = s.controller
-    if ctl.type not in LOOP_TYPES:
-        why = ("a Python controller runs beside the rig (hydrohil hil --controller)" if ctl.type == "python" else
-               "state feedback reads the chamber pressures; a circuit's loop reads one signal")
-        raise InputError(f"a circuit's loop runs the core's laws {', '.join(LOOP_TYPES)}: {why}", source=src,
-                         key="controller.type")
     if s.reference.repeat:
         raise InputError("a circuit repeats its reference only in a live panel session (repeat = true)",
                          source=src, key="reference.repeat")
     table = ctl.model_dump(exclude_defaults=True)
     table["type"] = ctl.type
+    if ctl.type == "python":                # its module where the rig's finds it (the scenario's folder)
+        table["path"] = str((Path(src).parent / (ctl.path or ".")).resolve())
+        notes.append(f"controller {ctl.callable}: called each step as the rig calls it (x the encoder's reading, "
+                     "p1 and p2 the chambers through the rig's transducers), ps and pt NaN (a circuit has no "
+                     "supply and tank transducers)")
     scen["controller"] = {**table, "measure": "cyl.x", "command": "valve.command", "sensor_resolution": count}
+    if ctl.type in ("state_feedback", "python"):   # the chambers through the rig's transducers (noiseless)
+        if p.sensors.pressure_noise > 0:
+            raise InputError(f"a circuit's {ctl.type} loop reads its chambers through noiseless transducers: the "
+                             f"rig's draw their noise from the loop's stream ({p.sensors.pressure_noise:g} Pa here)",
+                             source=src, key="sensors.pressure_noise")
+        scen["controller"].update(load_pressure="cyl", pressure_range=p.sensors.pressure_range,
+                                  pressure_resolution=p.sensors.pressure_resolution)
     scen["reference"] = {"t": list(s.reference.t), "value": list(s.reference.x), "interpolation": "linear"}
 
 
@@ -164,6 +174,11 @@ def _faults(s, p, src: str, notes: list[str]) -> list[dict]:
             out.append({**f.model_dump(exclude_none=True), **stream})
         elif f.type in SENSOR_FAULTS:
             sensor = getattr(f, "sensor", "position")
+            reads = s.controller is not None and s.controller.type in ("state_feedback", "python")
+            if sensor in ("p1", "p2", "ps", "pt") and reads:
+                raise InputError(f"a circuit's {s.controller.type} loop reads its chambers without faults (and no "
+                                 f"supply, tank): a {f.type} on the {sensor} sensor changes what the rig's "
+                                 "controller reads", source=src, key=f"{where}.sensor")
             if sensor != "position" or s.controller is None:     # (only what the rig's log reports of it)
                 notes.append(f"{where} ({f.type} on the {sensor} sensor): not carried: "
                              f"{'no loop reads it' if s.controller is None else 'the loop reads the piston only'}, so "

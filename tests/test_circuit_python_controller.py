@@ -1,0 +1,111 @@
+"""A user's Python controller on a circuit (issue #27 item 5: the paper's `fig11_python_pi` on the generated
+code): ``[controller] type = "python"`` is called back by the generated loop each step with a
+:class:`hydrohil.control.Measurement`; checked against the controller's rule computed here from the run's own
+log, in the continuous reference, in lock-step HIL on both plants, and its failures named."""
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import EXAMPLES
+from hydrohil.circuits.run import simulate_circuit
+from hydrohil.circuits.scenario import load_circuit_scenario
+from hydrohil.errors import ControllerError, InputError
+
+CIRCUIT = EXAMPLES / "circuits" / "ferreira2004" / "circuit.toml"
+CONTROLLER = '''
+import math
+
+class PI:
+    """a PI on the sensed position with a little load-pressure feedback; counts its calls"""
+    def __init__(self, kp=40.0, ki=100.0, kpl=1e-8):
+        self.kp, self.ki, self.kpl, self.i, self.t, self.calls = kp, ki, kpl, 0.0, None, 0
+
+    def __call__(self, m):
+        self.calls += 1
+        assert math.isnan(m.ps) and math.isnan(m.pt) and m.status == 0
+        e = m.x_ref - m.x
+        dt = 0.0 if self.t is None else m.t - self.t
+        self.t = m.t
+        self.i += self.ki * e * dt
+        return self.kp * e + self.i - self.kpl * (m.p1 - 0.5 * m.p2)
+
+def fails(m):
+    if m.t >= 0.25:
+        raise RuntimeError("sensor cable unplugged")
+    return 0.0
+
+def nan(m):
+    return float("nan") if m.t >= 0.1 else 0.0
+'''
+
+
+def scenario(tmp_path, callable_="ctl.py:PI", duration=1.5, extra="", options="options = { kp = 40.0 }\n"):
+    (tmp_path / "ctl.py").write_text(CONTROLLER)
+    f = tmp_path / "scenario.toml"
+    f.write_text(f'circuit = "{CIRCUIT}"\nduration = {duration}\n[set]\n"cyl.x0" = "30 mm"\n'
+                 f'[controller]\ntype = "python"\ncallable = "{callable_}"\n{options}'
+                 'measure = "cyl.x"\ncommand = "valve.command"\nsensor_resolution = "1 um"\n'
+                 'load_pressure = "cyl"\npressure_range = "250 bar"\n' + extra +
+                 '[reference]\nt = [0.0, 0.2, 0.2, 1.5]\nvalue = ["30 mm", "30 mm", "100 mm", "100 mm"]\n'
+                 'interpolation = "linear"\n')
+    return f
+
+
+def test_every_command_is_the_controllers_rule_on_what_it_read(tmp_path):
+    """Each step's command is the user's PI computed here from the run's log: the encoder's reading, the
+    reference, the chambers through 250 bar transducers (clamped at 0), t = k·h, the integral over the steps,
+    clamped to the valve's range (to 1e-12); a second run starts from a fresh instance (the same run)."""
+    cs = load_circuit_scenario(scenario(tmp_path))
+    runs = [simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop) for _ in range(2)]
+    r = runs[0]
+    e = r.column("cyl.x.reference") - r.column("cyl.x.sensed")
+    p1, p2 = (np.clip(r.column(c), 0.0, 2.5e7) for c in ("cap.p", "rod.p"))
+    u, i = np.empty(len(e) - 1), 0.0
+    for k in range(len(u)):
+        i += 100.0 * e[k] * (cs.step if k else 0.0)
+        u[k] = min(max(40.0 * e[k] + i - 1e-8 * (p1[k] - 0.5 * p2[k]), -1.0), 1.0)
+    assert np.max(np.abs(u - r.column("valve.command")[:-1])) < 1e-12
+    assert np.max(np.abs(u)) == 1.0 and np.max(np.abs(1e-8 * p1)) > 0.01     # (its clamp and pressures act)
+    assert np.array_equal(runs[0].column("cyl.x"), runs[1].column("cyl.x"))
+    assert cs.loop.controller.calls == len(u)
+    assert abs(r.column("cyl.x")[-1] - 0.1) < 2e-3            # (it tracks: 100 mm, measured 0.77 mm off)
+
+
+def test_the_reference_solver_calls_it_at_the_same_instants(tmp_path):
+    """The continuous reference runs the user's controller at each step's instant too: its piston within
+    15 µm RMS of the fixed step's (measured 4.8 µm)."""
+    cs = load_circuit_scenario(scenario(tmp_path, duration=1.0))
+    fixed = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
+    ref = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method="reference", loop=cs.loop)
+    rms = math.sqrt(np.mean((fixed.column("cyl.x") - ref.column("cyl.x")) ** 2))
+    assert rms < 1.5e-5, rms
+
+
+@pytest.mark.parametrize("name, message", [("fails", r"t = 0\.25 s .*RuntimeError: sensor cable unplugged"),
+                                           ("nan", r"returned nan at t = 0\.1 s")])
+def test_a_failing_controller_stops_the_run_naming_the_time(tmp_path, name, message):
+    cs = load_circuit_scenario(scenario(tmp_path, f"ctl.py:{name}", options=""))
+    with pytest.raises(ControllerError, match=message):
+        simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
+
+
+@pytest.mark.parametrize("callable_, extra, key", [("ctl.py:Nope", "", "controller.callable"),
+                                                    ("missing.py:PI", "", "controller.callable"),
+                                                    ("ctl.py:PI", 'action = "reverse"\n', "controller.action")])
+def test_a_bad_user_controller_is_named_at_load(tmp_path, callable_, extra, key):
+    with pytest.raises(InputError) as e:
+        load_circuit_scenario(scenario(tmp_path, callable_, extra=extra))
+    assert e.value.key == key
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_lockstep_hil_with_a_user_controller_equals_offline(tmp_path, plant):
+    """The controller process calls the user's controller on the plant's SIGNALS packets: lock-step, the run is
+    the offline run bit for bit on either plant."""
+    from hydrohil.hil.run import run_hil
+    r = run_hil(scenario(tmp_path, duration=1.0), tmp_path / "out", lockstep=True, plot=False,
+                ready=lambda *a, **k: None, plant=plant)
+    assert r.comparison["identical"] and r.comparison["replay_max_abs_difference"] == 0.0

@@ -1,0 +1,130 @@
+"""A circuit's loop as a state feedback (issue #27 item 5: the paper's Fig 12 with load-pressure feedback on the
+generated code): the law reads its cylinder's two chambers (``load_pressure``, through the rig's transducers),
+checked against the law computed here from the run's own log, against the core's run, in lock-step HIL on both
+plants, and its bad input named."""
+
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import EXAMPLES
+from hydrohil.circuits.run import simulate_circuit
+from hydrohil.circuits.scenario import load_circuit_scenario
+from hydrohil.errors import InputError
+from hydrohil.parameters import load_parameters
+from hydrohil.simulation.as_circuit import convert
+from hydrohil.simulation.scenario import load_scenario
+
+FIG12_SF = EXAMPLES / "controllers" / "fig12_pressure_feedback.toml"
+
+
+@pytest.fixture(scope="module")
+def converted():
+    with tempfile.TemporaryDirectory() as tmp:
+        _, spath, _ = convert(load_scenario(FIG12_SF), Path(tmp) / "sf")
+        yield spath.read_text(), (Path(tmp) / "sf" / "circuit.toml").read_text()
+
+
+def _write(tmp_path, converted, replace=()):
+    scen, circ = converted
+    for a, b in replace:
+        assert a in scen, a
+        scen = scen.replace(a, b)
+    (tmp_path / "circuit.toml").write_text(circ)
+    (tmp_path / "scenario.toml").write_text(scen)
+    return tmp_path / "scenario.toml"
+
+
+def _run(path, **updates):
+    cs = load_circuit_scenario(path)
+    if updates:
+        cs.loop.cfg = cs.loop.cfg.model_copy(update=updates)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return cs, simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
+
+
+def test_the_law_reads_the_load_pressure_of_its_cylinder(tmp_path, converted):
+    """Every command of the run is the state feedback's law computed here from the run's own log: the encoder's
+    reading, the reference, pL = p_cap - (A2/A1)·p_rod of the paper's areas through 250 bar transducers, high-
+    passed with tpl = 50 ms (to 1e-12 of the command)."""
+    cs, r = _run(_write(tmp_path, converted, [("duration = 6.0", "duration = 2.0")]))
+    p = load_parameters("ferreira2004")
+    ratio, h, kp, kpl, tpl = p.cylinder.a2 / p.cylinder.a1, cs.step, 100.0, 2e-8, 0.05
+    read = lambda v: np.clip(v, 0.0, 2.5e7)                                            # noqa: E731
+    pl = read(r.column("cap.p")) - ratio * read(r.column("rod.p"))
+    e = r.column("cyl.x.reference") - r.column("cyl.x.sensed")
+    u = np.empty(len(pl) - 1)
+    plf = 0.0
+    for k in range(len(u)):
+        if k > 0:
+            plf = tpl / (tpl + h) * (plf + pl[k] - pl[k - 1])
+        u[k] = np.clip(kp * e[k] - kpl * plf, -1.0, 1.0)
+    assert np.max(np.abs(u - r.column("valve.command")[:-1])) < 1e-12
+    assert np.max(np.abs(kpl * np.array(pl))) > 0.05          # (the pressures' share is no rounding: > 5 % of ū)
+
+
+def test_the_load_pressure_feedback_keeps_the_slow_ramp_sliding(tmp_path, converted):
+    """Fig 12's slow ramp (5-6 s): with the load-pressure feedback the piston does not stick again (0 times),
+    with the same P gain alone it sticks 63 times (the example's point; the core's Fig 12 under P hunts)."""
+    path = _write(tmp_path, converted)
+    counts = []
+    for kpl in (2e-8, 0.0):
+        _, r = _run(path, kpl=kpl)
+        t, m = r.column("t"), r.column("cyl.mode")
+        w = (t >= 5.0) & (t < 6.0)
+        counts.append(int(np.sum((np.diff(m[w]) != 0) & (m[w][1:] == 0))))     # (mode 0: stick)
+    assert counts[0] == 0 and counts[1] > 30, counts
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_lockstep_hil_of_a_state_feedback_equals_offline(tmp_path, converted, plant):
+    """The controller process reads the chambers from the plant's SIGNALS packets through the same transducers:
+    lock-step, the run is the offline run bit for bit on either plant."""
+    from hydrohil.hil.run import run_hil
+    path = _write(tmp_path, converted, [("duration = 6.0", "duration = 1.5")])
+    r = run_hil(path, tmp_path / "out", lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
+    assert r.comparison["identical"] and r.comparison["replay_max_abs_difference"] == 0.0
+
+
+@pytest.mark.parametrize("change, key, message", [
+    (('load_pressure = "cyl"\n', ""), "controller.load_pressure",
+     r"cylinders of circuit 'fig12_pressure_feedback': cyl\), got None"),
+    (('load_pressure = "cyl"', 'load_pressure = "valve"'), "controller.load_pressure", "got 'valve'"),
+    (('type = "state_feedback"', 'type = "p"'), "controller.load_pressure", "only a state feedback"),
+    (('command = "valve.command"', 'command = "valve.command"\naction = "reverse"'), "controller.action",
+     "acts directly"),
+    (("pressure_range = 25000000.0\npressure_resolution = 0.0", "pressure_range = 0.0\npressure_resolution = 1000.0"),
+     "controller.pressure_range", "with a full scale"),
+    (("pressure_range = 25000000.0", 'pressure_range = "250 m"'), "controller.pressure_range", "transducers"),
+])
+def test_a_bad_load_pressure_is_named(tmp_path, converted, change, key, message):
+    """Its cylinder missing or not a cylinder, a load pressure on another law, a reverse action, a resolution
+    without a full scale, a unit that is not a pressure: the key named."""
+    scen, _ = converted
+    if change[1] == 'type = "p"':          # (a P law has no kpl, tpl)
+        scen = scen.replace("kpl = 2e-08\ntpl = 0.05\n", "")
+    path = _write(tmp_path, (scen, converted[1]), [change])
+    with pytest.raises(InputError, match=message) as e:
+        load_circuit_scenario(path)
+    assert e.value.key == key
+
+
+def test_a_noisy_transducer_or_a_chamber_sensor_fault_is_refused_at_conversion(tmp_path):
+    """The rig's state feedback draws its transducers' noise from the loop's stream, and its faults on p1/p2
+    change what the law reads: a conversion refuses both, naming the key."""
+    base = FIG12_SF.read_text()
+    noisy = tmp_path / "noisy.toml"
+    noisy.write_text(base.replace('"supply.ps" = 1.2e7', '"supply.ps" = 1.2e7\n"sensors.pressure_noise" = 2e4'))
+    with pytest.raises(InputError) as e:
+        convert(load_scenario(noisy), tmp_path / "a")
+    assert e.value.key == "sensors.pressure_noise"
+    fault = tmp_path / "fault.toml"
+    fault.write_text(base + '\n[[faults]]\ntype = "sensor_offset"\nsensor = "p1"\noffset = 1e5\nstart = 1.0\n')
+    with pytest.raises(InputError) as e:
+        convert(load_scenario(fault), tmp_path / "b")
+    assert e.value.key == "faults[0].sensor"
