@@ -20,10 +20,10 @@ import math
 class PI:
     """a PI on the sensed position with a little load-pressure feedback; counts its calls"""
     def __init__(self, kp=40.0, ki=100.0, kpl=1e-8):
-        self.kp, self.ki, self.kpl, self.i, self.t, self.calls = kp, ki, kpl, 0.0, None, 0
+        self.kp, self.ki, self.kpl, self.i, self.t, self.times = kp, ki, kpl, 0.0, None, []
 
     def __call__(self, m):
-        self.calls += 1
+        self.times.append(m.t)
         assert math.isnan(m.ps) and math.isnan(m.pt) and m.status == 0
         e = m.x_ref - m.x
         dt = 0.0 if self.t is None else m.t - self.t
@@ -47,7 +47,7 @@ def scenario(tmp_path, callable_="ctl.py:PI", duration=1.5, extra="", options="o
     f.write_text(f'circuit = "{CIRCUIT}"\nduration = {duration}\n[set]\n"cyl.x0" = "30 mm"\n'
                  f'[controller]\ntype = "python"\ncallable = "{callable_}"\n{options}'
                  'measure = "cyl.x"\ncommand = "valve.command"\nsensor_resolution = "1 um"\n'
-                 'load_pressure = "cyl"\npressure_range = "250 bar"\n' + extra +
+                 'load_pressure = "cyl"\npressure_range = "50 bar"\npressure_resolution = "0.5 bar"\n' + extra +
                  '[reference]\nt = [0.0, 0.2, 0.2, 1.5]\nvalue = ["30 mm", "30 mm", "100 mm", "100 mm"]\n'
                  'interpolation = "linear"\n')
     return f
@@ -55,13 +55,15 @@ def scenario(tmp_path, callable_="ctl.py:PI", duration=1.5, extra="", options="o
 
 def test_every_command_is_the_controllers_rule_on_what_it_read(tmp_path):
     """Each step's command is the user's PI computed here from the run's log: the encoder's reading, the
-    reference, the chambers through 250 bar transducers (clamped at 0), t = k·h, the integral over the steps,
-    clamped to the valve's range (to 1e-12); a second run starts from a fresh instance (the same run)."""
+    reference, the chambers through 50 bar transducers of 0.5 bar (clamped to [0, 50 bar], then to whole
+    quanta: both act in this run), t = k·h, the integral over the steps, clamped to the valve's range (to
+    1e-12); a second run starts from a fresh instance (the same run)."""
     cs = load_circuit_scenario(scenario(tmp_path))
     runs = [simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop) for _ in range(2)]
     r = runs[0]
     e = r.column("cyl.x.reference") - r.column("cyl.x.sensed")
-    p1, p2 = (np.clip(r.column(c), 0.0, 2.5e7) for c in ("cap.p", "rod.p"))
+    p1, p2 = (np.floor(np.clip(r.column(c), 0.0, 5e6) / 5e4 + 0.5) * 5e4 for c in ("cap.p", "rod.p"))
+    assert np.max(r.column("cap.p")) > 5.2e6 and np.max(np.abs(p1 - r.column("cap.p"))) > 1e4   # (both act)
     u, i = np.empty(len(e) - 1), 0.0
     for k in range(len(u)):
         i += 100.0 * e[k] * (cs.step if k else 0.0)
@@ -69,16 +71,17 @@ def test_every_command_is_the_controllers_rule_on_what_it_read(tmp_path):
     assert np.max(np.abs(u - r.column("valve.command")[:-1])) < 1e-12
     assert np.max(np.abs(u)) == 1.0 and np.max(np.abs(1e-8 * p1)) > 0.01     # (its clamp and pressures act)
     assert np.array_equal(runs[0].column("cyl.x"), runs[1].column("cyl.x"))
-    assert cs.loop.controller.calls == len(u)
+    assert cs.loop.controller.times == [k * cs.step for k in range(len(u))]
     assert abs(r.column("cyl.x")[-1] - 0.1) < 2e-3            # (it tracks: 100 mm, measured 0.77 mm off)
 
 
 def test_the_reference_solver_calls_it_at_the_same_instants(tmp_path):
-    """The continuous reference runs the user's controller at each step's instant too: its piston within
-    15 µm RMS of the fixed step's (measured 4.8 µm)."""
+    """The continuous reference runs the user's controller at each step's instant too (t = k·h, once each):
+    its piston within 15 µm RMS of the fixed step's (measured 4.8 µm)."""
     cs = load_circuit_scenario(scenario(tmp_path, duration=1.0))
     fixed = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
     ref = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method="reference", loop=cs.loop)
+    assert cs.loop.controller.times == [k * cs.step for k in range(cs.n_steps)]
     rms = math.sqrt(np.mean((fixed.column("cyl.x") - ref.column("cyl.x")) ** 2))
     assert rms < 1.5e-5, rms
 
@@ -86,6 +89,7 @@ def test_the_reference_solver_calls_it_at_the_same_instants(tmp_path):
 @pytest.mark.parametrize("name, message", [("fails", r"t = 0\.25 s .*RuntimeError: sensor cable unplugged"),
                                            ("nan", r"returned nan at t = 0\.1 s")])
 def test_a_failing_controller_stops_the_run_naming_the_time(tmp_path, name, message):
+    """A controller that raises or returns NaN stops the run: ControllerError with the time and its error."""
     cs = load_circuit_scenario(scenario(tmp_path, f"ctl.py:{name}", options=""))
     with pytest.raises(ControllerError, match=message):
         simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
@@ -95,6 +99,7 @@ def test_a_failing_controller_stops_the_run_naming_the_time(tmp_path, name, mess
                                                     ("missing.py:PI", "", "controller.callable"),
                                                     ("ctl.py:PI", 'action = "reverse"\n', "controller.action")])
 def test_a_bad_user_controller_is_named_at_load(tmp_path, callable_, extra, key):
+    """Its module or name not found, a reverse action: the key named when the scenario loads."""
     with pytest.raises(InputError) as e:
         load_circuit_scenario(scenario(tmp_path, callable_, extra=extra))
     assert e.value.key == key
@@ -109,3 +114,18 @@ def test_lockstep_hil_with_a_user_controller_equals_offline(tmp_path, plant):
     r = run_hil(scenario(tmp_path, duration=1.0), tmp_path / "out", lockstep=True, plot=False,
                 ready=lambda *a, **k: None, plant=plant)
     assert r.comparison["identical"] and r.comparison["replay_max_abs_difference"] == 0.0
+
+
+def test_a_copy_elsewhere_finds_its_module(tmp_path, monkeypatch):
+    """The controller's module is looked up in the scenario's folder (or its ``path``, relative to it) wherever
+    the run starts, and a copy written elsewhere (a run folder's, a panel session's, a study's) finds it too."""
+    from hydrohil.circuits.scenario import write_circuit_scenario
+    (tmp_path / "ctls").mkdir()
+    src = scenario(tmp_path / "ctls", extra='path = "."\n')
+    monkeypatch.chdir(tmp_path)                              # (not the scenario's folder)
+    cs = load_circuit_scenario(src)
+    assert cs.loop.cfg.path == str(tmp_path / "ctls")
+    copy = write_circuit_scenario(src, tmp_path / "run" / "scenario.toml", sets={})
+    r = simulate_circuit(*(lambda c: (c.circuit, 0.2))(load_circuit_scenario(copy)), h=5e-4,
+                         loop=load_circuit_scenario(copy).loop)
+    assert len(r.column("t")) == 401

@@ -49,12 +49,16 @@ def _run(path, **updates):
 
 def test_the_law_reads_the_load_pressure_of_its_cylinder(tmp_path, converted):
     """Every command of the run is the state feedback's law computed here from the run's own log: the encoder's
-    reading, the reference, pL = p_cap - (A2/A1)·p_rod of the paper's areas through 250 bar transducers, high-
-    passed with tpl = 50 ms (to 1e-12 of the command)."""
-    cs, r = _run(_write(tmp_path, converted, [("duration = 6.0", "duration = 2.0")]))
+    reading, the reference, pL = p_cap - (A2/A1)·p_rod of the paper's areas through transducers of 100 bar full
+    scale and 0.2 bar quanta (clamped, then rounded: both act in this run), high-passed with tpl = 50 ms (to
+    1e-12 of the command)."""
+    cs, r = _run(_write(tmp_path, converted, [("duration = 6.0", "duration = 2.0"),
+                                              ("pressure_range = 25000000.0\npressure_resolution = 0.0",
+                                               'pressure_range = "100 bar"\npressure_resolution = "0.2 bar"')]))
     p = load_parameters("ferreira2004")
     ratio, h, kp, kpl, tpl = p.cylinder.a2 / p.cylinder.a1, cs.step, 100.0, 2e-8, 0.05
-    read = lambda v: np.clip(v, 0.0, 2.5e7)                                            # noqa: E731
+    read = lambda v: np.floor(np.clip(v, 0.0, 1e7) / 2e4 + 0.5) * 2e4                 # noqa: E731
+    assert np.max(r.column("rod.p")) > 1.05e7 and np.max(np.abs(read(r.column("cap.p")) - r.column("cap.p"))) > 5e3
     pl = read(r.column("cap.p")) - ratio * read(r.column("rod.p"))
     e = r.column("cyl.x.reference") - r.column("cyl.x.sensed")
     u = np.empty(len(pl) - 1)

@@ -267,7 +267,12 @@ def make_controller(cfg: ControllerCfg | Callable, params: Parameters, h: float,
         return cfg() if inspect.isclass(cfg) else cfg
     if cfg.type in BUILTIN_TYPES:
         return BuiltinController(cfg, params, h)
-    obj = load_callable(cfg.callable, Path(cfg.path) if cfg.path else base, source)
+    return user_controller(load_callable(cfg.callable, Path(cfg.path) if cfg.path else base, source), cfg, source)
+
+
+def user_controller(obj: Callable, cfg: PythonControllerCfg, source: str | None = None) -> Callable:
+    """A user's controller for one run from its loaded callable ``obj``: a class instantiated with the table's
+    ``options``, a function as it is (options refused)."""
     if inspect.isclass(obj):
         try:
             return obj(**cfg.options)

@@ -261,16 +261,28 @@ class Loop:
                 return math.nan
         return cc.ffi.callback("double(int64_t, double, double, double)", command)
 
+    def user_callable(self):
+        """A user's controller's callable (its class or function), its module loaded once for the loop (the
+        runs of a study or a frequency response each instantiate it, :meth:`start`)."""
+        from pathlib import Path
+        from hydrohil.control import load_callable
+        if getattr(self, "_callable", None) is None:
+            cfg = self.cfg
+            self._callable = load_callable(cfg.callable, Path(cfg.path) if cfg.path else self.base, self.source)
+        return self._callable
+
     def pressure_args(self, cc):
         """hc_run's ``press`` (NULL: no load pressure read): [column of p1, column of p2, full scale,
-        resolution]."""
+        resolution] (made once per compiled circuit)."""
         if self.pressures is None:
             return cc.ffi.NULL
-        cols = cc.layout.log_columns
-        buf = cc.ffi.new("double[4]", [float(cols.index(self.pressures[0])), float(cols.index(self.pressures[1])),
-                                       *map(float, self.pressure_sensor)])
-        self._press_buf = buf                            # (alive while the C reads it)
-        return buf
+        made = getattr(self, "_press", None)
+        if made is None or made[0] is not cc or list(made[2]) != [*self.pressures, *self.pressure_sensor]:
+            cols = cc.layout.log_columns
+            buf = cc.ffi.new("double[4]", [float(cols.index(self.pressures[0])),
+                                           float(cols.index(self.pressures[1])), *map(float, self.pressure_sensor)])
+            self._press = (cc, buf, (*self.pressures, *self.pressure_sensor))   # (alive while the C reads it)
+        return self._press[1]
 
     def read_pressures(self, cc, p1: float, p2: float) -> tuple[float, float]:
         """The chamber pressures as the law reads them (the generated C's hc_pressure_read, hc_run's rule);
@@ -283,9 +295,9 @@ class Loop:
     def start(self, h: float) -> None:
         """A fresh controller sampled at h (no integrator or filter state from another run) and its sensor's
         noise generator from its seed."""
-        from hydrohil.control import BuiltinController, make_controller
+        from hydrohil.control import BuiltinController, user_controller
         if self.python:                                 # (a class instantiated afresh: no state from another run)
-            self.controller = make_controller(self.cfg, None, h, base=self.base, source=self.source)
+            self.controller = user_controller(self.user_callable(), self.cfg, self.source)
         else:
             self.controller = BuiltinController(self.cfg, None, h, limits=self.limits,   # (the law's clamp: its range)
                                                 area_ratio=self.area_ratio)

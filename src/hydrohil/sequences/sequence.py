@@ -253,12 +253,11 @@ class LoadedSequence:
         reference moved by the step and ramp actions, the inputs set by the set actions."""
         import tomli_w
         from hydrohil.circuits.faults import windowed_drive
-        from hydrohil.circuits.scenario import circuit_file, load_circuit_scenario
+        from hydrohil.circuits.scenario import anchored, load_circuit_scenario
         from hydrohil.parameters import read_toml
         seq, src, scen = self.seq, str(self.source), self.circuit
-        data = read_toml(scen)
-        cfile = circuit_file(data["circuit"], scen.parent, str(scen)).resolve()
-        data["circuit"] = str(cfile)
+        data = anchored(read_toml(scen), scen)
+        cfile = Path(data["circuit"])
         if seq.hil:
             raise InputError("a circuit's sequence runs offline: no [hil] table", source=src, key="hil")
         if seq.set:

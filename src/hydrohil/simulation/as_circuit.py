@@ -16,7 +16,8 @@ params, [overrides]        the circuit of the parameters (circuit.toml beside th
 p_ff/state_feedback/       (``sensor_resolution`` = the count size); the reference table linear, as written; a state
 python, [reference]        feedback's load pressure of ``cyl`` through the rig's transducers (sensors.pressure_range,
                            _resolution; noiseless: a noise is refused); a Python controller the same callable,
-                           called each step with the rig's measurement (``path``: its module's folder; ps, pt NaN)
+                           called each step with the rig's measurement (``path``: its module's folder) but ps, pt
+                           NaN and status 0 (said in a note)
 initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "valve.command"}`` (the rig's start:
                            the piston held by the spool offset at rest); given, the first command (a circuit starts
                            at rest under it)
@@ -24,7 +25,7 @@ initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "v
 faults: network            the same faults on the loop's commands (packet_loss, network_delay, reordering,
                            controller_silence; the same streams: seed and the rig's place, ``stream``)
 faults: sensor (position)  the loop's sensor faults (stuck, offset, noise, dropout; in m; encoder_count_loss)
-faults: sensor (pressure)  not carried, with a note: the loop reads the piston only (the run is the same);
+faults: sensor (pressure)  not carried, with a note, where the loop does not read it (the run is the same);
                            in open loop a position sensor's too (no loop reads it)
 command_inversion          the same fault on the loop's commands
 spool_stuck                ``parameter`` on valve.lv = 0 (the spool's clamp at the step's start: stopped at once)
@@ -144,9 +145,10 @@ def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
     table["type"] = ctl.type
     if ctl.type == "python":                # its module where the rig's finds it (the scenario's folder)
         table["path"] = str((Path(src).parent / (ctl.path or ".")).resolve())
-        notes.append(f"controller {ctl.callable}: called each step as the rig calls it (x the encoder's reading, "
-                     "p1 and p2 the chambers through the rig's transducers), ps and pt NaN (a circuit has no "
-                     "supply and tank transducers)")
+        notes.append(f"controller {ctl.callable}: called each step with the rig's t, x_ref, dx_ref, x (the "
+                     "encoder's reading), p1 and p2 (the chambers through the rig's transducers); not the rig's: "
+                     "ps and pt NaN (a circuit has no supply and tank transducers), status 0 (no rig's status "
+                     "bits)")
     scen["controller"] = {**table, "measure": "cyl.x", "command": "valve.command", "sensor_resolution": count}
     if ctl.type in ("state_feedback", "python"):   # the chambers through the rig's transducers (noiseless)
         if p.sensors.pressure_noise > 0:
@@ -174,14 +176,15 @@ def _faults(s, p, src: str, notes: list[str]) -> list[dict]:
             out.append({**f.model_dump(exclude_none=True), **stream})
         elif f.type in SENSOR_FAULTS:
             sensor = getattr(f, "sensor", "position")
-            reads = s.controller is not None and s.controller.type in ("state_feedback", "python")
-            if sensor in ("p1", "p2", "ps", "pt") and reads:
+            reads = {"state_feedback": ("p1", "p2"), "python": ("p1", "p2", "ps", "pt")}.get(
+                s.controller.type if s.controller is not None else None, ())
+            if sensor in reads:               # (what the rig's controller reads, faulted: a circuit's reads none)
                 raise InputError(f"a circuit's {s.controller.type} loop reads its chambers without faults (and no "
                                  f"supply, tank): a {f.type} on the {sensor} sensor changes what the rig's "
                                  "controller reads", source=src, key=f"{where}.sensor")
             if sensor != "position" or s.controller is None:     # (only what the rig's log reports of it)
                 notes.append(f"{where} ({f.type} on the {sensor} sensor): not carried: "
-                             f"{'no loop reads it' if s.controller is None else 'the loop reads the piston only'}, so "
+                             f"{'no loop reads it' if s.controller is None else 'the loop does not read it'}, so "
                              "it changes nothing in the run (the rig's log shows it in its reading)")
                 continue
             out.append({**{k: v for k, v in f.model_dump(exclude_none=True).items() if k != "sensor"}, **stream})

@@ -67,11 +67,11 @@ def run_data(study, inputs: dict) -> tuple[dict, str]:
 
 def _circuit_data(base: Path, st: dict) -> dict:
     """A circuit scenario's table with a run's values: "component.key" in its [set], its loop's gains in its
-    [controller], its circuit by absolute path (the run's file lives elsewhere)."""
-    from hydrohil.circuits.scenario import circuit_file
+    [controller], its circuit (and a user's controller's folder) by absolute path (the run's file lives
+    elsewhere)."""
+    from hydrohil.circuits.scenario import anchored
     from hydrohil.parameters import read_toml
-    data = read_toml(base)
-    data["circuit"] = str(circuit_file(data["circuit"], base.parent, str(base)).resolve())
+    data = anchored(read_toml(base), base)
     if st["sets"]:
         data["set"] = {**data.get("set", {}), **st["sets"]}
     if st["controller"]:
