@@ -270,6 +270,15 @@ def make_controller(cfg: ControllerCfg | Callable, params: Parameters, h: float,
     return user_controller(load_callable(cfg.callable, Path(cfg.path) if cfg.path else base, source), cfg, source)
 
 
+def anchor_controller(table: dict | None, base: Path) -> None:
+    """A scenario's [controller] table as a copy elsewhere reads it: a user's controller's folder (its ``path``,
+    relative to the scenario's folder ``base``; default ``base``) made absolute, in place (paper and circuit
+    scenarios alike)."""
+    if isinstance(table, dict) and table.get("type") == "python":
+        p = Path(table["path"]) if isinstance(table.get("path"), str) else Path(".")
+        table["path"] = str(p if p.is_absolute() else (base / p).resolve())
+
+
 def user_controller(obj: Callable, cfg: PythonControllerCfg, source: str | None = None) -> Callable:
     """A user's controller for one run from its loaded callable ``obj``: a class instantiated with the table's
     ``options``, a function as it is (options refused)."""

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -13,6 +14,7 @@ import numpy as np
 from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.circuit import Circuit, Drive
 from hydrohil.circuits.generate import PRESSURE_FLOOR
+from hydrohil.control import BuiltinController, Measurement, call_controller, load_callable, user_controller
 from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
 from hydrohil.errors import HydrohilError, InputError, SimulationDiverged
 
@@ -238,7 +240,6 @@ class Loop:
         transducers), its command kept in the loop's limits; one that raises or returns no finite number stops
         the run (ControllerError naming the time)."""
         if self.python:
-            from hydrohil.control import Measurement, call_controller
             u = call_controller(self.controller, Measurement(float(t), float(ref), float(dref), float(sensed),
                                                              float(p1), float(p2), math.nan, math.nan, 0))
             return min(max(u, self.limits[0]), self.limits[1])
@@ -264,8 +265,6 @@ class Loop:
     def user_callable(self):
         """A user's controller's callable (its class or function), its module loaded once for the loop (the
         runs of a study or a frequency response each instantiate it, :meth:`start`)."""
-        from pathlib import Path
-        from hydrohil.control import load_callable
         if getattr(self, "_callable", None) is None:
             cfg = self.cfg
             self._callable = load_callable(cfg.callable, Path(cfg.path) if cfg.path else self.base, self.source)
@@ -295,7 +294,6 @@ class Loop:
     def start(self, h: float) -> None:
         """A fresh controller sampled at h (no integrator or filter state from another run) and its sensor's
         noise generator from its seed."""
-        from hydrohil.control import BuiltinController, user_controller
         if self.python:                                 # (a class instantiated afresh: no state from another run)
             self.controller = user_controller(self.user_callable(), self.cfg, self.source)
         else:

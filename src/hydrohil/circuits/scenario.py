@@ -225,17 +225,10 @@ def anchored(data: dict, path: Path) -> dict:
     """The tables ``data`` of the circuit scenario at ``path`` as a copy elsewhere reads them (a run folder's, a
     test sequence's, a study's): its circuit's file and a user's controller's folder (its ``path``, default
     the scenario's folder) by absolute path. ``data`` changed in place and returned."""
+    from hydrohil.control import anchor_controller
     data["circuit"] = str(circuit_file(data["circuit"], path.parent, str(path)).resolve())
-    ctl = data.get("controller")
-    if isinstance(ctl, dict) and ctl.get("type") == "python":
-        ctl["path"] = _module_folder(ctl, path.parent)
+    anchor_controller(data.get("controller"), path.parent)
     return data
-
-
-def _module_folder(ctl: dict, base: Path) -> str:
-    """A user's controller's folder: its ``path`` relative to the scenario's folder ``base`` (default ``base``)."""
-    p = Path(ctl["path"]) if isinstance(ctl.get("path"), str) else Path(".")
-    return str(p if p.is_absolute() else (base / p).resolve())
 
 
 def write_circuit_scenario(path: str | Path, dest: str | Path, *, sets: dict, repeat: bool | None = None,
@@ -265,7 +258,7 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
     from hydrohil.circuits.build import compile_circuit
     from hydrohil.circuits.units import to_si
     from hydrohil.control import (PControllerCfg, PFFControllerCfg, PIControllerCfg, PIDControllerCfg,
-                                  PythonControllerCfg, StateFeedbackControllerCfg)
+                                  PythonControllerCfg, StateFeedbackControllerCfg, anchor_controller)
     LOOP_CFG = {"p": PControllerCfg, "pi": PIControllerCfg, "pid": PIDControllerCfg, "p_ff": PFFControllerCfg,
                 "state_feedback": StateFeedbackControllerCfg, "python": PythonControllerCfg}
     if "controller" not in data and "reference" not in data:
@@ -289,8 +282,7 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
     if action not in ("direct", "reverse"):
         raise InputError(f"\"direct\" (a larger command raises the measured signal) or \"reverse\" (lowers it), "
                          f"got {action!r}", source=source, key="controller.action")
-    if table.get("type") == "python":           # its module's folder: relative to the scenario's, by default it
-        table["path"] = _module_folder(table, base)
+    anchor_controller(table, base)              # (a user's controller's folder: relative to the scenario's)
     if table.get("type") not in LOOP_TYPES:
         raise InputError(f"a circuit's loop runs the core's laws or a user's controller: type one of "
                          f"{', '.join(LOOP_TYPES)}, got {table.get('type')!r}", source=source, key="controller.type")

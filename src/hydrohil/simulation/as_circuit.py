@@ -52,6 +52,7 @@ import numpy as np
 
 from hydrohil.circuits.faults import NETWORK_FAULTS, SENSOR_FAULTS
 from hydrohil.circuits.library import FLUID
+from hydrohil.control import anchor_controller
 from hydrohil.errors import InputError
 
 LOOP_TYPES = ("p", "pi", "pid", "p_ff", "state_feedback", "python")
@@ -144,7 +145,7 @@ def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
     table = ctl.model_dump(exclude_defaults=True)
     table["type"] = ctl.type
     if ctl.type == "python":                # its module where the rig's finds it (the scenario's folder)
-        table["path"] = str((Path(src).parent / (ctl.path or ".")).resolve())
+        anchor_controller(table, Path(src).parent)
         notes.append(f"controller {ctl.callable}: called each step with the rig's t, x_ref, dx_ref, x (the "
                      "encoder's reading), p1 and p2 (the chambers through the rig's transducers); not the rig's: "
                      "ps and pt NaN (a circuit has no supply and tank transducers), status 0 (no rig's status "

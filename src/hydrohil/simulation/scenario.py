@@ -19,7 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from hydrohil.errors import InputError, InputWarning
 from hydrohil.parameters import Parameters, format_validation_error, load_parameters, read_toml
 from hydrohil.parameters.schema import StrictModel
-from hydrohil.control import ControllerCfg
+from hydrohil.control import ControllerCfg, anchor_controller
 from hydrohil.simulation.faults import Fault
 from hydrohil.core import METHODS, lib
 from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
@@ -302,10 +302,7 @@ def scenario_data(path: str | Path, *, params: str | Path | None = None, sets: d
             data["params"] = str((path.parent / p).resolve())
     if sets:
         data["overrides"] = {**(data.get("overrides") or {}), **sets}
-    ctl = data.get("controller")
-    if isinstance(ctl, dict) and ctl.get("type") == "python":   # its module's folder, wherever the table goes
-        p = Path(ctl["path"]) if isinstance(ctl.get("path"), str) else Path(".")
-        ctl["path"] = str(p if p.is_absolute() else (path.parent / p).resolve())
+    anchor_controller(data.get("controller"), path.parent)     # its module's folder, wherever the table goes
     return data
 
 
