@@ -512,6 +512,24 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
  * their order on the reading in its unit, then counted again. sensor NULL: x itself. */
 enum {{ HC_SENSOR_HEAD = 7, HC_SENSOR_FAULT = 6, HC_SENSOR_STUCK = 1, HC_SENSOR_OFFSET, HC_SENSOR_NOISE,
        HC_SENSOR_DROPOUT, HC_SENSOR_COUNT_LOSS }};
+
+/* v under fault row F (row f of hc_sensed's table) at time t when it is an offset or an added noise (the two
+ * that act alike on a transducer's signal and on an encoder's reading); v itself otherwise */
+HH_INLINE double sensor_shifted(double v, const double *F, int f, double t, hh_rng *r)
+{{
+    double z;
+    switch ((int)F[0]) {{
+    case HC_SENSOR_OFFSET: return v + (F[3] + F[4] * hh_max(t - F[5], 0.0));
+    case HC_SENSOR_NOISE:
+        if (r) {{
+            hh_rng_normals(&r[1 + f], 1, &z);
+            return v + F[3] * z;
+        }}
+        return v;
+    default: return v;
+    }}
+}}
+
 double hc_sensed(double x, double *sensor, void *rng, int64_t k)
 {{
     hh_rng *r = (hh_rng *)rng;
@@ -535,15 +553,8 @@ double hc_sensed(double x, double *sensor, void *rng, int64_t k)
             continue;                       /* (an encoder's faults act on its reading, below) */
         switch ((int)F[0]) {{
         case HC_SENSOR_STUCK: stuck = F; break;
-        case HC_SENSOR_OFFSET: v += F[3] + F[4] * hh_max(t - F[5], 0.0); break;
-        case HC_SENSOR_NOISE:
-            if (r) {{
-                hh_rng_normals(&r[1 + f], 1, &z);
-                v += F[3] * z;
-            }}
-            break;
         case HC_SENSOR_DROPOUT: dropout = 1; break;
-        default: break;
+        default: v = sensor_shifted(v, F, f, t, r); break;
         }}
     }}
     if (sensor[3] > 0.0 && r) {{
@@ -574,15 +585,8 @@ double hc_sensed(double x, double *sensor, void *rng, int64_t k)
                     F[5] = v;
                 v = F[5];
                 break;
-            case HC_SENSOR_OFFSET: v += F[3] + F[4] * hh_max(t - F[5], 0.0); break;
-            case HC_SENSOR_NOISE:
-                if (r) {{
-                    hh_rng_normals(&r[1 + f], 1, &z);
-                    v += F[3] * z;
-                }}
-                break;
             case HC_SENSOR_DROPOUT: v = 0.0; break;
-            default: break;
+            default: v = sensor_shifted(v, F, f, t, r); break;
             }}
         }}
         v = encoder_counts(v, sensor[0]) * sensor[0];
