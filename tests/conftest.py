@@ -23,6 +23,12 @@ def rms(e):
     return float(np.sqrt(np.mean(np.asarray(e) ** 2)))
 
 
+def sequence_scenario(out) -> dict:
+    """The scenario a circuit sequence's run under ``out`` compiled and ran (its [[faults]] from the actions)."""
+    import tomllib
+    return tomllib.loads(next(Path(out).rglob("scenario.toml")).read_text())
+
+
 def hh_command(*args) -> list[str]:
     """The ``hydrohil`` command line (what a user types) with this interpreter."""
     return [sys.executable, "-m", "hydrohil.cli", *map(str, args)]

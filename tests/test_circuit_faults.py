@@ -8,6 +8,7 @@ import re
 import numpy as np
 import pytest
 
+from conftest import sequence_scenario
 from hydrohil.circuits.circuit import CIRCUITS_DIR
 from hydrohil.circuits.scenario import load_circuit_scenario
 from hydrohil.circuits.run import simulate_circuit
@@ -206,8 +207,7 @@ def test_a_sequence_injects_circuit_faults_as_actions(tmp_path):
                  'within = 0.04\nsignal = "valve.command"\nabove = 0.99\n')
     res = run_sequence(p, tmp_path / "out")
     assert res.passed, [o.message for o in res.outcomes]
-    import tomllib
-    compiled = tomllib.loads(next((tmp_path / "out").rglob("scenario.toml")).read_text())
+    compiled = sequence_scenario(tmp_path / "out")
     assert [f["type"] for f in compiled["faults"]] == ["leak", "parameter", "sensor_dropout"]
     assert compiled["faults"][1]["start"] == 2.5 and compiled["faults"][1]["end"] == 2.8
     bad = tmp_path / "bad.toml"

@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from conftest import EXAMPLES, Xoshiro
+from conftest import EXAMPLES, Xoshiro, sequence_scenario
 from hydrohil.circuits.run import simulate_circuit
 from hydrohil.circuits.scenario import load_circuit_scenario
 from hydrohil.errors import InputError
@@ -161,8 +161,7 @@ def test_a_sequence_silences_the_controller_of_a_circuit(tmp_path):
                    'until = 3.0\ntol = 5e-4\n')
     res = run_sequence(seq, tmp_path / "out")
     assert res.passed, [o.message for o in res.outcomes]
-    import tomllib
-    compiled = tomllib.loads(next((tmp_path / "out").rglob("scenario.toml")).read_text())
+    compiled = sequence_scenario(tmp_path / "out")
     assert [(f["type"], f["start"], f["end"]) for f in compiled["faults"]] == [("controller_silence", 0.8, 1.2)]
 
 
