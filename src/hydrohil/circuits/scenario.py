@@ -88,10 +88,15 @@ class CircuitScenario:
     link: tuple = (0, WATCHDOG_TIMEOUT)            # ([hil] seed, watchdog_timeout): the command path's, the faults'
 
     @cached_property
-    def layout(self):
-        """Its circuit's :class:`~hydrohil.circuits.generate.Layout` (compiled or loaded once)."""
+    def compiled(self):
+        """Its circuit's :class:`~hydrohil.circuits.build.CompiledCircuit` (compiled or loaded once)."""
         from hydrohil.circuits.build import compile_circuit
-        return compile_circuit(self.circuit).layout
+        return compile_circuit(self.circuit)
+
+    @property
+    def layout(self):
+        """Its circuit's :class:`~hydrohil.circuits.generate.Layout`."""
+        return self.compiled.layout
 
     @property
     def n_steps(self) -> int:

@@ -152,8 +152,7 @@ class Drives:
             self.meas = at(self.loop.measure)
             self.press = None
             if self.loop.pressures is not None:     # (a state feedback: its transducers, the generated C's rule)
-                from hydrohil.circuits.build import compile_circuit
-                self.press, self.cc = [at(x) for x in self.loop.pressures], compile_circuit(cs.circuit)
+                self.press, self.cc = [at(x) for x in self.loop.pressures], cs.compiled
             self.cmd = lay.inputs.index(self.loop.command)
             self.mask = 1 << self.cmd
             self.steer = SteerableController(self.loop.controller, None)
