@@ -2,6 +2,7 @@
 independently of the C (textbook formulas, root finding, quadrature), each through a generated and compiled
 circuit; catalogue units; errors that name the file, the component and the key; the example circuit."""
 
+import base64
 import math
 import re
 
@@ -11,6 +12,7 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 
 from hydrohil.circuits.circuit import CIRCUITS_DIR, circuit_from_dict, load_circuit
+from hydrohil.circuits.library import TYPES
 from hydrohil.circuits.run import node_stiffness, simulate_circuit
 from hydrohil.circuits.units import to_si
 from hydrohil.errors import InputError, InputWarning
@@ -521,6 +523,11 @@ def test_circuit_draw_labels_every_component_node_and_signal(tmp_path):
     for name in [*c.components, *c.nodes, *c.inputs]:
         assert name in texts, name
     assert "63/36 × 400 mm, 200 kg" in texts and "180 bar, 40 l/min at 195" in texts and "20 cm³/rev" in texts
+    svg = (tmp_path / "two.svg").read_text()                  # each component its symbol, inside the file
+    images = [e for e in ET.parse(tmp_path / "two.svg").iter() if e.tag.endswith("image")]
+    assert len(images) == len(c.components) and all(
+        next(v for k, v in e.attrib.items() if k.endswith("href")).startswith("data:image/png;base64,") for e in images)
+    assert str(tmp_path) not in svg and "/tmp" not in svg
     assert hh("circuit", "draw", "two_cylinders", "--out", tmp_path / "two.png").returncode == 0
     assert (tmp_path / "two.png").read_bytes()[:4] == b"\x89PNG"
     r = hh("circuit", "draw", "two_cylinders", "--out", tmp_path / "two.jpg")
@@ -531,9 +538,44 @@ def test_circuit_draw_labels_every_component_node_and_signal(tmp_path):
     assert r.returncode == 0, r.stderr
     texts = " ".join(t.text or "" for t in ET.parse(tmp_path / "cb.svg").iter() if t.tag.endswith("text"))
     assert "fault: a leak, from 1.5 s" in texts and "fault: burst opens, from 1.5 s" in texts
+    red = 0                                                   # the burst's symbol drawn in red, the others black
+    for e in ET.parse(tmp_path / "cb.svg").iter():
+        if e.tag.endswith("image"):
+            href = next(v for k, v in e.attrib.items() if k.endswith("href"))
+            rgba = _png_pixels(base64.b64decode(href.split(",", 1)[1]))
+            ink = rgba[rgba[..., 3] > 0.5]
+            red += bool(((ink[:, 0] > 0.6) & (ink[:, 1] < 0.3)).mean() > 0.9)
+    assert red == 1
     r = hh("circuit", "draw", "lift_platform", "--out", tmp_path / "lp.svg")
     texts = " ".join(t.text or "" for t in ET.parse(tmp_path / "lp.svg").iter() if t.tag.endswith("text"))
     assert r.returncode == 0 and "800 kg, 90°" in texts and texts.count("rod") >= 2      # the rods to the deck
+
+
+def _png_pixels(data: bytes):
+    import io
+    import matplotlib.image as mpimg
+    return mpimg.imread(io.BytesIO(data), format="png")
+
+
+@pytest.mark.parametrize("type_name", sorted(TYPES))
+def test_every_component_type_has_a_symbol_whose_port_stubs_are_where_its_ports_are(type_name, tmp_path):
+    """circuit draw's ISO 1219 symbols (hydrohil.circuits.symbols): every type of the library has one, naming
+    exactly its ports, each on the top or bottom edge; in the drawn PNG a stub leaves that edge at the port's
+    place (ink within 2 px of it in the edge's rows, none just beside it), where the diagram's line is attached;
+    the symbol is ink on a transparent ground."""
+    from hydrohil.circuits.symbols import SYMBOLS, render
+    sym = render(type_name, tmp_path / "s.png")
+    assert set(sym.ports) == set(TYPES[type_name].ports)
+    rgba = _png_pixels((tmp_path / "s.png").read_bytes())
+    h, w = rgba.shape[:2]
+    assert rgba[0, 0, 3] == 0 and 0.02 < (rgba[..., 3] > 0.5).mean() < 0.5
+    for port, (side, f) in sym.ports.items():
+        rows = rgba[:3] if side == "n" else rgba[-3:]
+        x = int(round(f * w))
+        assert (rows[:, max(x - 2, 0):x + 3, 3] > 0.5).any(), (port, side, f)
+        elsewhere = rows[:, max(x - 12, 0):max(x - 6, 0), 3]      # (a stub, not an edge drawn all along)
+        assert not (elsewhere > 0.5).all(), port
+    assert SYMBOLS[type_name] is sym
 
 
 def test_names_inputs_and_tables_are_checked_and_a_circuit_without_states_runs():

@@ -117,16 +117,24 @@ def circuit_figures():
         res, _ = run_circuit_scenario(load_circuit_scenario(CIRCUITS / name / "scenario.toml"))
         plot_run(res, HERE / file, title)
         print("wrote", HERE / file)
+    circuit_diagrams()
+
+
+def circuit_diagrams():
+    """Every example circuit as ``circuit draw --scenario`` draws it (its ISO 1219 symbols, its faults in red)."""
+    from hydrohil.circuits.circuit import CIRCUITS_DIR as CIRCUITS
     from hydrohil.circuits.draw import draw_circuit
-    for name in ("two_cylinders", "counterbalance_hose_burst", "motor_speed", "servo_supply", "lift_platform"):
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    for name in sorted(p.name for p in CIRCUITS.iterdir() if (p / "scenario.toml").exists()):
         scenario = load_circuit_scenario(CIRCUITS / name / "scenario.toml")       # (as it runs: its faults marked)
         draw_circuit(scenario.circuit, HERE / f"circuit_{name}_diagram.png", faults=scenario.faults)
         print("wrote", HERE / f"circuit_{name}_diagram.png")
 
 
 if __name__ == "__main__":
-    if sys.argv[1:] in (["panel"], ["circuit"], ["circuit_panel"]):
-        {"panel": panel_figures, "circuit": circuit_figures, "circuit_panel": circuit_panel_figure}[sys.argv[1]]()
+    if sys.argv[1:] in (["panel"], ["circuit"], ["circuit_panel"], ["diagrams"]):
+        {"panel": panel_figures, "circuit": circuit_figures, "circuit_panel": circuit_panel_figure,
+         "diagrams": circuit_diagrams}[sys.argv[1]]()
         raise SystemExit
     circuit_figures()
     panel_figures()

@@ -421,8 +421,9 @@ def circuit_draw(circuit: str | None = typer.Argument(None, help="built-in name 
                  out: Path = typer.Option(..., "--out", help="F.png or F.svg"),
                  scenario: Path | None = typer.Option(None, "--scenario", help="a scenario naming its circuit: "
                                                       "drawn as it runs it, its faults marked")):
-    """The circuit as a labelled diagram (Graphviz): nodes, components with their key figures, ports, signals;
-    with --scenario, the scenario's faults (a leak's orifice, a parameter changed) in red."""
+    """The circuit drawn with ISO 1219 symbols (laid out by Graphviz): each component's symbol with its key
+    figures, the lines to its ports, the nodes, the signals; with --scenario, the scenario's faults (a leak's
+    orifice, a parameter changed) in red."""
     from hydrohil.circuits.draw import draw_circuit
     from hydrohil.circuits.scenario import circuit_scenario
     try:

@@ -1,38 +1,24 @@
-"""``hydrohil circuit draw``: the circuit as a labelled diagram (Graphviz): hydraulic nodes as dots, each
-component as a shape in the spirit of its ISO 1219 symbol (a valve's three envelopes, a pump's circle, an
-accumulator's capsule, a tank's open box) with its key figures in catalogue units, its ports' lines to the
-nodes, the signals that drive it as dashed arrows, a rod or shaft coupled to its load as a double line."""
+"""``hydrohil circuit draw``: the circuit as a diagram an engineer reads as a circuit: each component by its
+graphic symbol in the spirit of ISO 1219-1 (:mod:`hydrohil.circuits.symbols`: a valve's envelopes with its flow
+paths, a pump's circle, a pressure valve's square, spring and pilot line, a cylinder with piston and rod, ...)
+with its name and its key figures in catalogue units beside it; the hydraulic nodes as dots, each line meeting
+the symbol at its own port; the power unit below and the actuators above (flow up the page, ISO practice); a rod
+or shaft coupled to its load by a double line; the signals that drive a component as dashed arrows; a scenario's
+faults in red. Graphviz lays it out; the symbols are drawn by matplotlib."""
 
 from __future__ import annotations
 
+import base64
+import html
 import shutil
+import tempfile
 from pathlib import Path
 
 from hydrohil.circuits.circuit import Circuit
 from hydrohil.errors import InputError
 
-# component type -> (graphviz shape, a glyph for the symbol, extra attributes)
-STYLE = {
-    "tank": ("invhouse", "tank", {}),
-    "pressure_source": ("circle", "P", {"style": "filled", "fillcolor": "#fde2e2"}),
-    "pump": ("circle", "▲ pump", {"style": "filled", "fillcolor": "#e2f0fd"}),
-    "relief_valve": ("diamond", "relief", {"style": "filled", "fillcolor": "#fff3d6"}),
-    "check_valve": ("diamond", "check ▶", {"style": "filled", "fillcolor": "#fff3d6"}),
-    "counterbalance_valve": ("diamond", "counterbalance", {"style": "filled", "fillcolor": "#fff3d6"}),
-    "orifice": ("rarrow", "orifice", {}),
-    "accumulator": ("ellipse", "accumulator", {"style": "filled", "fillcolor": "#e9e2fd"}),
-    "hose": ("box", "hose", {"style": "rounded,dashed"}),
-    "volume": ("cylinder", "volume", {}),
-    "motor": ("circle", "▽ motor", {"style": "filled", "fillcolor": "#e2fde8"}),
-    "cylinder": ("box3d", "cylinder", {"style": "filled", "fillcolor": "#e2fde8"}),
-    "double_rod_cylinder": ("box3d", "double-rod cylinder", {"style": "filled", "fillcolor": "#e2fde8"}),
-    "lugre_cylinder": ("box3d", "cylinder, LuGre seals", {"style": "filled", "fillcolor": "#e2fde8"}),
-    "lugre_motor": ("circle", "▽ motor, LuGre", {"style": "filled", "fillcolor": "#e2fde8"}),
-    "load": ("box", "load", {"style": "filled,bold", "fillcolor": "#eeeeee"}),
-    "rotary_load": ("circle", "rotary load", {"style": "filled,bold", "fillcolor": "#eeeeee"}),
-}
-VALVES = {"valve_43": ("⇉", "⊥ ⊤", "⇆"), "valve_63": ("⇉", "⇢ P→T", "⇆"), "servo_valve": ("⇉", "⊥ ⊤", "⇆")}
-INTO = {"inlet", "a", "P", "p", "pilot", "valve"}        # ports the flow usually enters a component by
+LINE = "#3060a0"         # hydraulic lines
+FAULT = "#c02020"
 
 
 def _figures(comp) -> list[str]:
@@ -73,14 +59,55 @@ def _figures(comp) -> list[str]:
                    f"{v['mass']:g} kg")
     if t == "servo_valve":
         out.append(f"servo, ωn {v['wn']:.4g} rad/s")
-    elif t in VALVES:
+    elif t in ("valve_43", "valve_63"):
         out.append(f"x_max {v['x_max'] * 1e3:g} mm")
     return out
 
 
+SYMMETRIC = ("orifice", "hose")          # two ports, either way alike: drawn with the tank's side down
+
+
+def _to_tank(c: Circuit, node: str) -> bool:
+    """Whether ``node`` is a tank's (its pressure fixed by a tank)."""
+    return node in c.fixed and c.components[c.fixed[node][0]].type.name == "tank"
+
+
+def _port_row(ports: dict, side: str, width: int) -> str:
+    """The row of a symbol's ports on one side: a cell of 4 pt per port where its stub leaves the symbol, named
+    ``p_<port>``, the gaps between them empty (widths in points, as the image's)."""
+    ports = sorted((f * width, port) for port, (s, f) in ports.items() if s == side)
+    cells, x = [], 0
+    for centre, port in ports:
+        left = max(int(round(centre - 2)), x)
+        if left > x:
+            cells.append(f'<TD FIXEDSIZE="TRUE" WIDTH="{left - x}" HEIGHT="2"></TD>')
+        cells.append(f'<TD PORT="p_{port}" FIXEDSIZE="TRUE" WIDTH="4" HEIGHT="2"></TD>')
+        x = left + 4
+    if width > x:
+        cells.append(f'<TD FIXEDSIZE="TRUE" WIDTH="{width - x}" HEIGHT="2"></TD>')
+    return f'<TABLE BORDER="0" CELLBORDER="0" CELLSPACING="0" CELLPADDING="0"><TR>{"".join(cells)}</TR></TABLE>'
+
+
+def _label(title: str, lines: list[str], sym, image: Path, colour: str, ports: dict, left: bool) -> str:
+    """A component's HTML label: its symbol's image between the rows of its ports (``ports``: port -> (side,
+    x fraction)), its name and figures beside it: to the right, or (``left``) to the left of a rod or shaft
+    coupled to its load, whose line leaves to the right."""
+    w, h = int(round(sym.width * 72)), int(round(sym.height * 72))
+    text = f'<FONT POINT-SIZE="11" COLOR="{colour}"><B>{html.escape(title)}</B></FONT>' + "".join(
+        f'<BR/><FONT POINT-SIZE="9" COLOR="{colour}">{html.escape(t)}</FONT>' for t in lines)
+    symbol = (f'<TD><TABLE BORDER="0" CELLBORDER="0" CELLSPACING="0" CELLPADDING="0">'
+              f'<TR><TD>{_port_row(ports, "n", w)}</TD></TR>'
+              f'<TR><TD PORT="img" FIXEDSIZE="TRUE" WIDTH="{w}" HEIGHT="{h}"><IMG SRC="{image}" SCALE="TRUE"/></TD>'
+              f'</TR><TR><TD>{_port_row(ports, "s", w)}</TD></TR></TABLE></TD>')
+    words = f'<TD ALIGN="LEFT" BALIGN="LEFT" VALIGN="MIDDLE" CELLPADDING="4">{text}</TD>'
+    return (f'<<TABLE BORDER="0" CELLBORDER="0" CELLSPACING="0" CELLPADDING="0"><TR>'
+            f'{words + symbol if left else symbol + words}</TR></TABLE>>')
+
+
 def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None) -> Path:
-    """Write the diagram of ``c`` to ``out`` (.png or .svg); returns the path. ``faults``: its scenario's
-    [[faults]] (hydrohil.circuits.faults), drawn in red: a leak's orifice, a parameter a fault drives."""
+    """Write the diagram of ``c`` to ``out`` (.png or .svg, self-contained); returns the path. ``faults``: its
+    scenario's [[faults]] (hydrohil.circuits.faults), drawn in red: a leak's orifice, a parameter a fault
+    drives."""
     out = Path(out)
     fmt = out.suffix.lstrip(".").lower()
     if fmt not in ("png", "svg"):
@@ -88,13 +115,15 @@ def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None) -> Pat
     if shutil.which("dot") is None:
         raise InputError("circuit draw needs Graphviz's dot program (Debian: apt-get install graphviz)")
     import graphviz
-    g = graphviz.Digraph(c.name, engine="dot", format=fmt,
-                       graph_attr={"rankdir": "TB", "label": f"{c.name}", "labelloc": "t", "fontname": "Helvetica",
-                                   "fontsize": "16", "splines": "true", "nodesep": "0.4", "ranksep": "0.7"},
-                       node_attr={"fontname": "Helvetica", "fontsize": "11"},
-                       edge_attr={"fontname": "Helvetica", "fontsize": "9", "color": "#3060a0", "penwidth": "1.6",
-                                  "arrowhead": "none"})
+    from hydrohil.circuits.symbols import SYMBOLS, render
     from hydrohil.circuits.units import to_si
+    g = graphviz.Digraph(c.name, engine="dot", format=fmt,
+                         graph_attr={"rankdir": "BT", "label": f"{c.name}", "labelloc": "t", "fontname": "Helvetica",
+                                     "fontsize": "16", "splines": "true", "nodesep": "0.45", "ranksep": "0.45",
+                                     **({"dpi": "110"} if fmt == "png" else {})},
+                         node_attr={"fontname": "Helvetica", "fontsize": "11"},
+                         edge_attr={"fontname": "Helvetica", "fontsize": "9", "color": LINE, "penwidth": "1.6",
+                                    "arrowhead": "none", "fontcolor": "#555555"})
     fault_parts, fault_signals = {}, {}
     for f in faults or []:                          # (checked by the scenario's loader: numbers or "<n> s")
         window = f"from {to_si(f.get('start', 0), 's'):g} s" + \
@@ -106,37 +135,56 @@ def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None) -> Pat
         elif f.get("type") == "parameter":               # (a sensor's faults act on the loop: not drawn)
             fault_signals[f.get("target")] = f"fault: {f.get('target')} = {f.get('value')}, {window}"
     for node in c.nodes:
-        fixed = f" (fixed by {c.fixed[node][0]})" if node in c.fixed else ""
-        g.node(f"n__{node}", label="", xlabel=node + fixed, shape="point", width="0.14", color="#3060a0")
-    for comp in c.components.values():
-        t = comp.type.name
-        figures = "\\n".join(_figures(comp))
-        if t in VALVES:                                     # the ISO symbol's three envelopes, side by side
-            a, centre, b = VALVES[t]
-            g.node(f"c__{comp.name}", shape="record", style="filled", fillcolor="#fff3d6",
-                   label=f"{{{comp.name} ({t.replace('_', ' ')})|{{ {a} | {centre} | {b} }}|{figures}}}")
-        else:
-            shape, glyph, extra = STYLE.get(t, ("box", t, {}))
-            name = comp.name if glyph in (comp.name, t) and comp.name == glyph else f"{comp.name}\\n{glyph}"
-            if comp.name in fault_parts:                    # a fault's part: red, dashed, its window said
-                shape, extra = "box", {"color": "#c02020", "fontcolor": "#c02020", "style": "dashed,bold"}
-                figures = f"{figures}\\n{fault_parts[comp.name]}"
-            g.node(f"c__{comp.name}", label=name + (f"\\n{figures}" if figures else ""), shape=shape, **extra)
-        for port, node in comp.ports.items():     # drawn along the flow: supply at the top, tank at the bottom
-            into = port in INTO and t != "pressure_source"
-            g.edge(*((f"n__{node}", f"c__{comp.name}") if into else (f"c__{comp.name}", f"n__{node}")), label=port)
-    for comp in c.components.values():            # mechanical couplings: a rod driving its load (double line)
-        if comp.coupled:
-            g.edge(f"c__{comp.name}", f"c__{comp.coupled}", label=comp.type.coupling.part, color="#555555:#555555",
-                   penwidth="1.2")
-    for sig in c.inputs:
-        comp = sig.split(".", 1)[0]
-        if sig not in fault_signals and sig.split(".", 1)[1] not in c.components[comp].type.params:
-            continue                                        # (a derived value following a fault's parameter)
-        label = fault_signals.get(sig, sig)
-        colour = "#c02020" if sig in fault_signals else "#a03030"
-        g.node(f"s__{sig}", label=label, shape="plaintext", fontcolor=colour)
-        g.edge(f"s__{sig}", f"c__{comp}", style="dashed", color=colour, arrowhead="normal", penwidth="1.0")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    g.render(outfile=str(out), cleanup=True)
+        fixed = f" (fixed by {c.fixed[node][0]})" if node in c.fixed and c.fixed[node][0] != node else ""
+        g.node(f"n__{node}", label="", xlabel=node + fixed, shape="point", width="0.12", color=LINE,
+               fontcolor=LINE, fontsize="10")
+    with tempfile.TemporaryDirectory() as tmp:
+        images: dict[tuple[str, str], Path] = {}
+        for comp in c.components.values():
+            t = comp.type.name
+            colour = FAULT if comp.name in fault_parts else "black"
+            if (t, colour) not in images:
+                images[(t, colour)] = Path(tmp) / f"{t}_{len(images)}.png"
+                render(t, images[(t, colour)], colour)
+            sym, ports = SYMBOLS[t], dict(SYMBOLS[t].ports)
+            if t in SYMMETRIC and _to_tank(c, comp.ports["b"]):     # its tank side down, as a drawing has it
+                ports = {"a": ports["b"], "b": ports["a"]}
+            lines = [t.replace("_", " "), *_figures(comp)]
+            if comp.name in fault_parts:                    # a fault's part: red, its window said
+                lines.append(fault_parts[comp.name])
+            g.node(f"c__{comp.name}", label=_label(comp.name, lines, sym, images[(t, colour)], colour, ports, bool(comp.coupled)),
+                   shape="none", margin="0")
+            for port, node in comp.ports.items():     # the power unit below, the actuators above (rankdir BT)
+                side = ports[port][0]
+                if side == "s":                       # the node below the symbol: the line into its bottom
+                    g.edge(f"n__{node}", f"c__{comp.name}", headport=f"p_{port}:s", headlabel=port,
+                           labeldistance="1.2", labelangle="30")
+                else:
+                    g.edge(f"c__{comp.name}", f"n__{node}", tailport=f"p_{port}:n", taillabel=port,
+                           labeldistance="1.2", labelangle="-30")
+        for comp in c.components.values():            # mechanical couplings: a rod driving its load (double line)
+            if comp.coupled:                          # (the load above its actuator(s), as a lift's deck)
+                g.edge(f"c__{comp.name}", f"c__{comp.coupled}", tailport="img:e", headport="img:s",
+                       label=comp.type.coupling.part, color="#555555:#555555", penwidth="1.2")
+        for sig in c.inputs:
+            comp = sig.split(".", 1)[0]
+            if sig not in fault_signals and sig.split(".", 1)[1] not in c.components[comp].type.params:
+                continue                                    # (a derived value following a fault's parameter)
+            label = fault_signals.get(sig, sig)
+            colour = FAULT if sig in fault_signals else "#a03030"
+            g.node(f"s__{sig}", label=label, shape="plaintext", fontcolor=colour, fontsize="10")
+            with g.subgraph() as same:
+                same.attr(rank="same")
+                same.node(f"s__{sig}")
+                same.node(f"c__{comp}")
+            g.edge(f"s__{sig}", f"c__{comp}", headport="img:w", style="dashed", color=colour, arrowhead="normal",
+                   penwidth="1.0")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        g.render(outfile=str(out), cleanup=True)
+        if fmt == "svg":                                # the symbols inside the file, not beside it
+            text = out.read_text()
+            for path in images.values():
+                data = base64.b64encode(path.read_bytes()).decode()
+                text = text.replace(f'"{path}"', f'"data:image/png;base64,{data}"')
+            out.write_text(text)
     return out
