@@ -33,7 +33,7 @@ static double *read_doubles(const char *path, size_t n)
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every, double *u,
            double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref, const double *dref,
            int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path, double lo, double hi,
-           double *sent, const double *press, void *command);
+           double *sent, const double *press, void *command, void *command_ctx);
 
 int main(void)
 {
@@ -46,7 +46,7 @@ int main(void)
         memcpy(y, Y0, sizeof y);
         memcpy(m, M0, sizeof m);
         t0 = now();
-        hc_run(P0, y, m, 2, STEP, N, 1000, u, log, &rows, 0, 0, 0, 0, 0, 0, 0, 0, 1.0, 0, 0.0, 0.0, 0, 0, 0);
+        hc_run(P0, y, m, 2, STEP, N, 1000, u, log, &rows, 0, 0, 0, 0, 0, 0, 0, 0, 1.0, 0, 0.0, 0.0, 0, 0, 0, 0);
         printf("%.3f ", (now() - t0) / N * 1e9);
     }
     printf("\nxp %.17g\n", y[XP_INDEX]);

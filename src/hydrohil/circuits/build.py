@@ -33,7 +33,8 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
-           double lo, double hi, double *sent, const double *press, void *command);
+           double lo, double hi, double *sent, const double *press, void *command, void *command_ctx);
+extern "Python" double hc_py_command(void *ctx, int64_t k, double sensed, double p1, double p2);
 double hc_pressure_read(double p, const double *press);
 double hc_sensed(double x, double *sensor, void *rng, int64_t k);
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
@@ -48,6 +49,16 @@ class CompiledCircuit:
 
     def __init__(self, module, layout: Layout, source: str, path: Path):
         self.ffi, self.lib, self.layout, self.source, self.path = module.ffi, module.lib, layout, source, path
+        _python_command(module.ffi)
+
+
+def _python_command(ffi) -> None:
+    """hc_run's callback to a user's controller, compiled into the module (cffi's extern "Python": no code
+    written at run time, so it works where memory is never both writable and executable): ``ctx`` the handle of
+    a Python callable (k, sensed, p1, p2) -> the command; what it raises is the callable's to keep (NaN)."""
+    @ffi.def_extern(name="hc_py_command")
+    def hc_py_command(ctx, k, sensed, p1, p2):
+        return ffi.from_handle(ctx)(int(k), sensed, p1, p2)
 
 
 def compile_circuit(c: Circuit) -> CompiledCircuit:

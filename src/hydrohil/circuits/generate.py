@@ -711,16 +711,17 @@ double hc_pressure_read(double p, const double *press)
  * safe state, negated under a command_inversion, saturated to the input's range [lo, hi]; sent[k] (when not
  * NULL): what the controller sent for step k. press (not NULL: a state feedback's load pressure, [the log
  * columns of its cylinder's two chambers, its transducers' full scale, resolution]): the law reads them too, each
- * through hc_pressure_read. command (not NULL, ctl NULL: a user's controller, called back) gives step k's command
- * from the signal as sensed and the chambers as read in place of the core's law; NaN: it failed (3 returned).
+ * through hc_pressure_read. command (not NULL, ctl NULL: a user's controller, called back with command_ctx) gives
+ * step k's command from the signal as sensed and the chambers as read in place of the core's law; NaN: it failed
+ * (3 returned).
  * Returns 0, or 1 when the state went non-finite, 2 when h is not the step the state was made for (hc_init), 3
  * when the command callback failed (rows so far written, *rows set). */
-typedef double (*hc_command_fn)(int64_t k, double sensed, double p1, double p2);
+typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, double p2);
 
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
-           double lo, double hi, double *sent, const double *press, void *command)
+           double lo, double hi, double *sent, const double *press, void *command, void *command_ctx)
 {{
     double seen[NLOG], held = 0.0;
     int64_t step, row = 0;
@@ -737,7 +738,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             p1 = press ? hc_pressure_read(seen[(int64_t)press[0]], press) : 0.0;
             p2 = press ? hc_pressure_read(seen[(int64_t)press[1]], press) : 0.0;
             if (command) {{
-                c = ((hc_command_fn)command)(step, sensed, p1, p2);
+                c = ((hc_command_fn)command)(command_ctx, step, sensed, p1, p2);
                 if (c != c) {{
                     *rows = row;
                     return 3;

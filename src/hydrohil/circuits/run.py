@@ -247,11 +247,12 @@ class Loop:
         return self.controller.update(s * ref, s * dref, s * sensed, p1, p2)
 
     def command_callback(self, cc, ref, dref, h: float):
-        """hc_run's ``command`` for a user's controller (NULL for the core's law): step k's command from the
-        signal as sensed and the chambers as read (:meth:`update`); what it raises is kept in ``self.error`` and
-        NaN returned (hc_run stops, 3)."""
+        """hc_run's ``command`` and ``command_ctx`` for a user's controller (NULLs for the core's law): the
+        module's compiled callback (build.py: hc_py_command) and the handle of the function that gives step k's
+        command from the signal as sensed and the chambers as read (:meth:`update`); what it raises is kept in
+        ``self.error`` and NaN returned (hc_run stops, 3). Keep the pair alive while hc_run runs."""
         if not self.python:
-            return cc.ffi.NULL
+            return cc.ffi.NULL, cc.ffi.NULL
         self.error = None
 
         def command(k, sensed, p1, p2):
@@ -260,7 +261,7 @@ class Loop:
             except BaseException as exc:     # noqa: BLE001 - raised again once hc_run has stopped
                 self.error = exc
                 return math.nan
-        return cc.ffi.callback("double(int64_t, double, double, double)", command)
+        return cc.lib.hc_py_command, cc.ffi.new_handle(command)
 
     def user_callable(self):
         """A user's controller's callable (its class or function), its module loaded once for the loop (the
@@ -400,7 +401,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     rows = ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h, input_range(c, loop.command)) if loop is not None else
            (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, 0.0, ffi.NULL,
-            ffi.NULL, ffi.NULL))
+            ffi.NULL, ffi.NULL, ffi.NULL))
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
@@ -541,7 +542,7 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
     return (*law, ffi.from_buffer("double[]", ref),
             ffi.from_buffer("double[]", dref), lay.log_columns.index(loop.measure), cc.layout.inputs.index(loop.command),
             sensor, rng, float(loop.sign), addr(path.c) if path is not None else ffi.NULL, *limits,
-            ffi.from_buffer("double[]", loop.sent) if path is not None else ffi.NULL, press, command)
+            ffi.from_buffer("double[]", loop.sent) if path is not None else ffi.NULL, press, *command)
 
 
 def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
