@@ -175,6 +175,14 @@ def test_a_scenario_names_its_circuit_and_sets_its_values(tmp_path):
     with pytest.raises(InputError, match="unknown key") as e:
         load_circuit_scenario(f)
     assert e.value.key == "params"
+    # a misspelt key named with the nearest one: the scenario's, the solver's, the loop's (not "kp missing")
+    for text, key, near in (('circuit = "two_cylinders"\nduraton = 2\n', "duraton", "'duration'"),
+                            ('circuit = "two_cylinders"\n[solver]\nsteps = 1e-3\n', "solver.steps", "'solver.step'"),
+                            (loop.replace("kp = 0.008", "kpp = 0.008"), "controller.kpp", "'controller.kp'")):
+        f.write_text(text)
+        with pytest.raises(InputError, match=f"unknown key '{key}' \\(did you mean {near}\\?\\)") as e:
+            load_circuit_scenario(f)
+        assert e.value.key == key
 
 
 def test_simulate_and_maxstep_on_a_circuit_scenario_as_a_user_types_them(tmp_path):

@@ -169,6 +169,14 @@ def test_pump_catalogue_form():
     ({"accumulator": {"colour": "red"}}, "components.accumulator.colour", "not a parameter of a accumulator"),
     ({"load": {"type": "nozzle"}}, "components.load.type", "unknown component type 'nozzle'"),
     ({"line": {"b": None}}, "components.line.b", "port b of a hose needs a node name"),
+    # a misspelt key named with the nearest (before the key it was meant for is found missing), a port's too
+    ({"relief": {"cracking_pressure": None, "cracking_presure": "150 bar"}}, "components.relief.cracking_presure",
+     "unknown key 'cracking_presure' (did you mean 'cracking_pressure'?): not a parameter of a relief_valve"),
+    ({"line": {"b": None, "B": "load_port"}}, "components.line.B", "(did you mean 'b'?)"),
+    ({"load": {"type": "orifise"}}, "components.load.type", "(did you mean 'orifice'?)"),
+    # a misspelt node: a port connected to nothing else, the nearest node named
+    ({"relief": {"t": "tnk"}}, "components.relief.t", "node 'tnk' connects to nothing else: only relief.t is at it "
+                                                      "(did you mean 'tank'?)"),
 ])
 def test_a_circuit_error_names_the_file_the_component_and_the_key(change, where, message):
     import copy
@@ -188,8 +196,8 @@ def test_a_circuit_error_names_the_file_the_component_and_the_key(change, where,
 
 def test_a_node_without_volume_and_a_circuit_without_return_are_refused():
     with pytest.raises(InputError, match="nodes.n: this node has no volume"):
-        circuit({"tank": {"type": "tank", "p": "t"},
-                 "o": {"type": "orifice", "a": "t", "b": "n", "area": "1 mm2"}})
+        circuit({"tank": {"type": "tank", "p": "t"}, "o": {"type": "orifice", "a": "t", "b": "n", "area": "1 mm2"},
+                 "o2": {"type": "orifice", "a": "n", "b": "t", "area": "1 mm2"}})
     with pytest.raises(InputError, match="no tank or pressure source"):
         circuit({"v": {"type": "volume", "p": "n", "volume": "1 l"}})
 

@@ -78,9 +78,20 @@ def unknown_name(name: str, valid, what: str = "key", prefix: str = "") -> str:
     """Message for a name that is not one of ``valid``, with the closest valid one (difflib) when there is
     one: ``unknown key 'duraton' (did you mean 'duration'?)``, otherwise the valid names. ``prefix``
     (``supply.``) is shown before the unknown name and the suggestion but takes no part in the matching."""
+    valid = [str(v) for v in valid]
+    close = closest_name(name, valid)
+    if close:
+        return f"unknown {what} '{prefix}{name}' (did you mean '{prefix}{close}'?)"
+    return f"unknown {what} '{prefix}{name}' (valid: {', '.join(valid) if valid else 'none'})"
+
+
+def closest_name(name: str, valid, cutoff: float = 0.6) -> str | None:
+    """The one of ``valid`` that ``name`` most likely misspells: the same but for case (``B`` for ``b``), else
+    the closest by difflib's ratio (at least ``cutoff``); None when none is close."""
     import difflib
     valid = [str(v) for v in valid]
-    close = difflib.get_close_matches(str(name), valid, n=1, cutoff=0.6)
-    if close:
-        return f"unknown {what} '{prefix}{name}' (did you mean '{prefix}{close[0]}'?)"
-    return f"unknown {what} '{prefix}{name}' (valid: {', '.join(valid) if valid else 'none'})"
+    same = [v for v in valid if v.lower() == str(name).lower()]
+    if same:
+        return same[0]
+    close = difflib.get_close_matches(str(name), valid, n=1, cutoff=cutoff)
+    return close[0] if close else None

@@ -45,7 +45,7 @@ import numpy as np
 
 from hydrohil.circuits.library import FLUID, TYPES, ComponentType, Param
 from hydrohil.circuits.units import to_si
-from hydrohil.errors import InputError
+from hydrohil.errors import InputError, closest_name, unknown_name
 
 CIRCUITS_DIR = Path(__file__).resolve().parents[3] / "examples" / "circuits"
 
@@ -173,15 +173,15 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
     """A circuit from its tables. ``fault_signals``: parameters ("component.key") a scenario's faults drive
     (hydrohil.circuits.faults): driven although not signals of their type, their values as given kept (the
     value outside the fault)."""
-    unknown = set(data) - {"name", "description", "fluid", "nodes", "components", "inputs", "initial"}
+    top = ("name", "description", "fluid", "nodes", "components", "inputs", "initial")
+    unknown = set(data) - set(top)
     if unknown:
-        raise _err(source, sorted(unknown)[0], "unknown key (keys: name, description, fluid, nodes, components, "
-                                               "inputs, initial)")
+        raise _err(source, sorted(unknown)[0], unknown_name(sorted(unknown)[0], top))
     fluid = {}
     for key, prm in FLUID.items():
         fluid[key] = _value(data.get("fluid", {}), key, prm, source, "fluid")
     for key in set(data.get("fluid", {})) - set(FLUID):
-        raise _err(source, f"fluid.{key}", f"unknown key (keys: {', '.join(FLUID)})")
+        raise _err(source, f"fluid.{key}", unknown_name(key, FLUID))
     comps_data = data.get("components")
     if not isinstance(comps_data, dict) or not comps_data:
         raise _err(source, "components", "a circuit needs [components.NAME] tables")
@@ -198,7 +198,17 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             raise _err(source, where, f"needs type = one of {', '.join(TYPES)}")
         ctype = TYPES.get(body["type"])
         if ctype is None:
-            raise _err(source, f"{where}.type", f"unknown component type {body['type']!r} (types: {', '.join(TYPES)})")
+            raise _err(source, f"{where}.type", unknown_name(body["type"], TYPES, what="component type"))
+        cp = ctype.coupling
+        other = ({cp.key} if cp else set()) | set(ctype.tables)       # a coupling's key, the tables
+        for key in sorted(set(body) - set(ctype.params) - set(ctype.ports) - other - {"type"}):
+            more = (f"; coupling: {cp.key}" if cp else "") + (f"; tables: {', '.join(ctype.tables)}"
+                                                                if ctype.tables else "")
+            valid = [*ctype.params, *ctype.ports, *sorted(other)]
+            hint = unknown_name(key, valid) if closest_name(key, valid) else f"unknown key '{key}'"
+            raise _err(source, f"{where}.{key}", f"{hint}: not a parameter of a {ctype.name} (parameters: "
+                                                 f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)}"
+                                                 f"{more})")
         ports = {}
         for port in ctype.ports:
             node = body.get(port)
@@ -208,7 +218,7 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             ports[port] = node
             if node not in nodes:
                 nodes.append(node)
-        coupled, cp = None, ctype.coupling
+        coupled = None
         if cp is not None and cp.key in body:
             coupled = body[cp.key]
             if not isinstance(coupled, str) or not NAME.match(coupled):
@@ -242,13 +252,6 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             if key in body:
                 given[key] = str(body[key])
         tables = {k: _table(body[k], ctype.tables[k], source, f"{where}.{k}") for k in ctype.tables if k in body}
-        other = ({cp.key} if cp else set()) | set(ctype.tables)       # a coupling's key, the tables
-        for key in set(body) - set(ctype.params) - set(ctype.ports) - other - {"type"}:
-            more = (f"; coupling: {cp.key}" if cp else "") + (f"; tables: {', '.join(ctype.tables)}"
-                                                                if ctype.tables else "")
-            raise _err(source, f"{where}.{key}", f"not a parameter of a {ctype.name} (parameters: "
-                                                 f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)}"
-                                                 f"{more})")
         params = dict(values)
         try:
             values = component_values(ctype, params, fluid)
@@ -265,7 +268,8 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
     node_volumes = {}
     for node, body in data.get("nodes", {}).items():
         if node not in nodes:
-            raise _err(source, f"nodes.{node}", f"no component's port is at this node (nodes: {', '.join(nodes)})")
+            raise _err(source, f"nodes.{node}", f"no component's port is at this node: "
+                                                f"{unknown_name(node, nodes, what='node')}")
         if not isinstance(body, dict) or set(body) - {"volume"}:
             raise _err(source, f"nodes.{node}", "a node's table has one key: volume = \"<number> <unit>\"")
         node_volumes[node] = _value(body, "volume", _NODE_VOLUME, source, f"nodes.{node}")
@@ -273,7 +277,7 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
     for sig, drive in inputs_data.items():
         comp, _, key = sig.partition(".")
         if comp not in components:
-            raise _err(source, f"inputs.{sig}", f"no component {comp!r} (components: {', '.join(components)})")
+            raise _err(source, f"inputs.{sig}", unknown_name(comp, components, what="component"))
         if key not in components[comp].type.inputs and sig not in fault_signals:
             raise _err(source, f"inputs.{sig}", f"not a signal of {comp} (signals of a {components[comp].type.name}: "
                                                 f"{', '.join(components[comp].type.inputs) or 'none'})")
@@ -289,11 +293,28 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
                 initial, nodes, fixed)
     if not fixed:
         raise _err(source, "components", "no tank or pressure source: every circuit needs one (its return line)")
+    _single_port_nodes(components, nodes, source)
     for node in c.state_nodes:
         if c.node_volume(node) <= 0.0:
             raise _err(source, f"nodes.{node}", "this node has no volume: give [nodes.NAME] volume = ... or attach a "
                                                 "hose or a volume")
     return c
+
+
+def _single_port_nodes(components: dict, nodes: list[str], source: str) -> None:
+    """A node only one port is at: a port connected to nothing, most often a node's name misspelt (the nearest
+    other node named); a port plugged on purpose has its dead volume: a ``volume`` component at the node."""
+    at: dict[str, list[str]] = {n: [] for n in nodes}
+    for comp in components.values():
+        for port, node in comp.ports.items():
+            at[node].append(f"{comp.name}.{port}")
+    for node in nodes:
+        if len(at[node]) == 1:
+            close = closest_name(node, [n for n in nodes if n != node], cutoff=0.5)
+            hint = f" (did you mean '{close}'?)" if close else ""
+            raise _err(source, f"components.{at[node][0]}",
+                       f"node '{node}' connects to nothing else: only {at[node][0]} is at it{hint}; a port "
+                       f"plugged on purpose: a volume component at the node (its dead volume)")
 
 
 def _table(t, spec: tuple, source: str, where: str) -> tuple[np.ndarray, np.ndarray]:
@@ -397,7 +418,7 @@ def _drive(drive, prm, source: str, where: str):
     t, v = drive.get("t"), drive.get("value")
     extra = set(drive) - {"t", "value", "interpolation"}
     if extra:
-        raise _err(source, f"{where}.{sorted(extra)[0]}", "unknown key (a drive's keys: t, value, interpolation)")
+        raise _err(source, f"{where}.{sorted(extra)[0]}", unknown_name(sorted(extra)[0], ("t", "value", "interpolation")))
     interp = drive.get("interpolation", "hold")
     if interp not in ("hold", "linear"):
         raise _err(source, f"{where}.interpolation", f"\"hold\" (from each t) or \"linear\" (between the points), "

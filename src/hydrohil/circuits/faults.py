@@ -51,7 +51,7 @@ import math
 import numpy as np
 
 from hydrohil.circuits.network import NETWORK_FAULTS
-from hydrohil.errors import InputError
+from hydrohil.errors import InputError, unknown_name
 
 SENSOR_FAULTS = ("sensor_stuck", "sensor_offset", "sensor_noise", "sensor_dropout",
                  "encoder_count_loss")   # (hc_sensed's order)
@@ -143,8 +143,8 @@ def apply_faults(raw: dict, faults, source: str) -> frozenset:
                              source=source, key=f"{where}.type")
         unknown = set(f) - KEYS[kind]
         if unknown:
-            raise InputError(f"unknown key (keys of a {kind} fault: {', '.join(sorted(KEYS[kind]))})", source=source,
-                             key=f"{where}.{sorted(unknown)[0]}")
+            raise InputError(unknown_name(sorted(unknown)[0], sorted(KEYS[kind])) + f" (a {kind} fault's keys)",
+                             source=source, key=f"{where}.{sorted(unknown)[0]}")
         start, end = _window(f, where, source)
         if kind in SENSOR_FAULTS or kind in NETWORK_FAULTS:   # (the loop's: sensor_faults, network_faults)
             continue

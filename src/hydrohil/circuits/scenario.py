@@ -60,7 +60,7 @@ from hydrohil.circuits.circuit import TABLE_TIMES, Circuit, circuit_from_dict, c
 from hydrohil.circuits.faults import apply_faults, follow_derived
 from hydrohil.circuits.run import SOLVERS, Hold, Loop
 from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
-from hydrohil.errors import InputError
+from hydrohil.errors import InputError, unknown_name
 
 # a --params given for a circuit scenario (simulate, hil, panel say it)
 NO_PARAMETER_SET = "a circuit scenario has no parameter set: give its values with --set component.key=value"
@@ -136,8 +136,8 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
     """A circuit scenario from its tables (``base``: the folder its circuit path is relative to)."""
     unknown = set(data) - KEYS
     if unknown:
-        raise InputError(f"unknown key (keys of a circuit scenario: {', '.join(sorted(KEYS))})", source=source,
-                         key=sorted(unknown)[0])
+        raise InputError(unknown_name(sorted(unknown)[0], sorted(KEYS)) + " (a circuit scenario's keys)",
+                         source=source, key=sorted(unknown)[0])
     if not isinstance(data.get("circuit"), str):
         raise InputError("the circuit's file or built-in name", source=source, key="circuit")
     cfile = circuit_file(data["circuit"], base, source)
@@ -148,7 +148,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
     solver_t = data.get("solver", {})
     if not isinstance(solver_t, dict) or set(solver_t) - SOLVER_KEYS:
         bad = sorted(set(solver_t) - SOLVER_KEYS)[0] if isinstance(solver_t, dict) else "solver"
-        raise InputError(f"unknown key (keys: {', '.join(sorted(SOLVER_KEYS))})", source=source, key=f"solver.{bad}")
+        raise InputError(unknown_name(bad, sorted(SOLVER_KEYS), prefix="solver."), source=source, key=f"solver.{bad}")
     method = solver or solver_t.get("method", "rk3")
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", source=source, key="solver.method")
@@ -294,7 +294,16 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
     try:
         cfg = LOOP_CFG[table["type"]].model_validate(table)
     except ValidationError as exc:
-        e = exc.errors()[0]
+        errors = exc.errors()
+        extra = [e for e in errors if e["type"] == "extra_forbidden"]
+        if extra:                                   # a misspelt key: named with the nearest (not "kp missing")
+            key = str(extra[0]["loc"][-1])
+            valid = [*LOOP_CFG[table["type"]].model_fields, "measure", "command", "u_min", "u_max",
+                     "sensor_resolution", "sensor_min", "sensor_max", "sensor_noise", "sensor_seed", "action",
+                     "load_pressure", "pressure_range", "pressure_resolution"]
+            raise InputError(unknown_name(key, valid, prefix="controller."), source=source,
+                             key=f"controller.{key}") from None
+        e = errors[0]
         loc = ".".join(str(x) for x in e["loc"]) or "type"
         hint = (" (gains are positive; a loop where a larger command lowers the measured signal says action = "
                 "\"reverse\")" if loc in ("kp", "ki") and "greater than" in e["msg"] else "")
