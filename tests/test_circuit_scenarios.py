@@ -394,3 +394,21 @@ def test_a_loops_sensor_noise_is_what_its_controller_reads(tmp_path):
     other = load_circuit_scenario(f)
     assert not np.array_equal(simulate_circuit(other.circuit, other.duration, h=other.step,
                                                loop=other.loop).columns["cyl.x.sensed"], seen)
+
+
+def test_a_piston_reference_beyond_its_stroke_warns_saying_how_a_bare_number_is_read(tmp_path):
+    """A loop on a piston whose reference leaves [0, stroke] warns (it cannot be reached: the end stop), saying
+    that a number without its unit is in metres (50 meant as mm); the same in mm does not warn."""
+    import warnings
+    from hydrohil.errors import InputWarning
+    f = tmp_path / "s.toml"
+    body = ('circuit = "ferreira2004"\nduration = 1.0\n[controller]\ntype = "p"\nmeasure = "cyl.x"\n'
+            'command = "valve.command"\nkp = 50.0\n[reference]\nt = [0.0, 0.5]\n')
+    f.write_text(body + 'value = [0.03, 150]\n')
+    with pytest.warns(InputWarning, match=r"reference value 150 = 150 m \(at t = 0.5 s\) lies outside cyl's stroke "
+                                          r"\[0, 0.18\] m \(a number without a unit is in m\)"):
+        load_circuit_scenario(f)
+    f.write_text(body + 'value = ["30 mm", "150 mm"]\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", InputWarning)
+        load_circuit_scenario(f)

@@ -83,7 +83,10 @@ max = 9.0e6
     ('[[actions]]\nat = 0.5\ntype = "hose_burst"\n[[expect]]\ntype = "bounds"\nsignal = "a.p"\nmax = 1e9\n',
      "actions[0].type", "actions step, ramp, set"),
     ('[[actions]]\nat = 0.5\ntype = "set"\nsignal = "pump.speed"\nvalue = 1.0\n[[expect]]\ntype = "bounds"\n'
-     'signal = "a.p"\nmax = 1e9\n', "actions", "not one of the circuit's inputs"),
+     'signal = "a.p"\nmax = 1e9\n', "actions", "not one of the circuit's inputs .*a pump's speed may be one: name "
+                                                 "it in the scenario's \\[inputs\\]"),
+    ('[[actions]]\nat = 0.5\ntype = "set"\nsignal = "relief.cracking_pressure"\nvalue = 1.0\n[[expect]]\n'
+     'type = "bounds"\nsignal = "a.p"\nmax = 1e9\n', "actions", "is a parameter, not a signal: a parameter action"),
     ('[[expect]]\ntype = "bounds"\nsignal = "motor.speed"\nmax = 1.0\n', "expect[0].signal", "motor.speed"),
     ('[[actions]]\nat = 5.0\ntype = "step"\nvalue = 1.0\n[[expect]]\ntype = "bounds"\nsignal = "a.p"\nmax = 1e9\n',
      "actions[0].at", "not before the end of the run"),
@@ -182,3 +185,19 @@ def test_a_failed_watchdog_expectation_on_an_open_circuit_has_its_figure(tmp_pat
         s = Signals({"t": t, "watchdog": wd, "u": cmd}, {}, mode="realtime", units={"t": "s", "u": "-"})
         o = Watchdog(type="watchdog", after=0.4, safe_within=0.02).evaluate(s)
         assert o.status == verdict, o.message
+
+
+def test_an_expectations_level_may_carry_its_unit(tmp_path):
+    """A bound given with its unit ("170 bar") is the signal's SI value (a.p: Pa), a loop's tolerance in the
+    measured signal's (motor.w: rad/s, "100 rpm"); the same sequence with the SI numbers loads the same; a unit
+    of another quantity names the key and the unit wanted, before anything runs."""
+    from hydrohil.sequences.sequence import load_sequence
+    with_units = _write(tmp_path, '[[expect]]\ntype = "bounds"\nsignal = "a.p"\nmin = "-1 bar"\nmax = "170 bar"\n'
+                                  '[[expect]]\ntype = "tracking"\ntol = "100 rpm"\nafter = 1.0\n')
+    e = load_sequence(with_units).expectations
+    assert (e[0].min, e[0].max) == (-1e5, 170e5) and e[1].tol == pytest.approx(100 * 2 * 3.141592653589793 / 60,
+                                                                             rel=1e-15)
+    bad = _write(tmp_path, '[[expect]]\ntype = "bounds"\nsignal = "a.p"\nmax = "170 mm"\n')
+    with pytest.raises(InputError, match=r"expect\[0\]\.max: .*Pa.*\(a\.p is in Pa\)") as exc:
+        load_sequence(bad)
+    assert exc.value.key == "expect[0].max"

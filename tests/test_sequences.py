@@ -127,6 +127,8 @@ def test_examples_cli_report_and_junit(tmp_path, tmp_path_factory):
     r = hh("test", SEQ / "fig11_p_passes.toml", SEQ / "p_hose_burst.toml", "--out", out, "--junit", out / "j.xml")
     assert r.returncode == 1, r.stdout + r.stderr                    # the hose burst exposes the P controller
     assert "PASS  Fig 11" in r.stdout and "FAIL  P control vs a rod-side hose burst: 1 passed, 3 failed" in r.stdout
+    below = r.stdout.split("FAIL  P control vs a rod-side hose burst")[1].splitlines()[1:4]   # each failure: why
+    assert len(below) == 3 and all(x.startswith("      fail: ") and len(x) > 40 for x in below), below
     junit_schema(tmp_path_factory).validate(str(out / "j.xml"))
     import xml.etree.ElementTree as ET
     root = ET.parse(out / "j.xml").getroot()

@@ -189,7 +189,8 @@ def _warn_unbalanced(c: Circuit, res) -> None:
             if abs(f) > 1e-6 * scale:
                 warnings.warn(f"{c.source}: {comp.name} is not held at rest: the net force on it at the start is "
                               f"{f:.4g} N (its chambers' pressures at rest do not balance its load); it moves at "
-                              "once", InputWarning, stacklevel=3)
+                              "once (a scenario's closed loop on it, or rest = {hold = ..., by = ...}, starts it held)",
+                              InputWarning, stacklevel=3)
 
 
 @dataclass

@@ -355,6 +355,7 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
                          key="reference") from None
     if not valid_table_times(ts, ref.get("interpolation") == "linear"):
         raise InputError(TABLE_TIMES, source=source, key="reference.t")
+    _warn_beyond_stroke(c, measure, ts, vs, v, source)
     encoder = sensor is not None and sensor[0] > 0 and units[measure] in ("m", "rad")   # (counts: a position)
     loop = Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi),
                 sensor=sensor, sign=-1.0 if action == "reverse" else 1.0, seed=seed, encoder=encoder,
@@ -366,6 +367,25 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
         loop.user_callable()                    # (its module and name checked now; instantiated for each run)
     _load_pressure(loop, feedback, c, source)
     return loop
+
+
+def _warn_beyond_stroke(c: Circuit, measure: str, ts, vs, given: list, source: str) -> None:
+    """A piston's reference outside [0, stroke] cannot be reached: warn (the run is still valid), saying how a
+    number without its unit is read (metres: "200 mm" was meant for 200)."""
+    import warnings
+    import numpy as np
+    from hydrohil.errors import InputWarning
+    comp, _, var = measure.partition(".")
+    stroke = c.components[comp].values.get("stroke") if comp in c.components and var == "x" else None
+    if stroke is None:
+        return
+    beyond = np.maximum(-vs, vs - stroke)
+    i = int(np.argmax(beyond))
+    if beyond[i] > 0:
+        bare = " (a number without a unit is in m)" if not isinstance(given[i], str) else ""
+        warnings.warn(f"{source}: reference value {given[i]!r} = {vs[i]:g} m (at t = {ts[i]:g} s) lies outside "
+                      f"{comp}'s stroke [0, {stroke:g}] m{bare}: the piston stops at its end stop there",
+                      InputWarning, stacklevel=4)
 
 
 def _load_pressure(loop: Loop, feedback: dict, c: Circuit, source: str) -> None:

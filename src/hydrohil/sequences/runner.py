@@ -271,11 +271,21 @@ def run_suite(paths: list[str | Path], out: str | Path, *, mode: str = "offline"
     return results
 
 
+SHOWN = 5                                  # the failed or errored expectations a console line lists
+
+
 def line(r: SequenceResult) -> str:
+    """A sequence's result for the console: its counts, then each expectation that failed or could not be
+    judged with why (the first SHOWN; report.md has them all)."""
     c = r.counts()
     head = {"pass": "PASS", "fail": "FAIL", "error": "ERROR"}[r.status]
     tail = f" — {r.error}" if r.error else ""
-    return f"{head}  {r.name}: {c['pass']} passed, {c['fail']} failed, {c['error']} errors{tail}"
+    out = [f"{head}  {r.name}: {c['pass']} passed, {c['fail']} failed, {c['error']} errors{tail}"]
+    bad = [o for o in r.outcomes if not o.passed]
+    out += [f"      {o.status}: {o.name}: {o.message}" for o in bad[:SHOWN]]
+    if len(bad) > SHOWN:
+        out.append(f"      … {len(bad) - SHOWN} more in report.md")
+    return "\n".join(out)
 
 
 def exit_code(results: list[SequenceResult]) -> int:

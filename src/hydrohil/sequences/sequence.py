@@ -282,8 +282,8 @@ class LoadedSequence:
         for a in sorted((a for a in self.actions if a.type == "set"), key=lambda a: a.at):
             base = data.get("inputs", {}).get(a.signal, circuit_inputs.get(a.signal))
             if base is None:
-                raise InputError(f"{a.signal} is not one of the circuit's inputs (inputs: "
-                                 f"{', '.join(circuit_inputs) or 'none'})", source=src, key="actions")
+                raise InputError(_not_an_input(a.signal, read_toml(cfile), data.get("inputs", {})), source=src,
+                                 key="actions")
             try:
                 data.setdefault("inputs", {})[a.signal] = windowed_drive(base, a.value, a.at, a.until)
             except ValueError as exc:
@@ -299,6 +299,22 @@ class LoadedSequence:
             raise InputError(f"the scenario it compiles to: {exc}", source=src) from None
         del cs                           # (loaded to check it: an open loop's sequence judges its signals alone)
         return dest
+
+
+def _not_an_input(signal: str, circuit: dict, scenario_inputs: dict) -> str:
+    """Why a set action's ``signal`` has nothing to set, and how it would: a parameter its component lets be a
+    signal is driven once the scenario's [inputs] names it."""
+    from hydrohil.circuits.library import TYPES
+    inputs = [*circuit.get("inputs", {}), *scenario_inputs]
+    comp, _, key = signal.partition(".")
+    ctype = TYPES.get(str(circuit.get("components", {}).get(comp, {}).get("type")))
+    out = f"{signal} is not one of the circuit's inputs (inputs: {', '.join(inputs) or 'none'})"
+    if ctype is not None and key in ctype.inputs:
+        out += (f"; a {ctype.name}'s {key} may be one: name it in the scenario's [inputs] (\"{signal}\" = its value "
+                "before the action, with its unit) and the action drives it")
+    elif ctype is not None and key in ctype.params:
+        out += f"; {signal} is a parameter, not a signal: a parameter action changes it"
+    return out
 
 
 def _circuit_reference(ref: dict, refs: list, duration: float, source: str) -> dict:
@@ -357,12 +373,14 @@ def load_sequence(path: str | Path, *, allow_empty: bool = False) -> LoadedSeque
     if not allow_empty and not data.get("expect"):
         raise InputError("no [[expect]] entries: a test sequence states what the run must do", source=str(path),
                          key="expect")
+    scenario = data.get("scenario")
+    circuit = _circuit_scenario(scenario, path.parent) if isinstance(scenario, str) else None
+    _expectation_units(data, path, circuit)
     try:
         seq = Sequence.model_validate(data)
     except ValidationError as exc:
         key, msg = format_validation_error(exc, Sequence)
         raise InputError(msg, source=str(path), key=key) from None
-    circuit = _circuit_scenario(seq.scenario, path.parent)
     actions = [(_circuit_action if circuit else _action)(i, a, str(path)) for i, a in enumerate(seq.actions)]
     names = [a.name for a in actions if a.name]
     dup = next((n for n in names if names.count(n) > 1), None)
@@ -378,6 +396,49 @@ def load_sequence(path: str | Path, *, allow_empty: bool = False) -> LoadedSeque
                 raise InputError(unknown_name(v, events, what="action name"), source=str(path),
                                  key=f"expect[{i}].{key}")
     return loaded
+
+
+# an expectation's values that are in its signal's unit (a number: SI; or "<number> <unit>"): type -> keys
+VALUE_KEYS = {"bounds": ("min", "max"), "reaction": ("margin", "below", "above"), "tracking": ("tol",),
+              "step_response": ("max_steady_state_error",)}
+
+
+def _expectation_units(data: dict, path: Path, circuit: Path | None) -> None:
+    """An expectation's level given with its unit ("170 bar", "2 mm") in its signal's SI unit, in place (a
+    bound on a circuit's signal: the unit its run logs; a loop's tolerance: the measured signal's); a unit of
+    another quantity names the key and the unit wanted."""
+    from hydrohil.circuits.units import to_si
+    from hydrohil.sequences.expectations import UNITS
+    units = None
+    for i, e in enumerate(data.get("expect") or []):
+        if not isinstance(e, dict) or not any(isinstance(e.get(k), str) for k in VALUE_KEYS.get(e.get("type"), ())):
+            continue
+        if units is None:
+            units = dict(UNITS) if circuit is None else _circuit_units(circuit)
+        loop_signal = "error" if e["type"] in ("tracking", "step_response") else None
+        signal = loop_signal or e.get("signal", "u" if e["type"] == "reaction" else None)
+        unit = units.get(signal)
+        for k in VALUE_KEYS[e["type"]]:
+            if not isinstance(e.get(k), str):
+                continue
+            if unit is None:
+                raise InputError(f"no unit known for signal {signal!r}: give the value as a number in its SI unit",
+                                 source=str(path), key=f"expect[{i}].{k}")
+            try:
+                e[k] = to_si(e[k], unit)
+            except ValueError as exc:
+                raise InputError(f"{exc} ({signal} is in {unit})", source=str(path), key=f"expect[{i}].{k}") from None
+
+
+def _circuit_units(scenario: Path) -> dict:
+    """The SI unit of every signal of a circuit scenario's run, its loop's under the rig's names too."""
+    from hydrohil.circuits.run import input_unit, signal_units
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    cs = load_circuit_scenario(scenario)
+    units = {**signal_units(cs.circuit, cs.compiled.layout), **{s: input_unit(cs.circuit, s) for s in cs.circuit.inputs}}
+    if cs.loop is not None:
+        units.update(dict.fromkeys(("x_ref", "xp", "error"), units.get(cs.loop.measure)), u=units[cs.loop.command])
+    return units
 
 
 def _circuit_scenario(name: str, base: Path) -> Path | None:
