@@ -248,10 +248,10 @@ def test_circuit_show_and_run_as_a_user_types_them(tmp_path):
     assert units["supply.p"] == "Pa" and units["relief.q"] == "m3/s" and units["accumulator.v_oil"] == "m3"
     assert [n["name"] for n in d["nodes"]] == ["tank", "supply", "load_port"]
     assert all(n["lambda_h"] < n["stability_limit"] for n in d["nodes"] if "lambda_h" in n)
-    # a closed loop's circuit: alone, its open-loop drive moves the piston off rest (a warning says so); with its
-    # scenario, the loop holds it from the start
+    # a closed loop's circuit: alone, its open-loop drive moves the piston off rest, which show (a description,
+    # not the user's run) does not warn of; with its scenario, the loop holds it from the start
     r = hh("circuit", "show", "ferreira2004")
-    assert r.returncode == 0 and "is not held at rest" in r.stderr
+    assert r.returncode == 0 and "is not held at rest" not in r.stderr
     assert ("events located inside the step (guards): cyl.retract, cyl.extend, cyl.breakaway_pos, "
             "cyl.breakaway_neg, cyl.reverse, cyl.leave") in r.stdout
     assert "inputs seen late (delay lines): valve.command" in r.stdout
@@ -554,6 +554,12 @@ def test_circuit_draw_labels_every_component_node_and_signal(tmp_path):
             ink = rgba[rgba[..., 3] > 0.5]
             red += bool(((ink[:, 0] > 0.6) & (ink[:, 1] < 0.3)).mean() > 0.9)
     assert red == 1
+    # a scenario's closed loop: the controller's block, its law and gains, the measured signal in, the command out
+    r = hh("circuit", "draw", "--scenario", CIRCUITS_DIR / "ferreira2004" / "scenario.toml", "--out",
+           tmp_path / "loop.svg")
+    texts = " ".join(t.text or "" for t in ET.parse(tmp_path / "loop.svg").iter() if t.tag.endswith("text"))
+    assert r.returncode == 0 and all(w in texts for w in ("controller: P", "kp = 50", "reference → cyl.x", "cyl.x",
+                                                            "valve.command")), texts
     r = hh("circuit", "draw", "lift_platform", "--out", tmp_path / "lp.svg")
     texts = " ".join(t.text or "" for t in ET.parse(tmp_path / "lp.svg").iter() if t.tag.endswith("text"))
     assert r.returncode == 0 and "800 kg, 90°" in texts and texts.count("rod") >= 2      # the rods to the deck

@@ -127,7 +127,8 @@ def circuit_diagrams():
     from hydrohil.circuits.scenario import load_circuit_scenario
     for name in sorted(p.name for p in CIRCUITS.iterdir() if (p / "scenario.toml").exists()):
         scenario = load_circuit_scenario(CIRCUITS / name / "scenario.toml")       # (as it runs: its faults marked)
-        draw_circuit(scenario.circuit, HERE / f"circuit_{name}_diagram.png", faults=scenario.faults)
+        draw_circuit(scenario.circuit, HERE / f"circuit_{name}_diagram.png", faults=scenario.faults,
+                     loop=scenario.loop)
         print("wrote", HERE / f"circuit_{name}_diagram.png")
 
 

@@ -428,7 +428,7 @@ def circuit_draw(circuit: str | None = typer.Argument(None, help="built-in name 
     from hydrohil.circuits.scenario import circuit_scenario
     try:
         cs = circuit_scenario(circuit=circuit, scenario=scenario)
-        typer.echo(f"wrote {draw_circuit(cs.circuit, out, faults=cs.faults)}")
+        typer.echo(f"wrote {draw_circuit(cs.circuit, out, faults=cs.faults, loop=cs.loop)}")
     except HydrohilError as exc:
         fail(exc)
 

@@ -19,6 +19,7 @@ from hydrohil.errors import InputError
 
 LINE = "#3060a0"         # hydraulic lines
 FAULT = "#c02020"
+SIGNAL = "#a03030"       # signals: drives, a loop's measurement and command
 
 
 def _figures(comp) -> list[str]:
@@ -104,10 +105,33 @@ def _label(title: str, lines: list[str], sym, image: Path, colour: str, ports: d
             f'{words + symbol if left else symbol + words}</TR></TABLE>>')
 
 
-def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None) -> Path:
+def _controller(g, loop) -> None:
+    """A closed loop's controller as a block: its law and gains, the measured signal from its component (dashed,
+    into the block), the command to the driven component's actuator (dashed arrow)."""
+    cfg = loop.cfg
+    gains = ", ".join(f"{k} = {getattr(cfg, k):g}" for k in ("kp", "ki", "kd", "kff", "kpl")
+                      if isinstance(getattr(cfg, k, None), (int, float)))
+    law = {"p_ff": "P + velocity feed-forward", "state_feedback": "P + load-pressure feedback",
+           "python": f"Python {getattr(cfg, 'callable', '')}"}.get(cfg.type, cfg.type.upper())
+    label = f"controller: {law}" + (f"\\n{gains}" if gains else "") + f"\\nreference → {loop.measure}"
+    g.node("loop__controller", label=label, shape="box", style="rounded,dashed", color=SIGNAL, fontcolor=SIGNAL,
+           fontsize="10")
+    measured, commanded = loop.measure.split(".", 1)[0], loop.command.split(".", 1)[0]
+    g.edge(f"c__{measured}", "loop__controller", tailport="img:w", label=loop.measure, style="dashed", color=SIGNAL,
+           fontcolor=SIGNAL, arrowhead="normal", penwidth="1.0", constraint="false")
+    with g.subgraph() as same:
+        same.attr(rank="same")
+        same.node("loop__controller")
+        same.node(f"c__{commanded}")
+    g.edge("loop__controller", f"c__{commanded}", headport="img:w", label=loop.command, style="dashed", color=SIGNAL,
+           fontcolor=SIGNAL, arrowhead="normal", penwidth="1.0")
+
+
+def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None, loop=None) -> Path:
     """Write the diagram of ``c`` to ``out`` (.png or .svg, self-contained); returns the path. ``faults``: its
     scenario's [[faults]] (hydrohil.circuits.faults), drawn in red: a leak's orifice, a parameter a fault
-    drives."""
+    drives. ``loop``: its scenario's closed loop (:class:`hydrohil.circuits.run.Loop`), drawn as the controller's
+    block between the measured component and the commanded one (dashed: signals)."""
     out = Path(out)
     fmt = out.suffix.lstrip(".").lower()
     if fmt not in ("png", "svg"):
@@ -156,22 +180,27 @@ def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None) -> Pat
                    shape="none", margin="0")
             for port, node in comp.ports.items():     # the power unit below, the actuators above (rankdir BT)
                 side = ports[port][0]
+                label = port if port != node else ""   # (a port named as its node: one label)
                 if side == "s":                       # the node below the symbol: the line into its bottom
-                    g.edge(f"n__{node}", f"c__{comp.name}", headport=f"p_{port}:s", headlabel=port,
+                    g.edge(f"n__{node}", f"c__{comp.name}", headport=f"p_{port}:s", headlabel=label,
                            labeldistance="1.2", labelangle="30")
                 else:
-                    g.edge(f"c__{comp.name}", f"n__{node}", tailport=f"p_{port}:n", taillabel=port,
+                    g.edge(f"c__{comp.name}", f"n__{node}", tailport=f"p_{port}:n", taillabel=label,
                            labeldistance="1.2", labelangle="-30")
         for comp in c.components.values():            # mechanical couplings: a rod driving its load (double line)
             if comp.coupled:                          # (the load above its actuator(s), as a lift's deck)
                 g.edge(f"c__{comp.name}", f"c__{comp.coupled}", tailport="img:e", headport="img:s",
                        label=comp.type.coupling.part, color="#555555:#555555", penwidth="1.2")
+        if loop is not None:                          # the controller: measured signal in, command out
+            _controller(g, loop)
         for sig in c.inputs:
             comp = sig.split(".", 1)[0]
             if sig not in fault_signals and sig.split(".", 1)[1] not in c.components[comp].type.params:
                 continue                                    # (a derived value following a fault's parameter)
+            if loop is not None and sig == loop.command:
+                continue                                    # (the controller's, drawn above)
             label = fault_signals.get(sig, sig)
-            colour = FAULT if sig in fault_signals else "#a03030"
+            colour = FAULT if sig in fault_signals else SIGNAL
             g.node(f"s__{sig}", label=label, shape="plaintext", fontcolor=colour, fontsize="10")
             with g.subgraph() as same:
                 same.attr(rank="same")

@@ -25,6 +25,10 @@ class Param:
     default: float | None = None  # None: required
     lo_strict: bool = False
 
+    def text(self, component: str) -> str:
+        """Its description for a component named ``component`` (NAME in it: the component's name)."""
+        return self.description.replace("NAME", component)
+
     def check(self, v: float) -> str | None:
         """None, or what is wrong with ``v``."""
         if (v <= self.lo if self.lo_strict else v < self.lo) or v > self.hi:

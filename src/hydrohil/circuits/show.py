@@ -28,13 +28,17 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
     if scenario is not None:
         res = simulate_circuit(c, scenario.duration, h=h, method=method, every=20, rest=scenario.rest,
                                loop=scenario.loop)
-    else:
-        res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20)
+    else:                                     # (a run for the nodes' stiffness: a piston that its default drive
+        import warnings                       # does not hold is no news here; a scenario's run says so)
+        from hydrohil.errors import InputWarning
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".* is not held at rest", category=InputWarning)
+            res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20)
     stiff = {s.node: s for s in node_stiffness(c, res)}
     lay = compile_circuit(c).layout
     comps = []
     for comp in c.components.values():
-        prm = [{"key": k, "value": _num(comp.values[k]), "unit": p.unit, "description": p.description,
+        prm = [{"key": k, "value": _num(comp.values[k]), "unit": p.unit, "description": p.text(comp.name),
                 "given": comp.given.get(k), "signal": f"{comp.name}.{k}" in c.inputs}
                for k, p in comp.type.params.items() if comp.values.get(k) is not None
                and k not in comp.load_keys]                           # (a coupled actuator's: its load's)

@@ -239,9 +239,9 @@ def _rotary_load(ax, sym, c):
 
 def _envelopes(ax, sym, c, centre: str, left_actuator: str, right_actuator: str):
     """A directional valve's three envelopes (squares of side e): left: P->A, B->T straight; centre: the neutral
-    position (closed, or open centre P->T); right: P->B, A->T crossed; its actuators at the ends; the two lines
-    above and below of a continuously positioned (proportional) valve."""
-    e, x0, y0 = 0.46, 0.3, 0.16
+    position (closed, or open centre P->T); right: P->B, A->T crossed; a centring spring and an actuator (None:
+    none) at each end; the two lines above and below of a continuously positioned (proportional) valve."""
+    e, x0, y0 = 0.46, 0.45, 0.16
     y1 = y0 + e
     for i in range(3):
         _box(ax, x0 + i * e, y0, x0 + (i + 1) * e, y1, c)
@@ -264,23 +264,23 @@ def _envelopes(ax, sym, c, centre: str, left_actuator: str, right_actuator: str)
             _blocked(ax, x, y0, c, down=True)
             _blocked(ax, x, y1, c, down=False)
     ym = (y0 + y1) / 2
-    for side, kind in ((-1, left_actuator), (1, right_actuator)):
-        edge = x0 if side < 0 else x0 + 3 * e
-        if kind == "spring":
-            _spring(ax, edge, edge + side * 0.24, ym, c)
-        else:                                               # a proportional solenoid (its slanted arrow)
-            bx = edge if side > 0 else edge - 0.14
-            _box(ax, bx, ym - 0.12, bx + 0.14, ym + 0.12, c)
-            _line(ax, [(bx + 0.02, ym - 0.1), (bx + 0.12, ym + 0.1)], c, lw=0.8)
-            if kind == "servo":                             # a torque motor's pilot stage: a second box
-                bx2 = bx + side * 0.14
-                _box(ax, bx2, ym - 0.12, bx2 + 0.14, ym + 0.12, c)
-                _line(ax, [(bx2 + 0.02, ym), (bx2 + 0.12, ym)], c, lw=0.8)
+    for side, kind in ((-1, left_actuator), (1, right_actuator)):   # spring-centred: a spring at each end,
+        edge = x0 if side < 0 else x0 + 3 * e                       # then its actuator
+        _spring(ax, edge, edge + side * 0.16, ym, c, amp=0.06, n=3)
+        if kind is None:
+            continue
+        bx = edge + side * 0.16 if side > 0 else edge - 0.16 - 0.14    # a proportional solenoid (slanted arrow)
+        _box(ax, bx, ym - 0.12, bx + 0.14, ym + 0.12, c)
+        _line(ax, [(bx + 0.02, ym - 0.1), (bx + 0.12, ym + 0.1)], c, lw=0.8)
+        if kind == "servo":                                 # a torque motor's pilot stage: a second box
+            bx2 = bx + side * 0.14
+            _box(ax, bx2, ym - 0.12, bx2 + 0.14, ym + 0.12, c)
+            _line(ax, [(bx2 + 0.02, ym), (bx2 + 0.12, ym)], c, lw=0.8)
     _stubs(ax, sym, {"A": y1, "B": y1, "P": y0, "T": y0}, c)
 
 
 def _valve43(ax, sym, c):
-    _envelopes(ax, sym, c, "closed", "solenoid", "spring")
+    _envelopes(ax, sym, c, "closed", "solenoid", "solenoid")
 
 
 def _valve63(ax, sym, c):
@@ -288,7 +288,7 @@ def _valve63(ax, sym, c):
 
 
 def _servo(ax, sym, c):
-    _envelopes(ax, sym, c, "closed", "servo", "spring")
+    _envelopes(ax, sym, c, "closed", "servo", None)
 
 
 def _counterbalance(ax, sym, c):
@@ -327,15 +327,15 @@ SYMBOLS: dict[str, Symbol] = {
     "double_rod_cylinder": Symbol(_double_rod, 1.5, 0.66, {"a": ("s", 0.24), "b": ("s", 0.76)}),
     "lugre_cylinder": Symbol(_lugre_cylinder, 1.7, 0.66, {"a": ("s", 0.09), "b": ("s", 0.52)}),
     "load": Symbol(_load, 0.7, 0.66, {}),
-    "valve_43": Symbol(_valve43, 2.0, 0.78, {"A": ("n", (0.3 + 0.46 + 0.115) / 2.0),
-                                               "B": ("n", (0.3 + 0.46 + 0.345) / 2.0),
-                                               "P": ("s", (0.3 + 0.46 + 0.115) / 2.0),
-                                               "T": ("s", (0.3 + 0.46 + 0.345) / 2.0)}),
+    "valve_43": Symbol(_valve43, 2.28, 0.78, {"A": ("n", (0.45 + 0.46 + 0.115) / 2.28),
+                                                "B": ("n", (0.45 + 0.46 + 0.345) / 2.28),
+                                                "P": ("s", (0.45 + 0.46 + 0.115) / 2.28),
+                                                "T": ("s", (0.45 + 0.46 + 0.345) / 2.28)}),
     "counterbalance_valve": Symbol(_counterbalance, 1.1, 0.9, {"valve": ("s", 0.45), "load": ("n", 0.45),
                                                                "pilot": ("s", 0.08)}),
 }
 SYMBOLS["valve_63"] = Symbol(_valve63, **{k: getattr(SYMBOLS["valve_43"], k) for k in ("width", "height", "ports")})
-SYMBOLS["servo_valve"] = Symbol(_servo, 2.14, 0.78, {p: (s, f * 2.0 / 2.14)
+SYMBOLS["servo_valve"] = Symbol(_servo, 2.14, 0.78, {p: (s, f * 2.28 / 2.14)
                                                      for p, (s, f) in SYMBOLS["valve_43"].ports.items()})
 
 

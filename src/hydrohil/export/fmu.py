@@ -345,7 +345,7 @@ def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str) -> 
     for j, sig in enumerate(lay.inputs):
         prm = c.input_param(sig)
         vars_.append(dict(name=sig, vr=VR_INPUT0 + j, causality="input", variability="continuous", initial=None,
-                          desc=prm.description, unit=input_unit(c, sig), start=float(u0[j]), lo=_finite(prm.lo), hi=_finite(prm.hi),
+                          desc=prm.text(sig.split(".")[0]), unit=input_unit(c, sig), start=float(u0[j]), lo=_finite(prm.lo), hi=_finite(prm.hi),
                           kind="real"))
     units = dict(lay.outputs)
     outputs = []

@@ -99,14 +99,15 @@ def circuit_view(cs) -> dict:
                 continue
             k, du = display(prm.unit)
             params.append({"name": name, "unit": prm.unit, "shown": [k, du], "lo": _num(prm.lo), "hi": _num(prm.hi),
-                           "value": _num(comp.values[key]), "description": prm.description})
+                           "value": _num(comp.values[key]), "description": prm.text(comp.name)})
     ins = []
     for name, unit in inputs:
         if driven_by_fault(c, name):
             continue                                  # (a fault's schedule: not held from the page)
         prm = c.input_param(name)
         ins.append({"name": name, "unit": unit, "shown": list(display(unit)), "lo": _num(prm.lo), "hi": _num(prm.hi),
-                    "controller": loop is not None and name == loop.command, "description": prm.description})
+                    "controller": loop is not None and name == loop.command,
+                    "description": prm.text(name.split(".")[0])})
     return {"kind": "circuit", "circuit": c.name,
             "plant_columns": list(side_columns(signals, inputs)),
             "controller_columns": list(CONTROLLER_SIDE_COLUMNS) if loop is not None else [],
