@@ -16,6 +16,8 @@ from hydrohil.circuits.run import simulate_circuit
 from hydrohil.circuits.scenario import load_circuit_scenario
 from hydrohil.errors import InputError
 
+EXAMPLES = CIRCUITS_DIR.parent
+
 FLUID = {"density": 860.0, "bulk_modulus": 1.4e9, "viscosity": 46e-6}
 STOP_WN = 1e4          # rad/s: the reference's end stop (core/hc_end_stops.h HC_REF_STOP_WN)
 
@@ -217,6 +219,9 @@ def test_simulate_and_maxstep_on_a_circuit_scenario_as_a_user_types_them(tmp_pat
     assert ms.returncode == 0, ms.stderr
     res = json.loads(ms.stdout)
     assert res["circuit"] == "two_cylinders" and res["max_stable_step"] >= 1e-3
+    said = f"stable up to {res['max_stable_step'] * 1e3:.3g} ms"      # both answers in words, on stderr
+    assert said in ms.stderr and said in res["verdict"] and "at the scenario's step 0.5 ms the accuracy limits" in \
+        ms.stderr and res["verdict"].endswith(" hold") == res["accuracy_at_step"]["holds"]
     assert set(res["accuracy_at_step"]["rms_pressure_pa"]) == {"tank.p", "supply.p", "a1.p", "b1.p", "a2.p",
                                                                 "b2.p"}
 
@@ -412,3 +417,32 @@ def test_a_piston_reference_beyond_its_stroke_warns_saying_how_a_bare_number_is_
     with warnings.catch_warnings():
         warnings.simplefilter("error", InputWarning)
         load_circuit_scenario(f)
+
+
+def test_maxsteps_verdict_names_the_signal_that_misses_the_accuracy_limits():
+    """The verdict a user reads: a step stable to 2.38 ms whose own 0.5 ms step misses the 0.1 mm limit names
+    the position and its RMS error (and not the pressure, within its 3 %)."""
+    from hydrohil.circuits.accuracy import Accuracy
+    from hydrohil.maxstep import circuit_verdict
+    acc = Accuracy({"valve.x": 1.7e-6, "cyl.x": 1.52e-4}, {"a.p": 1.6e4, "supply.p": 4.3e4}, {"cyl.v": 2.6e-3}, 1.58e7)
+    v = circuit_verdict(2.378e-3, 2e-3, 1e6, 5e-4, acc)
+    assert v.startswith("stable up to 2.38 ms (within 2 mm and 10 bar RMS") and v.endswith(
+        "do not hold: cyl.x 0.152 mm RMS")
+    ok = Accuracy({"cyl.x": 5e-6}, {"a.p": 1e4}, {"cyl.v": 1e-3}, 1e7)
+    assert circuit_verdict(3.67e-3, 2e-3, 1e6, 5e-4, ok).endswith("speed RMS) hold")
+
+
+def test_a_circuit_loops_summary_has_its_step_response_as_the_paper_scenarios(tmp_path):
+    """summary.json of a circuit scenario's closed loop has the loop's moves (rise, overshoot, settling, the
+    steady-state error; metrics.py), computed from the measured signal and its reference: the ferreira2004
+    circuit's Fig 11 gives the core's fig11_p_control.toml's figures (the same times, positions to 1e-12 m)."""
+    from hydrohil.cli import simulate
+    paper = simulate(EXAMPLES / "fig11_p_control.toml", tmp_path / "p", plot=False, progress=False)["step_response"]
+    circ = simulate(CIRCUITS_DIR / "ferreira2004" / "scenario.toml", tmp_path / "c", plot=False,
+                    progress=False)["step_response"]
+    assert circ["signal"] == "cyl.x" and circ["unit"] == "m" and len(circ["moves"]) == len(paper["moves"]) == 2
+    for a, b in zip(paper["moves"], circ["moves"]):
+        assert (a["rise_time"], a["settling_time"]) == (b["rise_time"], b["settling_time"])
+        assert abs(a["overshoot"] - b["overshoot"]) < 1e-12 and abs(a["steady_state_error"] -
+                                                                    b["steady_state_error"]) < 1e-12
+    assert circ["rms_error"] == pytest.approx(paper["rms_error"], rel=1e-9)

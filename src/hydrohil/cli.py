@@ -130,7 +130,7 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                  out: Path = typer.Option(Path("hydrohil-out"), "--out", help="output folder"),
                  solver: Optional[str] = typer.Option(None, help="euler|heun|rk3|rk4|reference"),
                  step: Optional[float] = typer.Option(None, help="fixed step / sample time [s]"),
-                 plot: bool = typer.Option(True, help="write simulation.png"),
+                 plot: bool = typer.Option(True, help="write simulation.png (a circuit scenario: plot.png)"),
                  params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path) in place of "
                                                    "the scenario's"),
                  sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on top of "
@@ -276,8 +276,9 @@ def maxstep_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                 raise InputError("a circuit scenario: the hybrid model (against its continuous reference), its "
                                  "values by --set", source=str(scenario), key="--model/--params")
             cs = load_circuit_scenario(scenario, duration=duration, sets=_parse_sets(sets))
-            typer.echo(json.dumps(circuit_max_stable_step(cs, solver, tol_x=tol_x, tol_p=tol_p, progress=say),
-                                  indent=2))
+            res = circuit_max_stable_step(cs, solver, tol_x=tol_x, tol_p=tol_p, progress=say)
+            typer.echo(res["verdict"], err=True)                # (stdout: the JSON alone)
+            typer.echo(json.dumps(res, indent=2))
             return
         sc = load_scenario(scenario, duration=duration, params=params, sets=_parse_sets(sets))
         res = max_stable_step(sc, model, solver, tol_x=tol_x, tol_p=tol_p, progress=say)

@@ -154,6 +154,30 @@ def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk
             "trials": [{k: v for k, v in t.items()} for t in trials]}
 
 
+def circuit_verdict(h_max: float, tol_x: float, tol_p: float, h: float, acc) -> str:
+    """The two answers of a circuit's maxstep in words: how far the step may grow (stable, and within the
+    search's coarse tolerances) and whether the scenario's own step meets the accuracy limits (SPEC §12: RMS
+    against the continuous reference), naming the worst signal when it does not."""
+    from hydrohil.circuits.accuracy import LIMIT_POSITION, LIMIT_PRESSURE, LIMIT_SPEED
+    out = (f"stable up to {h_max * 1e3:.3g} ms (within {tol_x * 1e3:g} mm and {tol_p / 1e5:g} bar RMS of the "
+           f"reference, --tol-x/--tol-p); at the scenario's step {h * 1e3:g} ms the accuracy limits ("
+           f"{LIMIT_POSITION * 1e3:g} mm, {LIMIT_PRESSURE:.0%} of the highest pressure, {LIMIT_SPEED:.0%} in "
+           "speed RMS) ")
+    if acc.holds:
+        return out + "hold"
+    d = acc.as_dict()
+    worst = []
+    if acc.worst_position > LIMIT_POSITION:
+        name = max(d["rms_position_m"], key=d["rms_position_m"].get)
+        worst.append(f"{name} {acc.worst_position * 1e3:.3g} mm")
+    if acc.worst_pressure > LIMIT_PRESSURE:
+        worst.append(f"pressure {acc.worst_pressure:.2%} of the highest")
+    if acc.worst_speed > LIMIT_SPEED:
+        name = max(d["rms_speed_relative"], key=d["rms_speed_relative"].get)
+        worst.append(f"{name} {acc.worst_speed:.2%}")
+    return out + f"do not hold: {', '.join(worst)} RMS"
+
+
 def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol_p: float = 10e5,
                             rel_tol: float = 0.05, h_max: float = 2e-2, progress=None) -> dict:
     """The largest stable fixed step of a circuit scenario (``hydrohil.circuits.scenario``) with ``solver``: the
@@ -198,7 +222,8 @@ def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol
         return r["stable"]
 
     lo, hi = largest_stable(test, h0=h_out, rel_tol=rel_tol, h_min=h_out / 1000, h_max=h_max)
-    return {"max_stable_step": lo, "first_unstable_step": hi, "model": "hybrid", "solver": solver,
+    return {"verdict": circuit_verdict(lo, tol_x, tol_p, h_out, at_step),
+            "max_stable_step": lo, "first_unstable_step": hi, "model": "hybrid", "solver": solver,
             "scenario": cs.source, "circuit": c.name, "duration": cs.duration, "tol_x_m": tol_x, "tol_p_pa": tol_p,
             "criteria": "finite, pressures <= 1.5x the reference's highest, RMS error vs the circuit's continuous "
                         "reference (LSODA) <= tol_x in every position and tol_p in every pressure (speeds: see "

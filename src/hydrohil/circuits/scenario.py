@@ -489,6 +489,12 @@ def run_circuit_scenario(cs: CircuitScenario, progress=None):
                "solver": cs.method, "step": cs.step, "steps": cs.n_steps, "duration": cs.duration,
                "wall_time_s": wall, "realtime_factor": cs.duration / wall if wall > 0 else float("inf"),
                "sets": cs.sets, "units": res.units, "final_state": final, **res.stats}
+    if cs.loop is not None:                  # the loop's moves as a control engineer reads them (metrics.py)
+        from hydrohil.metrics import step_metrics
+        lp = cs.loop
+        summary["step_response"] = {"signal": lp.measure, "unit": res.units.get(lp.measure, "-"),
+                                    **step_metrics(res.columns["t"], res.columns[lp.measure],
+                                                   res.columns[f"{lp.measure}.reference"])}
     return res, summary
 
 
