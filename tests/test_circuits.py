@@ -164,6 +164,8 @@ def test_pump_catalogue_form():
 @pytest.mark.parametrize("change, where, message", [
     ({"relief": {"cracking_pressure": "160 psu"}}, "components.relief.cracking_pressure", "unknown unit 'psu'"),
     ({"relief": {"cracking_pressure": "16 l/min"}}, "components.relief.cracking_pressure", "is in m3/s, Pa is wanted"),
+    ({"relief": {"cracking_pressure": "160 PSI"}}, "components.relief.cracking_pressure",
+     "unknown unit 'PSI' in '160 PSI' (did you mean 'psi'?)"),
     ({"relief": {"rated_pressure": "150 bar"}}, "components.relief", "must be above cracking_pressure"),
     ({"accumulator": {"exponent": 1.6}}, "components.accumulator.exponent", "must be >= 1 and <= 1.4"),
     ({"accumulator": {"colour": "red"}}, "components.accumulator.colour", "not a parameter of a accumulator"),
@@ -832,3 +834,20 @@ def test_a_load_against_its_force_table_rests_where_the_table_meets_the_piston_f
     comps["press"]["force_table"] = {"x": [0.0, "3 bar"], "f": [0.0, 1.0]}
     with pytest.raises(InputError, match="components.press.force_table.x: '3 bar' is in Pa, m is wanted"):
         circuit(comps)
+
+
+def test_a_valves_bare_number_probably_in_another_unit_warns():
+    """A spool's wn given as a bare 80 (rad/s: 12.7 Hz, below any valve's) warns as the paper's parameter files
+    do; "80 Hz" or a plausible bare number does not."""
+    import copy
+    import tomllib
+    import warnings
+    data = tomllib.loads((CIRCUITS_DIR / "two_cylinders" / "circuit.toml").read_text())
+    for value, warns in ((80, True), ("80 Hz", False), (600.0, False)):
+        d = copy.deepcopy(data)
+        d["components"]["valve1"]["wn"] = value
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            circuit_from_dict(d, "my_rig.toml")
+        text = [str(w.message) for w in said if issubclass(w.category, InputWarning)]
+        assert any("my_rig.toml: components.valve1.wn: 80 rad/s is 12.7 Hz" in t for t in text) == warns, text

@@ -263,6 +263,7 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
                 raise _err(source, where, f"node {node!r} is already fixed by {fixed[node][0]} (one tank or pressure "
                                           "source per node)")
             fixed[node] = (name, ctype.fixes)
+        _warn_implausible(ctype, body, values, source, where)
         components[name] = Component(name, ctype, ports, values, given, params, coupled, tables=tables)
     _couple(components, source)
     node_volumes = {}
@@ -299,6 +300,23 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
             raise _err(source, f"nodes.{node}", "this node has no volume: give [nodes.NAME] volume = ... or attach a "
                                                 "hose or a volume")
     return c
+
+
+def _warn_implausible(ctype: ComponentType, body: dict, values: dict, source: str, where: str) -> None:
+    """A valve's value given as a bare number that is valid but probably in another unit (a spool's wn in Hz,
+    its delay in ms): warned with the paper's parameter files' rules (parameters.schema.PLAUSIBLE); a value
+    written with its unit is taken as meant."""
+    import warnings
+    from hydrohil.errors import InputWarning
+    from hydrohil.parameters.schema import PLAUSIBLE
+    if "wn" not in ctype.params:
+        return
+    for key, bad, say in PLAUSIBLE:
+        name = key.split(".")[1]
+        v = body.get(name)
+        if name in ctype.params and isinstance(v, (int, float)) and not isinstance(v, bool) and bad(values[name]):
+            warnings.warn(f"{source}: {where}.{name}: {say(values[name])} (or write it with its unit)", InputWarning,
+                          stacklevel=3)
 
 
 def _single_port_nodes(components: dict, nodes: list[str], source: str) -> None:

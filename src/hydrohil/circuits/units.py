@@ -12,7 +12,7 @@ UNITS: dict[str, tuple[float, str]] = {
     "Pa": (1.0, "Pa"), "kPa": (1e3, "Pa"), "bar": (1e5, "Pa"), "MPa": (1e6, "Pa"), "psi": (6894.757293168, "Pa"),
     "m3/s": (1.0, "m3/s"), "l/min": (1e-3 / 60.0, "m3/s"), "l/s": (1e-3, "m3/s"), "cm3/s": (1e-6, "m3/s"),
     "m3": (1.0, "m3"), "l": (1e-3, "m3"), "cm3": (1e-6, "m3"), "mm3": (1e-9, "m3"),
-    "m3/rev": (1.0, "m3/rev"), "cm3/rev": (1e-6, "m3/rev"),
+    "m3/rev": (1.0, "m3/rev"), "cm3/rev": (1e-6, "m3/rev"), "cc/rev": (1e-6, "m3/rev"),
     "rev/s": (1.0, "rev/s"), "rpm": (1.0 / 60.0, "rev/s"),
     "m": (1.0, "m"), "mm": (1e-3, "m"), "cm": (1e-2, "m"), "um": (1e-6, "m"), "µm": (1e-6, "m"),
     "m2": (1.0, "m2"), "mm2": (1e-6, "m2"), "cm2": (1e-4, "m2"),
@@ -44,8 +44,11 @@ def to_si(value, si_unit: str) -> float:
         if (unit, si_unit) in ALIASES:
             return _finite(float(m.group(1)) * ALIASES[unit, si_unit], value)
         if unit not in UNITS:
-            raise ValueError(f"unknown unit {unit!r} in {value!r} ({si_unit} wanted; units: "
-                             f"{', '.join(u for u, (_, s) in UNITS.items() if s == si_unit)})")
+            from hydrohil.errors import closest_name
+            valid = [u for u, (_, s) in UNITS.items() if s == si_unit]
+            near = closest_name(unit, valid)
+            raise ValueError(f"unknown unit {unit!r} in {value!r}" + (f" (did you mean {near!r}?)" if near else "")
+                             + f" ({si_unit} wanted; units: {', '.join(valid)})")
         factor, si = UNITS[unit]
         if si != si_unit:
             raise ValueError(f"{value!r} is in {si}, {si_unit} is wanted (units: "
