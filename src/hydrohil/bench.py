@@ -471,10 +471,12 @@ def circuits_table(res: dict) -> str:
                  "≥ 1 ms.")
     pc = res.get("paper_circuit")
     if pc:
+        counted = pc.get("circuit_instructions") is not None       # (valgrind: not in a quick run, or absent)
         lines += ["", f"The paper's rig generated as a circuit beside the hand-written core (Fig 10, the same work, "
                   f"same run): {pc['circuit_ns_per_step']:.0f} vs {pc['core_ns_per_step']:.0f} ns per RK3 step "
-                  f"(ratio {pc['ratio']:.2f}), {_f(pc['circuit_instructions'], '{:.0f}')} vs "
-                  f"{_f(pc['core_instructions'], '{:.0f}')} instructions per step (callgrind)."]
+                  f"(ratio {pc['ratio']:.2f})" + (f", {pc['circuit_instructions']:.0f} vs "
+                                                  f"{pc['core_instructions']:.0f} instructions per step (callgrind)."
+                                                  if counted else "; instructions not counted (no valgrind run).")]
     return "\n".join(lines) + "\n"
 
 
