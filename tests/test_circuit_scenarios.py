@@ -410,8 +410,8 @@ def test_a_piston_reference_beyond_its_stroke_warns_saying_how_a_bare_number_is_
     body = ('circuit = "ferreira2004"\nduration = 1.0\n[controller]\ntype = "p"\nmeasure = "cyl.x"\n'
             'command = "valve.command"\nkp = 50.0\n[reference]\nt = [0.0, 0.5]\n')
     f.write_text(body + 'value = [0.03, 150]\n')
-    with pytest.warns(InputWarning, match=r"reference value 150 = 150 m \(at t = 0.5 s\) lies outside cyl's stroke "
-                                          r"\[0, 0.18\] m \(a number without a unit is in m\)"):
+    with pytest.warns(InputWarning, match=r"reference value = 150 m \(at t = 0.5 s\) lies outside the stroke "
+                                          r"\[0, 0.18\] m \(cyl.stroke\) \(a number without its unit is in m\)"):
         load_circuit_scenario(f)
     f.write_text(body + 'value = ["30 mm", "150 mm"]\n')
     with warnings.catch_warnings():
@@ -425,11 +425,17 @@ def test_maxsteps_verdict_names_the_signal_that_misses_the_accuracy_limits():
     from hydrohil.circuits.accuracy import Accuracy
     from hydrohil.maxstep import circuit_verdict
     acc = Accuracy({"valve.x": 1.7e-6, "cyl.x": 1.52e-4}, {"a.p": 1.6e4, "supply.p": 4.3e4}, {"cyl.v": 2.6e-3}, 1.58e7)
-    v = circuit_verdict(2.378e-3, 2e-3, 1e6, 5e-4, acc)
+    v = circuit_verdict(2.378e-3, 2.48e-3, 2e-3, 1e6, 5e-4, acc)
     assert v.startswith("stable up to 2.38 ms (within 2 mm and 10 bar RMS") and v.endswith(
         "do not hold: cyl.x 0.152 mm RMS")
     ok = Accuracy({"cyl.x": 5e-6}, {"a.p": 1e4}, {"cyl.v": 1e-3}, 1e7)
-    assert circuit_verdict(3.67e-3, 2e-3, 1e6, 5e-4, ok).endswith("speed RMS) hold")
+    assert circuit_verdict(3.67e-3, 3.8e-3, 2e-3, 1e6, 5e-4, ok).endswith("speed RMS) hold")
+    # the search's ceiling reached, no step stable, a pressure missed, a state not finite: each said
+    assert circuit_verdict(0.02, None, 2e-3, 1e6, 5e-4, ok).startswith("stable up to at least 20 ms")
+    bad = Accuracy({"cyl.x": float("nan")}, {"a.p": 1e6, "b.p": 2e5}, {"cyl.v": 1e-3}, 1e7)
+    v = circuit_verdict(None, 5e-4, 2e-3, 1e6, 5e-4, bad)
+    assert v.startswith("no step is stable") and v.endswith(
+        "do not hold: cyl.x not finite, a.p 10.00% of the highest pressure RMS")
 
 
 def test_a_circuit_loops_summary_has_its_step_response_as_the_paper_scenarios(tmp_path):

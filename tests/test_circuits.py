@@ -851,3 +851,19 @@ def test_a_valves_bare_number_probably_in_another_unit_warns():
             circuit_from_dict(d, "my_rig.toml")
         text = [str(w.message) for w in said if issubclass(w.category, InputWarning)]
         assert any("my_rig.toml: components.valve1.wn: 80 rad/s is 12.7 Hz" in t for t in text) == warns, text
+
+
+def test_a_port_plugged_on_purpose_is_a_node_declared_with_its_volume():
+    """A port only one component is at loads when the file declares its node ([nodes.NAME] volume: the plug's
+    dead volume), as it did before misspelt nodes were refused; undeclared, it is refused naming the port."""
+    import copy
+    import tomllib
+    data = tomllib.loads((CIRCUITS_DIR / "two_cylinders" / "circuit.toml").read_text())
+    plugged = copy.deepcopy(data)
+    plugged["components"]["valve2"]["B"] = "plug"          # (its B plugged: a 4/3 valve used as a 3/3)
+    with pytest.raises(InputError, match=r"components.valve2.B: node 'plug' connects to nothing else: only valve2.B is "
+                                         r"at it; a port plugged on purpose: give its dead volume, \[nodes.plug\]"):
+        circuit_from_dict(plugged, "my_rig.toml")
+    plugged.setdefault("nodes", {})["plug"] = {"volume": "0.05 l"}
+    c = circuit_from_dict(plugged, "my_rig.toml")
+    assert c.node_volume("plug") >= 0.05e-3 and "plug" in c.state_nodes

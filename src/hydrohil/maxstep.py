@@ -13,6 +13,7 @@ until the bracket ratio is below ``1 + rel_tol``.
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -154,28 +155,35 @@ def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk
             "trials": [{k: v for k, v in t.items()} for t in trials]}
 
 
-def circuit_verdict(h_max: float, tol_x: float, tol_p: float, h: float, acc) -> str:
+def circuit_verdict(h_max: float | None, h_bad: float | None, tol_x: float, tol_p: float, h: float, acc) -> str:
     """The two answers of a circuit's maxstep in words: how far the step may grow (stable, and within the
-    search's coarse tolerances) and whether the scenario's own step meets the accuracy limits (SPEC §12: RMS
-    against the continuous reference), naming the worst signal when it does not."""
+    search's coarse tolerances; ``h_bad`` None: no step up to the search's ceiling failed) and whether the
+    scenario's own step meets the accuracy limits (SPEC §12: RMS against the continuous reference), naming the
+    worst signal of each limit missed."""
     from hydrohil.circuits.accuracy import LIMIT_POSITION, LIMIT_PRESSURE, LIMIT_SPEED
-    out = (f"stable up to {h_max * 1e3:.3g} ms (within {tol_x * 1e3:g} mm and {tol_p / 1e5:g} bar RMS of the "
-           f"reference, --tol-x/--tol-p); at the scenario's step {h * 1e3:g} ms the accuracy limits ("
-           f"{LIMIT_POSITION * 1e3:g} mm, {LIMIT_PRESSURE:.0%} of the highest pressure, {LIMIT_SPEED:.0%} in "
-           "speed RMS) ")
+    tols = f"within {tol_x * 1e3:g} mm and {tol_p / 1e5:g} bar RMS of the reference, --tol-x/--tol-p"
+    if h_max is None:
+        out = f"no step is stable ({tols}), down to 1/1000 of the scenario's step; "
+    else:
+        out = (f"stable up to {'at least ' if h_bad is None else ''}{h_max * 1e3:.3g} ms ({tols}); ")
+    out += (f"at the scenario's step {h * 1e3:g} ms the accuracy limits ({LIMIT_POSITION * 1e3:g} mm, "
+            f"{LIMIT_PRESSURE:.0%} of the highest pressure, {LIMIT_SPEED:.0%} in speed RMS) ")
     if acc.holds:
         return out + "hold"
     d = acc.as_dict()
     worst = []
-    if acc.worst_position > LIMIT_POSITION:
-        name = max(d["rms_position_m"], key=d["rms_position_m"].get)
-        worst.append(f"{name} {acc.worst_position * 1e3:.3g} mm")
-    if acc.worst_pressure > LIMIT_PRESSURE:
-        worst.append(f"pressure {acc.worst_pressure:.2%} of the highest")
-    if acc.worst_speed > LIMIT_SPEED:
-        name = max(d["rms_speed_relative"], key=d["rms_speed_relative"].get)
-        worst.append(f"{name} {acc.worst_speed:.2%}")
-    return out + f"do not hold: {', '.join(worst)} RMS"
+    for values, limit, text in (
+            (d["rms_position_m"], LIMIT_POSITION, lambda v: f"{v * 1e3:.3g} mm"),
+            ({k: v / acc.p_highest if acc.p_highest > 0 else 0.0 for k, v in d["rms_pressure_pa"].items()},
+             LIMIT_PRESSURE,
+             lambda v: f"{v:.2%} of the highest pressure"),
+            (d["rms_speed_relative"], LIMIT_SPEED, lambda v: f"{v:.2%}")):
+        missed = {k: v for k, v in values.items() if not v <= limit}      # (NaN: missed, not finite)
+        if missed:
+            name = max(missed, key=lambda k: math.inf if missed[k] != missed[k] else missed[k])
+            v = missed[name]
+            worst.append(f"{name} {'not finite' if v != v else text(v)}")
+    return out + f"do not hold: {', '.join(worst) or 'not finite'} RMS"
 
 
 def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol_p: float = 10e5,
@@ -222,7 +230,7 @@ def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol
         return r["stable"]
 
     lo, hi = largest_stable(test, h0=h_out, rel_tol=rel_tol, h_min=h_out / 1000, h_max=h_max)
-    return {"verdict": circuit_verdict(lo, tol_x, tol_p, h_out, at_step),
+    return {"verdict": circuit_verdict(lo, hi, tol_x, tol_p, h_out, at_step),
             "max_stable_step": lo, "first_unstable_step": hi, "model": "hybrid", "solver": solver,
             "scenario": cs.source, "circuit": c.name, "duration": cs.duration, "tol_x_m": tol_x, "tol_p_pa": tol_p,
             "criteria": "finite, pressures <= 1.5x the reference's highest, RMS error vs the circuit's continuous "

@@ -294,7 +294,7 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
                 initial, nodes, fixed)
     if not fixed:
         raise _err(source, "components", "no tank or pressure source: every circuit needs one (its return line)")
-    _single_port_nodes(components, nodes, source)
+    _single_port_nodes(components, nodes, source, set(node_volumes) | set(initial))
     for node in c.state_nodes:
         if c.node_volume(node) <= 0.0:
             raise _err(source, f"nodes.{node}", "this node has no volume: give [nodes.NAME] volume = ... or attach a "
@@ -319,20 +319,21 @@ def _warn_implausible(ctype: ComponentType, body: dict, values: dict, source: st
                           stacklevel=3)
 
 
-def _single_port_nodes(components: dict, nodes: list[str], source: str) -> None:
-    """A node only one port is at: a port connected to nothing, most often a node's name misspelt (the nearest
-    other node named); a port plugged on purpose has its dead volume: a ``volume`` component at the node."""
+def _single_port_nodes(components: dict, nodes: list[str], source: str, declared: set) -> None:
+    """A node only one port is at and the file says nothing else of (``declared``: the nodes of [nodes] and
+    [initial]): a port connected to nothing, most often a node's name misspelt (the nearest other node named); a
+    port plugged on purpose is declared: its dead volume in [nodes.NAME]."""
     at: dict[str, list[str]] = {n: [] for n in nodes}
     for comp in components.values():
         for port, node in comp.ports.items():
             at[node].append(f"{comp.name}.{port}")
     for node in nodes:
-        if len(at[node]) == 1:
+        if len(at[node]) == 1 and node not in declared:
             close = closest_name(node, [n for n in nodes if n != node], cutoff=0.5)
             hint = f" (did you mean '{close}'?)" if close else ""
             raise _err(source, f"components.{at[node][0]}",
                        f"node '{node}' connects to nothing else: only {at[node][0]} is at it{hint}; a port "
-                       f"plugged on purpose: a volume component at the node (its dead volume)")
+                       f"plugged on purpose: give its dead volume, [nodes.{node}] volume = \"...\"")
 
 
 def _table(t, spec: tuple, source: str, where: str) -> tuple[np.ndarray, np.ndarray]:
@@ -396,7 +397,7 @@ _PRESSURE = Param("Pa", -1e5, 1e9, "pressure (gauge)")
 def _value(body: dict, key: str, prm, source: str, where: str) -> float:
     if key not in body:
         if prm.default is None:
-            raise _err(source, f"{where}.{key}", f"required: {prm.description} [{prm.unit}]")
+            raise _err(source, f"{where}.{key}", f"required: {prm.text(where.rpartition('.')[2])} [{prm.unit}]")
         return prm.default
     try:
         v = to_si(body[key], prm.unit)

@@ -15,7 +15,7 @@ import tempfile
 from pathlib import Path
 
 from hydrohil.circuits.circuit import Circuit
-from hydrohil.errors import InputError
+from hydrohil.errors import HydrohilError, InputError
 
 LINE = "#3060a0"         # hydraulic lines
 FAULT = "#c02020"
@@ -98,14 +98,15 @@ def _label(title: str, lines: list[str], sym, image: Path, colour: str, ports: d
         f'<BR/><FONT POINT-SIZE="9" COLOR="{colour}">{html.escape(t)}</FONT>' for t in lines)
     symbol = (f'<TD><TABLE BORDER="0" CELLBORDER="0" CELLSPACING="0" CELLPADDING="0">'
               f'<TR><TD>{_port_row(ports, "n", w)}</TD></TR>'
-              f'<TR><TD PORT="img" FIXEDSIZE="TRUE" WIDTH="{w}" HEIGHT="{h}"><IMG SRC="{image}" SCALE="TRUE"/></TD>'
+              f'<TR><TD PORT="img" FIXEDSIZE="TRUE" WIDTH="{w}" HEIGHT="{h}"><IMG SRC="{html.escape(str(image))}" '
+              f'SCALE="TRUE"/></TD>'
               f'</TR><TR><TD>{_port_row(ports, "s", w)}</TD></TR></TABLE></TD>')
     words = f'<TD ALIGN="LEFT" BALIGN="LEFT" VALIGN="MIDDLE" CELLPADDING="4">{text}</TD>'
     return (f'<<TABLE BORDER="0" CELLBORDER="0" CELLSPACING="0" CELLPADDING="0"><TR>'
             f'{words + symbol if left else symbol + words}</TR></TABLE>>')
 
 
-def _controller(g, loop) -> None:
+def _controller(g, loop, components) -> None:
     """A closed loop's controller as a block: its law and gains, the measured signal from its component (dashed,
     into the block), the command to the driven component's actuator (dashed arrow)."""
     cfg = loop.cfg
@@ -117,8 +118,10 @@ def _controller(g, loop) -> None:
     g.node("loop__controller", label=label, shape="box", style="rounded,dashed", color=SIGNAL, fontcolor=SIGNAL,
            fontsize="10")
     measured, commanded = loop.measure.split(".", 1)[0], loop.command.split(".", 1)[0]
-    g.edge(f"c__{measured}", "loop__controller", tailport="img:w", label=loop.measure, style="dashed", color=SIGNAL,
-           fontcolor=SIGNAL, arrowhead="normal", penwidth="1.0", constraint="false")
+    source = {"tailport": "img:w"} if measured in components else {}      # (a node's pressure: from its dot)
+    g.edge(f"c__{measured}" if measured in components else f"n__{measured}", "loop__controller",
+           label=loop.measure, style="dashed", color=SIGNAL, fontcolor=SIGNAL, arrowhead="normal", penwidth="1.0",
+           constraint="false", **source)
     with g.subgraph() as same:
         same.attr(rank="same")
         same.node("loop__controller")
@@ -192,7 +195,7 @@ def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None, loop=N
                 g.edge(f"c__{comp.name}", f"c__{comp.coupled}", tailport="img:e", headport="img:s",
                        label=comp.type.coupling.part, color="#555555:#555555", penwidth="1.2")
         if loop is not None:                          # the controller: measured signal in, command out
-            _controller(g, loop)
+            _controller(g, loop, c.components)
         for sig in c.inputs:
             comp = sig.split(".", 1)[0]
             if sig not in fault_signals and sig.split(".", 1)[1] not in c.components[comp].type.params:
@@ -209,11 +212,15 @@ def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None, loop=N
             g.edge(f"s__{sig}", f"c__{comp}", headport="img:w", style="dashed", color=colour, arrowhead="normal",
                    penwidth="1.0")
         out.parent.mkdir(parents=True, exist_ok=True)
-        g.render(outfile=str(out), cleanup=True)
+        try:
+            g.render(outfile=str(out), cleanup=True)
+        except (graphviz.ExecutableNotFound, graphviz.CalledProcessError) as exc:
+            raise HydrohilError(f"Graphviz's dot could not draw {c.name!r} ({c.source}): {exc}") from None
         if fmt == "svg":                                # the symbols inside the file, not beside it
             text = out.read_text()
             for path in images.values():
                 data = base64.b64encode(path.read_bytes()).decode()
-                text = text.replace(f'"{path}"', f'"data:image/png;base64,{data}"')
+                for written in {str(path), html.escape(str(path))}:    # (as dot wrote the file's name)
+                    text = text.replace(f'"{written}"', f'"data:image/png;base64,{data}"')
             out.write_text(text)
     return out

@@ -254,6 +254,14 @@ def write_circuit_scenario(path: str | Path, dest: str | Path, *, sets: dict, re
     return dest
 
 
+# a circuit loop's [controller] keys beside its law's (hydrohil.control): the signals it closes on, the command's
+# range, the sensor, a state feedback's load pressure
+LIMIT_KEYS = ("u_min", "u_max")
+SENSOR_KEYS = ("sensor_resolution", "sensor_min", "sensor_max", "sensor_noise")
+FEEDBACK_KEYS = ("load_pressure", "pressure_range", "pressure_resolution")
+LOOP_KEYS = ("measure", "command", *LIMIT_KEYS, *SENSOR_KEYS, "sensor_seed", "action", *FEEDBACK_KEYS)
+
+
 def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
     """The closed loop of [controller] + [reference]: the core's built-in law (hydrohil.control) with its gains
     checked as a paper scenario's are, the measured signal and the driven input named, the reference in the
@@ -276,10 +284,9 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
         if not isinstance(table.get(key), str):
             raise InputError("the signal's name, component.variable", source=source, key=f"controller.{key}")
     measure, command = table.pop("measure"), table.pop("command")
-    limits = {k: table.pop(k) for k in ("u_min", "u_max") if k in table}     # (the command's unit, not ū)
-    sensor_keys = {k: table.pop(k) for k in ("sensor_resolution", "sensor_min", "sensor_max", "sensor_noise")
-                   if k in table}
-    feedback = {k: table.pop(k) for k in ("load_pressure", "pressure_range", "pressure_resolution") if k in table}
+    limits = {k: table.pop(k) for k in LIMIT_KEYS if k in table}     # (the command's unit, not ū)
+    sensor_keys = {k: table.pop(k) for k in SENSOR_KEYS if k in table}
+    feedback = {k: table.pop(k) for k in FEEDBACK_KEYS if k in table}
     seed = table.pop("sensor_seed", 0)
     if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2 ** 63):
         raise InputError(f"a whole number >= 0, got {seed!r}", source=source, key="controller.sensor_seed")
@@ -298,9 +305,7 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
         extra = [e for e in errors if e["type"] == "extra_forbidden"]
         if extra:                                   # a misspelt key: named with the nearest (not "kp missing")
             key = str(extra[0]["loc"][-1])
-            valid = [*LOOP_CFG[table["type"]].model_fields, "measure", "command", "u_min", "u_max",
-                     "sensor_resolution", "sensor_min", "sensor_max", "sensor_noise", "sensor_seed", "action",
-                     "load_pressure", "pressure_range", "pressure_resolution"]
+            valid = [*LOOP_CFG[table["type"]].model_fields, *LOOP_KEYS]
             raise InputError(unknown_name(key, valid, prefix="controller."), source=source,
                              key=f"controller.{key}") from None
         e = errors[0]
@@ -355,7 +360,11 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
                          key="reference") from None
     if not valid_table_times(ts, ref.get("interpolation") == "linear"):
         raise InputError(TABLE_TIMES, source=source, key="reference.t")
-    _warn_beyond_stroke(c, measure, ts, vs, v, source)
+    comp, _, var = measure.partition(".")
+    if comp in c.components and var == "x" and "stroke" in c.components[comp].values:
+        from hydrohil.models.cylinder import warn_beyond_stroke
+        warn_beyond_stroke(ts, vs, c.components[comp].values["stroke"], source, "reference value", f"{comp}.stroke",
+                           given=v)
     encoder = sensor is not None and sensor[0] > 0 and units[measure] in ("m", "rad")   # (counts: a position)
     loop = Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi),
                 sensor=sensor, sign=-1.0 if action == "reverse" else 1.0, seed=seed, encoder=encoder,
@@ -367,25 +376,6 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
         loop.user_callable()                    # (its module and name checked now; instantiated for each run)
     _load_pressure(loop, feedback, c, source)
     return loop
-
-
-def _warn_beyond_stroke(c: Circuit, measure: str, ts, vs, given: list, source: str) -> None:
-    """A piston's reference outside [0, stroke] cannot be reached: warn (the run is still valid), saying how a
-    number without its unit is read (metres: "200 mm" was meant for 200)."""
-    import warnings
-    import numpy as np
-    from hydrohil.errors import InputWarning
-    comp, _, var = measure.partition(".")
-    stroke = c.components[comp].values.get("stroke") if comp in c.components and var == "x" else None
-    if stroke is None:
-        return
-    beyond = np.maximum(-vs, vs - stroke)
-    i = int(np.argmax(beyond))
-    if beyond[i] > 0:
-        bare = " (a number without a unit is in m)" if not isinstance(given[i], str) else ""
-        warnings.warn(f"{source}: reference value {given[i]!r} = {vs[i]:g} m (at t = {ts[i]:g} s) lies outside "
-                      f"{comp}'s stroke [0, {stroke:g}] m{bare}: the piston stops at its end stop there",
-                      InputWarning, stacklevel=4)
 
 
 def _load_pressure(loop: Loop, feedback: dict, c: Circuit, source: str) -> None:

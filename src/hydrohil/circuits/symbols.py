@@ -21,8 +21,8 @@ DASH = (0, (4, 2.5))
 
 @dataclass(frozen=True)
 class Symbol:
-    """A symbol's size [in] and its ports: port -> (side "n" or "s", x as a fraction of the width); a rod or
-    shaft leaves at its right edge (a mechanical coupling is drawn from there)."""
+    """A symbol's size [in] and its ports: port -> (side "n" or "s", x as a fraction of the width); an
+    actuator's rod or shaft leaves at its right edge (its coupling to a load is drawn from there)."""
     draw: Callable
     width: float
     height: float

@@ -163,8 +163,10 @@ def _when(v: When) -> str:
 class Bounds(_Expect):
     type: Literal["bounds"]
     signal: str = _signal_field()
-    min: float | None = Field(None, description="lower bound [signal's SI unit, or \"<number> <unit>\"]")
-    max: float | None = Field(None, description="upper bound [signal's SI unit, or \"<number> <unit>\"]")
+    min: float | None = Field(None, description="lower bound [signal's SI unit; a sequence file may write "
+                              "\"<number> <unit>\"]")
+    max: float | None = Field(None, description="upper bound [signal's SI unit; a sequence file may write "
+                              "\"<number> <unit>\"]")
 
     @model_validator(mode="after")
     def _check(self):

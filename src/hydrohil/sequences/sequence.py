@@ -404,15 +404,18 @@ VALUE_KEYS = {"bounds": ("min", "max"), "reaction": ("margin", "below", "above")
 
 
 def _expectation_units(data: dict, path: Path, circuit: Path | None) -> None:
-    """An expectation's level given with its unit ("170 bar", "2 mm") in its signal's SI unit, in place (a
-    bound on a circuit's signal: the unit its run logs; a loop's tolerance: the measured signal's); a unit of
-    another quantity names the key and the unit wanted."""
+    """An expectation's level in a sequence file given with its unit ("170 bar", "2 mm") in its signal's SI
+    unit, in place (a bound on a circuit's signal: the unit its run logs; a loop's tolerance: the measured
+    signal's); a unit of another quantity names the key and the unit wanted. (Python's expectations, the pytest
+    plugin's, take SI numbers.)"""
     from hydrohil.circuits.units import to_si
     from hydrohil.sequences.expectations import UNITS
     units = None
     for i, e in enumerate(data.get("expect") or []):
-        if not isinstance(e, dict) or not any(isinstance(e.get(k), str) for k in VALUE_KEYS.get(e.get("type"), ())):
-            continue
+        kind = e.get("type") if isinstance(e, dict) else None
+        if not isinstance(kind, str) or not isinstance(e.get("signal", ""), str) or not any(
+                isinstance(e.get(k), str) for k in VALUE_KEYS.get(kind, ())):
+            continue                          # (a malformed entry: the schema's validation names it)
         if units is None:
             units = dict(UNITS) if circuit is None else _circuit_units(circuit)
         loop_signal = "error" if e["type"] in ("tracking", "step_response") else None

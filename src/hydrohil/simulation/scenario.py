@@ -9,14 +9,14 @@ from __future__ import annotations
 import bisect
 import math
 import os
-import warnings
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from hydrohil.errors import InputError, InputWarning
+from hydrohil.errors import InputError
+from hydrohil.models.cylinder import warn_beyond_stroke
 from hydrohil.parameters import Parameters, format_validation_error, load_parameters, read_toml
 from hydrohil.parameters.schema import StrictModel
 from hydrohil.control import ControllerCfg, anchor_controller
@@ -275,17 +275,6 @@ class LoadedScenario(BaseModel):
                                base=Path(self.source).parent, source=self.source)
 
 
-def _warn_reference_beyond_stroke(ref: TableReference, stroke: float, path: Path) -> None:
-    """A position reference outside [0, stroke] cannot be reached: warn (the run is still valid)."""
-    x = np.asarray(ref.x)
-    beyond = np.maximum(-x, x - stroke)
-    i = int(np.argmax(beyond))
-    if beyond[i] > 0:
-        warnings.warn(f"{path}: reference.x = {x[i]:g} m (at t = {ref.t[i]:g} s) lies outside the stroke "
-                      f"[0, {stroke:g}] m (cylinder.stroke): the piston stops at the end stop there",
-                      InputWarning, stacklevel=3)
-
-
 def scenario_data(path: str | Path, *, params: str | Path | None = None, sets: dict | None = None) -> dict:
     """The scenario file's table with the command line's parameter choice applied: ``params`` (a set's
     name or a TOML path, relative to the working directory) replaces the scenario's ``params``; ``sets``
@@ -361,7 +350,7 @@ def load_scenario(path: str | Path, *, solver: str | None = None, step: float | 
     if not 0.0 <= sc.initial.xp <= L:
         raise InputError(f"must lie in [0, {L}] m (cylinder.stroke)", source=str(path), key="initial.xp")
     if sc.reference is not None:
-        _warn_reference_beyond_stroke(sc.reference, L, path)
+        warn_beyond_stroke(sc.reference.t, sc.reference.x, L, str(path), "reference.x", "cylinder.stroke")
     return LoadedScenario(scenario=sc, params=params, source=str(path))
 
 
