@@ -272,3 +272,31 @@ def test_reference_inside_stroke_does_not_warn():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         load_scenario(EXAMPLES / "fig11_p_control.toml")
+
+
+@pytest.mark.parametrize("args", [
+    ("simulate", EXAMPLES / "fig11_p_control.toml", "--out", "{file}"),
+    ("hil", EXAMPLES / "fig11_p_control.toml", "--lockstep", "--out", "{file}"),
+    ("test", EXAMPLES / "sequences" / "fig11_p_passes.toml", "--out", "{file}"),
+    ("circuit", "draw", "two_cylinders", "--out", "{file}/x.png"),
+    ("identify", "friction-static", EXAMPLES / "identification" / "friction_static.csv", "--out", "{file}/x.toml"),
+])
+def test_an_out_that_cannot_be_written_is_refused_before_anything_runs(tmp_path, args):
+    """--out naming an existing file (a folder wanted) or a path through a file: exit 2 at once, the option and
+    the file named, no traceback, nothing run."""
+    f = tmp_path / "afile"
+    f.write_text("mine\n")
+    r = hh(*[str(a).format(file=f) for a in args])
+    assert r.returncode == 2 and "Invalid value for '--out'" in r.stderr and str(f) in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr and f.read_text() == "mine\n"
+
+
+def test_a_command_lines_bad_value_is_blamed_on_its_option_not_the_file(tmp_path):
+    """--step and --solver out of range name the option (the scenario file is right), on the paper's rig and on
+    a circuit scenario alike."""
+    for scen in (EXAMPLES / "fig11_p_control.toml", EXAMPLES / "circuits" / "two_cylinders" / "scenario.toml"):
+        r = hh("simulate", scen, "--out", tmp_path / "o", "--step", "-0.001")
+        assert r.returncode == 2 and r.stderr.startswith("error: --step: "), r.stderr
+        r = hh("simulate", scen, "--out", tmp_path / "o", "--solver", "rk5")
+        assert r.returncode == 2 and r.stderr.startswith("error: --solver: ") and "rk5" in r.stderr, r.stderr
+    assert not (tmp_path / "o").exists()

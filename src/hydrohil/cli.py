@@ -16,6 +16,34 @@ from hydrohil.errors import HydrohilError, InputError
 from hydrohil.hil.commands import controller_cmd, plant_cmd
 from hydrohil.terminal import fail, interruptible, show_warnings_as_lines
 
+
+def out_folder(value: Path | None) -> Path | None:
+    """--out of a folder: refused at once (exit 2, before any run) when it names an existing file, or a path
+    through one."""
+    if value is not None:
+        _through_a_file(value)
+        if value.exists() and not value.is_dir():
+            raise typer.BadParameter(f"{value} exists and is not a folder")
+    return value
+
+
+def out_file(value: Path | None) -> Path | None:
+    """--out of a file: refused at once (exit 2) when it names a folder or its folder's path goes through a
+    file."""
+    if value is not None:
+        _through_a_file(value)
+        if value.is_dir():
+            raise typer.BadParameter(f"{value} is a folder: give a file's name")
+    return value
+
+
+def _through_a_file(value: Path) -> None:
+    for parent in value.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise typer.BadParameter(f"{parent} is a file, not a folder: {value} cannot be written")
+            return
+
 # rich_markup_mode=None: help texts are plain text, so bracketed units such as "[s]", "[s:m]" and "[hil]"
 # are printed as written (rich markup would swallow them as style tags)
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
@@ -127,7 +155,7 @@ def simulate_circuit_scenario(scenario: Path, out: Path, solver: Optional[str] =
 
 @app.command("simulate")
 def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
-                 out: Path = typer.Option(Path("hydrohil-out"), "--out", help="output folder"),
+                 out: Path = typer.Option(Path("hydrohil-out"), "--out", callback=out_folder, help="output folder"),
                  solver: Optional[str] = typer.Option(None, help="euler|heun|rk3|rk4|reference"),
                  step: Optional[float] = typer.Option(None, help="fixed step / sample time [s]"),
                  plot: bool = typer.Option(True, help="write simulation.png (a circuit scenario: plot.png)"),
@@ -156,7 +184,7 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
 @app.command("compare")
 def compare_cmd(runs: list[Path] = typer.Argument(..., help="scenario TOMLs (simulated) or run folders of "
                                                  "`hydrohil simulate`"),
-                out: Path = typer.Option(Path("hydrohil-compare"), "--out", help="output folder"),
+                out: Path = typer.Option(Path("hydrohil-compare"), "--out", callback=out_folder, help="output folder"),
                 labels: Optional[str] = typer.Option(None, help="comma-separated labels, one per run"),
                 title: str = typer.Option("", help="figure title"),
                 params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path) for "
@@ -182,7 +210,7 @@ def compare_cmd(runs: list[Path] = typer.Argument(..., help="scenario TOMLs (sim
 @app.command("freqresp")
 def freqresp_cmd(scenario: Path = typer.Argument(..., help="scenario TOML (its parameters, step and controller), or a "
                                                  "scenario naming its circuit"),
-                 out: Path = typer.Option(Path("hydrohil-freqresp"), "--out", help="output folder"),
+                 out: Path = typer.Option(Path("hydrohil-freqresp"), "--out", callback=out_folder, help="output folder"),
                  amplitude: Optional[float] = typer.Option(None, help="closed loop: reference amplitude [m] (default "
                                                            "1 mm; a circuit's: in its measured signal's SI unit, "
                                                            "default by unit: 1 mm, 2 rad/s, 1 bar, ...)"),
@@ -360,7 +388,7 @@ def linear_cmd(params: Optional[str] = typer.Option(None, "--params", help="para
                                                     "(against +x)"),
                friction: bool = typer.Option(True, help="friction's local viscous slope in the model"),
                as_json: bool = typer.Option(False, "--json", help="print JSON (every matrix)"),
-               out: Optional[Path] = typer.Option(None, "--out", help="write the model(s): .npz, .mat or .json")):
+               out: Optional[Path] = typer.Option(None, "--out", callback=out_file, help="write the model(s): .npz, .mat or .json")):
     """The plant linearised at rest: equilibrium spool offset and pressures, A/B/C/D, eigenvalues,
     hydraulic natural frequency and damping, checked against the closed form."""
     try:
@@ -419,7 +447,7 @@ def circuit_show(circuit: Optional[str] = typer.Argument(None, help="built-in na
 @circuit_app.command("draw")
 def circuit_draw(circuit: str | None = typer.Argument(None, help="built-in name (an example circuit or a parameter "
                                                                   "set) or circuit TOML"),
-                 out: Path = typer.Option(..., "--out", help="F.png or F.svg"),
+                 out: Path = typer.Option(..., "--out", callback=out_file, help="F.png or F.svg"),
                  scenario: Path | None = typer.Option(None, "--scenario", help="a scenario naming its circuit: "
                                                       "drawn as it runs it, its faults marked")):
     """The circuit drawn with ISO 1219 symbols (laid out by Graphviz): each component's symbol with its key
@@ -450,7 +478,7 @@ def circuit_convert(scenario: Path, out: Path, params: Optional[str] = None, set
 
 @circuit_app.command("convert")
 def circuit_convert_cmd(scenario: Path = typer.Argument(..., help="a scenario of the paper's rig (params = ...)"),
-                        out: Path = typer.Option(..., "--out", help="folder for circuit.toml and scenario.toml"),
+                        out: Path = typer.Option(..., "--out", callback=out_folder, help="folder for circuit.toml and scenario.toml"),
                         params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML "
                                                              "path) in place of the scenario's"),
                         sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on "
@@ -469,7 +497,7 @@ def circuit_convert_cmd(scenario: Path = typer.Argument(..., help="a scenario of
 
 @circuit_app.command("run")
 def circuit_run(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or circuit TOML"),
-                out: Path = typer.Option(..., "--out", help="folder for log.csv and plot.png"),
+                out: Path = typer.Option(..., "--out", callback=out_folder, help="folder for log.csv and plot.png"),
                 duration: Optional[float] = typer.Option(None, "--duration", help="[s] (default: the inputs' "
                                                          "last change + 2 s)"),
                 step: float = typer.Option(5e-4, "--step", help="fixed step [s]"),
@@ -534,7 +562,7 @@ def circuit_linear_cmd(circuit: Optional[str] = typer.Argument(None, help="built
                                                           "scenario's run at this time [s] (default: at rest)"),
                        sets: list[str] = typer.Option([], "--set", help="component.key=value (repeatable)"),
                        as_json: bool = typer.Option(False, "--json", help="print JSON (A, B, the modes)"),
-                       out: Optional[Path] = typer.Option(None, "--out", help="write the model: .json or .npz")):
+                       out: Optional[Path] = typer.Option(None, "--out", callback=out_file, help="write the model: .json or .npz")):
     """The circuit linearised at its state at rest (or at --at of a scenario's run): A, B by central differences
     of its generated right-hand side, its eigenvalues as time constants and as natural frequencies with their
     damping; with a scenario's loop, the closed loop's poles (P and PI, the law taken continuous)."""
@@ -590,7 +618,7 @@ def export_fmu(out: Path, params: str = "ferreira2004", fmi: int = 2, step: Opti
 
 
 @export_app.command("fmu")
-def export_fmu_cmd(out: Path = typer.Option(..., "--out", help="FMU file to write (.fmu)"),
+def export_fmu_cmd(out: Path = typer.Option(..., "--out", callback=out_file, help="FMU file to write (.fmu)"),
                    params: str = typer.Option("ferreira2004", "--params", help="parameter set (name or path)"),
                    fmi: int = typer.Option(2, "--fmi", help="FMI version: 2 or 3"),
                    step: Optional[float] = typer.Option(None, "--step", help="internal fixed step [s] (default: "
@@ -736,7 +764,7 @@ def identify(procedure: str, data: Path, out: Optional[Path] = None, params: str
 def identify_cmd(procedure: str = typer.Argument(..., help="spool|valve-static|bulk-modulus|leakage|"
                                                  "friction-static|friction-dynamic|all"),
                  data: Path = typer.Argument(..., help="input file (CSV/TOML; for `all` the chain config)"),
-                 out: Optional[Path] = typer.Option(None, "--out", help="parameter file to write (TOML)"),
+                 out: Optional[Path] = typer.Option(None, "--out", callback=out_file, help="parameter file to write (TOML)"),
                  params: str = typer.Option("ferreira2004", help="starting parameter set (name or path)"),
                  report: Optional[Path] = typer.Option(None, "--report", help="folder for the fit figures"),
                  as_json: bool = typer.Option(False, "--json", help="print the fitted values as one JSON object"),
@@ -800,7 +828,7 @@ def hil(scenario: Path, out: Path, lockstep: bool = False, progress: bool = True
 @app.command("hil")
 def hil_cmd(scenario: Path = typer.Argument(..., help="closed-loop scenario TOML (optional [hil] table), or a "
                                             "circuit scenario (open or closed loop)"),
-            out: Path = typer.Option(Path("hydrohil-hil"), "--out", help="output folder"),
+            out: Path = typer.Option(Path("hydrohil-hil"), "--out", callback=out_folder, help="output folder"),
             lockstep: bool = typer.Option(False, help="deterministic lock-step exchange, as fast as possible"),
             plant: str = typer.Option("python", "--plant", help="python: `hydrohil plant`; c: the standalone C "
                                       "plant of `hydrohil export c`, built on first use (cached)"),
@@ -889,7 +917,7 @@ def panel(scenario: Optional[Path] = None, out: Path = Path("hydrohil-panel"), c
 @app.command("panel")
 def panel_cmd(scenario: Optional[Path] = typer.Argument(None, help="closed-loop scenario TOML (default: the paper's "
                                                        "Fig 11 experiment), or a scenario naming its circuit"),
-              out: Path = typer.Option(Path("hydrohil-panel"), "--out", help="folder of the sessions and recordings"),
+              out: Path = typer.Option(Path("hydrohil-panel"), "--out", callback=out_folder, help="folder of the sessions and recordings"),
               controller: str = typer.Option("builtin", "--controller", help="builtin: the scenario's controller "
                                              "process; external: wait for yours on 127.0.0.1:47000"),
               port: int = typer.Option(8050, "--port", help="HTTP port of the page (0: any free port)"),
@@ -935,7 +963,7 @@ def run_sequences(sequences: list[Path], out: Path = Path("hydrohil-test"), mode
 
 @app.command("test")
 def test_cmd(sequences: list[Path] = typer.Argument(..., help="test sequence TOMLs (examples/sequences/)"),
-             out: Path = typer.Option(Path("hydrohil-test"), "--out", help="report folder (report.md, one folder per "
+             out: Path = typer.Option(Path("hydrohil-test"), "--out", callback=out_folder, help="report folder (report.md, one folder per "
                                       "sequence)"),
              mode: Optional[str] = typer.Option(None, "--mode", help="offline | lockstep | realtime (default: offline; "
                                                 "lockstep with --controller)"),
@@ -977,7 +1005,7 @@ def sweep(study: Path, out: Path = Path("hydrohil-sweep"), scheduler: Optional[s
 
 @app.command("sweep")
 def sweep_cmd(study: Path = typer.Argument(..., help="study TOML (examples/studies/)"),
-              out: Path = typer.Option(Path("hydrohil-sweep"), "--out", help="results folder (a rerun resumes)"),
+              out: Path = typer.Option(Path("hydrohil-sweep"), "--out", callback=out_folder, help="results folder (a rerun resumes)"),
               scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a Dask scheduler, e.g. "
                                                       "tcp://10.0.0.5:8786 (default: a local cluster)"),
               workers: Optional[int] = typer.Option(None, "--workers", min=1, help="local cluster: worker processes "
@@ -1025,7 +1053,7 @@ def demo(out: Path = Path("hydrohil-demo"), lockstep: bool = False, progress: bo
 
 
 @app.command("demo")
-def demo_cmd(out: Path = typer.Option(Path("hydrohil-demo"), "--out", help="report folder"),
+def demo_cmd(out: Path = typer.Option(Path("hydrohil-demo"), "--out", callback=out_folder, help="report folder"),
              lockstep: bool = typer.Option(False, help="lock-step instead of real time")):
     """The paper's Fig 11 and Fig 12 experiments as real-time HIL runs, with report and timing.
 
@@ -1088,7 +1116,7 @@ def reproduce(out: Path = Path("hydrohil-reproduce"), quick: bool = False, locks
 
 
 @app.command("reproduce")
-def reproduce_cmd(out: Path = typer.Option(Path("hydrohil-reproduce"), "--out", help="report folder"),
+def reproduce_cmd(out: Path = typer.Option(Path("hydrohil-reproduce"), "--out", callback=out_folder, help="report folder"),
                   quick: bool = typer.Option(False, help="lock-step HIL and a coarse step-size search (minutes "
                                                          "-> about 30 s)"),
                   lockstep: Optional[bool] = typer.Option(None, "--lockstep/--realtime",

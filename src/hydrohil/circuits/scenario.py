@@ -150,12 +150,14 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
         bad = sorted(set(solver_t) - SOLVER_KEYS)[0] if isinstance(solver_t, dict) else "solver"
         raise InputError(unknown_name(bad, sorted(SOLVER_KEYS), prefix="solver."), source=source, key=f"solver.{bad}")
     method = solver or solver_t.get("method", "rk3")
-    if method not in SOLVERS:
-        raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", source=source, key="solver.method")
+    if method not in SOLVERS:                   # (a command line's value named as its option)
+        raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", **(
+            {"source": "--solver"} if solver else {"source": source, "key": "solver.method"}))
     h = step if step is not None else solver_t.get("step", 5e-4)
     every = solver_t.get("output_every", 1)
     if not (isinstance(h, (int, float)) and 1e-7 <= h <= 0.1):
-        raise InputError(f"a fixed step in [1e-7, 0.1] s, got {h!r}", source=source, key="solver.step")
+        raise InputError(f"a fixed step in [1e-7, 0.1] s, got {h!r}", **(
+            {"source": "--step"} if step is not None else {"source": source, "key": "solver.step"}))
     if not (isinstance(every, int) and every >= 1):
         raise InputError(f"an integer >= 1, got {every!r}", source=source, key="solver.output_every")
     for key in ("set", "inputs", "hil"):

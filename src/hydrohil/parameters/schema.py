@@ -71,7 +71,7 @@ class Cylinder(StrictModel):
 
 class StaticFriction(StrictModel):
     fc: float = _f(0, 1e6, unit="N", doc="Coulomb force")
-    fs: float = _f(0, 1e6, unit="N", doc="breakaway force Fc + (Fs - Fc)")
+    fs: float = _f(0, 1e6, unit="N", doc="breakaway (static) force Fs: the Stribeck curve at v = 0")
     vs: float = _f(gt=0, hi=10, unit="m/s", doc="Stribeck velocity")
     kv: float = _f(0, 1e7, unit="N.s/m", doc="viscous coefficient")
 

@@ -250,7 +250,10 @@ def _circuit_hil_columns(cs, out: Path) -> tuple[dict, dict]:
 def run_suite(paths: list[str | Path], out: str | Path, *, mode: str = "offline", controller=None,
               junit: str | Path | None = None, report: bool = True, echo: Callable | None = None) -> list[SequenceResult]:
     """Run several sequence files, each into ``out/<name>/``; write ``out/report.md`` (a figure per failed
-    expectation) and, with ``junit``, a JUnit XML file. All files are validated before the first run."""
+    expectation) and, with ``junit``, a JUnit XML file. All files (and the mode) are validated before the first
+    run."""
+    if mode not in MODES:
+        raise InputError(f"must be one of {', '.join(MODES)}, got {mode!r}", source="--mode")
     seqs = [load_sequence(p) for p in paths]
     names = [slug(s.name) for s in seqs]
     dirs = [Path(out) / (n if names.count(n) == 1 else f"{n}_{i}") for i, n in enumerate(names)]

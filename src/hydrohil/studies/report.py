@@ -167,7 +167,11 @@ def _figures(study, cols, ok, passed, numeric, metric, folder: Path) -> list[Pat
 
 def _markdown(study, s: dict, figs: list[Path], out: Path) -> None:
     crit = s["criterion"]
-    what = (f"{crit['metric']} ≤ {crit['max']:g}" if isinstance(crit, dict) else crit)
+    if isinstance(crit, dict):                  # (in the unit the table shows: mm, bar, ...)
+        unit = _label(crit["metric"]).rpartition("[")[2].rstrip("]")
+        what = f"{crit['metric']} ≤ {crit['max'] * _scale(crit['metric']):g}" + (f" {unit}" if unit != "-" else "")
+    else:
+        what = crit
     lo, hi = s["p_fail_95ci"]
     lines = [f"# Study: {study.name}", "",
              f"{s['runs']} runs ({s['ran_this_time']} run now on {s['workers']} Dask worker(s), {s['wall_s']:.1f} s); "
