@@ -63,6 +63,12 @@ def test_export_and_make_with_the_users_compiler(tmp_path):
     assert lst.returncode == 0 and "load.mass" in lst.stdout and "watchdog_timeout" in lst.stdout
     row = next(line for line in lst.stdout.splitlines() if line.split()[:1] == ["load.mass"])
     assert row.split()[1] == "80" and "[kg]" in row
+    # exported and built (make's own compiler, cc): a plain `make` afterwards finds it up to date
+    built = tmp_path / "built"
+    assert hh("export", "c", "--out", built, "--params", "ferreira2004").returncode == 0
+    before = (built / "hydrohil_plant").stat().st_mtime_ns
+    m = subprocess.run(["make", "-C", str(built)], capture_output=True, text=True)
+    assert m.returncode == 0 and "cc " not in m.stdout and (built / "hydrohil_plant").stat().st_mtime_ns == before
 
 
 @pytest.mark.slow

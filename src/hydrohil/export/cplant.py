@@ -333,7 +333,8 @@ def build(folder: str | Path, *, cc: str | None = None, env: dict | None = None)
     from hydrohil.core.build import c_compiler
     folder = Path(folder)
     env = dict(os.environ if env is None else env)
-    cc = cc or env.get("CC") or c_compiler()
+    cc = cc or env.get("CC") or ("cc" if shutil.which("cc") else c_compiler())   # (make's own default first:
+    # a plain `make` in the folder afterwards finds the same compiler and rebuilds nothing)
     if not shlex.split(cc) or shutil.which(shlex.split(cc)[0]) is None:
         raise InputError(f"no C compiler '{cc}' found: the standalone plant is built with make and a C compiler",
                          key="CC")
