@@ -238,6 +238,19 @@ def test_step_metrics_first_order_and_second_order_closed_forms():
     y = 1 - np.exp(-z * wn * s) * (np.cos(wd * s) + z / math.sqrt(1 - z * z) * np.sin(wd * s))
     m2, = step_metrics(t, x0 + a * y, ref)["moves"]
     assert m2["overshoot_pct"] == pytest.approx(100 * math.exp(-math.pi * z / math.sqrt(1 - z * z)), rel=1e-3)
+    assert mv["via"] is None and m2["via"] is None          # (a plain step: no way beyond from..to)
+
+
+def test_a_move_that_goes_the_other_way_first_says_via_where():
+    """Fig 12's second move: from the 100 mm hold the reference steps back to 60 mm, then ramps to the 140 mm
+    hold; the move is 100 -> 140 mm via 60 mm, and its line says so."""
+    from hydrohil.metrics import metrics_lines
+    t = np.arange(0, 4.0, 1e-3)
+    ref = np.interp(t, [0.0, 1.5, 1.5, 2.5, 4.0], [0.10, 0.10, 0.06, 0.14, 0.14])
+    m = step_metrics(t, ref, ref)
+    mv, = m["moves"]
+    assert (mv["from"], mv["to"], mv["via"]) == (0.10, 0.14, pytest.approx(0.06, abs=1e-12))
+    assert metrics_lines(m)[0].startswith("1: 100→140 mm (via 60)  rise ")
 
 
 def test_reference_table_sampled_alike_one_at_a_time_and_at_once():

@@ -8,7 +8,9 @@ the previous hold ended (a step, or a ramp). Per move, over [move start, hold en
 - ``overshoot``: the largest excursion beyond the hold's value during the hold [m], and in % of the move;
 - ``settling_time``: from the move's start until the position stays within ``band`` (a fraction of the
   move, 2 % by default, but never below ``min_band``) of the hold's value to the end of the hold [s];
-- ``steady_state_error``: hold value − mean position over the last 10 % of the hold [m].
+- ``steady_state_error``: hold value − mean position over the last 10 % of the hold [m];
+- ``via``: the reference's farthest point beyond from..to on its way (Fig 12's step back to 60 mm before its
+  ramp from 100 to 140 mm), else None: the move's figures are then those of that whole way.
 
 None where a move never gets there (e.g. it does not settle before the hold ends). Whole-run figures: RMS
 and largest |error|, the largest chamber pressures, and the friction's breakaways (stick-to-slip
@@ -66,8 +68,13 @@ def step_metrics(t, x, x_ref, p1=None, p2=None, *, sliding=None, band: float = 0
                 k = outside[-1] + 1 if outside.size else 0
                 settle = float(seg_t[k] - seg_t[0])
             tail = hold_x[int(0.9 * len(hold_x)):]
+            path = x_ref[s0:first + 1]             # the reference on its way: beyond from..to, it went via there
+            lo, hi = min(prev_val, r1), max(prev_val, r1)
+            via = float(path.min()) if path.min() < lo - MIN_MOVE else float(path.max()) if path.max() > hi + MIN_MOVE \
+                else None
             moves.append({
                 "start": float(t[s0]), "hold": [float(t[first]), float(t[last])], "from": prev_val, "to": r1,
+                "via": via,
                 "rise_time": None if t10 is None or t90 is None else t90 - t10,
                 "overshoot": over, "overshoot_pct": 100.0 * over / abs(amp),
                 "settling_time": settle, "band": tol,
@@ -92,7 +99,8 @@ def metrics_lines(m: dict) -> list[str]:
         return "-" if v is None else fmt.format(v * scale)
     lines = []
     for i, mv in enumerate(m["moves"], 1):
-        lines.append(f"{i}: {mv['from'] * 1e3:.0f}→{mv['to'] * 1e3:.0f} mm  rise {s(mv['rise_time'])} s  "
+        via = f" (via {mv['via'] * 1e3:.0f})" if mv.get("via") is not None else ""
+        lines.append(f"{i}: {mv['from'] * 1e3:.0f}→{mv['to'] * 1e3:.0f} mm{via}  rise {s(mv['rise_time'])} s  "
                      f"OS {mv['overshoot_pct']:.1f} %  ts({mv['band'] * 1e3:.2g} mm) {s(mv['settling_time'])} s  "
                      f"e_ss {mv['steady_state_error'] * 1e6:.1f} µm")
     return lines
