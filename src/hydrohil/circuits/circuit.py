@@ -204,8 +204,8 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
         for key in sorted(set(body) - set(ctype.params) - set(ctype.ports) - other - {"type"}):
             more = (f"; coupling: {cp.key}" if cp else "") + (f"; tables: {', '.join(ctype.tables)}"
                                                                 if ctype.tables else "")
-            valid = [*ctype.params, *ctype.ports, *sorted(other)]
-            hint = unknown_name(key, valid) if closest_name(key, valid) else f"unknown key '{key}'"
+            near = closest_name(key, [*ctype.params, *ctype.ports, *sorted(other)])
+            hint = f"unknown key '{key}'" + (f" (did you mean '{near}'?)" if near else "")
             raise _err(source, f"{where}.{key}", f"{hint}: not a parameter of a {ctype.name} (parameters: "
                                                  f"{', '.join(ctype.params)}; ports: {', '.join(ctype.ports)}"
                                                  f"{more})")
@@ -309,8 +309,6 @@ def _warn_implausible(ctype: ComponentType, body: dict, values: dict, source: st
     import warnings
     from hydrohil.errors import InputWarning
     from hydrohil.parameters.schema import PLAUSIBLE
-    if "wn" not in ctype.params:
-        return
     for key, bad, say in PLAUSIBLE:
         name = key.split(".")[1]
         v = body.get(name)

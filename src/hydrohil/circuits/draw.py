@@ -179,8 +179,8 @@ def draw_circuit(c: Circuit, out: str | Path, faults: list | None = None, loop=N
             lines = [t.replace("_", " "), *_figures(comp)]
             if comp.name in fault_parts:                    # a fault's part: red, its window said
                 lines.append(fault_parts[comp.name])
-            g.node(f"c__{comp.name}", label=_label(comp.name, lines, sym, images[(t, colour)], colour, ports, bool(comp.coupled)),
-                   shape="none", margin="0")
+            g.node(f"c__{comp.name}", shape="none", margin="0",
+                   label=_label(comp.name, lines, sym, images[(t, colour)], colour, ports, bool(comp.coupled)))
             for port, node in comp.ports.items():     # the power unit below, the actuators above (rankdir BT)
                 side = ports[port][0]
                 label = port if port != node else ""   # (a port named as its node: one label)

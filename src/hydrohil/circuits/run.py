@@ -371,14 +371,15 @@ class Loop:
 
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
                      inputs: dict | None = None, rest: bool | Hold = True, progress=None,
-                     loop: Loop | None = None) -> CircuitResult:
+                     loop: Loop | None = None, warn_unheld: bool = True) -> CircuitResult:
     """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
     (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
     circuit's ``[initial]`` keeps its value; a :class:`Hold`: with a piston held by an input's value). ``method`` "reference": the continuous reference generated from
     the same description (:mod:`hydrohil.circuits.reference`), from the same state at rest (settled by RK3 at
     ``h``), its log on the same grid; ``progress(step)`` is called now and then. Raises SimulationDiverged with
     the time, the modes and the state when the state leaves the finite (or the reference's solvers fail).
-    ``loop``: closed loop (:class:`Loop`); the log gets the controller's reference as a column."""
+    ``loop``: closed loop (:class:`Loop`); the log gets the controller's reference as a column. ``warn_unheld``:
+    warn when a piston started at rest is not held there (InputWarning: it moves at once)."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
@@ -422,7 +423,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         raise SimulationDiverged(k * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
                                  "a state is not finite")
     res.units = signal_units(c, lay)
-    if rest and len(log):
+    if rest and warn_unheld and len(log):
         _warn_unbalanced(c, res)
     return _with_drives(c, cc, res, u, every, loop)
 

@@ -28,12 +28,8 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
     if scenario is not None:
         res = simulate_circuit(c, scenario.duration, h=h, method=method, every=20, rest=scenario.rest,
                                loop=scenario.loop)
-    else:                                     # (a run for the nodes' stiffness: a piston that its default drive
-        import warnings                       # does not hold is no news here; a scenario's run says so)
-        from hydrohil.errors import InputWarning
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message=".* is not held at rest", category=InputWarning)
-            res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20)
+    else:                 # (a run for the nodes' stiffness: a piston its default drive leaves unheld is no news here)
+        res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20, warn_unheld=False)
     stiff = {s.node: s for s in node_stiffness(c, res)}
     lay = compile_circuit(c).layout
     comps = []

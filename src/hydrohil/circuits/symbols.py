@@ -92,9 +92,9 @@ def _source(ax, sym, c):
     _stubs(ax, sym, {"p": cy + r}, c)
 
 
-def _circle(cx, cy, r, c, fill="none"):
+def _circle(cx, cy, r, c):
     from matplotlib.patches import Circle
-    return Circle((cx, cy), r, fill=fill != "none", facecolor=fill, edgecolor=c, lw=LW)
+    return Circle((cx, cy), r, fill=False, edgecolor=c, lw=LW)
 
 
 def _rotating(ax, cx, cy, r, c, pump: bool):
@@ -127,12 +127,11 @@ def _motor(ax, sym, c):
         _line(ax, [(x, 0.0), (x, cy - np.sqrt(max(r * r - dx * dx, 0.0)))], c)
 
 
-def _relief(ax, sym, c, label=None):
+def _relief(ax, sym, c):
     """A pressure valve, normally closed: its square, the arrow off the flow line, the spring on the right, the
     dashed pilot line from the inlet (top) to the left side."""
-    w, h = sym.width, sym.height
     x0, x1, y0, y1 = 0.22, 0.22 + 0.44, 0.2, 0.64
-    xm = sym.ports["p"][1] * w
+    xm = sym.ports["p"][1] * sym.width
     _box(ax, x0, y0, x1, y1, c)
     _arrow(ax, (xm + 0.08, y1 - 0.05), (xm + 0.08, y0 + 0.05), c)
     _spring(ax, x1, x1 + 0.22, (y0 + y1) / 2, c)
@@ -340,9 +339,8 @@ SYMBOLS["servo_valve"] = Symbol(_servo, 2.14, 0.78, {p: (s, f * 2.28 / 2.14)
 
 
 def render(type_name: str, path: Path, colour: str = "black", dpi: int = 200) -> Symbol:
-    """Draw the symbol of component type ``type_name`` into the PNG ``path`` (transparent); returns it."""
-    import matplotlib
-    matplotlib.use("Agg", force=False)
+    """Draw the symbol of component type ``type_name`` into the PNG ``path`` (transparent); returns it. (A
+    Figure of its own, no pyplot: the process's backend is left as it is.)"""
     from matplotlib.figure import Figure
     sym = SYMBOLS[type_name]
     fig = Figure(figsize=(sym.width, sym.height), dpi=dpi)

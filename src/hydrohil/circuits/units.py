@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 import re
 
+from hydrohil.errors import closest_name
+
 # unit -> (factor to SI, SI unit)
 UNITS: dict[str, tuple[float, str]] = {
     "Pa": (1.0, "Pa"), "kPa": (1e3, "Pa"), "bar": (1e5, "Pa"), "MPa": (1e6, "Pa"), "psi": (6894.757293168, "Pa"),
@@ -44,7 +46,6 @@ def to_si(value, si_unit: str) -> float:
         if (unit, si_unit) in ALIASES:
             return _finite(float(m.group(1)) * ALIASES[unit, si_unit], value)
         if unit not in UNITS:
-            from hydrohil.errors import closest_name
             valid = [u for u, (_, s) in UNITS.items() if s == si_unit]
             near = closest_name(unit, valid)
             raise ValueError(f"unknown unit {unit!r} in {value!r}" + (f" (did you mean {near!r}?)" if near else "")

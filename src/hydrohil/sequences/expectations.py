@@ -46,6 +46,12 @@ DISPLAY = {"m": (1e3, "mm"), "Pa": (1e-5, "bar"), "m/s": (1e3, "mm/s"), "rad/s":
            "m3/s": (6e4, "l/min")}                                            # how people read these units
 
 
+def loop_units(units: dict, loop) -> dict:
+    """The units of a circuit loop's signals under the rig's names (x_ref, xp, error: its measured signal's; u:
+    its command's), from its run's ``units``."""
+    return {**dict.fromkeys(("x_ref", "xp", "error"), units.get(loop.measure, "")), "u": units[loop.command]}
+
+
 def unit_of(signal: str, units: dict | None = None) -> str:
     """A signal's SI unit: the rig's (UNITS) or, for a circuit's ``component.variable``, its run's."""
     return (units or {}).get(signal) or UNITS.get(signal, "")

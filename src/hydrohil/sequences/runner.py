@@ -19,7 +19,8 @@ from typing import Callable
 import numpy as np
 
 from hydrohil.errors import HydrohilError, InputError
-from hydrohil.sequences.expectations import Outcome, Predicate, Signals, evaluate, signals_from_columns
+from hydrohil.sequences.expectations import (Outcome, Predicate, Signals, evaluate, loop_units,
+                                             signals_from_columns)
 from hydrohil.sequences.sequence import LoadedSequence, load_sequence, slug
 
 MODES = ("offline", "lockstep", "realtime")
@@ -198,7 +199,7 @@ def _run_circuit_sequence(seq: LoadedSequence, out: Path, mode: str, controller,
             cols["x_ref"], cols["xp"] = cols[f"{lp.measure}.reference"], cols[lp.measure]
             cols["error"] = cols["x_ref"] - cols["xp"]
             cols["u"] = cols[lp.command]
-            units.update(dict.fromkeys(("x_ref", "xp", "error"), units.get(lp.measure, "")), u=units[lp.command])
+            units.update(loop_units(units, lp))
         for i, e in enumerate(seq.expectations):
             sig = getattr(e, "signal", None) if isinstance(e, (Bounds, Reaction)) else None
             if sig is not None and sig not in cols:

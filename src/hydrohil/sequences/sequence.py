@@ -418,13 +418,13 @@ def _expectation_units(data: dict, path: Path, circuit: Path | None) -> None:
             continue                          # (a malformed entry: the schema's validation names it)
         if units is None:
             units = dict(UNITS) if circuit is None else _circuit_units(circuit)
-        loop_signal = "error" if e["type"] in ("tracking", "step_response") else None
-        signal = loop_signal or e.get("signal", "u" if e["type"] == "reaction" else None)
+        loop_signal = "error" if kind in ("tracking", "step_response") else None
+        signal = loop_signal or e.get("signal", "u" if kind == "reaction" else None)
         unit = units.get(signal)
-        for k in VALUE_KEYS[e["type"]]:
+        for k in VALUE_KEYS[kind]:
             if not isinstance(e.get(k), str):
                 continue
-            if unit is None:
+            if not unit:
                 raise InputError(f"no unit known for signal {signal!r}: give the value as a number in its SI unit",
                                  source=str(path), key=f"expect[{i}].{k}")
             try:
@@ -437,10 +437,11 @@ def _circuit_units(scenario: Path) -> dict:
     """The SI unit of every signal of a circuit scenario's run, its loop's under the rig's names too."""
     from hydrohil.circuits.run import input_unit, signal_units
     from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.sequences.expectations import loop_units
     cs = load_circuit_scenario(scenario)
-    units = {**signal_units(cs.circuit, cs.compiled.layout), **{s: input_unit(cs.circuit, s) for s in cs.circuit.inputs}}
+    units = {**signal_units(cs.circuit, cs.layout), **{s: input_unit(cs.circuit, s) for s in cs.circuit.inputs}}
     if cs.loop is not None:
-        units.update(dict.fromkeys(("x_ref", "xp", "error"), units.get(cs.loop.measure)), u=units[cs.loop.command])
+        units.update(loop_units(units, cs.loop))
     return units
 
 

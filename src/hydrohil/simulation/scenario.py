@@ -329,9 +329,10 @@ def load_scenario(path: str | Path, *, solver: str | None = None, step: float | 
         sc = Scenario.model_validate(data)
     except ValidationError as exc:
         key, msg = format_validation_error(exc, Scenario)
-        given = {"solver.method": solver, "solver.step": step, "duration": duration}   # (the command line's)
-        if given.get(key) is not None:
-            raise InputError(msg, source=f"--{key.rpartition('.')[2].replace('method', 'solver')}") from None
+        given = {"solver.method": ("--solver", solver), "solver.step": ("--step", step),   # (the command line's)
+                 "duration": ("--duration", duration)}
+        if key in given and given[key][1] is not None:
+            raise InputError(msg, source=given[key][0]) from None
         raise InputError(msg, source=str(path), key=key) from None
     ppath = Path(sc.params)
     if ppath.suffix == ".toml" and not ppath.is_absolute():

@@ -14,13 +14,18 @@ from hydrohil.studies.study import METRIC_UNITS, METRICS
 from hydrohil.studies.study import wilson
 
 
+def _shown(metric: str) -> tuple[float, str]:
+    """(factor, unit) a metric is shown in (mm, bar, ...; its SI unit when there is no display unit)."""
+    unit = METRIC_UNITS.get(metric, "-")
+    return DISPLAY.get(unit, (1.0, unit))
+
+
 def _label(metric: str) -> str:
-    k, u = DISPLAY.get(METRIC_UNITS.get(metric, "-"), (1.0, METRIC_UNITS.get(metric, "-")))
-    return f"{metric} [{u}]"
+    return f"{metric} [{_shown(metric)[1]}]"
 
 
 def _scale(metric: str) -> float:
-    return DISPLAY.get(METRIC_UNITS.get(metric, "-"), (1.0, ""))[0]
+    return _shown(metric)[0]
 
 
 # units of the study inputs that are not parameters of the schema (those take theirs from it)
@@ -168,8 +173,8 @@ def _figures(study, cols, ok, passed, numeric, metric, folder: Path) -> list[Pat
 def _markdown(study, s: dict, figs: list[Path], out: Path) -> None:
     crit = s["criterion"]
     if isinstance(crit, dict):                  # (in the unit the table shows: mm, bar, ...)
-        unit = _label(crit["metric"]).rpartition("[")[2].rstrip("]")
-        what = f"{crit['metric']} ≤ {crit['max'] * _scale(crit['metric']):g}" + (f" {unit}" if unit != "-" else "")
+        k, unit = _shown(crit["metric"])
+        what = f"{crit['metric']} ≤ {crit['max'] * k:g}" + (f" {unit}" if unit != "-" else "")
     else:
         what = crit
     lo, hi = s["p_fail_95ci"]
