@@ -33,11 +33,13 @@ static double *read_doubles(const char *path, size_t n)
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every, double *u,
            double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref, const double *dref,
            int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path, double lo, double hi,
-           double *sent, const double *press, void *command, void *command_ctx);
+           double *sent, const double *press, void *command, void *command_ctx, double *seen_log,
+           double *events_log);
 
 int main(void)
 {
-    double *u = read_doubles(COMMANDS, N), *log = malloc(sizeof(double) * (N / 1000 + 2) * NLOGC);
+    double *u = read_doubles(COMMANDS, N + 1), *log = malloc(sizeof(double) * (N / 1000 + 2) * NLOGC);
+    double *seen = malloc(sizeof(double) * (N / 1000 + 2)), *events = malloc(sizeof(double) * (N / 1000 + 2));
     double y[sizeof Y0 / sizeof Y0[0]];
     int64_t m[sizeof M0 / sizeof M0[0]], rows;
     int r;
@@ -46,7 +48,8 @@ int main(void)
         memcpy(y, Y0, sizeof y);
         memcpy(m, M0, sizeof m);
         t0 = now();
-        hc_run(P0, y, m, 2, STEP, N, 1000, u, log, &rows, 0, 0, 0, 0, 0, 0, 0, 0, 1.0, 0, 0.0, 0.0, 0, 0, 0, 0);
+        hc_run(P0, y, m, 2, STEP, N, 1000, u, log, &rows, 0, 0, 0, 0, 0, 0, 0, 0, 1.0, 0, 0.0, 0.0, 0, 0, 0, 0, seen,
+               events);          /* (its spool's input and events logged, as the core's log has them) */
         printf("%.3f ", (now() - t0) / N * 1e9);
     }
     printf("\nxp %.17g\n", y[XP_INDEX]);

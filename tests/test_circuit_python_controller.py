@@ -57,18 +57,19 @@ def test_every_command_is_the_controllers_rule_on_what_it_read(tmp_path):
     """Each step's command is the user's PI computed here from the run's log: the encoder's reading, the
     reference, the chambers through 50 bar transducers of 0.5 bar (clamped to [0, 50 bar], then to whole
     quanta: both act in this run), t = k·h, the integral over the steps, clamped to the valve's range (to
-    1e-12); a second run starts from a fresh instance (the same run)."""
+    1e-12), the last row's too (called at every row's instant, as the core's log has it); a second run starts
+    from a fresh instance (the same run)."""
     cs = load_circuit_scenario(scenario(tmp_path))
     runs = [simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop) for _ in range(2)]
     r = runs[0]
     e = r.column("cyl.x.reference") - r.column("cyl.x.sensed")
     p1, p2 = (np.floor(np.clip(r.column(c), 0.0, 5e6) / 5e4 + 0.5) * 5e4 for c in ("cap.p", "rod.p"))
     assert np.max(r.column("cap.p")) > 5.2e6 and np.max(np.abs(p1 - r.column("cap.p"))) > 1e4   # (both act)
-    u, i = np.empty(len(e) - 1), 0.0
+    u, i = np.empty(len(e)), 0.0
     for k in range(len(u)):
         i += 100.0 * e[k] * (cs.step if k else 0.0)
         u[k] = min(max(40.0 * e[k] + i - 1e-8 * (p1[k] - 0.5 * p2[k]), -1.0), 1.0)
-    assert np.max(np.abs(u - r.column("valve.command")[:-1])) < 1e-12
+    assert np.max(np.abs(u - r.column("valve.command"))) < 1e-12
     assert np.max(np.abs(u)) == 1.0 and np.max(np.abs(1e-8 * p1)) > 0.01     # (its clamp and pressures act)
     assert np.array_equal(runs[0].column("cyl.x"), runs[1].column("cyl.x"))
     assert cs.loop.controller.times == [k * cs.step for k in range(len(u))]
@@ -76,12 +77,12 @@ def test_every_command_is_the_controllers_rule_on_what_it_read(tmp_path):
 
 
 def test_the_reference_solver_calls_it_at_the_same_instants(tmp_path):
-    """The continuous reference runs the user's controller at each step's instant too (t = k·h, once each):
+    """The continuous reference runs the user's controller at each row's instant too (t = k·h, once each):
     its piston within 15 µm RMS of the fixed step's (measured 4.8 µm)."""
     cs = load_circuit_scenario(scenario(tmp_path, duration=1.0))
     fixed = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
     ref = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method="reference", loop=cs.loop)
-    assert cs.loop.controller.times == [k * cs.step for k in range(cs.n_steps)]
+    assert cs.loop.controller.times == [k * cs.step for k in range(cs.n_steps + 1)]
     rms = math.sqrt(np.mean((fixed.column("cyl.x") - ref.column("cyl.x")) ** 2))
     assert rms < 1.5e-5, rms
 

@@ -462,18 +462,25 @@ def circuit_draw(circuit: str | None = typer.Argument(None, help="built-in name 
         fail(exc)
 
 
-def circuit_convert(scenario: Path, out: Path, params: Optional[str] = None, sets: Optional[dict] = None) -> dict:
+def circuit_convert(scenario: Path, out: Path, params: Optional[str] = None, sets: Optional[dict] = None,
+                    check: bool = False) -> dict:
     """A scenario of the paper's rig (``params``, ``sets`` applied as ``simulate`` does) written as a circuit
     scenario into the folder ``out`` (circuit.toml, scenario.toml; :mod:`hydrohil.simulation.as_circuit`): what
-    it wrote and the notes on what changed form."""
+    it wrote and the notes on what changed form. ``check``: both run, the core's log against the generated
+    code's column by column (:func:`hydrohil.simulation.as_circuit.check`, also written to ``out/check.json``)."""
     from hydrohil.circuits.scenario import is_circuit_scenario
-    from hydrohil.simulation.as_circuit import convert
+    from hydrohil.simulation.as_circuit import check as check_runs, convert
     from hydrohil.simulation.scenario import load_scenario
     if is_circuit_scenario(scenario):
         raise InputError("a circuit scenario already (it names its circuit): nothing to convert", source=str(scenario),
                          key="circuit")
-    cpath, spath, notes = convert(load_scenario(scenario, params=params, sets=sets), out)
-    return {"circuit": str(cpath), "scenario": str(spath), "notes": notes}
+    ls = load_scenario(scenario, params=params, sets=sets)
+    cpath, spath, notes = convert(ls, out)
+    r = {"circuit": str(cpath), "scenario": str(spath), "notes": notes}
+    if check:
+        r["check"] = check_runs(ls, spath)
+        (Path(out) / "check.json").write_text(json.dumps(r["check"], indent=2))
+    return r
 
 
 @circuit_app.command("convert")
@@ -482,17 +489,39 @@ def circuit_convert_cmd(scenario: Path = typer.Argument(..., help="a scenario of
                         params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML "
                                                              "path) in place of the scenario's"),
                         sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on "
-                                                       "top of the scenario's [overrides]")):
+                                                       "top of the scenario's [overrides]"),
+                        check: bool = typer.Option(False, "--check", help="run both, the core and the generated code, "
+                                                   "and compare every column of the core's log (check.json)")):
     """A paper scenario as a circuit scenario: its rig the circuit of its parameters, its drive, loop, encoder,
     faults and [hil] in a circuit scenario's terms, for the generated code to run (simulate, hil, test, export);
-    its runs are the core's to rounding. What a circuit cannot express is refused, naming the key."""
+    its runs are the core's to rounding (--check shows it on this scenario). What a circuit cannot express is
+    refused, naming the key."""
     try:
-        r = circuit_convert(scenario, out, params, _parse_sets(sets))
+        r = circuit_convert(scenario, out, params, _parse_sets(sets), check)
     except HydrohilError as exc:
         fail(exc)
     for note in r["notes"]:
         typer.echo(f"note: {note}")
     typer.echo(f"wrote {r['circuit']}, {r['scenario']}")
+    if check:
+        _print_check(r["check"], Path(out) / "check.json")
+
+
+def _print_check(c: dict, path: Path) -> None:
+    """The core's run against the generated code's, column by column (circuit convert --check)."""
+    from hydrohil.core.shape import QUANTITIES
+    typer.echo(f"check: the core's run against the generated code's, {c['rows']} rows (paper_log: the core's "
+               "columns from the circuit's)")
+    typer.echo(f"  {'column':<14} {'largest difference':>20} {'of its peak':>12}")
+    for name, v in c["columns"].items():
+        if "relative" in v and name != "t":
+            unit = QUANTITIES[name].unit if name in QUANTITIES else "-"
+            typer.echo(f"  {name:<14} {v['max_abs_difference']:>16.2g} {unit:<3} {v['relative']:>12.2g}")
+    discrete = [n for n, v in c["columns"].items() if "rows_differing" in v]
+    differ = [f"{n} ({c['columns'][n]['rows_differing']} rows)" for n in discrete
+              if c["columns"][n]["rows_differing"]]
+    typer.echo(f"  {', '.join(discrete)}: " + (f"differ: {', '.join(differ)}" if differ else "the same at every row"))
+    typer.echo(f"  largest: {c['worst']} ({c['columns'][c['worst']]['relative']:.2g} of its peak); wrote {path}")
 
 
 @circuit_app.command("run")

@@ -366,6 +366,29 @@ HH_INLINE int delayed_inputs(const double *P, double h, double *y, const double 
     return 0;
 }}
 
+/* The delayed inputs of a step of h under u as delayed_inputs gives them, the lines left as they were (a log
+ * row's <input>.seen: the row's step, the last row's as its line would give it; loop.c's delay_peek) */
+static void delayed_peek(const double *P, double h, double *y, const double *u, double *seen)
+{{
+    double *line = y + MEM, ud[NU], kept[ND > 0 ? ND : 1], pos[ND > 0 ? ND : 1];
+    int d, size;
+    for (d = 0; d < ND; d++) {{              /* each line's position and the slot its push overwrites, kept */
+        size = (int)line[0] + 2;
+        pos[d] = line[2];
+        kept[d] = line[3 + ((int)line[2] + 1) % size];
+        line += size + 3;
+    }}
+    if (delayed_inputs(P, h, y, u, ud))
+        return;
+    for (d = 0, line = y + MEM; d < ND; d++) {{
+        size = (int)line[0] + 2;
+        line[3 + ((int)pos[d] + 1) % size] = kept[d];
+        line[2] = pos[d];
+        line += size + 3;
+        seen[d] = ud[DELAYED[d]];
+    }}
+}}
+
 /* the per-step interface of delayed_inputs (a reference run's delayed inputs) */
 int hc_delayed_inputs(const double *P, double h, double *y, const double *u, double *ud)
 {{
@@ -639,7 +662,8 @@ HH_INLINE void take(double *y, int64_t *m, const double *y1, const int64_t *m1)
  * transition there, and on in the new modes; at most HH_MAX_EVENTS events a step (then the last crossing's
  * transition at the step's end). Returns 0, 1 when the state went non-finite, 2 when h is not the step its
  * delay lines were sized for (hc_init). */
-HH_INLINE int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, const double *u_in, const double *P)
+HH_INLINE int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, const double *u_in, const double *P,
+                        int *events)
 {{
     double y1[NY], sc[NSC], theta, t_left = h, hs = h;
     int64_t m1[NM];
@@ -678,17 +702,18 @@ HH_INLINE int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, c
         pending = g;                         /* the substep again, to the crossing (y1, m1 not taken) */
         hs = theta * t_left;
     }}
+    *events = n_events;
     return 0;
 }}
 
 /* one step with the tableau of `method`, a constant in each case (the compiler specialises the step to it) */
-static int method_step(int method, double h, double *y, int64_t *m, const double *u, const double *P)
+static int method_step(int method, double h, double *y, int64_t *m, const double *u, const double *P, int *events)
 {{
     switch (method) {{
-    case HH_EULER: return one_step(&HH_TABLEAUS[HH_EULER], h, y, m, u, P);
-    case HH_HEUN: return one_step(&HH_TABLEAUS[HH_HEUN], h, y, m, u, P);
-    case HH_RK4: return one_step(&HH_TABLEAUS[HH_RK4], h, y, m, u, P);
-    default: return one_step(&HH_TABLEAUS[HH_RK3], h, y, m, u, P);
+    case HH_EULER: return one_step(&HH_TABLEAUS[HH_EULER], h, y, m, u, P, events);
+    case HH_HEUN: return one_step(&HH_TABLEAUS[HH_HEUN], h, y, m, u, P, events);
+    case HH_RK4: return one_step(&HH_TABLEAUS[HH_RK4], h, y, m, u, P, events);
+    default: return one_step(&HH_TABLEAUS[HH_RK3], h, y, m, u, P, events);
     }}
 }}
 
@@ -700,8 +725,9 @@ double hc_pressure_read(double p, const double *press)
     return press[2] > 0.0 ? pressure_reading(p, press[2], press[3], 0.0, &saturated) : p;
 }}
 
-/* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it); a row every `every`
- * steps from step 0 (the state before the step). Closed loop (ctl not NULL, the core's controller law,
+/* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it), n + 1 rows (the last:
+ * the last log row's, as the drive gives it at t_n); a row every `every` steps from step 0 (the state before
+ * the step). Closed loop (ctl not NULL, the core's controller law,
  * control.c): at each step k the controller reads log column `meas` of the state at t_k (under the command
  * of step k-1; through the sensor, hc_sensed) and sets input `cmd` of step k (written into u) for the reference
  * ref[k] (slope dref[k]); rng: its sensor's noise generator (hc_sensed); `sign` -1: a reverse-acting loop (the law on -ref, -dref and the signal's negative, so
@@ -714,6 +740,9 @@ double hc_pressure_read(double p, const double *press)
  * through hc_pressure_read. command (not NULL, ctl NULL: a user's controller, called back with command_ctx) gives
  * step k's command from the signal as sensed and the chambers as read in place of the core's law; NaN: it failed
  * (3 returned).
+ * seen_log (not NULL): per row the ND delayed inputs of its step as the components see them (the last row's as
+ * its line would give it); events_log (not NULL): per row the events located in the steps since the last row
+ * (the core's log columns ud and events).
  * Returns 0, or 1 when the state went non-finite, 2 when h is not the step the state was made for (hc_init), 3
  * when the command callback failed (rows so far written, *rows set). */
 typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, double p2);
@@ -721,13 +750,15 @@ typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, 
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
-           double lo, double hi, double *sent, const double *press, void *command, void *command_ctx)
+           double lo, double hi, double *sent, const double *press, void *command, void *command_ctx,
+           double *seen_log, double *events_log)
 {{
-    double seen[NLOG], held = 0.0;
+    double seen[NLOG], held = 0.0, events = 0.0;
     int64_t step, row = 0;
+    int ev = 0;
     for (step = 0; step <= n; step++) {{
-        double *uk = u + (step < n ? step : n - 1 > 0 ? n - 1 : 0) * NU;
-        if ((ctl || command) && step < n) {{   /* it measures under the command last applied (step 0: as set) */
+        double *uk = u + step * NU;
+        if (ctl || command) {{   /* it measures under the command last applied (step 0: as set) */
             double c, sensed, p1, p2;
             if (step > 0)
                 uk[cmd] = uk[cmd - NU];
@@ -746,7 +777,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             }} else
                 c = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
                                          sign * ref[step], sign * dref[step], sign * sensed, p1, p2);
-            if (path) {{
+            if (path && step < n) {{       /* (the last row's command: the law's, logged, not sent) */
                 hh_path *pa = (hh_path *)path;
                 if (sent)
                     sent[step] = c;
@@ -756,15 +787,22 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             }}
             uk[cmd] = c;
         }}
-        if (step % every == 0)
+        if (step % every == 0) {{
+            if (seen_log && ND > 0)
+                delayed_peek(P, h, y, uk, seen_log + row * ND);
+            if (events_log)
+                events_log[row] = events;
+            events = 0.0;
             log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);
+        }}
         if (step == n)
             break;
-        int status = method_step(method, h, y, m, uk, P);
+        int status = method_step(method, h, y, m, uk, P, &ev);
         if (status) {{
             *rows = row;
             return status;
         }}
+        events += ev;
     }}
     *rows = row;
     return 0;
@@ -774,7 +812,8 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
  * u (h: the step the state was made for, hc_init; 2 otherwise, nothing done); a log row of the state at t. */
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h)
 {{
-    return method_step(method, h, y, m, u, P);
+    int events;
+    return method_step(method, h, y, m, u, P, &events);
 }}
 
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row)

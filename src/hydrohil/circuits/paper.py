@@ -6,8 +6,11 @@ is its rig as a circuit in any install (:func:`hydrohil.circuits.parameter_set.p
 
 from __future__ import annotations
 
+import numpy as np
+
 from hydrohil.circuits.circuit import Circuit, circuit_from_dict
 from hydrohil.circuits.parameter_set import paper_tables
+from hydrohil.core.shape import LOG_COLUMNS, MODE_NAMES
 from hydrohil.parameters import Parameters
 
 
@@ -17,3 +20,29 @@ def paper_circuit(p: Parameters, x0: float | None = None, command: float = 0.0) 
     constant chambers, leakage, the friction set(s) in use, the load with gravity along the rod), the
     piston at ``x0`` (default: linear.xp0), the command a constant (drive it with inputs=)."""
     return circuit_from_dict(paper_tables(p, x0, command), "ferreira2004 (hydrohil.circuits.paper)")
+
+
+# The core's log (core/shape.LOG_COLUMNS) from a run of the paper's circuit: its column of each, by name
+PAPER_VIEW = {"u": "valve.command", "ud": "valve.command.seen", "xs": "valve.x", "vs": "valve.v", "p1": "cap.p",
+              "p2": "rod.p", "xp": "cyl.x", "vp": "cyl.v", "z": "cyl.z", "ff": "cyl.friction",
+              "spool_mode": "valve.mode", "events": "events"}
+# the cylinder's one mode (hc_lugre_cylinder.h: the friction's three, then the two end stops) as the core's two
+CYL_MODE = {"stick": ("free", "stick"), "slip_pos": ("free", "slip_pos"), "slip_neg": ("free", "slip_neg"),
+            "at_retract": ("at_retract_stop", "stick"), "at_extend": ("at_extend_stop", "stick")}
+
+
+def paper_log(res) -> np.ndarray:
+    """The run ``res`` (:class:`~hydrohil.circuits.run.CircuitResult`) of a paper's circuit (:func:`paper_circuit`,
+    ``hydrohil circuit convert``) as the core's log: a row per log row, the core's 15 columns in its order
+    (LOG_COLUMNS: t, u, ud, the state, ff, the travel, friction and spool modes, events), each the circuit's
+    column of :data:`PAPER_VIEW`; the cylinder's mode split into the core's travel and friction modes (at an
+    end stop, stick: the core's reset there). KeyError naming a column the run lacks (not the paper's circuit)."""
+    cyl = res.mode_names["cyl.mode"]
+    travel = np.array([MODE_NAMES["travel"].index(CYL_MODE[name][0]) for name in cyl], dtype=float)
+    friction = np.array([MODE_NAMES["friction"].index(CYL_MODE[name][1]) for name in cyl], dtype=float)
+    if res.mode_names["valve.mode"] != MODE_NAMES["spool"]:
+        raise KeyError(f"valve.mode's modes {res.mode_names['valve.mode']} are not the core's spool modes")
+    mode = res.columns["cyl.mode"].astype(int)
+    cols = {"t": res.columns["t"], "travel_mode": travel[mode], "friction_mode": friction[mode],
+            **{core: res.columns[name] for core, name in PAPER_VIEW.items()}}
+    return np.column_stack([cols[name] for name in LOG_COLUMNS])

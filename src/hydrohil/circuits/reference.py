@@ -87,11 +87,11 @@ def _closed_loop(cc, Pb, f, ub, y0, u, su, h, n, every, rtol, atol, stats, contr
     y = np.array(y0, dtype=float)
     for k in range(n + 1):
         uk = u[min(k, len(u) - 1)]
-        if k < n and applied is not None:
+        if applied is not None:
             applied(k)
         lib.hc_reference_row(Pb, ffi.from_buffer("double[]", np.ascontiguousarray(y)),
                              ffi.from_buffer("double[]", uk), k * h, ffi.from_buffer("double[]", row))
-        if k < n:
+        if k < len(u):                     # (k = n: the last row's command, with u's row n)
             control(k, row)
             lib.hc_reference_row(Pb, ffi.from_buffer("double[]", np.ascontiguousarray(y)),
                                  ffi.from_buffer("double[]", uk), k * h, ffi.from_buffer("double[]", row))

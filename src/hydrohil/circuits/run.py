@@ -387,7 +387,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     cc = compile_circuit(c)
     lay = cc.layout
     n = int(round(duration / h))
-    u = np.ascontiguousarray(input_table(c, n, h, inputs))
+    u = np.ascontiguousarray(input_table(c, n + 1, h, inputs))    # (the last: the last row's, at t_n)
     P = np.ascontiguousarray(lay.values())
     ffi, lib = cc.ffi, cc.lib
     if loop is not None:
@@ -400,6 +400,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
         return _with_drives(c, cc, res, u, every, loop)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
+    seen, events = np.zeros((len(log), max(len(lay.delayed), 1))), np.zeros(len(log))
     rows = ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h, input_range(c, loop.command)) if loop is not None else
            (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, 0.0, ffi.NULL,
@@ -407,7 +408,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
-                        ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows, *ctl)
+                        ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows, *ctl,
+                        ffi.from_buffer("double[]", seen), ffi.from_buffer("double[]", events))
     wall = time.perf_counter() - t0
     log = log[:rows[0]]
     res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method,
@@ -423,6 +425,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         raise SimulationDiverged(k * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
                                  "a state is not finite")
     res.units = signal_units(c, lay)
+    _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
     if rest and warn_unheld and len(log):
         _warn_unbalanced(c, res)
     return _with_drives(c, cc, res, u, every, loop)
@@ -609,7 +612,7 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
     seen = _delay_line(cc, P, y, h)            # the inputs as the components see them (delayed ones late)
     u_seen = u if seen is None else u.copy()
     if loop is None and seen is not None:
-        for k in range(len(u)):
+        for k in range(len(u)):                # (the last row's: what its line would give it, as hc_run's)
             u_seen[k] = seen(u[k])
     elif loop is not None:                     # the same sampled law at each step, on the reference's state
         ref, dref = loop.table(n, h)
@@ -622,10 +625,10 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
 
         press = [lay.log_columns.index(x) for x in loop.pressures] if loop.pressures is not None else None
 
-        def control(k, row):
+        def control(k, row):                   # (k = n: the last row's command, the law's, not sent)
             p12 = loop.read_pressures(cc, row[press[0]], row[press[1]]) if press is not None else (0.0, 0.0)
             u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng, k), *p12, t=k * h)
-            if path is not None:
+            if path is not None and k < n:
                 loop.sent[k] = path.packet[0] = u[k, cmd]
                 if path.step(k, True):
                     held[0] = path.packet[0]
@@ -633,7 +636,7 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
             if seen is not None:
                 u_seen[k] = seen(u[k])
 
-        def applied(k):                    # the row the controller reads: under the command last applied
+        def applied(k):                        # the row the controller reads: under the command last applied
             if k > 0:
                 u[k, cmd] = u[k - 1, cmd]
     t0 = time.perf_counter()
@@ -645,9 +648,23 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         state = exc.y if exc.y is not None else y
         raise SimulationDiverged(exc.t, modes, {s: float(state[i]) for i, s in enumerate(lay.states)},
                                  str(exc)) from None
-    return CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, signal_units(c, lay),
-                         lay.mode_names, h, "reference", time.perf_counter() - t0, stats,
-                         lay.states[len(c.state_nodes):])
+    res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, signal_units(c, lay),
+                        lay.mode_names, h, "reference", time.perf_counter() - t0, stats,
+                        lay.states[len(c.state_nodes):])
+    idx = np.minimum(np.arange(len(log)) * every, len(u_seen) - 1)
+    _step_columns(c, res, lay, u_seen[idx][:, [lay.inputs.index(d) for d in lay.delayed]], np.zeros(len(log)))
+    return res
+
+
+def _step_columns(c: Circuit, res: CircuitResult, lay, seen: np.ndarray, events: np.ndarray) -> None:
+    """What each row's step did beside its state (the core's log columns ud and events): ``<input>.seen``, each
+    delayed input as the components see it in the row's step (after its delay), and ``events``, the events
+    located in the steps since the row before (the reference: none, its modes are functions of its state)."""
+    for j, name in enumerate(lay.delayed):
+        res.columns[f"{name}.seen"] = seen[:, j].copy()
+        res.units[f"{name}.seen"] = input_unit(c, name)
+    res.columns["events"] = events.copy()
+    res.units["events"] = "-"
 
 
 def _delay_line(cc, P, y, h: float):

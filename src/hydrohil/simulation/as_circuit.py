@@ -129,9 +129,9 @@ def _open_loop(s, t: np.ndarray, scen: dict, src: str) -> float:
     """The valve's command as the circuit's input (a table as written, a sine per step): its first value."""
     from hydrohil.simulation.scenario import SineInput
     inp = s.input
-    if isinstance(inp, SineInput):          # held over each step, as the core samples it
-        u = s.commands()[:-1]
-        scen["inputs"] = {"valve.command": {"t": t[:-1].tolist(), "value": u.tolist()}}
+    if isinstance(inp, SineInput):          # held over each step, as the core samples it (t_n: the last row's)
+        u = s.commands()
+        scen["inputs"] = {"valve.command": {"t": t.tolist(), "value": u.tolist()}}
         return float(u[0])
     scen["inputs"] = {"valve.command": {"t": list(inp.t), "value": list(inp.u), "interpolation": "linear"}}
     return float(np.interp(0.0, inp.t, inp.u))
@@ -218,3 +218,35 @@ def convert(ls, out: str | Path) -> tuple[Path, Path, list[str]]:
     cpath.write_text(head + tomli_w.dumps(circuit))
     spath.write_text(head + "".join(f"# {n}\n" for n in notes) + tomli_w.dumps(scen))
     return cpath, spath, notes
+
+
+def check(ls, spath: str | Path) -> dict:
+    """The paper scenario ``ls`` run by the core and its conversion (circuit scenario ``spath``, :func:`convert`'s)
+    run by the generated code, compared column by column of the core's log (the circuit's through
+    :func:`hydrohil.circuits.paper.paper_log`): per real column the largest difference, the core's peak and
+    their ratio; per discrete column (the modes, the events) the rows that differ. ``same_discrete``: no row
+    differs; ``worst``: the real column of the largest ratio."""
+    import warnings
+
+    from hydrohil.circuits.paper import paper_log
+    from hydrohil.circuits.scenario import run_circuit_scenario, load_circuit_scenario
+    from hydrohil.core.shape import LOG
+    from hydrohil.simulation.run import run_scenario
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")              # (the scenario's own warnings: said by the runs themselves)
+        core = run_scenario(ls)
+        res = run_circuit_scenario(load_circuit_scenario(spath))[0]
+    if core.diverged is not None:
+        raise core.diverged
+    a, b = core.log, paper_log(res)
+    columns = {}
+    for j, col in enumerate(LOG):
+        if col.kind == "real":
+            diff, peak = float(np.max(np.abs(a[:, j] - b[:, j]))), float(np.max(np.abs(a[:, j])))
+            columns[col.name] = {"max_abs_difference": diff, "peak": peak, "relative": diff / peak if peak else diff}
+        else:
+            columns[col.name] = {"rows_differing": int(np.count_nonzero(a[:, j] != b[:, j]))}
+    reals = {k: v for k, v in columns.items() if "relative" in v and k != "t"}
+    return {"scenario": str(ls.source), "rows": len(a), "columns": columns,
+            "same_discrete": all(v.get("rows_differing", 0) == 0 for v in columns.values()),
+            "worst": max(reals, key=lambda k: reals[k]["relative"])}
