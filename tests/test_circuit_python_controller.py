@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import EXAMPLES
+from conftest import EXAMPLES, Xoshiro
 from hydrohil.circuits.run import simulate_circuit
 from hydrohil.circuits.scenario import load_circuit_scenario
 from hydrohil.errors import ControllerError, InputError
@@ -74,6 +74,55 @@ def test_every_command_is_the_controllers_rule_on_what_it_read(tmp_path):
     assert np.array_equal(runs[0].column("cyl.x"), runs[1].column("cyl.x"))
     assert cs.loop.controller.times == [k * cs.step for k in range(len(u))]
     assert abs(r.column("cyl.x")[-1] - 0.1) < 2e-3            # (it tracks: 100 mm, measured 0.77 mm off)
+
+
+READER = '''
+class Reads:
+    """a P law on the sensed position that keeps what it read of the pressures"""
+    def __init__(self):
+        self.read = []
+
+    def __call__(self, m):
+        self.read.append((m.p1, m.p2, m.ps, m.pt))
+        return 40.0 * (m.x_ref - m.x)
+'''
+
+
+def transducers(columns, sigma, seed, full_scale=5e6, quantum=5e4):
+    """What four transducers read of ``columns`` (rows x 4) at each row: the value plus sigma times a normal sample,
+    four drawn a row (two Box-Muller pairs of xoshiro256** seeded by ``seed``: the rig's p1, p2, ps, pt), clamped
+    to [0, full scale], to whole quanta (sensors.c's model, computed here)."""
+    g, out = Xoshiro(seed), np.empty_like(columns)
+    for k, row in enumerate(columns):
+        z = []
+        for _ in range(2):
+            r = math.sqrt(-2.0 * math.log(g.uniform()))
+            a = 6.283185307179586 * g.uniform()
+            z += [r * math.cos(a), r * math.sin(a)]
+        v = np.clip(row + sigma * np.array(z), 0.0, full_scale)
+        out[k] = np.floor(v / quantum + 0.5) * quantum
+    return out
+
+
+def test_it_reads_the_supply_and_the_tank_through_noisy_transducers(tmp_path):
+    """supply_node and tank_node: a user's controller gets ps and pt (NaN without them), read through the loop's
+    transducers as the chambers are; pressure_noise (0.3 bar) draws four normal samples a row from the stream of
+    pressure_seed, the rig's draw: every reading the run gave is the model computed here on the run's own
+    columns, noise from xoshiro256** and Box-Muller written apart from the core, the last row's included."""
+    (tmp_path / "reads.py").write_text(READER)
+    cs = load_circuit_scenario(scenario(tmp_path, callable_="reads.py:Reads", duration=0.5, options="",
+                                        extra='supply_node = "supply"\ntank_node = "tank"\n'
+                                              'pressure_noise = "0.3 bar"\npressure_seed = 11\n'))
+    r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
+    read = np.array(cs.loop.controller.read)
+    truth = np.column_stack([r.column(c) for c in ("cap.p", "rod.p", "supply.p", "tank.p")])
+    assert read.shape == truth.shape == (1001, 4)
+    expected = transducers(truth, 3e4, 11)
+    assert np.array_equal(read, expected)
+    noiseless = transducers(truth, 0.0, 11)
+    assert np.count_nonzero(read[:, :2] != noiseless[:, :2]) > 200           # (the noise acts on the chambers)
+    assert np.all(read[:, 2] == 5e6)                                       # (70 bar beyond a 50 bar full scale)
+    assert 0 < np.count_nonzero(read[:, 3]) < 1001                         # (the tank's 0 Pa, noise clamped at 0)
 
 
 def test_the_reference_solver_calls_it_at_the_same_instants(tmp_path):

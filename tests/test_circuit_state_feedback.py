@@ -87,10 +87,10 @@ def test_the_load_pressure_feedback_keeps_the_slow_ramp_sliding(tmp_path, conver
 @pytest.mark.slow
 @pytest.mark.parametrize("plant", ["python", "c"])
 def test_lockstep_hil_of_a_state_feedback_equals_offline(tmp_path, converted, plant):
-    """The controller process reads the chambers from the plant's SIGNALS packets through the same transducers:
-    lock-step, the run is the offline run bit for bit on either plant."""
+    """The controller process reads the chambers from the plant's SIGNALS packets through the same transducers,
+    their noise from the same stream: lock-step, the run is the offline run bit for bit on either plant."""
     from hydrohil.hil.run import run_hil
-    path = _write(tmp_path, converted, [("duration = 6.0", "duration = 1.5")])
+    _, path = _noisy(tmp_path, duration=1.5)            # (noisy transducers: the controller draws their noise)
     r = run_hil(path, tmp_path / "out", lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
     assert r.comparison["identical"] and r.comparison["replay_max_abs_difference"] == 0.0
 
@@ -105,6 +105,12 @@ def test_lockstep_hil_of_a_state_feedback_equals_offline(tmp_path, converted, pl
     (("pressure_range = 25000000.0\npressure_resolution = 0.0", "pressure_range = 0.0\npressure_resolution = 1000.0"),
      "controller.pressure_range", "with a full scale"),
     (("pressure_range = 25000000.0", 'pressure_range = "250 m"'), "controller.pressure_range", "transducers"),
+    (("pressure_range = 25000000.0", 'pressure_range = 0.0\npressure_noise = "0.1 bar"'),
+     "controller.pressure_noise", "of a transducer"),
+    (('supply_node = "supply"', 'supply_node = "suply"'), "controller.supply_node", "did you mean 'supply'"),
+    (('tank_node = "tank"', "tank_node = 3"), "controller.tank_node", "unknown node '3'"),
+    (('load_pressure = "cyl"', 'load_pressure = "cyl"\npressure_seed = -1'), "controller.pressure_seed",
+     "a whole number"),
 ])
 def test_a_bad_load_pressure_is_named(tmp_path, converted, change, key, message):
     """Its cylinder missing or not a cylinder, a load pressure on another law, a reverse action, a resolution
@@ -118,15 +124,39 @@ def test_a_bad_load_pressure_is_named(tmp_path, converted, change, key, message)
     assert e.value.key == key
 
 
-def test_a_noisy_transducer_or_a_chamber_sensor_fault_is_refused_at_conversion(tmp_path):
-    """The rig's state feedback draws its transducers' noise from the loop's stream, and its faults on p1/p2
-    change what the law reads: a conversion refuses both, naming the key."""
-    base = FIG12_SF.read_text()
+def _noisy(tmp_path, duration: float = 6.0):
+    """Fig 12's state feedback with transducers of 0.2 bar noise (seed 7), converted: (paper scenario, circuit's)."""
     noisy = tmp_path / "noisy.toml"
-    noisy.write_text(base.replace('"supply.ps" = 1.2e7', '"supply.ps" = 1.2e7\n"sensors.pressure_noise" = 2e4'))
-    with pytest.raises(InputError) as e:
-        convert(load_scenario(noisy), tmp_path / "a")
-    assert e.value.key == "sensors.pressure_noise"
+    noisy.write_text(FIG12_SF.read_text().replace('"supply.ps" = 1.2e7', '"supply.ps" = 1.2e7\n'
+                                                  '"sensors.pressure_noise" = 2e4')
+                     .replace("duration = 6.0", f"duration = {duration}") + "\n[hil]\nseed = 7\n")
+    ls = load_scenario(noisy)
+    return ls, convert(ls, tmp_path / "a")[1]
+
+
+def test_noisy_transducers_convert_to_the_rigs_noise(tmp_path):
+    """The rig's state feedback draws its four transducers' noise (p1, p2, ps, pt) from the stream of [hil] seed:
+    converted, the loop reads the chambers, the supply's and the tank's nodes with the same noise
+    (pressure_noise, pressure_seed = the seed), so the run is the core's to rounding, as without noise: the
+    piston within 4e-15 m RMS (measured 1.1e-15), the command within 1e-13 (3.5e-14), the modes the same at
+    every step; and the noise acts (the noiseless run's commands differ by 2.2e-3)."""
+    from hydrohil.simulation.run import run_scenario
+    ls, spath = _noisy(tmp_path)
+    assert 'pressure_noise = 20000.0' in spath.read_text() and "pressure_seed = 7" in spath.read_text()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        core, (cs, r) = run_scenario(ls), _run(spath)
+        quiet = run_scenario(load_scenario(FIG12_SF))
+    assert np.sqrt(np.mean((core.column("xp") - r.column("cyl.x")) ** 2)) < 4e-15
+    assert np.max(np.abs(core.column("u") - r.column("valve.command"))) < 1e-13
+    travel, friction = core.column("travel_mode"), core.column("friction_mode")
+    assert np.array_equal(np.where(travel == 0, friction, travel + 2), r.column("cyl.mode"))
+    assert np.max(np.abs(core.column("u") - quiet.column("u"))) > 1e-3
+
+
+def test_a_chamber_sensor_fault_is_refused_at_conversion(tmp_path):
+    """The rig's faults on p1/p2 change what the law reads: a conversion refuses them, naming the key."""
+    base = FIG12_SF.read_text()
     fault = tmp_path / "fault.toml"
     fault.write_text(base + '\n[[faults]]\ntype = "sensor_offset"\nsensor = "p1"\noffset = 1e5\nstart = 1.0\n')
     with pytest.raises(InputError) as e:

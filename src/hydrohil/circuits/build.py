@@ -35,8 +35,9 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
            double lo, double hi, double *sent, const double *press, void *command, void *command_ctx,
            double *seen_log, double *events_log);
-extern "Python" double hc_py_command(void *ctx, int64_t k, double sensed, double p1, double p2);
-double hc_pressure_read(double p, const double *press);
+extern "Python" double hc_py_command(void *ctx, int64_t k, double sensed, double p1, double p2, double ps,
+                                     double pt);
+void hc_pressures_read(const double *v, const double *press, void *rng, double *out);
 double hc_sensed(double x, double *sensor, void *rng, int64_t k);
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row);
@@ -56,10 +57,10 @@ class CompiledCircuit:
 def _python_command(ffi) -> None:
     """hc_run's callback to a user's controller, compiled into the module (cffi's extern "Python": no code
     written at run time, so it works where memory is never both writable and executable): ``ctx`` the handle of
-    a Python callable (k, sensed, p1, p2) -> the command; what it raises is the callable's to keep (NaN)."""
+    a Python callable (k, sensed, p1, p2, ps, pt) -> the command; what it raises is the callable's to keep (NaN)."""
     @ffi.def_extern(name="hc_py_command")
-    def hc_py_command(ctx, k, sensed, p1, p2):
-        return ffi.from_handle(ctx)(int(k), sensed, p1, p2)
+    def hc_py_command(ctx, k, sensed, p1, p2, ps, pt):
+        return ffi.from_handle(ctx)(int(k), sensed, p1, p2, ps, pt)
 
 
 def compile_circuit(c: Circuit) -> CompiledCircuit:

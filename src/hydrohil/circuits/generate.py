@@ -717,12 +717,26 @@ static int method_step(int method, double h, double *y, int64_t *m, const double
     }}
 }}
 
-/* A state feedback's reading of a chamber's pressure p [Pa]: through its loop's transducer (press[2] its full
- * scale, press[3] its resolution: sensors.c, the rig's; full scale 0: none, the pressure itself) */
-double hc_pressure_read(double p, const double *press)
+/* What a loop's pressure transducers read of the log row v (SPEC §10; sensors.c's model, the rig's): press =
+ * [n, full scale, resolution, noise, its stream's place in rng, then n pairs (slot, column)]: out[slot] the
+ * reading of v[column] (slot 0, 1: its load cylinder's two chambers, 2: the supply's node, 3: the tank's; NaN
+ * where it reads none), plus the noise times a normal sample of its own stream, the n drawn at once (the rig's
+ * draw of its four transducers p1, p2, ps, pt, when a loop reads all four: the same numbers); full scale 0: the
+ * pressures themselves. */
+void hc_pressures_read(const double *v, const double *press, void *rng, double *out)
 {{
-    int saturated;
-    return press[2] > 0.0 ? pressure_reading(p, press[2], press[3], 0.0, &saturated) : p;
+    hh_rng *r = (hh_rng *)rng;
+    double z[4] = {{0.0, 0.0, 0.0, 0.0}};
+    int i, n = (int)press[0], saturated;
+    for (i = 0; i < 4; i++)
+        out[i] = NAN;
+    if (press[3] > 0.0 && r)
+        hh_rng_normals(&r[(int)press[4]], n, z);
+    for (i = 0; i < n; i++) {{
+        double p = v[(int64_t)press[6 + 2 * i]];
+        out[(int)press[5 + 2 * i]] = press[1] > 0.0 ? pressure_reading(p, press[1], press[2], press[3] * z[i],
+                                                                       &saturated) : p;
+    }}
 }}
 
 /* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it), n + 1 rows (the last:
@@ -730,22 +744,23 @@ double hc_pressure_read(double p, const double *press)
  * the step). Closed loop (ctl not NULL, the core's controller law,
  * control.c): at each step k the controller reads log column `meas` of the state at t_k (under the command
  * of step k-1; through the sensor, hc_sensed) and sets input `cmd` of step k (written into u) for the reference
- * ref[k] (slope dref[k]); rng: its sensor's noise generator (hc_sensed); `sign` -1: a reverse-acting loop (the law on -ref, -dref and the signal's negative, so
+ * ref[k] (slope dref[k]); rng: its noise generators (hc_sensed's, hc_pressures_read's); `sign` -1: a
+ * reverse-acting loop (the law on -ref, -dref and the signal's negative, so
  * that a larger command lowers the signal; 1: direct, exact). path (not NULL: the scenario's network faults,
  * an hh_path of packets of one value): the controller's command goes through it (link.c: network faults, then
  * the watchdog) as to a plant over the network: the last one that arrived drives the step, 0 in the watchdog's
  * safe state, negated under a command_inversion, saturated to the input's range [lo, hi]; sent[k] (when not
- * NULL): what the controller sent for step k. press (not NULL: a state feedback's load pressure, [the log
- * columns of its cylinder's two chambers, its transducers' full scale, resolution]): the law reads them too, each
- * through hc_pressure_read. command (not NULL, ctl NULL: a user's controller, called back with command_ctx) gives
- * step k's command from the signal as sensed and the chambers as read in place of the core's law; NaN: it failed
- * (3 returned).
+ * NULL): what the controller sent for step k. press (not NULL: a loop reading its load cylinder's chambers,
+ * and the supply's and the tank's pressures when it names them; hc_pressures_read's table): the law reads the
+ * chambers as read too. command (not NULL, ctl NULL: a user's controller, called back with command_ctx) gives
+ * step k's command from the signal as sensed and the pressures as read (p1, p2, ps, pt; NaN: not read) in place
+ * of the core's law; NaN: it failed (3 returned).
  * seen_log (not NULL): per row the ND delayed inputs of its step as the components see them (the last row's as
  * its line would give it); events_log (not NULL): per row the events located in the steps since the last row
  * (the core's log columns ud and events).
  * Returns 0, or 1 when the state went non-finite, 2 when h is not the step the state was made for (hc_init), 3
  * when the command callback failed (rows so far written, *rows set). */
-typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, double p2);
+typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, double p2, double ps, double pt);
 
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
@@ -759,24 +774,24 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
     for (step = 0; step <= n; step++) {{
         double *uk = u + step * NU;
         if (ctl || command) {{   /* it measures under the command last applied (step 0: as set) */
-            double c, sensed, p1, p2;
+            double c, sensed, pr[4] = {{0.0, 0.0, NAN, NAN}};
             if (step > 0)
                 uk[cmd] = uk[cmd - NU];
             else
                 held = uk[cmd];           /* (the command that holds the piston until one arrives) */
             log_row((double)step * h, y, m, uk, P, seen);
             sensed = hc_sensed(seen[meas], sensor, rng, step);
-            p1 = press ? hc_pressure_read(seen[(int64_t)press[0]], press) : 0.0;
-            p2 = press ? hc_pressure_read(seen[(int64_t)press[1]], press) : 0.0;
+            if (press)
+                hc_pressures_read(seen, press, rng, pr);
             if (command) {{
-                c = ((hc_command_fn)command)(command_ctx, step, sensed, p1, p2);
+                c = ((hc_command_fn)command)(command_ctx, step, sensed, pr[0], pr[1], pr[2], pr[3]);
                 if (c != c) {{
                     *rows = row;
                     return 3;
                 }}
             }} else
                 c = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
-                                         sign * ref[step], sign * dref[step], sign * sensed, p1, p2);
+                                         sign * ref[step], sign * dref[step], sign * sensed, pr[0], pr[1]);
             if (path && step < n) {{       /* (the last row's command: the law's, logged, not sent) */
                 hh_path *pa = (hh_path *)path;
                 if (sent)

@@ -215,10 +215,14 @@ class Loop:
     link: tuple = (0, WATCHDOG_TIMEOUT)  # ([hil] seed, watchdog_timeout [s]): its faults' streams, the watchdog
     sent: np.ndarray | None = None      # the last run's commands as the controller sent them (network faults)
     # a state feedback's load pressure pL = p1 - area_ratio * p2 (the law's kpl, tpl): the log columns of its
-    # cylinder's two chambers, A_b/A_a, and their transducers (full scale, resolution [Pa]; full scale 0: none)
+    # cylinder's two chambers, A_b/A_a, and their transducers (full scale, resolution, noise [Pa]; full scale 0:
+    # none); the supply's and the tank's pressures it reads too ((slot 2 or 3, log column)); the seed of the
+    # transducers' noise (its own stream, the rig's: [hil] seed in a converted paper scenario)
     pressures: tuple | None = None
     area_ratio: float = 0.0
-    pressure_sensor: tuple = (0.0, 0.0)
+    pressure_sensor: tuple = (0.0, 0.0, 0.0)
+    supply_tank: tuple = ()
+    pressure_seed: int = 0
     base: object = None                 # a user's controller (cfg.type "python"): the folder its module is in
     source: str | None = None           # (the scenario, named by its errors)
 
@@ -232,17 +236,17 @@ class Loop:
             self.sensor = (*self.sensor, 0.0)
 
     def update(self, ref: float, dref: float, sensed: float, p1: float = 0.0, p2: float = 0.0,
-               t: float = 0.0) -> float:
+               t: float = 0.0, ps: float = math.nan, pt: float = math.nan) -> float:
         """The law's command for the reference (and slope) and the signal as sensed, as the generated loop
         computes it (hc_run: the law on sign·ref, sign·dref, sign·signal; a state feedback's chamber pressures
         p1, p2 as read, :meth:`read_pressures`). A user's controller is called with a
         :class:`hydrohil.control.Measurement` at the plant's time ``t`` (x: the signal as sensed; p1, p2: the
-        chambers of ``load_pressure`` as read, else 0; ps, pt: NaN, a circuit has no rig's supply and tank
-        transducers), its command kept in the loop's limits; one that raises or returns no finite number stops
-        the run (ControllerError naming the time)."""
+        chambers of ``load_pressure`` as read, else 0; ps, pt: the supply's and the tank's nodes as read where
+        the loop names them, else NaN), its command kept in the loop's limits; one that raises or returns no
+        finite number stops the run (ControllerError naming the time)."""
         if self.python:
             u = call_controller(self.controller, Measurement(float(t), float(ref), float(dref), float(sensed),
-                                                             float(p1), float(p2), math.nan, math.nan, 0))
+                                                             float(p1), float(p2), float(ps), float(pt), 0))
             return min(max(u, self.limits[0]), self.limits[1])
         s = self.sign
         return self.controller.update(s * ref, s * dref, s * sensed, p1, p2)
@@ -256,9 +260,9 @@ class Loop:
             return cc.ffi.NULL, cc.ffi.NULL
         self.error = None
 
-        def command(k, sensed, p1, p2):
+        def command(k, sensed, p1, p2, ps, pt):
             try:
-                return self.update(ref[k], dref[k], sensed, p1, p2, t=k * h)
+                return self.update(ref[k], dref[k], sensed, p1, p2, t=k * h, ps=ps, pt=pt)
             except BaseException as exc:     # noqa: BLE001 - raised again once hc_run has stopped
                 self.error = exc
                 return math.nan
@@ -272,26 +276,39 @@ class Loop:
             self._callable = load_callable(cfg.callable, Path(cfg.path) if cfg.path else self.base, self.source)
         return self._callable
 
+    @property
+    def pressure_noise(self) -> bool:
+        """Its pressure transducers draw noise (from a stream of their own, :meth:`streams`)."""
+        return self.pressures is not None and self.pressure_sensor[2] > 0
+
     def pressure_args(self, cc):
-        """hc_run's ``press`` (NULL: no load pressure read): [column of p1, column of p2, full scale,
-        resolution] (made once per compiled circuit)."""
+        """hc_run's ``press`` (NULL: no pressure read): the generated C's hc_pressures_read table [n, full scale,
+        resolution, noise, the place of its stream in :meth:`streams`, then (slot, log column) of each
+        transducer] (made once per compiled circuit)."""
         if self.pressures is None:
             return cc.ffi.NULL
+        reads = ((0, self.pressures[0]), (1, self.pressures[1]), *self.supply_tank)
+        key = (reads, tuple(self.pressure_sensor), len(self.sensor_faults))
         made = getattr(self, "_press", None)
-        if made is None or made[0] is not cc or list(made[2]) != [*self.pressures, *self.pressure_sensor]:
+        if made is None or made[0] is not cc or made[2] != key:
             cols = cc.layout.log_columns
-            buf = cc.ffi.new("double[4]", [float(cols.index(self.pressures[0])),
-                                           float(cols.index(self.pressures[1])), *map(float, self.pressure_sensor)])
-            self._press = (cc, buf, (*self.pressures, *self.pressure_sensor))   # (alive while the C reads it)
+            table = [float(len(reads)), *map(float, self.pressure_sensor), float(1 + len(self.sensor_faults))]
+            for slot, col in reads:
+                table += [float(slot), float(cols.index(col))]
+            self._press = (cc, cc.ffi.new(f"double[{len(table)}]", table), key)   # (alive while the C reads it)
         return self._press[1]
 
-    def read_pressures(self, cc, p1: float, p2: float) -> tuple[float, float]:
-        """The chamber pressures as the law reads them (the generated C's hc_pressure_read, hc_run's rule);
-        (0, 0) without a load pressure."""
+    def read_pressures(self, cc, row: np.ndarray, rng=None) -> tuple[float, float, float, float]:
+        """(p1, p2, ps, pt) as the loop reads them from the log row ``row`` (the generated C's hc_pressures_read,
+        hc_run's rule; its noise from ``rng``, :meth:`sensor_args`' generators): (0, 0, NaN, NaN) when it reads
+        no pressure, NaN for the supply or the tank it does not read."""
         if self.pressures is None:
-            return 0.0, 0.0
-        press = self.pressure_args(cc)
-        return cc.lib.hc_pressure_read(float(p1), press), cc.lib.hc_pressure_read(float(p2), press)
+            return 0.0, 0.0, math.nan, math.nan
+        out = cc.ffi.new("double[4]")
+        cc.lib.hc_pressures_read(cc.ffi.from_buffer("double[]", np.ascontiguousarray(row, dtype=float)),
+                                 self.pressure_args(cc), cc.ffi.NULL if rng is None else rng, out)
+        p1, p2, ps, pt = out
+        return p1, p2, ps, pt
 
     def start(self, h: float) -> None:
         """A fresh controller sampled at h (no integrator or filter state from another run) and its sensor's
@@ -305,14 +322,17 @@ class Loop:
         self.h = h
 
     def streams(self):
-        """Its sensor's noise generators (hc_sensed's rng): [0] its transducer's, seeded by its seed; [1 + i] its
-        i-th fault's, seeded by [hil] seed and the fault's place in the scenario's [[faults]] (the paper's rig's
-        streams, core/link.c)."""
+        """Its noise generators (hc_sensed's and hc_pressures_read's rng): [0] its sensor's, seeded by its seed;
+        [1 + i] its sensor's i-th fault's, seeded by [hil] seed and the fault's place in the scenario's
+        [[faults]] (the paper's rig's streams, core/link.c); then its pressure transducers', seeded by their
+        seed (the rig's noise stream, rig.c, for the same seed)."""
         from hydrohil.core import ffi as core_ffi, lib as core
-        rng = core_ffi.new(f"hh_rng[{1 + len(self.sensor_faults)}]")
+        nf = len(self.sensor_faults)
+        rng = core_ffi.new(f"hh_rng[{2 + nf}]")
         core.hh_rng_seed(rng, int(self.seed))
         for i, (*_, slot) in enumerate(self.sensor_faults):
             core.hh_rng_stream(rng + 1 + i, int(self.link[0]), int(slot))
+        core.hh_rng_seed(rng + 1 + nf, int(self.pressure_seed))
         return rng
 
     def sensor_vector(self, h: float) -> list[float]:
@@ -332,15 +352,16 @@ class Loop:
         sensor (its faults' memory new, their steps at step ``h``, default the step of :meth:`start`); ``rng``:
         generators of :meth:`streams` in place of this loop's own."""
         ffi = cc.ffi
-        if self.sensor is None:
-            return ffi.NULL, ffi.NULL
         from hydrohil.core import ffi as core_ffi
+        streams = ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng if rng is None else rng)))
+        if self.sensor is None:                          # (the generators still, for noisy pressure transducers)
+            return ffi.NULL, streams if self.pressure_noise else ffi.NULL
         if h is None and self.h is None:
             raise ValueError("the loop's sensor needs the step it is read at (Loop.start(h), or h)")
         vec = self.sensor_vector(self.h if h is None else h)
         buf = ffi.new(f"double[{len(vec)}]", vec)
         self._sensor_buf = buf                           # (alive while the C reads it)
-        return buf, ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng if rng is None else rng)))
+        return buf, streams
 
     def command_path(self, h: float, stride: int = 1):
         """The command path of its network faults at step h for packets of ``stride`` values (None: none, the
@@ -623,11 +644,10 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         loop.sent = np.zeros(n) if path is not None else None
         (lo, hi), held = input_range(c, loop.command), [u[0, cmd]]
 
-        press = [lay.log_columns.index(x) for x in loop.pressures] if loop.pressures is not None else None
-
         def control(k, row):                   # (k = n: the last row's command, the law's, not sent)
-            p12 = loop.read_pressures(cc, row[press[0]], row[press[1]]) if press is not None else (0.0, 0.0)
-            u[k, cmd] = loop.update(ref[k], dref[k], cc.lib.hc_sensed(row[meas], sensor, rng, k), *p12, t=k * h)
+            sensed = cc.lib.hc_sensed(row[meas], sensor, rng, k)
+            p1, p2, ps, pt = loop.read_pressures(cc, row, rng)
+            u[k, cmd] = loop.update(ref[k], dref[k], sensed, p1, p2, t=k * h, ps=ps, pt=pt)
             if path is not None and k < n:
                 loop.sent[k] = path.packet[0] = u[k, cmd]
                 if path.step(k, True):

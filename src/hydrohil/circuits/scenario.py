@@ -22,7 +22,8 @@ values on top of the circuit's, and drives of its signals in place of the circui
     "valve1.command" = { t = [0, 0.5], value = [0, 0.6] }  # t, or interpolation = "linear")
     [controller]                      # optional closed loop: the core's law (control.h) on any signal
     type = "pi"                       # p, pi, pid, p_ff or state_feedback (load_pressure = "<cylinder>": its
-                                      # chambers read too, through pressure_range/_resolution transducers),
+                                      # chambers read too, through pressure_range/_resolution/_noise
+                                      # transducers, pressure_seed; supply_node, tank_node read too),
                                       # or python (callable = "file.py:Name", options: a user's controller,
                                       # called each step with a hydrohil.control.Measurement)
     measure = "motor.w"               # the signal it reads (a log column)
@@ -260,7 +261,8 @@ def write_circuit_scenario(path: str | Path, dest: str | Path, *, sets: dict, re
 # range, the sensor, a state feedback's load pressure
 LIMIT_KEYS = ("u_min", "u_max")
 SENSOR_KEYS = ("sensor_resolution", "sensor_min", "sensor_max", "sensor_noise")
-FEEDBACK_KEYS = ("load_pressure", "pressure_range", "pressure_resolution")
+FEEDBACK_KEYS = ("load_pressure", "pressure_range", "pressure_resolution", "pressure_noise", "pressure_seed",
+                 "supply_node", "tank_node")
 LOOP_KEYS = ("measure", "command", *LIMIT_KEYS, *SENSOR_KEYS, "sensor_seed", "action", *FEEDBACK_KEYS)
 
 
@@ -382,8 +384,10 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
 
 def _load_pressure(loop: Loop, feedback: dict, c: Circuit, source: str) -> None:
     """A state feedback's load pressure (``load_pressure = "<cylinder>"``: pL = p_a - (A_b/A_a)·p_b of its two
-    chambers' nodes; ``pressure_range``, ``pressure_resolution``: their transducers, the rig's, SPEC §10; none:
-    the pressures themselves) into ``loop``."""
+    chambers' nodes; ``pressure_range``, ``pressure_resolution``, ``pressure_noise`` (a standard deviation;
+    ``pressure_seed`` its stream's): their transducers, the rig's, SPEC §10; none: the pressures themselves;
+    ``supply_node``, ``tank_node``: nodes read through the same transducers too, a user's controller's ps and
+    pt) into ``loop``."""
     from hydrohil.circuits.units import to_si
     reads = loop.cfg.type in ("state_feedback", "python")
     if not reads or (loop.python and not feedback):     # (a user's controller reads them when it names them)
@@ -403,16 +407,31 @@ def _load_pressure(loop: Loop, feedback: dict, c: Circuit, source: str) -> None:
         raise InputError("a state feedback acts directly (its load pressure's sign is its cylinder's): no "
                          "action = \"reverse\"", source=source, key="controller.action")
     try:
-        sensor = tuple(to_si(feedback.get(k, 0.0), "Pa") for k in ("pressure_range", "pressure_resolution"))
+        sensor = tuple(to_si(feedback.get(k, 0.0), "Pa") for k in ("pressure_range", "pressure_resolution",
+                                                                   "pressure_noise"))
     except ValueError as exc:
         raise InputError(f"{exc} (the chambers' pressure transducers)", source=source,
                          key="controller.pressure_range") from None
     if not (sensor[0] >= 0 and sensor[1] >= 0) or (sensor[1] > 0 and sensor[0] == 0):
         raise InputError(f"a full scale >= 0 (0: no transducer, the pressures themselves) and a resolution >= 0 "
-                         f"(with a full scale), got {sensor} Pa", source=source, key="controller.pressure_range")
+                         f"(with a full scale), got {sensor[:2]} Pa", source=source, key="controller.pressure_range")
+    if not sensor[2] >= 0 or (sensor[2] > 0 and sensor[0] == 0):
+        raise InputError(f"a noise >= 0 Pa (its standard deviation), of a transducer (with a pressure_range), got "
+                         f"{sensor[2]:g} Pa", source=source, key="controller.pressure_noise")
+    seed = feedback.get("pressure_seed", 0)
+    if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2 ** 63):
+        raise InputError(f"a whole number >= 0, got {seed!r}", source=source, key="controller.pressure_seed")
+    reads = []
+    for slot, key in ((2, "supply_node"), (3, "tank_node")):
+        if key in feedback:
+            node = feedback[key]
+            if node not in c.nodes:
+                raise InputError(unknown_name(str(node), list(c.nodes), what="node"),
+                                 source=source, key=f"controller.{key}")
+            reads.append((slot, f"{node}.p"))
     loop.pressures = (f"{comp.ports['a']}.p", f"{comp.ports['b']}.p")
     loop.area_ratio = comp.values["area_b"] / comp.values["area_a"]
-    loop.pressure_sensor = sensor
+    loop.pressure_sensor, loop.pressure_seed, loop.supply_tank = sensor, seed, tuple(reads)
 
 
 def _hold(table: dict, c: Circuit, loop, source: str) -> Hold:

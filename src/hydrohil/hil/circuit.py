@@ -13,6 +13,7 @@ open-loop scenario's controller only answers). Lock-step, that is
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
@@ -150,9 +151,8 @@ class Drives:
             self.ref, self.dref = self.loop.table(self.n, cs.step)
             at = lambda col: lay.log_columns.index(col) - lay.log_columns.index("t") - 1       # noqa: E731 (in SIGNALS)
             self.meas = at(self.loop.measure)
-            self.press = None
-            if self.loop.pressures is not None:     # (a state feedback: its transducers, the generated C's rule)
-                self.press, self.cc = [at(x) for x in self.loop.pressures], cs.compiled
+            self.cc = cs.compiled                   # (a loop reading pressures: its transducers, the generated C's)
+            self.streams = self.loop.sensor_args(self.cc)[1]
             self.cmd = lay.inputs.index(self.loop.command)
             self.mask = 1 << self.cmd
             self.steer = SteerableController(self.loop.controller, None)
@@ -164,9 +164,9 @@ class Drives:
             held = self.steer.held
             ref, dref = (held, 0.0) if held is not None else (float(self.ref[k]), float(self.dref[k]))
             self.measured, self.reference = s.values[self.meas], ref
-            p12 = ((0.0, 0.0) if self.press is None else      # (a state feedback's chambers, through its transducers)
-                   self.loop.read_pressures(self.cc, s.values[self.press[0]], s.values[self.press[1]]))
-            self.values[self.cmd] = self.loop.update(ref, dref, self.measured, *p12, t=s.t_sim)
+            p1, p2, ps, pt = (self.loop.read_pressures(self.cc, [s.t_sim, *s.values], self.streams)
+                              if self.loop.pressures is not None else (0.0, 0.0, math.nan, math.nan))
+            self.values[self.cmd] = self.loop.update(ref, dref, self.measured, p1, p2, t=s.t_sim, ps=ps, pt=pt)
         return self.values
 
 

@@ -14,10 +14,11 @@ params, [overrides]        the circuit of the parameters (circuit.toml beside th
 [input] table / sine       ``[inputs] "valve.command"``: a table (linear) as written; a sine held per step
 [controller] p/pi/pid/     the same law on ``cyl.x`` -> ``valve.command``, reading the encoder's counts
 p_ff/state_feedback/       (``sensor_resolution`` = the count size); the reference table linear, as written; a state
-python, [reference]        feedback's load pressure of ``cyl`` through the rig's transducers (sensors.pressure_range,
-                           _resolution; noiseless: a noise is refused); a Python controller the same callable,
-                           called each step with the rig's measurement (``path``: its module's folder) but ps, pt
-                           NaN and status 0 (said in a note)
+python, [reference]        feedback's load pressure of ``cyl`` through the rig's four transducers (the chambers,
+                           ``supply_node``, ``tank_node``; sensors.pressure_range, _resolution, _noise, its stream
+                           the rig's: ``pressure_seed`` = [hil] seed); a Python controller the same callable,
+                           called each step with the rig's measurement (``path``: its module's folder) but status 0
+                           (said in a note)
 initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "valve.command"}`` (the rig's start:
                            the piston held by the spool offset at rest); given, the first command (a circuit starts
                            at rest under it)
@@ -37,8 +38,8 @@ valve_bandwidth            ``parameter`` on valve.wn (its value times the factor
 load_change                ``parameter`` on cyl.mass and/or cyl.force
 =========================  ==========================================================================================
 
-Refused (InputError naming the key): a state feedback or a Python controller with noisy pressure transducers or
-a fault on a pressure sensor, initial chamber pressures, an initial spool position other than the first command in open loop, a repeating
+Refused (InputError naming the key): a state feedback or a Python controller with a fault on a pressure sensor,
+initial chamber pressures, an initial spool position other than the first command in open loop, a repeating
 reference, a network fault in open loop (the rig's acts on the drive's commands; a circuit's inputs take them
 without a network), ``safe_state = "hold"`` and ``controller_mode = "clock"``.
 """
@@ -147,17 +148,15 @@ def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
     if ctl.type == "python":                # its module where the rig's finds it (the scenario's folder)
         anchor_controller(table, Path(src).parent)
         notes.append(f"controller {ctl.callable}: called each step with the rig's t, x_ref, dx_ref, x (the "
-                     "encoder's reading), p1 and p2 (the chambers through the rig's transducers); not the rig's: "
-                     "ps and pt NaN (a circuit has no supply and tank transducers), status 0 (no rig's status "
-                     "bits)")
+                     "encoder's reading), p1, p2, ps and pt (the chambers, the supply's and the tank's nodes through "
+                     "the rig's transducers); not the rig's: status 0 (no rig's status bits)")
     scen["controller"] = {**table, "measure": "cyl.x", "command": "valve.command", "sensor_resolution": count}
-    if ctl.type in ("state_feedback", "python"):   # the chambers through the rig's transducers (noiseless)
-        if p.sensors.pressure_noise > 0:
-            raise InputError(f"a circuit's {ctl.type} loop reads its chambers through noiseless transducers: the "
-                             f"rig's draw their noise from the loop's stream ({p.sensors.pressure_noise:g} Pa here)",
-                             source=src, key="sensors.pressure_noise")
-        scen["controller"].update(load_pressure="cyl", pressure_range=p.sensors.pressure_range,
+    if ctl.type in ("state_feedback", "python"):   # the rig's four transducers, their noise the rig's stream
+        scen["controller"].update(load_pressure="cyl", supply_node="supply", tank_node="tank",
+                                  pressure_range=p.sensors.pressure_range,
                                   pressure_resolution=p.sensors.pressure_resolution)
+        if p.sensors.pressure_noise > 0:
+            scen["controller"].update(pressure_noise=p.sensors.pressure_noise, pressure_seed=s.hil.seed)
     scen["reference"] = {"t": list(s.reference.t), "value": list(s.reference.x), "interpolation": "linear"}
 
 
