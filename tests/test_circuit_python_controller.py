@@ -88,11 +88,11 @@ class Reads:
 '''
 
 
-def transducers(columns, sigma, seed, full_scale=5e6, quantum=5e4):
+def transducers(columns, sigma, g, full_scale=5e6, quantum=5e4):
     """What four transducers read of ``columns`` (rows x 4) at each row: the value plus sigma times a normal sample,
-    four drawn a row (two Box-Muller pairs of xoshiro256** seeded by ``seed``: the rig's p1, p2, ps, pt), clamped
-    to [0, full scale], to whole quanta (sensors.c's model, computed here)."""
-    g, out = Xoshiro(seed), np.empty_like(columns)
+    four drawn a row (two Box-Muller pairs of the xoshiro256** ``g``: the rig's p1, p2, ps, pt), clamped to
+    [0, full scale], to whole quanta (sensors.c's model, computed here)."""
+    out = np.empty_like(columns)
     for k, row in enumerate(columns):
         z = []
         for _ in range(2):
@@ -106,20 +106,23 @@ def transducers(columns, sigma, seed, full_scale=5e6, quantum=5e4):
 
 def test_it_reads_the_supply_and_the_tank_through_noisy_transducers(tmp_path):
     """supply_node and tank_node: a user's controller gets ps and pt (NaN without them), read through the loop's
-    transducers as the chambers are; pressure_noise (0.3 bar) draws four normal samples a row from the stream of
-    pressure_seed, the rig's draw: every reading the run gave is the model computed here on the run's own
-    columns, noise from xoshiro256** and Box-Muller written apart from the core, the last row's included."""
+    transducers as the chambers are; pressure_noise (0.3 bar) draws four normal samples a row (the rig's draw)
+    from the stream of pressure_seed (11), or without one from a stream of the sensor's seed apart from the
+    sensor's own noise (its stream 2^30; the sensor here noisy too): every reading the run gave is the model
+    computed here on the run's own columns, noise from xoshiro256** and Box-Muller written apart from the core,
+    the last row's included."""
     (tmp_path / "reads.py").write_text(READER)
-    cs = load_circuit_scenario(scenario(tmp_path, callable_="reads.py:Reads", duration=0.5, options="",
-                                        extra='supply_node = "supply"\ntank_node = "tank"\n'
-                                              'pressure_noise = "0.3 bar"\npressure_seed = 11\n'))
-    r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
-    read = np.array(cs.loop.controller.read)
-    truth = np.column_stack([r.column(c) for c in ("cap.p", "rod.p", "supply.p", "tank.p")])
-    assert read.shape == truth.shape == (1001, 4)
-    expected = transducers(truth, 3e4, 11)
-    assert np.array_equal(read, expected)
-    noiseless = transducers(truth, 0.0, 11)
+    for seed, g in (("pressure_seed = 11\n", lambda: Xoshiro(11)),
+                    ('sensor_noise = "2 um"\nsensor_seed = 5\n', lambda: Xoshiro.stream(5, 1 << 30))):
+        cs = load_circuit_scenario(scenario(tmp_path, callable_="reads.py:Reads", duration=0.5, options="",
+                                            extra='supply_node = "supply"\ntank_node = "tank"\n'
+                                                  'pressure_noise = "0.3 bar"\n' + seed))
+        r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
+        read = np.array(cs.loop.controller.read)
+        truth = np.column_stack([r.column(c) for c in ("cap.p", "rod.p", "supply.p", "tank.p")])
+        assert read.shape == truth.shape == (1001, 4)
+        assert np.array_equal(read, transducers(truth, 3e4, g()))
+    noiseless = transducers(truth, 0.0, g())
     assert np.count_nonzero(read[:, :2] != noiseless[:, :2]) > 200           # (the noise acts on the chambers)
     assert np.all(read[:, 2] == 5e6)                                       # (70 bar beyond a 50 bar full scale)
     assert 0 < np.count_nonzero(read[:, 3]) < 1001                         # (the tank's 0 Pa, noise clamped at 0)

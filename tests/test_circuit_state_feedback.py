@@ -71,6 +71,20 @@ def test_the_law_reads_the_load_pressure_of_its_cylinder(tmp_path, converted):
     assert np.max(np.abs(kpl * np.array(pl))) > 0.05          # (the pressures' share is no rounding: > 5 % of ū)
 
 
+def test_noisy_transducers_without_a_position_sensor(tmp_path, converted):
+    """A loop whose piston is read as it is (no sensor) still draws its transducers' noise (2 bar: the commands
+    move off the noiseless run's by more than 1e-3), the same numbers run after run."""
+    noisy = [("duration = 6.0", "duration = 1.0"), ("sensor_resolution = 1e-06\n", ""),
+             ("pressure_range = 25000000.0", "pressure_range = 25000000.0\npressure_noise = 2e5")]
+    quiet = [("duration = 6.0", "duration = 1.0"), ("sensor_resolution = 1e-06\n", "")]
+    cs, r = _run(_write(tmp_path, converted, noisy))
+    assert cs.loop.sensor is None
+    again = _run(tmp_path / "scenario.toml")[1]
+    q = _run(_write(tmp_path, converted, quiet))[1]
+    assert np.array_equal(r.column("valve.command"), again.column("valve.command"))
+    assert np.max(np.abs(r.column("valve.command") - q.column("valve.command"))) > 1e-3
+
+
 def test_the_load_pressure_feedback_keeps_the_slow_ramp_sliding(tmp_path, converted):
     """Fig 12's slow ramp (5-6 s): with the load-pressure feedback the piston does not stick again (0 times),
     with the same P gain alone it sticks 63 times (the example's point; the core's Fig 12 under P hunts)."""
@@ -111,6 +125,9 @@ def test_lockstep_hil_of_a_state_feedback_equals_offline(tmp_path, converted, pl
     (('tank_node = "tank"', "tank_node = 3"), "controller.tank_node", "unknown node '3'"),
     (('load_pressure = "cyl"', 'load_pressure = "cyl"\npressure_seed = -1'), "controller.pressure_seed",
      "a whole number"),
+    (('load_pressure = "cyl"', 'load_pressure = "cyl"\npressure_noise = 1000.0\npressure_seed = 0\n'
+      'sensor_noise = 1e-6'), "controller.pressure_seed", "the same numbers"),
+    (('measure = "cyl.x"', 'measure = "cap.p"'), "controller.measure", "not read through a pressure transducer"),
 ])
 def test_a_bad_load_pressure_is_named(tmp_path, converted, change, key, message):
     """Its cylinder missing or not a cylinder, a load pressure on another law, a reverse action, a resolution

@@ -145,6 +145,28 @@ def test_circuit_convert_on_the_command_line(tmp_path):
     assert again.returncode == 2 and "a circuit scenario already" in again.stderr
 
 
+@pytest.mark.parametrize("method", ["rk3", "reference"])
+def test_a_row_every_few_steps_has_their_events_and_its_steps_delayed_input(method):
+    """Logged every 7th step, a row's events are the sum of the steps' since the row before and its
+    valve.command.seen the every-step run's at that step (the last row's too); the reference locates no events.
+    Fig 11 on the ferreira2004 circuit, 1 s (the valve's delay 0.76 ms, 1.52 steps: seen_k = 0.48 u_k-1 +
+    0.52 u_k-2, the step average of the two commands the delay straddles, computed here)."""
+    cs = load_circuit_scenario(EXAMPLES / "circuits" / "ferreira2004" / "scenario.toml")
+    n = 2000
+    runs = [simulate_circuit(cs.circuit, 1.0, h=cs.step, method=method, every=e, rest=cs.rest, loop=cs.loop)
+            for e in (1, 7)]
+    fine, coarse = runs
+    idx = np.arange(0, n + 1, 7)
+    assert np.array_equal(coarse.column("valve.command.seen"), fine.column("valve.command.seen")[idx])
+    ev = fine.column("events")
+    assert np.array_equal(coarse.column("events")[1:], [ev[a + 1:b + 1].sum() for a, b in zip(idx[:-1], idx[1:])])
+    assert (ev.sum() > 5) == (method == "rk3") and coarse.column("events")[0] == 0
+    u, seen = fine.column("valve.command"), fine.column("valve.command.seen")
+    alpha = cs.circuit.components["valve"].values["delay"] / cs.step - 1.0          # (1.52 steps: n = 1)
+    assert 0 < alpha < 1 and np.max(np.abs(u[2:] - u[1:-1])) > 1e-3
+    assert np.max(np.abs(seen[2:] - ((1 - alpha) * u[1:-1] + alpha * u[:-2]))) < 1e-15   # (delay.c's rule)
+
+
 def test_convert_check_compares_every_column_of_the_cores_log(tmp_path):
     """`circuit convert --check` runs both and says so for this scenario: Fig 11 (1.5 s, a PI: the law's state in
     the last row's command too), each real column within the paper view's limits of its peak, the modes and the

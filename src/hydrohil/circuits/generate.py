@@ -750,7 +750,7 @@ void hc_pressures_read(const double *v, const double *press, void *rng, double *
  * an hh_path of packets of one value): the controller's command goes through it (link.c: network faults, then
  * the watchdog) as to a plant over the network: the last one that arrived drives the step, 0 in the watchdog's
  * safe state, negated under a command_inversion, saturated to the input's range [lo, hi]; sent[k] (when not
- * NULL): what the controller sent for step k. press (not NULL: a loop reading its load cylinder's chambers,
+ * NULL, n + 1 of them): what the controller sent for step k (sent[n]: the last row's, not sent). press (not NULL: a loop reading its load cylinder's chambers,
  * and the supply's and the tank's pressures when it names them; hc_pressures_read's table): the law reads the
  * chambers as read too. command (not NULL, ctl NULL: a user's controller, called back with command_ctx) gives
  * step k's command from the signal as sensed and the pressures as read (p1, p2, ps, pt; NaN: not read) in place
@@ -792,10 +792,10 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             }} else
                 c = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
                                          sign * ref[step], sign * dref[step], sign * sensed, pr[0], pr[1]);
+            if (path && sent)
+                sent[step] = c;
             if (path && step < n) {{       /* (the last row's command: the law's, logged, not sent) */
                 hh_path *pa = (hh_path *)path;
-                if (sent)
-                    sent[step] = c;
                 if (hh_path_step(pa, step, 1, &c))
                     held = c;
                 c = hh_path_apply(pa, held, lo, hi, 0);

@@ -66,6 +66,7 @@ def input_table(c: Circuit, n: int, h: float, inputs: dict | None = None) -> np.
     return u
 
 
+PRESSURE_STREAM = 1 << 30  # a loop's pressure noise without a seed of its own: this stream of its sensor's seed
 REST_MARCH_S = 20.0         # simulated seconds of the rest march (the fast parts: a relief, an accumulator)
 REST_TOL = 1e-13            # a pressure at rest moves less than this * (1 bar + |p|) in a step
 
@@ -217,12 +218,13 @@ class Loop:
     # a state feedback's load pressure pL = p1 - area_ratio * p2 (the law's kpl, tpl): the log columns of its
     # cylinder's two chambers, A_b/A_a, and their transducers (full scale, resolution, noise [Pa]; full scale 0:
     # none); the supply's and the tank's pressures it reads too ((slot 2 or 3, log column)); the seed of the
-    # transducers' noise (its own stream, the rig's: [hil] seed in a converted paper scenario)
+    # transducers' noise (the rig's stream for the seed, [hil] seed in a converted paper scenario; None: a stream
+    # of the sensor's seed apart from the sensor's own, PRESSURE_STREAM)
     pressures: tuple | None = None
     area_ratio: float = 0.0
     pressure_sensor: tuple = (0.0, 0.0, 0.0)
     supply_tank: tuple = ()
-    pressure_seed: int = 0
+    pressure_seed: int | None = None
     base: object = None                 # a user's controller (cfg.type "python"): the folder its module is in
     source: str | None = None           # (the scenario, named by its errors)
 
@@ -325,14 +327,18 @@ class Loop:
         """Its noise generators (hc_sensed's and hc_pressures_read's rng): [0] its sensor's, seeded by its seed;
         [1 + i] its sensor's i-th fault's, seeded by [hil] seed and the fault's place in the scenario's
         [[faults]] (the paper's rig's streams, core/link.c); then its pressure transducers', seeded by their
-        seed (the rig's noise stream, rig.c, for the same seed)."""
+        seed (the rig's noise stream, rig.c, for the same seed), else the sensor's seed's stream PRESSURE_STREAM
+        (not the sensor's own draws)."""
         from hydrohil.core import ffi as core_ffi, lib as core
         nf = len(self.sensor_faults)
         rng = core_ffi.new(f"hh_rng[{2 + nf}]")
         core.hh_rng_seed(rng, int(self.seed))
         for i, (*_, slot) in enumerate(self.sensor_faults):
             core.hh_rng_stream(rng + 1 + i, int(self.link[0]), int(slot))
-        core.hh_rng_seed(rng + 1 + nf, int(self.pressure_seed))
+        if self.pressure_seed is None:
+            core.hh_rng_stream(rng + 1 + nf, int(self.seed), PRESSURE_STREAM)
+        else:
+            core.hh_rng_seed(rng + 1 + nf, int(self.pressure_seed))
         return rng
 
     def sensor_vector(self, h: float) -> list[float]:
@@ -353,9 +359,11 @@ class Loop:
         generators of :meth:`streams` in place of this loop's own."""
         ffi = cc.ffi
         from hydrohil.core import ffi as core_ffi
+        if self.sensor is None and not self.pressure_noise:
+            return ffi.NULL, ffi.NULL
         streams = ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng if rng is None else rng)))
         if self.sensor is None:                          # (the generators still, for noisy pressure transducers)
-            return ffi.NULL, streams if self.pressure_noise else ffi.NULL
+            return ffi.NULL, streams
         if h is None and self.h is None:
             raise ValueError("the loop's sensor needs the step it is read at (Loop.start(h), or h)")
         vec = self.sensor_vector(self.h if h is None else h)
@@ -560,7 +568,7 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
     addr = lambda p: ffi.cast("void *", int(core_ffi.cast("uintptr_t", p)))  # noqa: E731
     sensor, rng = loop.sensor_args(cc)
     path = loop.command_path(h)                                  # (its network faults: circuits/network.py)
-    loop.sent = np.zeros(n) if path is not None else None        # what the controller sent (the path's input)
+    loop.sent = np.zeros(n + 1) if path is not None else None    # what the controller sent (the path's input)
     press = loop.pressure_args(cc)                              # (a state feedback's load pressure)
     command = loop.command_callback(cc, ref, dref, h)            # (a user's controller, called back)
     loop._keep = (ref, dref, sensor, path, press, command)       # alive while hc_run reads them
@@ -641,15 +649,17 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
 
         sensor, rng = loop.sensor_args(cc)
         path = loop.command_path(h)            # (its network faults: hc_run's rule, the same C)
-        loop.sent = np.zeros(n) if path is not None else None
+        loop.sent = np.zeros(n + 1) if path is not None else None
         (lo, hi), held = input_range(c, loop.command), [u[0, cmd]]
 
         def control(k, row):                   # (k = n: the last row's command, the law's, not sent)
             sensed = cc.lib.hc_sensed(row[meas], sensor, rng, k)
             p1, p2, ps, pt = loop.read_pressures(cc, row, rng)
             u[k, cmd] = loop.update(ref[k], dref[k], sensed, p1, p2, t=k * h, ps=ps, pt=pt)
+            if path is not None:
+                loop.sent[k] = u[k, cmd]
             if path is not None and k < n:
-                loop.sent[k] = path.packet[0] = u[k, cmd]
+                path.packet[0] = u[k, cmd]
                 if path.step(k, True):
                     held[0] = path.packet[0]
                 u[k, cmd] = path.apply(held[0], lo, hi)

@@ -418,9 +418,13 @@ def _load_pressure(loop: Loop, feedback: dict, c: Circuit, source: str) -> None:
     if not sensor[2] >= 0 or (sensor[2] > 0 and sensor[0] == 0):
         raise InputError(f"a noise >= 0 Pa (its standard deviation), of a transducer (with a pressure_range), got "
                          f"{sensor[2]:g} Pa", source=source, key="controller.pressure_noise")
-    seed = feedback.get("pressure_seed", 0)
-    if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2 ** 63):
+    seed = feedback.get("pressure_seed")
+    if seed is not None and not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed < 2 ** 63):
         raise InputError(f"a whole number >= 0, got {seed!r}", source=source, key="controller.pressure_seed")
+    if seed is not None and seed == loop.seed and sensor[2] > 0 and loop.sensor is not None and loop.sensor[3] > 0:
+        raise InputError(f"the pressure transducers' noise and the sensor's would be the same numbers: another seed "
+                         f"than sensor_seed ({seed}), or none (a stream of its own)", source=source,
+                         key="controller.pressure_seed")
     reads = []
     for slot, key in ((2, "supply_node"), (3, "tank_node")):
         if key in feedback:
@@ -430,6 +434,10 @@ def _load_pressure(loop: Loop, feedback: dict, c: Circuit, source: str) -> None:
                                  source=source, key=f"controller.{key}")
             reads.append((slot, f"{node}.p"))
     loop.pressures = (f"{comp.ports['a']}.p", f"{comp.ports['b']}.p")
+    if loop.sensor is not None and loop.measure in (*loop.pressures, *(col for _, col in reads)):
+        raise InputError(f"{loop.measure} is measured through the loop's sensor: it is not read through a pressure "
+                         "transducer too (the plant sends its sensor's reading)", source=source,
+                         key="controller.measure")
     loop.area_ratio = comp.values["area_b"] / comp.values["area_a"]
     loop.pressure_sensor, loop.pressure_seed, loop.supply_tank = sensor, seed, tuple(reads)
 

@@ -152,7 +152,7 @@ class Drives:
             at = lambda col: lay.log_columns.index(col) - lay.log_columns.index("t") - 1       # noqa: E731 (in SIGNALS)
             self.meas = at(self.loop.measure)
             self.cc = cs.compiled                   # (a loop reading pressures: its transducers, the generated C's)
-            self.streams = self.loop.sensor_args(self.cc)[1]
+            self.streams = self.loop.sensor_args(self.cc)[1]    # (loop.rng's, alive in the loop while it runs)
             self.cmd = lay.inputs.index(self.loop.command)
             self.mask = 1 << self.cmd
             self.steer = SteerableController(self.loop.controller, None)

@@ -212,13 +212,18 @@ def _run_circuit_sequence(seq: LoadedSequence, out: Path, mode: str, controller,
 
 
 def _circuit_offline(cs, out: Path) -> tuple[dict, dict]:
-    """A circuit scenario run offline (log.csv written): its columns and units."""
+    """A circuit scenario run offline (log.csv written): its columns and units; each input's last row what drove
+    the last step (the log's: the drive or the law at t_n, never applied), as the HIL plant's log gives it."""
     from hydrohil.circuits.run import simulate_circuit
     from hydrohil.circuits.show import write_log
     res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
                            loop=cs.loop)
     write_log(res, out / "log.csv")
-    return {k: np.asarray(v, float) for k, v in res.columns.items()}, dict(res.units)
+    cols = {k: np.asarray(v, float) for k, v in res.columns.items()}
+    for name in cs.circuit.inputs:
+        if len(cols[name]) > 1:
+            cols[name] = np.append(cols[name][:-1], cols[name][-2])
+    return cols, dict(res.units)
 
 
 def _circuit_hil_columns(cs, out: Path) -> tuple[dict, dict]:
