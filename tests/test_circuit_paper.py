@@ -123,7 +123,8 @@ def test_the_papers_rig_as_a_circuit_follows_the_core(experiment, x_rms, p_rms):
     stiff nodes slowed as the core's chambers (the piston on its end stop: 50 cm3 of rod chamber at 120 bar);
     before these: 0.22 um RMS on Fig 11, 25 um on Fig 10, 0.16 mm on Fig 12's stick-slip holds, 0.02 um and
     220 Pa on the end stops; without the delay in the circuit, Fig 11 is 8.9 um RMS off. Not the same bits: the
-    node sums add in another order."""
+    circuit's rest settles by marching, 1e-13 from the core's analytic rest (from the core's start the step is
+    the core's bit for bit: test_paper_as_circuit)."""
     from conftest import EXAMPLES
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import load_scenario

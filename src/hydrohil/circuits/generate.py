@@ -874,12 +874,12 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
             rhs.append(f"    hc_stiff_last(g_{i}, sc + {3 * i});   /* {node} */")
     for i, node in enumerate(c.state_nodes):
         q, _, _, extra, _, rate = nodes[node]
-        law = (f"hc_node_rate({q}, vol_{i}, beta_{i}, cap_{i})" if extra != "0.0" else
-               f"hc_node_rate_oil({q}, vol_{i}, beta_{i})")          # (oil alone: one division fewer)
+        c_i = "1.0" if reference else f"sc[{3 * i}]"
+        law = (f"{'' if reference else c_i + ' * '}hc_node_rate({q}, vol_{i}, beta_{i}, cap_{i})" if extra != "0.0"
+               else f"hc_node_rate_oil({c_i}, {q}, vol_{i}, beta_{i})")   # (oil alone: one division fewer)
+        rhs.append(f"    dy[{i}] = {law};   /* {node} */")
         if reference:
-            rhs.append(f"    dy[{i}] = {law};   /* {node} */")
             continue
-        rhs.append(f"    dy[{i}] = sc[{3 * i}] * {law};   /* {node} */")
         if rate != "0.0":
             rhs.append(f"    if (sc[{3 * i + 1}] != 0.0)   /* stiff: Pq moves with the flows */")
             rhs.append(f"        dy[{i}] += sc[{3 * i + 1}] * ({rate});")

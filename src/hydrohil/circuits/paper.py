@@ -46,3 +46,31 @@ def paper_log(res) -> np.ndarray:
     cols = {"t": res.columns["t"], "travel_mode": travel[mode], "friction_mode": friction[mode],
             **{core: res.columns[name] for core, name in PAPER_VIEW.items()}}
     return np.column_stack([cols[name] for name in LOG_COLUMNS])
+
+
+def paper_start(c: Circuit, core_row, h: float = 5e-4, command: str = "valve.command") -> tuple:
+    """(y, m, u0) of the paper's circuit ``c`` for :func:`~hydrohil.circuits.run.simulate_circuit`'s ``start``:
+    the core's state of its log row ``core_row`` (the 15 columns of LOG_COLUMNS; row 0: the core's start at
+    rest) in the circuit's layout, the valve's delay line full of the spool's position there (the core's reset,
+    loop.c: hh_sim_reset) and step 0's ``command`` at it (a loop's held command). From the same start the
+    generated code steps as the core does (README: bit for bit on the paper's examples)."""
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.run import input_table, new_state
+    cc = compile_circuit(c)
+    lay, ffi = cc.layout, cc.ffi
+    P = np.ascontiguousarray(lay.values())
+    col = dict(zip(LOG_COLUMNS, (float(v) for v in core_row)))
+    u = np.ascontiguousarray(input_table(c, 1, h))
+    u[0, lay.inputs.index(command)] = col["xs"]
+    y = new_state(cc, P, h)
+    m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
+    cc.lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), float(h),
+                   ffi.from_buffer("double[]", y), ffi.from_buffer("int64_t[]", m))
+    for core, name in PAPER_VIEW.items():
+        if name in lay.states:
+            y[lay.states.index(name)] = col[core]
+    travel, friction = (MODE_NAMES[k][int(col[f"{k}_mode"])] for k in ("travel", "friction"))
+    cyl = (travel, friction if travel == "free" else "stick")        # (the cylinder's one mode: CYL_MODE's)
+    m[lay.modes.index("cyl.mode")] = [CYL_MODE[name] for name in lay.mode_names["cyl.mode"]].index(cyl)
+    m[lay.modes.index("valve.mode")] = int(col["spool_mode"])
+    return y, m, u[0].copy()

@@ -400,7 +400,7 @@ class Loop:
 
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
                      inputs: dict | None = None, rest: bool | Hold = True, progress=None,
-                     loop: Loop | None = None, warn_unheld: bool = True) -> CircuitResult:
+                     loop: Loop | None = None, warn_unheld: bool = True, start: tuple | None = None) -> CircuitResult:
     """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
     (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
     circuit's ``[initial]`` keeps its value; a :class:`Hold`: with a piston held by an input's value). ``method`` "reference": the continuous reference generated from
@@ -408,7 +408,10 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     ``h``), its log on the same grid; ``progress(step)`` is called now and then. Raises SimulationDiverged with
     the time, the modes and the state when the state leaves the finite (or the reference's solvers fail).
     ``loop``: closed loop (:class:`Loop`); the log gets the controller's reference as a column. ``warn_unheld``:
-    warn when a piston started at rest is not held there (InputWarning: it moves at once)."""
+    warn when a piston started at rest is not held there (InputWarning: it moves at once). ``start``: (y, m, u0)
+    in place of the start at rest: the state (hc_state_size values: the layout's states, then the delay lines'
+    memory), the modes and the inputs of step 0 (a loop's command: the one held until the controller's first
+    arrives), e.g. :func:`hydrohil.circuits.paper.paper_start`."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
@@ -422,7 +425,16 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     if loop is not None:
         _check_loop(c, lay, loop)
         loop.start(h)
-    y, m, u0 = _start(c, cc, P, u, h, "rk3" if method == "reference" else method, rest, loop)
+    if start is None:
+        y, m, u0 = _start(c, cc, P, u, h, "rk3" if method == "reference" else method, rest, loop)
+    else:
+        y, m, u0 = (np.array(start[0], dtype=float), np.array(start[1], dtype=np.int64),
+                    np.array(start[2], dtype=float))
+        if (len(y), len(m), len(u0)) != (lib.hc_state_size(ffi.from_buffer("double[]", P), float(h)),
+                                         max(len(lay.modes), 1), max(len(lay.inputs), 1)):
+            raise InputError(f"a start state of circuit {c.name!r} at step {h} is (y, m, u0) of "
+                             f"{lib.hc_state_size(ffi.from_buffer('double[]', P), float(h))}, "
+                             f"{max(len(lay.modes), 1)} and {max(len(lay.inputs), 1)} values", key="start")
     if loop is not None:                  # what the valve was held at: the command the controller's first
         u[0, lay.inputs.index(loop.command)] = u0[lay.inputs.index(loop.command)]   # measurement is made with
     if method == "reference":
@@ -455,7 +467,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                                  "a state is not finite")
     res.units = signal_units(c, lay)
     _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
-    if rest and warn_unheld and len(log):
+    if rest and warn_unheld and start is None and len(log):
         _warn_unbalanced(c, res)
     return _with_drives(c, cc, res, u, every, loop)
 

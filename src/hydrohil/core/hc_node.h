@@ -9,10 +9,12 @@ HH_INLINE double hc_node_rate(double q_in, double volume, double beta, double c_
     return q_in / (volume / beta + c_extra);
 }
 
-/* the same for a node of oil alone (no accumulator): dp/dt = sum(q_in) * beta / V, one division fewer */
-HH_INLINE double hc_node_rate_oil(double q_in, double volume, double beta)
+/* the same for a node of oil alone (no accumulator), its rate scaled by c (the stiff-node form's, below; 1:
+ * the plain rate): dp/dt = c*beta/V * sum(q_in), one division fewer, in the order of the core's chamber
+ * (cylinder.c), so that the paper's circuit steps as the core does, bit for bit from the same state */
+HH_INLINE double hc_node_rate_oil(double c, double q_in, double volume, double beta)
 {
-    return q_in * beta / volume;
+    return c * beta / volume * q_in;
 }
 
 /* ---- a stiff node (the core's stiff chambers, hybrid.h, for any node): its pressure relaxes towards its
