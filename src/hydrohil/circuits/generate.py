@@ -341,11 +341,22 @@ int64_t hc_state_size(const double *P, double h)
     return size;
 }}
 
+/* delay line d's memory (in y after MEM) as delay.c's hh_delay; returns the next line's */
+HH_INLINE double *delay_line(double *line, hh_delay *dl)
+{{
+    dl->buf = line + 3;
+    dl->n = (int)line[0];
+    dl->size = dl->n + 2;
+    dl->alpha = line[1];
+    dl->pos = (int)line[2];
+    return line + dl->n + 5;
+}}
+
 /* The inputs u of a step of h as the components see them (ud): each delayed one through its line, pushed.
  * Returns 2 (nothing pushed) when h is not the step the lines were sized for. */
 HH_INLINE int delayed_inputs(const double *P, double h, double *y, const double *u, double *ud)
 {{
-    double *line = y + MEM, u_new, u_old;
+    double *line = y + MEM, *next, u_new, u_old;
     hh_delay dl;
     int i, d;
     (void)P;
@@ -353,39 +364,24 @@ HH_INLINE int delayed_inputs(const double *P, double h, double *y, const double 
         return 2;
     for (i = 0; i < NU; i++)
         ud[i] = u[i];
-    for (d = 0; d < ND; d++) {{
-        dl.buf = line + 3;
-        dl.n = (int)line[0];
-        dl.size = dl.n + 2;
-        dl.alpha = line[1];
-        dl.pos = (int)line[2];
+    for (d = 0; d < ND; d++, line = next) {{
+        next = delay_line(line, &dl);
         ud[DELAYED[d]] = delay_push(&dl, u[DELAYED[d]], &u_new, &u_old);
         line[2] = (double)dl.pos;
-        line += dl.n + 5;
     }}
     return 0;
 }}
 
-/* The delayed inputs of a step of h under u as delayed_inputs gives them, the lines left as they were (a log
- * row's <input>.seen: the row's step, the last row's as its line would give it; loop.c's delay_peek) */
-static void delayed_peek(const double *P, double h, double *y, const double *u, double *seen)
+/* The delayed inputs of a step under u as delayed_inputs gives them, the lines left as they were (a log row's
+ * <input>.seen: the row's step, the last row's as its line would give it; delay.c's delay_peek) */
+static void delayed_peek(double *y, const double *u, double *seen)
 {{
-    double *line = y + MEM, ud[NU], kept[ND > 0 ? ND : 1], pos[ND > 0 ? ND : 1];
-    int d, size;
-    for (d = 0; d < ND; d++) {{              /* each line's position and the slot its push overwrites, kept */
-        size = (int)line[0] + 2;
-        pos[d] = line[2];
-        kept[d] = line[3 + ((int)line[2] + 1) % size];
-        line += size + 3;
-    }}
-    if (delayed_inputs(P, h, y, u, ud))
-        return;
-    for (d = 0, line = y + MEM; d < ND; d++) {{
-        size = (int)line[0] + 2;
-        line[3 + ((int)pos[d] + 1) % size] = kept[d];
-        line[2] = pos[d];
-        line += size + 3;
-        seen[d] = ud[DELAYED[d]];
+    double *line = y + MEM;
+    hh_delay dl;
+    int d;
+    for (d = 0; d < ND; d++) {{
+        line = delay_line(line, &dl);
+        seen[d] = delay_peek(&dl, u[DELAYED[d]]);
     }}
 }}
 
@@ -804,7 +800,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
         }}
         if (step % every == 0) {{
             if (seen_log && ND > 0)
-                delayed_peek(P, h, y, uk, seen_log + row * ND);
+                delayed_peek(y, uk, seen_log + row * ND);
             if (events_log)
                 events_log[row] = events;
             events = 0.0;

@@ -309,8 +309,7 @@ class Loop:
         out = cc.ffi.new("double[4]")
         cc.lib.hc_pressures_read(cc.ffi.from_buffer("double[]", np.ascontiguousarray(row, dtype=float)),
                                  self.pressure_args(cc), cc.ffi.NULL if rng is None else rng, out)
-        p1, p2, ps, pt = out
-        return p1, p2, ps, pt
+        return tuple(out)
 
     def start(self, h: float) -> None:
         """A fresh controller sampled at h (no integrator or filter state from another run) and its sensor's
@@ -430,11 +429,11 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     else:
         y, m, u0 = (np.array(start[0], dtype=float), np.array(start[1], dtype=np.int64),
                     np.array(start[2], dtype=float))
-        if (len(y), len(m), len(u0)) != (lib.hc_state_size(ffi.from_buffer("double[]", P), float(h)),
-                                         max(len(lay.modes), 1), max(len(lay.inputs), 1)):
-            raise InputError(f"a start state of circuit {c.name!r} at step {h} is (y, m, u0) of "
-                             f"{lib.hc_state_size(ffi.from_buffer('double[]', P), float(h))}, "
-                             f"{max(len(lay.modes), 1)} and {max(len(lay.inputs), 1)} values", key="start")
+        sizes = (lib.hc_state_size(ffi.from_buffer("double[]", P), float(h)), max(len(lay.modes), 1),
+                 max(len(lay.inputs), 1))
+        if (len(y), len(m), len(u0)) != sizes:
+            raise InputError(f"a start state of circuit {c.name!r} at step {h} is (y, m, u0) of {sizes[0]}, "
+                             f"{sizes[1]} and {sizes[2]} values", key="start")
     if loop is not None:                  # what the valve was held at: the command the controller's first
         u[0, lay.inputs.index(loop.command)] = u0[lay.inputs.index(loop.command)]   # measurement is made with
     if method == "reference":

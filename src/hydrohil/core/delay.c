@@ -32,3 +32,13 @@ static double delay_push(hh_delay *d, double u, double *u_new, double *u_old)
     *u_old = d->buf[((d->pos - d->n - 1) % size + size) % size];
     return (1.0 - d->alpha) * *u_new + d->alpha * *u_old;
 }
+
+/* The spool's input if u were pushed into the delay line now; the line is left as it was. */
+static double delay_peek(hh_delay *d, double u)
+{
+    int pos = d->pos, next = (pos + 1) % d->size;
+    double overwritten = d->buf[next], u_new, u_old, ud = delay_push(d, u, &u_new, &u_old);
+    d->buf[next] = overwritten;
+    d->pos = pos;
+    return ud;
+}

@@ -175,16 +175,6 @@ HH_INLINE void drive_value(const hh_drive *drive, int64_t k, double t, int64_t *
     }
 }
 
-/* The spool's input if u were pushed into the delay line now; the line is left as it was. */
-static double delay_peek(hh_delay *d, double u)
-{
-    int pos = d->pos, next = (pos + 1) % d->size;
-    double overwritten = d->buf[next], u_new, u_old, ud = delay_push(d, u, &u_new, &u_old);
-    d->buf[next] = overwritten;
-    d->pos = pos;
-    return ud;
-}
-
 /* The loop through the rig step (drive->rig): read the rig's sensors, the controller's command (built in, a
  * callback, or the open-loop value), the steering events due, the rig's step (command path, faults, watchdog);
  * then row k: the state before the step, the command that drove the valve, the spool's input and the events

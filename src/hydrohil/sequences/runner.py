@@ -107,8 +107,7 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
             write_log_csv(out / "log.csv", res.log, res.columns)
             cols = {c: res.column(c) for c in ("t", "u", "xs", "p1", "p2", "xp", "vp", "ff", "watchdog", "faults",
                                                "x_meas", "p1_meas", "p2_meas", "ps_meas")}
-            if len(cols["u"]) > 1:      # the last row's u: the controller's answer to the final state, never applied
-                cols["u"] = np.append(cols["u"][:-1], cols["u"][-2])
+            cols["u"] = _as_applied(cols["u"])
             if res.diverged is not None:
                 error = str(res.diverged)
         else:
@@ -221,9 +220,14 @@ def _circuit_offline(cs, out: Path) -> tuple[dict, dict]:
     write_log(res, out / "log.csv")
     cols = {k: np.asarray(v, float) for k, v in res.columns.items()}
     for name in cs.circuit.inputs:
-        if len(cols[name]) > 1:
-            cols[name] = np.append(cols[name][:-1], cols[name][-2])
+        cols[name] = _as_applied(cols[name])
     return cols, dict(res.units)
+
+
+def _as_applied(u: np.ndarray) -> np.ndarray:
+    """An offline log's input column as the HIL plant's log has it: its last row (the drive's or the controller's
+    answer to the final state, never applied) replaced by the row before, what drove the last step."""
+    return np.append(u[:-1], u[-2]) if len(u) > 1 else u
 
 
 def _circuit_hil_columns(cs, out: Path) -> tuple[dict, dict]:
