@@ -152,7 +152,7 @@ def test_a_fault_on_a_signal_replaces_its_drive_and_the_pump_trips(tmp_path):
 
 @pytest.mark.parametrize("fault, key, message", [
     ('type = "hose_burst"\nline = 1\nstart = 1.0', "faults[0].type", "a circuit's faults are leak, parameter, sensor_stuck"),
-    ('type = "sensor_stuck"\nstart = 1.0', "faults[0].type", "acts on the closed loop's measurement"),
+    ('type = "sensor_stuck"\nstart = 1.0', "faults[0].type", "acts on the closed loop's sensors"),
     ('type = "leak"\nnode = "s"\narea = "1 mm2"\nstart = 1.0\nline = 2', "faults[0].line", "unknown key"),
     ('type = "leak"\nnode = "nowhere"\narea = "1 mm2"\nstart = 1.0', "faults[0].node", "one of the circuit's"),
     ('type = "leak"\nnode = "s"\nstart = 1.0', "faults[0].area", "required: the leak's area"),

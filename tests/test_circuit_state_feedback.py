@@ -3,6 +3,7 @@ generated code): the law reads its cylinder's two chambers (``load_pressure``, t
 checked against the law computed here from the run's own log, against the core's run, in lock-step HIL on both
 plants, and its bad input named."""
 
+import re
 import tempfile
 import warnings
 from pathlib import Path
@@ -171,11 +172,40 @@ def test_noisy_transducers_convert_to_the_rigs_noise(tmp_path):
     assert np.max(np.abs(core.column("u") - quiet.column("u"))) > 1e-3
 
 
-def test_a_chamber_sensor_fault_is_refused_at_conversion(tmp_path):
-    """The rig's faults on p1/p2 change what the law reads: a conversion refuses them, naming the key."""
-    base = FIG12_SF.read_text()
-    fault = tmp_path / "fault.toml"
-    fault.write_text(base + '\n[[faults]]\ntype = "sensor_offset"\nsensor = "p1"\noffset = 1e5\nstart = 1.0\n')
-    with pytest.raises(InputError) as e:
-        convert(load_scenario(fault), tmp_path / "b")
-    assert e.value.key == "faults[0].sensor"
+FAULTY = ('\n[[faults]]\ntype = "sensor_offset"\nsensor = "p1"\noffset = 2e5\ndrift = 1e5\nstart = 0.2\nend = 0.8\n'
+          '[[faults]]\ntype = "sensor_noise"\nsensor = "p2"\nstd = 3e4\nstart = 0.1\n'
+          '[[faults]]\ntype = "sensor_stuck"\nsensor = "p2"\nstart = 0.9\nend = 1.2\n')
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_lockstep_hil_with_faulty_transducers_equals_offline(tmp_path, plant):
+    """The rig's faults on the chambers' sensors, converted to faults on the loop's transducers: the controller
+    process applies them to the pressures of the plant's SIGNALS packets (each fault's memory and stream kept from
+    packet to packet), so that lock-step the run is the offline run bit for bit on either plant."""
+    from hydrohil.hil.run import run_hil
+    faulty = tmp_path / "faulty.toml"
+    faulty.write_text(FIG12_SF.read_text().replace("duration = 6.0", "duration = 1.5") + "\n[hil]\nseed = 5\n" +
+                      FAULTY)
+    _, path, _ = convert(load_scenario(faulty), tmp_path / "a")
+    assert 'signal = "rod.p"' in path.read_text()
+    r = run_hil(path, tmp_path / "out", lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
+    assert r.comparison["identical"] and r.comparison["replay_max_abs_difference"] == 0.0
+
+
+@pytest.mark.parametrize("fault, key, message", [
+    ('type = "sensor_offset"\nsignal = "valve.x"\noffset = 1e5\nstart = 1.0', "faults[0].signal",
+     "its measured one or a pressure it reads through its transducers (cyl.x, cap.p, rod.p, supply.p, tank.p), got "
+     "'valve.x'"),
+    ('type = "encoder_count_loss"\nsignal = "cap.p"\nfraction = 0.5\nstart = 1.0', "faults[0].type",
+     "an encoder's counts"),
+    ('type = "sensor_offset"\nsignal = "cap.p"\noffset = "2 mm"\nstart = 1.0', "faults[0].offset", "Pa is wanted"),
+])
+def test_a_bad_transducer_fault_is_named(tmp_path, converted, fault, key, message):
+    """A fault on a signal the loop does not read through a sensor, an encoder's fault on a transducer, an offset
+    in a unit that is not the pressure's: the key named."""
+    path = _write(tmp_path, converted)
+    path.write_text(path.read_text() + f"\n[[faults]]\n{fault}\n")
+    with pytest.raises(InputError, match=re.escape(message)) as e:
+        load_circuit_scenario(path)
+    assert e.value.key == key

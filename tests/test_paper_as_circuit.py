@@ -401,3 +401,78 @@ def test_lockstep_hil_with_the_new_faults_equals_offline(tmp_path, plant):
     ctl = read_csv_columns(tmp_path / "out" / "controller_log.csv")
     assert np.array_equal(ctl["measured"][:-1], res.columns["cyl.x.sensed"][:-1])
     assert not np.array_equal(res.columns["cyl.x.sensed"], np.floor(res.columns["cyl.x"] / 1e-6 + 0.5) * 1e-6)
+
+
+PRESSURE_FAULTS = '''
+[[faults]]
+type = "sensor_offset"
+sensor = "p1"
+offset = 3e5
+drift = 2e5
+start = 0.3
+end = 1.1
+[[faults]]
+type = "sensor_noise"
+sensor = "p2"
+std = 2e4
+start = 0.2
+end = 0.9
+[[faults]]
+type = "sensor_stuck"
+sensor = "p1"
+start = 1.0
+[[faults]]
+type = "sensor_dropout"
+sensor = "{last}"
+start = 1.2
+end = 1.3
+'''
+# a user's law on all four pressures the rig reads (a P law plus a small pressure term: every reading counts)
+PRESSURE_LAW = '''
+class Law:
+    def __call__(self, m):
+        u = 50.0 * (m.x_ref - m.x) + 1e-9 * (m.p1 - 0.7 * m.p2) + 2e-9 * (m.ps - 7e6) - 1e-8 * m.pt
+        return max(-1.0, min(1.0, u))
+'''
+
+
+@pytest.mark.parametrize("law", ["state_feedback", "python"])
+def test_a_pressure_sensors_fault_acts_on_the_loops_transducer_as_on_the_rigs(law, tmp_path):
+    """Faults on the pressure sensors the loop reads (an offset with a drift and a stuck reading on p1, a noise
+    on p2, a dropout on p2, or on the tank's for a user's law reading all four) become the same faults on the
+    loop's transducers (``signal``: cap.p, rod.p, tank.p; hc_pressures_read, each fault's own stream), and the
+    commands are the core's rig's (its own fault code, rig.c: sense) bit for bit at every step from the core's
+    start; without the faults the commands differ (each fault changes what the law reads)."""
+    from hydrohil.circuits.paper import paper_start
+    if law == "python":
+        (tmp_path / "law.py").write_text(PRESSURE_LAW)
+        head = (EXAMPLES / "fig11_p_control.toml").read_text().split("[controller]")[0]
+        head += '[controller]\ntype = "python"\ncallable = "law.py:Law"\n\n[reference]\n' + \
+            (EXAMPLES / "fig11_p_control.toml").read_text().split("[reference]")[1]
+        last = "pt"
+    else:
+        head, last = (EXAMPLES / "controllers" / "fig12_pressure_feedback.toml").read_text(), "p2"
+    head = re.sub(r"duration = [0-9.]+", "duration = 1.5", head)
+    commands = {}
+    for name, faults in (("faulty", PRESSURE_FAULTS.format(last=last)), ("plain", "")):
+        f = tmp_path / f"{name}.toml"
+        f.write_text(head + "\n[hil]\nseed = 11\n" + faults)
+        ls = load_scenario(f)
+        _, spath, notes = convert(ls, tmp_path / name)
+        cs = load_circuit_scenario(spath)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            core = run_scenario(ls)
+            r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop,
+                                 start=paper_start(cs.circuit, core.log[0], cs.step))
+        assert np.array_equal(core.column("u"), r.column("valve.command")), name
+        assert np.array_equal(core.column("xp"), r.column("cyl.x")), name
+        commands[name] = r.column("valve.command")
+        if faults:
+            signals = [g.get("signal") for g in load_circuit_scenario(spath).faults]
+            assert signals == ["cap.p", "rod.p", "cap.p", {"p2": "rod.p", "pt": "tank.p"}[last]]
+            assert not any("not carried" in n for n in notes), notes
+    t = np.arange(len(commands["plain"])) * 5e-4
+    for lo, hi in ((0.2, 0.3), (0.3, 0.9), (1.0, 1.2), (1.2, 1.3)):   # (each fault's window changes the law's input)
+        window = (t >= lo + 1e-3) & (t < hi)
+        assert np.any(commands["faulty"][window] != commands["plain"][window]), (lo, hi)

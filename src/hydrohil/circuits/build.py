@@ -33,11 +33,11 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
-           double lo, double hi, double *sent, const double *press, void *command, void *command_ctx,
+           double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
            double *seen_log, double *events_log);
 extern "Python" double hc_py_command(void *ctx, int64_t k, double sensed, double p1, double p2, double ps,
                                      double pt);
-void hc_pressures_read(const double *v, const double *press, void *rng, double *out);
+void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out);
 double hc_sensed(double x, double *sensor, void *rng, int64_t k);
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row);

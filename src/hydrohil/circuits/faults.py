@@ -24,7 +24,7 @@ parameter as inputs, for its importer to drive).
     type = "sensor_offset"        # the closed loop's measurement fails (sensor_stuck, sensor_offset with
     offset = "2 bar"              # offset and drift, sensor_noise with std, sensor_dropout: it reads 0,
     drift = 0.0                   # encoder_count_loss with fraction), in its signal's unit
-    start = 3.0
+    start = 3.0                   # (signal = "<node>.p": a pressure transducer the loop reads fails instead)
 
     [[faults]]
     type = "packet_loss"          # the network between the controller and the plant (packet_loss and
@@ -39,6 +39,9 @@ mass, a relief valve's flow gain from its cracking pressure), computed here at e
 A fault on a signal replaces its drive during the fault. The log shows each as applied (``cyl.damping``).
 A sensor fault acts where the loop reads its signal (the generated C's hc_sensed, the loop's transducer: an
 ideal one when the scenario gives none), in every layer that reads it; the log's ``<measure>.sensed`` shows it.
+``signal = "<node>.p"`` puts it on one of the loop's pressure transducers instead (a state feedback's load
+cylinder's chambers, its supply_node, its tank_node: hc_pressures_read, the fault on the pressure before the
+transducer's model, as the paper's rig's), in Pa.
 A fault's random draws come from its own stream, seeded by ``[hil] seed`` and its place in ``[[faults]]`` (the
 paper's rig's rule; ``stream = N`` draws from place N's instead: what ``hydrohil circuit convert`` writes where
 the rig's table had another order).
@@ -67,6 +70,8 @@ KEYS = {"leak": {"type", "orifice", "node", "area", "to", "discharge_coefficient
         "command_inversion": {"type", "start", "end"}}
 for _kind in (*SENSOR_FAULTS, *NETWORK_FAULTS):      # (a loop's fault may name the random stream it draws from)
     KEYS[_kind] = KEYS[_kind] | {"stream"}
+for _kind in SENSOR_FAULTS:                          # (and the signal whose sensor fails: the measured one, or a
+    KEYS[_kind] = KEYS[_kind] | {"signal"}           # pressure the loop reads through its transducers)
 MAX_LOOP_FAULTS = 53                                 # (the command path's fault mask: core HH_MAX_FAULTS)
 # each network fault's value: key, unit, range (the paper's rig's, simulation/faults.py; a delay line up to 1 s)
 NETWORK_VALUE = {"packet_loss": ("probability", "-", 0.0, 1.0), "network_delay": ("delay", "s", 0.0, 1.0),
@@ -249,13 +254,25 @@ def _loop_faults(faults: list, kinds: tuple, loop, what: str, source: str):
         yield (stream, f, kind, where, *_window(f, where, source))
 
 
-def sensor_faults(faults: list, loop, unit: str, source: str) -> list:
-    """The sensor faults among a scenario's ``faults`` (checked by :func:`apply_faults`), as the loop's
-    sensor takes them: (type, start, end or None, a, b, slot) with an offset [unit] and drift [unit/s], a noise's
-    standard deviation [unit], in SI (``unit``: the measured signal's), or the fraction of an encoder's counts
-    missed."""
-    out = []
-    for stream, f, kind, where, start, end in _loop_faults(faults, SENSOR_FAULTS, loop, "measurement", source):
+def sensor_faults(faults: list, loop, units: dict, source: str) -> tuple[list, list]:
+    """The sensor faults among a scenario's ``faults`` (checked by :func:`apply_faults`), as the loop's sensors
+    take them: (the measured signal's sensor's, its pressure transducers'). A fault's ``signal`` names the
+    signal whose sensor fails: the loop's measured one (the default), or a pressure it reads through its
+    transducers (a state feedback's load cylinder's chambers, its supply_node's and tank_node's). Each
+    (type, start, end or None, a, b, slot), a transducer's with its slot (0, 1: the chambers, 2: the supply, 3:
+    the tank) appended: an offset [unit] and drift [unit/s], a noise's standard deviation [unit], in SI (the
+    signal's unit, ``units``), or the fraction of an encoder's counts missed."""
+    out, press = [], []
+    for stream, f, kind, where, start, end in _loop_faults(faults, SENSOR_FAULTS, loop, "sensors", source):
+        signal = f.get("signal", loop.measure)
+        reads = {} if loop.pressures is None else {**{col: i for i, col in enumerate(loop.pressures)},
+                                                   **{col: i for i, col in loop.supply_tank}}
+        if signal != loop.measure and signal not in reads:
+            choices = ", ".join([loop.measure, *reads])
+            raise InputError(f"a signal the loop reads through a sensor: its measured one or a pressure it reads "
+                             f"through its transducers ({choices}), got {signal!r}", source=source,
+                             key=f"{where}.signal")
+        unit = units.get(signal, "-")
         a = b = 0.0
         if kind == "sensor_offset":
             a = _number(f.get("offset", 0.0), "offset", where, source, unit)
@@ -273,11 +290,14 @@ def sensor_faults(faults: list, loop, unit: str, source: str) -> list:
             if not 0 < a <= 1:
                 raise InputError(f"the fraction of the counts missed, in (0, 1], got {f.get('fraction')!r}",
                                  source=source, key=f"{where}.fraction")
-            if not loop.encoder:
+            if not loop.encoder or signal != loop.measure:
                 raise InputError("an encoder's counts: the loop measuring a position (m or rad) with its "
                                  "sensor_resolution (its count size)", source=source, key=f"{where}.type")
-        out.append((kind, start, end, a, b, stream))
-    return out
+        if signal == loop.measure:
+            out.append((kind, start, end, a, b, stream))
+        else:
+            press.append((kind, start, end, a, b, stream, reads[signal]))
+    return out, press
 
 
 def follow_derived(c, source: str) -> None:

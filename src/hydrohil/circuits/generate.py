@@ -532,19 +532,26 @@ int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const i
 enum {{ HC_SENSOR_HEAD = 7, HC_SENSOR_FAULT = 6, HC_SENSOR_STUCK = 1, HC_SENSOR_OFFSET, HC_SENSOR_NOISE,
        HC_SENSOR_DROPOUT, HC_SENSOR_COUNT_LOSS }};
 
-/* v under fault row F (row f of hc_sensed's table) at time t when it is an offset or an added noise (the two
- * that act alike on a transducer's signal and on an encoder's reading); v itself otherwise */
-HH_INLINE double sensor_shifted(double v, const double *F, int f, double t, hh_rng *r)
+/* v under the active fault row F (type, its steps, a, b, start [s]; hc_sensed's and hc_pressures_read's) at time
+ * t, the rig's rule (rig.c: sense): stuck at its first value (*memory, NaN until then), an offset a + drift
+ * b*(t - start), an added noise of standard deviation a (a normal sample of `stream`; NULL: none), a dropout
+ * reading 0; v itself for another (an encoder's count loss acts on its counts, hc_sensed). */
+HH_INLINE double sensor_fault(double v, const double *F, double t, double *memory, hh_rng *stream)
 {{
     double z;
     switch ((int)F[0]) {{
+    case HC_SENSOR_STUCK:
+        if (isnan(*memory))
+            *memory = v;
+        return *memory;
     case HC_SENSOR_OFFSET: return v + (F[3] + F[4] * hh_max(t - F[5], 0.0));
     case HC_SENSOR_NOISE:
-        if (r) {{
-            hh_rng_normals(&r[1 + f], 1, &z);
+        if (stream) {{
+            hh_rng_normals(stream, 1, &z);
             return v + F[3] * z;
         }}
         return v;
+    case HC_SENSOR_DROPOUT: return 0.0;
     default: return v;
     }}
 }}
@@ -573,7 +580,7 @@ double hc_sensed(double x, double *sensor, void *rng, int64_t k)
         switch ((int)F[0]) {{
         case HC_SENSOR_STUCK: stuck = F; break;
         case HC_SENSOR_DROPOUT: dropout = 1; break;
-        default: v = sensor_shifted(v, F, f, t, r); break;
+        default: v = sensor_fault(v, F, t, &F[5], r ? &r[1 + f] : 0); break;
         }}
     }}
     if (sensor[3] > 0.0 && r) {{
@@ -596,17 +603,8 @@ double hc_sensed(double x, double *sensor, void *rng, int64_t k)
     if (encoder && any) {{                     /* the reading's faults in their order, counted again */
         for (f = 0; f < nf; f++) {{
             double *F = sensor + HC_SENSOR_HEAD + HC_SENSOR_FAULT * f;
-            if ((double)k < F[1] || (double)k >= F[2])
-                continue;
-            switch ((int)F[0]) {{
-            case HC_SENSOR_STUCK:
-                if (isnan(F[5]))
-                    F[5] = v;
-                v = F[5];
-                break;
-            case HC_SENSOR_DROPOUT: v = 0.0; break;
-            default: v = sensor_shifted(v, F, f, t, r); break;
-            }}
+            if ((double)k >= F[1] && (double)k < F[2])
+                v = sensor_fault(v, F, t, &F[5], r ? &r[1 + f] : 0);
         }}
         v = encoder_counts(v, sensor[0]) * sensor[0];
     }}
@@ -713,25 +711,41 @@ static int method_step(int method, double h, double *y, int64_t *m, const double
     }}
 }}
 
-/* What a loop's pressure transducers read of the log row v (SPEC §10; sensors.c's model, the rig's): press =
- * [n, full scale, resolution, noise, its stream's place in rng, then n pairs (slot, column)]: out[slot] the
- * reading of v[column] (slot 0, 1: its load cylinder's two chambers, 2: the supply's node, 3: the tank's; NaN
- * where it reads none), plus the noise times a normal sample of its own stream, the n drawn at once (the rig's
- * draw of its four transducers p1, p2, ps, pt, when a loop reads all four: the same numbers); full scale 0: the
- * pressures themselves. */
-void hc_pressures_read(const double *v, const double *press, void *rng, double *out)
+/* What a loop's pressure transducers read of the log row v of step k (SPEC §10; sensors.c's model, the rig's):
+ * press = [n, full scale, resolution, noise, its stream's place in rng, the step h, nf, then n pairs (slot,
+ * column), then nf fault rows of HC_PRESS_FAULT doubles]: out[slot] the reading of v[column] (slot 0, 1: its
+ * load cylinder's two chambers, 2: the supply's node, 3: the tank's; NaN where it reads none), plus the noise
+ * times a normal sample of its own stream, the n drawn at once (the rig's draw of its four transducers p1, p2,
+ * ps, pt, when a loop reads all four: the same numbers); full scale 0: the pressures themselves. A fault row
+ * (type as hc_sensed's, first step, step after the last, a, b, start [s], slot, its stream's place in rng,
+ * memory) acts on the steps k_first <= k < k_end on the pressure of its slot before the transducer, the faults
+ * of a slot in their order (the rig's, rig.c: sense): an offset a + drift b*(t - start), an added noise of
+ * standard deviation a, stuck at its first step's value (memory; NaN until then and after), a dropout (0). */
+enum {{ HC_PRESS_HEAD = 7, HC_PRESS_FAULT = 9 }};
+
+void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out)
 {{
     hh_rng *r = (hh_rng *)rng;
-    double z[4] = {{0.0, 0.0, 0.0, 0.0}};
-    int i, n = (int)press[0], saturated;
+    double z[4] = {{0.0, 0.0, 0.0, 0.0}}, t = (double)k * press[5], *faults;
+    int i, f, n = (int)press[0], nf = (int)press[6], saturated;
+    faults = press + HC_PRESS_HEAD + 2 * n;
     for (i = 0; i < 4; i++)
         out[i] = NAN;
     if (press[3] > 0.0 && r)
         hh_rng_normals(&r[(int)press[4]], n, z);
     for (i = 0; i < n; i++) {{
-        double p = v[(int64_t)press[6 + 2 * i]];
-        out[(int)press[5 + 2 * i]] = press[1] > 0.0 ? pressure_reading(p, press[1], press[2], press[3] * z[i],
-                                                                       &saturated) : p;
+        int slot = (int)press[HC_PRESS_HEAD + 2 * i];
+        double p = v[(int64_t)press[HC_PRESS_HEAD + 1 + 2 * i]];
+        for (f = 0; f < nf; f++) {{
+            double *F = faults + HC_PRESS_FAULT * f;
+            if ((int)F[6] != slot)
+                continue;
+            if ((double)k < F[1] || (double)k >= F[2])
+                F[8] = NAN;                         /* (a window that ends lets go) */
+            else
+                p = sensor_fault(p, F, t, &F[8], r ? &r[(int)F[7]] : 0);
+        }}
+        out[slot] = press[1] > 0.0 ? pressure_reading(p, press[1], press[2], press[3] * z[i], &saturated) : p;
     }}
 }}
 
@@ -761,7 +775,7 @@ typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, 
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
-           double lo, double hi, double *sent, const double *press, void *command, void *command_ctx,
+           double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
            double *seen_log, double *events_log)
 {{
     double seen[NLOG], held = 0.0, events = 0.0;
@@ -778,7 +792,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             log_row((double)step * h, y, m, uk, P, seen);
             sensed = hc_sensed(seen[meas], sensor, rng, step);
             if (press)
-                hc_pressures_read(seen, press, rng, pr);
+                hc_pressures_read(seen, press, rng, step, pr);
             if (command) {{
                 c = ((hc_command_fn)command)(command_ctx, step, sensed, pr[0], pr[1], pr[2], pr[3]);
                 if (c != c) {{

@@ -225,6 +225,7 @@ class Loop:
     pressure_sensor: tuple = (0.0, 0.0, 0.0)
     supply_tank: tuple = ()
     pressure_seed: int | None = None
+    pressure_faults: list = field(default_factory=list)   # (type, start, end, a, b, slot, transducer slot): faults.py
     base: object = None                 # a user's controller (cfg.type "python"): the folder its module is in
     source: str | None = None           # (the scenario, named by its errors)
 
@@ -283,32 +284,43 @@ class Loop:
         """Its pressure transducers draw noise (from a stream of their own, :meth:`streams`)."""
         return self.pressures is not None and self.pressure_sensor[2] > 0
 
-    def pressure_args(self, cc):
+    def pressure_args(self, cc, h: float | None = None):
         """hc_run's ``press`` (NULL: no pressure read): the generated C's hc_pressures_read table [n, full scale,
-        resolution, noise, the place of its stream in :meth:`streams`, then (slot, log column) of each
-        transducer] (made once per compiled circuit)."""
+        resolution, noise, the place of its stream in :meth:`streams`, the step h, the number of faults, then
+        (slot, log column) of each transducer, then each fault's row (type, its steps, a, b, start, slot, the place
+        of its stream, a fresh memory)], made anew for each run (a stuck transducer not yet stuck); its faults'
+        steps at step ``h`` (default: the step of :meth:`start`)."""
         if self.pressures is None:
             return cc.ffi.NULL
+        from hydrohil.circuits.faults import SENSOR_FAULTS
+        from hydrohil.circuits.network import fault_steps
+        h = self.h if h is None else h
         reads = ((0, self.pressures[0]), (1, self.pressures[1]), *self.supply_tank)
-        key = (reads, tuple(self.pressure_sensor), len(self.sensor_faults))
-        made = getattr(self, "_press", None)
-        if made is None or made[0] is not cc or made[2] != key:
-            cols = cc.layout.log_columns
-            table = [float(len(reads)), *map(float, self.pressure_sensor), float(1 + len(self.sensor_faults))]
-            for slot, col in reads:
-                table += [float(slot), float(cols.index(col))]
-            self._press = (cc, cc.ffi.new(f"double[{len(table)}]", table), key)   # (alive while the C reads it)
-        return self._press[1]
+        cols, nf = cc.layout.log_columns, len(self.sensor_faults)
+        table = [float(len(reads)), *map(float, self.pressure_sensor), float(1 + nf), float(h or 0.0),
+                 float(len(self.pressure_faults))]
+        for slot, col in reads:
+            table += [float(slot), float(cols.index(col))]
+        for i, (kind, start, end, a, b, _, slot) in enumerate(self.pressure_faults):
+            if h is None:
+                raise ValueError("the loop's pressure faults need the step they act at (Loop.start(h), or h)")
+            k0, k1 = fault_steps(start, end, h)
+            table += [float(SENSOR_FAULTS.index(kind) + 1), float(k0), float(k1), float(a), float(b), float(start),
+                      float(slot), float(2 + nf + i), math.nan]
+        return cc.ffi.new(f"double[{len(table)}]", table)
 
-    def read_pressures(self, cc, row: np.ndarray, rng=None) -> tuple[float, float, float, float]:
-        """(p1, p2, ps, pt) as the loop reads them from the log row ``row`` (the generated C's hc_pressures_read,
-        hc_run's rule; its noise from ``rng``, :meth:`sensor_args`' generators): (0, 0, NaN, NaN) when it reads
-        no pressure, NaN for the supply or the tank it does not read."""
+    def read_pressures(self, cc, row: np.ndarray, rng=None, k: int = 0, press=None) -> tuple[float, float, float,
+                                                                                              float]:
+        """(p1, p2, ps, pt) as the loop reads them from the log row ``row`` of step ``k`` (the generated C's
+        hc_pressures_read, hc_run's rule; its noise from ``rng``, :meth:`sensor_args`' generators; ``press``: the
+        run's :meth:`pressure_args`, whose memory its faults keep from step to step, default a fresh one): (0, 0,
+        NaN, NaN) when it reads no pressure, NaN for the supply or the tank it does not read."""
         if self.pressures is None:
             return 0.0, 0.0, math.nan, math.nan
         out = cc.ffi.new("double[4]")
         cc.lib.hc_pressures_read(cc.ffi.from_buffer("double[]", np.ascontiguousarray(row, dtype=float)),
-                                 self.pressure_args(cc), cc.ffi.NULL if rng is None else rng, out)
+                                 self.pressure_args(cc) if press is None else press,
+                                 cc.ffi.NULL if rng is None else rng, int(k), out)
         return tuple(out)
 
     def start(self, h: float) -> None:
@@ -327,10 +339,10 @@ class Loop:
         [1 + i] its sensor's i-th fault's, seeded by [hil] seed and the fault's place in the scenario's
         [[faults]] (the paper's rig's streams, core/link.c); then its pressure transducers', seeded by their
         seed (the rig's noise stream, rig.c, for the same seed), else the sensor's seed's stream PRESSURE_STREAM
-        (not the sensor's own draws)."""
+        (not the sensor's own draws); then its transducers' faults', as its sensor's."""
         from hydrohil.core import ffi as core_ffi, lib as core
         nf = len(self.sensor_faults)
-        rng = core_ffi.new(f"hh_rng[{2 + nf}]")
+        rng = core_ffi.new(f"hh_rng[{2 + nf + len(self.pressure_faults)}]")
         core.hh_rng_seed(rng, int(self.seed))
         for i, (*_, slot) in enumerate(self.sensor_faults):
             core.hh_rng_stream(rng + 1 + i, int(self.link[0]), int(slot))
@@ -338,6 +350,8 @@ class Loop:
             core.hh_rng_stream(rng + 1 + nf, int(self.seed), PRESSURE_STREAM)
         else:
             core.hh_rng_seed(rng + 1 + nf, int(self.pressure_seed))
+        for i, (*_, slot, _) in enumerate(self.pressure_faults):
+            core.hh_rng_stream(rng + 2 + nf + i, int(self.link[0]), int(slot))
         return rng
 
     def sensor_vector(self, h: float) -> list[float]:
@@ -580,7 +594,7 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
     sensor, rng = loop.sensor_args(cc)
     path = loop.command_path(h)                                  # (its network faults: circuits/network.py)
     loop.sent = np.zeros(n + 1) if path is not None else None    # what the controller sent (the path's input)
-    press = loop.pressure_args(cc)                              # (a state feedback's load pressure)
+    press = loop.pressure_args(cc, h)                           # (a state feedback's load pressure)
     command = loop.command_callback(cc, ref, dref, h)            # (a user's controller, called back)
     loop._keep = (ref, dref, sensor, path, press, command)       # alive while hc_run reads them
     law = (ffi.NULL, ffi.NULL) if loop.python else (addr(loop.controller.c), addr(loop.controller.state))
@@ -659,13 +673,14 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         meas, cmd = lay.log_columns.index(loop.measure), lay.inputs.index(loop.command)
 
         sensor, rng = loop.sensor_args(cc)
+        press = loop.pressure_args(cc, h)      # (its transducers, their faults' memory: this run's)
         path = loop.command_path(h)            # (its network faults: hc_run's rule, the same C)
         loop.sent = np.zeros(n + 1) if path is not None else None
         (lo, hi), held = input_range(c, loop.command), [u[0, cmd]]
 
         def control(k, row):                   # (k = n: the last row's command, the law's, not sent)
             sensed = cc.lib.hc_sensed(row[meas], sensor, rng, k)
-            p1, p2, ps, pt = loop.read_pressures(cc, row, rng)
+            p1, p2, ps, pt = loop.read_pressures(cc, row, rng, k, press)
             u[k, cmd] = loop.update(ref[k], dref[k], sensed, p1, p2, t=k * h, ps=ps, pt=pt)
             if path is not None:
                 loop.sent[k] = u[k, cmd]

@@ -201,11 +201,13 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
         from hydrohil.circuits.faults import network_faults, sensor_faults
         from hydrohil.circuits.run import signal_units
         units = signal_units(c, compile_circuit(c).layout)
-        found = sensor_faults(data["faults"], loop, units.get(loop.measure, "-") if loop else "-", source)
+        found, press = sensor_faults(data["faults"], loop, units, source)
         if found:
             loop.sensor_faults = found
             if loop.sensor is None:
                 loop.sensor = (0.0, -1e300, 1e300, 0.0)
+        if press:                                 # (its pressure transducers failing: hc_pressures_read)
+            loop.pressure_faults = press
         network = network_faults(data["faults"], loop, source)
         if network:                               # the loop's commands through the network (circuits/network.py)
             loop.network = network

@@ -153,6 +153,7 @@ class Drives:
             self.meas = at(self.loop.measure)
             self.cc = cs.compiled                   # (a loop reading pressures: its transducers, the generated C's)
             self.streams = self.loop.sensor_args(self.cc)[1]    # (loop.rng's, alive in the loop while it runs)
+            self.press = self.loop.pressure_args(self.cc)      # (its transducers' faults' memory: this run's)
             self.cmd = lay.inputs.index(self.loop.command)
             self.mask = 1 << self.cmd
             self.steer = SteerableController(self.loop.controller, None)
@@ -164,7 +165,8 @@ class Drives:
             held = self.steer.held
             ref, dref = (held, 0.0) if held is not None else (float(self.ref[k]), float(self.dref[k]))
             self.measured, self.reference = s.values[self.meas], ref
-            p1, p2, ps, pt = (self.loop.read_pressures(self.cc, [s.t_sim, *s.values], self.streams)
+            p1, p2, ps, pt = (self.loop.read_pressures(self.cc, [s.t_sim, *s.values], self.streams, int(s.step),
+                                                       self.press)
                               if self.loop.pressures is not None else (0.0, 0.0, math.nan, math.nan))
             self.values[self.cmd] = self.loop.update(ref, dref, self.measured, p1, p2, t=s.t_sim, ps=ps, pt=pt)
         return self.values

@@ -26,8 +26,10 @@ initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "v
 faults: network            the same faults on the loop's commands (packet_loss, network_delay, reordering,
                            controller_silence; the same streams: seed and the rig's place, ``stream``)
 faults: sensor (position)  the loop's sensor faults (stuck, offset, noise, dropout; in m; encoder_count_loss)
-faults: sensor (pressure)  not carried, with a note, where the loop does not read it (the run is the same);
-                           in open loop a position sensor's too (no loop reads it)
+faults: sensor (pressure)  the same fault on the loop's transducer of it (``signal``: cap.p, rod.p, supply.p,
+                           tank.p) where the loop reads it (a state feedback's chambers, a Python controller's
+                           four); elsewhere not carried, with a note (the run is the same); in open loop a
+                           position sensor's too (no loop reads it)
 command_inversion          the same fault on the loop's commands
 spool_stuck                ``parameter`` on valve.lv = 0 (the spool's clamp at the step's start: stopped at once)
 valve_leakage              ``parameter`` on valve.wear (the worn lands' section on each edge)
@@ -38,10 +40,10 @@ valve_bandwidth            ``parameter`` on valve.wn (its value times the factor
 load_change                ``parameter`` on cyl.mass and/or cyl.force
 =========================  ==========================================================================================
 
-Refused (InputError naming the key): a state feedback or a Python controller with a fault on a pressure sensor,
-initial chamber pressures, an initial spool position other than the first command in open loop, a repeating
-reference, a network fault in open loop (the rig's acts on the drive's commands; a circuit's inputs take them
-without a network), ``safe_state = "hold"`` and ``controller_mode = "clock"``.
+Refused (InputError naming the key): initial chamber pressures, an initial spool position other than the first
+command in open loop, a repeating reference, a network fault in open loop (the rig's acts on the drive's
+commands; a circuit's inputs take them without a network), ``safe_state = "hold"`` and ``controller_mode =
+"clock"``.
 """
 
 from __future__ import annotations
@@ -67,6 +69,8 @@ PARAMETER = {
     "spool_stuck": [(None, "valve.lv", lambda v, p: 0.0)],       # (its clamp at the step's start: velocity 0)
     "valve_leakage": [("section", "valve.wear", lambda v, p: v)],
 }
+# the rig's pressure sensors as the paper circuit's nodes (the loop's transducers of a state feedback, a Python law)
+TRANSDUCERS = {"p1": "cap.p", "p2": "rod.p", "ps": "supply.p", "pt": "tank.p"}
 CD = 0.61                                   # the leak orifice's discharge coefficient (a hose_burst's section)
 HIL_DROPPED = ("command_scale",)          # the wire's unit of the paper's rig: a circuit's inputs are SI
 LPM_PER_SQRT_BAR = 1.0 / 60000.0 / math.sqrt(1e5)   # (l/min)/sqrt(bar) in (m3/s)/sqrt(Pa) (hh.h's)
@@ -178,16 +182,16 @@ def _faults(s, p, src: str, notes: list[str]) -> list[dict]:
             sensor = getattr(f, "sensor", "position")
             reads = {"state_feedback": ("p1", "p2"), "python": ("p1", "p2", "ps", "pt")}.get(
                 s.controller.type if s.controller is not None else None, ())
-            if sensor in reads:               # (what the rig's controller reads, faulted: a circuit's reads none)
-                raise InputError(f"a circuit's {s.controller.type} loop reads its chambers without faults (and no "
-                                 f"supply, tank): a {f.type} on the {sensor} sensor changes what the rig's "
-                                 "controller reads", source=src, key=f"{where}.sensor")
+            body = {k: v for k, v in f.model_dump(exclude_none=True).items() if k != "sensor"}
+            if sensor in reads:               # (what the rig's controller reads: the loop's transducer of it)
+                out.append({**body, "signal": TRANSDUCERS[sensor], **stream})
+                continue
             if sensor != "position" or s.controller is None:     # (only what the rig's log reports of it)
                 notes.append(f"{where} ({f.type} on the {sensor} sensor): not carried: "
                              f"{'no loop reads it' if s.controller is None else 'the loop does not read it'}, so "
                              "it changes nothing in the run (the rig's log shows it in its reading)")
                 continue
-            out.append({**{k: v for k, v in f.model_dump(exclude_none=True).items() if k != "sensor"}, **stream})
+            out.append({**body, **stream})
         elif f.type == "hose_burst":          # the rig's burst: its section to tank by eq 3's law (cylinder.c)
             k = f.section * LPM_PER_SQRT_BAR        # [m3/s/sqrt(Pa)] = Cd*A*sqrt(2/rho)
             area = k / (CD * math.sqrt(2.0 / FLUID["density"].default))
