@@ -279,7 +279,7 @@ def test_the_c_plant_of_a_circuit_refuses_the_rigs_options(tmp_path):
         r = subprocess.run([exe, *args, "--duration", "0.01", "--connect-timeout", "0.1"], capture_output=True,
                            text=True, timeout=60)
         assert r.returncode == 2 and ("not for a circuit's plant" in r.stderr or "export's step" in r.stderr or
-                                      "the paper's rig's" in r.stderr), args
+                                      "the paper's rig's" in r.stderr or "the scenario chooses it" in r.stderr), args
     usage = subprocess.run([exe, "--help"], capture_output=True, text=True).stdout
     assert "circuit motor_speed" in usage and "--fault" not in usage and "--set" not in usage.split("export")[0]
     r = hh("export", "c", "--scenario", MOTOR, "--out", tmp_path / "x", "--no-make")

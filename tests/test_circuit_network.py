@@ -165,17 +165,20 @@ def test_a_sequence_silences_the_controller_of_a_circuit(tmp_path):
     assert [(f["type"], f["start"], f["end"]) for f in compiled["faults"]] == [("controller_silence", 0.8, 1.2)]
 
 
-@pytest.mark.parametrize("fault, key, message", [
-    ('type = "packet_loss"\nstart = 1', "faults[0].probability", "required: the probability"),
-    ('type = "packet_loss"\nprobability = 1.5\nstart = 1', "faults[0].probability", "in (0, 1]"),
-    ('type = "network_delay"\ndelay = "2 s"\nstart = 1', "faults[0].delay", "in (0, 1]"),
-    ('type = "network_delay"\ndelay = "2 bar"\nstart = 1', "faults[0].delay", "s is wanted"),
-    ('type = "reordering"\nprobability = 0.1\nchance = 1\nstart = 1', "faults[0].chance", "unknown key"),
-    ('type = "controller_silence"\nstart = 2\nend = 1', "faults[0].end", "must be after start"),
+@pytest.mark.parametrize("text, key, message", [
+    ('[[faults]]\ntype = "packet_loss"\nstart = 1', "faults[0].probability", "required: the probability"),
+    ('[[faults]]\ntype = "packet_loss"\nprobability = 1.5\nstart = 1', "faults[0].probability", "in (0, 1]"),
+    ('[[faults]]\ntype = "network_delay"\ndelay = "2 s"\nstart = 1', "faults[0].delay", "in (0, 1]"),
+    ('[[faults]]\ntype = "network_delay"\ndelay = "2 bar"\nstart = 1', "faults[0].delay", "s is wanted"),
+    ('[[faults]]\ntype = "reordering"\nprobability = 0.1\nchance = 1\nstart = 1', "faults[0].chance", "unknown key"),
+    ('[[faults]]\ntype = "controller_silence"\nstart = 2\nend = 1', "faults[0].end", "must be after start"),
+    ('[hil]\nsafe_state = "hold"', "hil.hold_kp", "required with safe_state = \"hold\", got None"),
+    ('[hil]\nsafe_state = "hold"\nhold_kp = -3', "hil.hold_kp", "the P gain in (0, 1e5] holding cyl.x with valve.command"),
+    ('[hil]\nsafe_state = "brake"', "hil.safe_state", "centre (the commanded inputs to 0) or hold"),
 ])
-def test_a_network_fault_error_names_the_key(tmp_path, fault, key, message):
+def test_a_network_fault_or_safe_state_error_names_the_key(tmp_path, text, key, message):
     with pytest.raises(InputError, match=re.escape(message)) as e:
-        load_circuit_scenario(paper_scenario(tmp_path, faults=f"[[faults]]\n{fault}\n"))
+        load_circuit_scenario(paper_scenario(tmp_path, faults=f"{text}\n"))
     assert e.value.key == key, str(e.value)
 
 
@@ -189,3 +192,29 @@ def test_a_network_fault_needs_a_loop(tmp_path):
     with pytest.raises(InputError, match="acts on the closed loop's commands") as e:
         load_circuit_scenario(f)
     assert e.value.key == "faults[0].type"
+
+
+HOLD = '[hil]\nseed = 7\nsafe_state = "hold"\nhold_kp = 40.0\n[[faults]]\ntype = "controller_silence"\nstart = 0.6\n' \
+       'end = 0.9\n'
+
+
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_lockstep_hil_with_the_safe_state_hold_equals_offline(tmp_path, plant):
+    """safe_state = "hold" on a circuit: a silent controller trips the watchdog, both plants hold the loop's
+    measured signal with its command (the P law on its truth, hh_path_apply_held) as the offline loop does, so the
+    lock-step run is the offline run bit for bit; the trip is explained by the silence (VALID)."""
+    from hydrohil.hil.run import run_hil
+    r = run_hil(paper_scenario(tmp_path, faults=HOLD, duration=1.2), tmp_path / "out", lockstep=True, plot=False,
+                ready=lambda *a, **k: None, plant=plant)
+    assert r.comparison["identical"] and r.comparison["replay_max_abs_difference"] == 0.0
+    assert r.timing["watchdog_trips"] == 1 and r.timing["watchdog_trips_unexplained"] == 0
+
+
+def test_the_safe_state_hold_needs_a_loop(tmp_path):
+    """An open loop has no measured signal to hold: refused, naming the key."""
+    (tmp_path / "circuit.toml").write_text((PAPER / "circuit.toml").read_text())
+    f = tmp_path / "open.toml"
+    f.write_text('circuit = "circuit.toml"\nduration = 1.0\n[hil]\nsafe_state = "hold"\nhold_kp = 40.0\n')
+    with pytest.raises(InputError, match="this scenario has no \\[controller\\]") as e:
+        load_circuit_scenario(f)
+    assert e.value.key == "hil.safe_state"

@@ -476,3 +476,36 @@ def test_a_pressure_sensors_fault_acts_on_the_loops_transducer_as_on_the_rigs(la
     for lo, hi in ((0.2, 0.3), (0.3, 0.9), (1.0, 1.2), (1.2, 1.3)):   # (each fault's window changes the law's input)
         window = (t >= lo + 1e-3) & (t < hi)
         assert np.any(commands["faulty"][window] != commands["plain"][window]), (lo, hi)
+
+
+SILENCE = '\n[[faults]]\ntype = "controller_silence"\nstart = 0.6\nend = 0.9\n'
+
+
+def test_the_safe_state_hold_holds_the_loops_signal_as_the_rigs(tmp_path):
+    """safe_state = "hold" (the rig's: a P law of gain hold_kp on the piston at its position at the trip) becomes
+    the circuit loop's: its command holds cyl.x with valve.command (hh_path_apply_held). Fig 11 with the controller
+    silent over [0.6, 0.9) s: the commands are the core rig's bit for bit from its start; in the safe state they
+    are kp·(x_trip - x) computed here from the run's own log (not 0: the piston keeps moving after the trip and
+    the law pulls it back), where "centre" gives 0."""
+    from hydrohil.circuits.paper import paper_start
+    base = (EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 1.2")
+    runs = {}
+    for safe in ("hold", "centre"):
+        f = tmp_path / f"{safe}.toml"
+        f.write_text(base + f'\n[hil]\nsafe_state = "{safe}"\nhold_kp = 40.0\n' + SILENCE)
+        ls = load_scenario(f)
+        _, spath, _ = convert(ls, tmp_path / safe)
+        cs = load_circuit_scenario(spath)
+        assert cs.loop.link[2] == (40.0 if safe == "hold" else 0.0)
+        core = run_scenario(ls)
+        r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop,
+                             start=paper_start(cs.circuit, core.log[0], cs.step))
+        assert np.array_equal(core.column("u"), r.column("valve.command")), safe
+        runs[safe] = r
+    t, x, u = (runs["hold"].column(k) for k in ("t", "cyl.x", "valve.command"))
+    k_trip = int(np.argmax((t > 0.6) & (u == 0.0)))      # (the law's first output: kp·(x_trip - x_trip))
+    safe = (t >= t[k_trip]) & (t < 0.9 - 1e-9)
+    assert np.all(u[(t >= 0.6) & (t < t[k_trip])] == u[np.searchsorted(t, 0.6) - 1])   # (held until the trip)
+    assert t[k_trip] == pytest.approx(0.6 - 5e-4 + 0.05 + 5e-4) and safe.sum() > 400   # (last arrival + timeout)
+    assert np.array_equal(u[safe], np.clip(40.0 * (x[k_trip] - x[safe]), -1, 1))
+    assert np.max(np.abs(u[safe])) > 1e-3 and np.all(runs["centre"].column("valve.command")[safe] == 0.0)

@@ -759,7 +759,8 @@ void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, dou
  * that a larger command lowers the signal; 1: direct, exact). path (not NULL: the scenario's network faults,
  * an hh_path of packets of one value): the controller's command goes through it (link.c: network faults, then
  * the watchdog) as to a plant over the network: the last one that arrived drives the step, 0 in the watchdog's
- * safe state, negated under a command_inversion, saturated to the input's range [lo, hi]; sent[k] (when not
+ * safe state (its "hold": the path's P law on the measured signal's truth, hh_path_apply_held), negated under a
+ * command_inversion, saturated to the input's range [lo, hi]; sent[k] (when not
  * NULL, n + 1 of them): what the controller sent for step k (sent[n]: the last row's, not sent). press (not NULL: a loop reading its load cylinder's chambers,
  * and the supply's and the tank's pressures when it names them; hc_pressures_read's table): the law reads the
  * chambers as read too. command (not NULL, ctl NULL: a user's controller, called back with command_ctx) gives
@@ -806,9 +807,9 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                 sent[step] = c;
             if (path && step < n) {{       /* (the last row's command: the law's, logged, not sent) */
                 hh_path *pa = (hh_path *)path;
-                if (hh_path_step(pa, step, 1, &c))
+                if (hh_path_step(pa, step, 1, &c, seen[meas]))
                     held = c;
-                c = hh_path_apply(pa, held, lo, hi, 0);
+                c = hh_path_apply_held(pa, held, lo, hi, seen[meas], 0);
             }}
             uk[cmd] = c;
         }}

@@ -8,7 +8,8 @@ and the standalone C plant (rt_circuit.c) all step, so a lock-step HIL run is th
 The faults act where the plant receives the controller's packets (simulated there, as the paper's rig does):
 a lost or stale packet leaves the plant on the last command that arrived, a delayed one arrives whole steps
 late, a silent controller trips the watchdog after ``[hil] watchdog_timeout`` (its safe state: the commanded
-inputs at 0, the end of their range nearest to it). Their random draws come from streams seeded by
+inputs at 0, the end of their range nearest to it; with ``safe_state = "hold"`` the loop's command a P law of
+gain ``hold_kp`` holding its measured signal at its value at the trip, the paper's rig's hold). Their random draws come from streams seeded by
 ``[hil] seed`` and the fault's place in the table; a trip while a fault held packets back is explained (it
 does not make a real-time run INVALID).
 """
@@ -41,7 +42,7 @@ class CommandPath(WatchdogCounters):
     :func:`hydrohil.circuits.faults.network_faults`; slot: its place in the scenario's [[faults]], which with
     ``seed`` seeds its stream, as the paper's rig's) for packets of ``stride`` values at step ``h``."""
 
-    def __init__(self, network: list, h: float, *, seed: int, timeout: float, stride: int):
+    def __init__(self, network: list, h: float, *, seed: int, timeout: float, stride: int, hold_kp: float = 0.0):
         n = len(network)
         self._faults = core_ffi.new(f"hh_fault[{max(n, 1)}]")
         for i, (kind, start, end, a, slot) in enumerate(network):
@@ -54,6 +55,7 @@ class CommandPath(WatchdogCounters):
         self._fifo = core_ffi.new(f"double[{cap * (stride + 1)}]") if cap else core_ffi.NULL
         self.c = core_ffi.new("hh_path *")
         core.hh_path_init(self.c, self._faults, n, float(h), float(timeout), int(stride), self._fifo, cap)
+        self.c.hold_kp = float(hold_kp)                  # (> 0: the safe state "hold", its gain)
         self.packet = core_ffi.new(f"double[{stride}]")
 
     @property
@@ -66,12 +68,16 @@ class CommandPath(WatchdogCounters):
         """A command_inversion is active at the last step: the plant applies each command negated."""
         return bool(self.c.inverted)
 
-    def apply(self, held: float, lo: float, hi: float) -> float:
+    def apply(self, held: float, lo: float, hi: float, x: float | None = None) -> float:
         """What a commanded input gets after :meth:`step` (hh_path_apply: the last command, 0 in the safe state,
-        negated under a command_inversion, saturated to [lo, hi])."""
+        negated under a command_inversion, saturated to [lo, hi]); ``x``: the held signal's value now, for the
+        input that holds it (hh_path_apply_held: the safe state "hold"'s P law in place of 0)."""
+        if x is not None:
+            return float(core.hh_path_apply_held(self.c, float(held), float(lo), float(hi), float(x), core_ffi.NULL))
         return float(core.hh_path_apply(self.c, float(held), float(lo), float(hi), core_ffi.NULL))
 
-    def step(self, k: int, sent: bool) -> bool:
+    def step(self, k: int, sent: bool, x: float = 0.0) -> bool:
         """Step k's packet (in :attr:`packet`; ``sent`` False: none) through the faults and the watchdog: True
-        when a packet reached the plant (then in :attr:`packet`)."""
-        return bool(core.hh_path_step(self.c, k, int(sent), self.packet))
+        when a packet reached the plant (then in :attr:`packet`); ``x``: the held signal's value at step k (the
+        safe state "hold" keeps the value of its trip)."""
+        return bool(core.hh_path_step(self.c, k, int(sent), self.packet, float(x)))

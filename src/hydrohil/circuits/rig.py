@@ -12,7 +12,8 @@ command path (:mod:`hydrohil.circuits.network`: the scenario's network faults, t
 same rule as the paper's rig): no command for longer than ``watchdog_timeout`` -> the safe state until the next
 command: every input the controller drives (a loop's command from the start) at 0, or the end of its range
 nearest to 0 (a valve centred, an orifice closed, a pump stopped: the rig's "centre"), the others on their
-drives from the scenario. A trip counts against the run (:mod:`hydrohil.hil.verdict`) unless a network fault
+drives from the scenario; with ``safe_state = "hold"`` the loop's command instead a P law (``hold_kp``) holding
+its measured signal at its value at the trip (the rig's "hold"). A trip counts against the run (:mod:`hydrohil.hil.verdict`) unless a network fault
 held packets back meanwhile.
 """
 
@@ -50,13 +51,15 @@ class CircuitRig(WatchdogCounters):
         self.lo, self.hi = [float(p.lo) for p in ranges], [float(p.hi) for p in ranges]     # (saturation)
         self.P = np.ascontiguousarray(lay.values())
         self.method = METHODS.index(cs.method)
-        self.seed, timeout = cs.link                              # (the scenario's [hil], as offline)
+        self.seed, timeout, self.hold_kp = cs.link                # (the scenario's [hil], as offline)
         self.watchdog_timeout = float(timeout if watchdog_timeout is None else watchdog_timeout)
         # the loop's network faults (network False: none, a replay of the inputs as applied after them)
         self.network = cs.loop.network if network and cs.loop is not None else []
         self.loop = cs.loop
+        self._cmd = -1
         if self.loop is not None:
             self._meas = lay.log_columns.index(self.loop.measure)
+            self._cmd = lay.inputs.index(self.loop.command)
         self.y0, self.m0, self.u0 = start_state(c, h=self.h, method=cs.method, rest=cs.rest, loop=self.loop)
         self.row = np.zeros(len(lay.log_columns))
         self._t = lay.log_columns.index("t")
@@ -82,8 +85,8 @@ class CircuitRig(WatchdogCounters):
         self.set_inputs = set()                         # the inputs set by the controller so far
         if self.loop is not None:                       # the loop's command: the one holding the piston until
             self.set_inputs.add(self.layout.inputs.index(self.loop.command))    # the controller speaks
-        self.path = CommandPath(self.network, self.h, seed=self.seed,
-                                timeout=self.watchdog_timeout, stride=1 + len(self.inputs))   # (mask, values)
+        self.path = CommandPath(self.network, self.h, seed=self.seed, timeout=self.watchdog_timeout,
+                                stride=1 + len(self.inputs), hold_kp=self.hold_kp)   # (mask, values)
         self.link = self.path.link                      # its watchdog (counts from step 0)
         self._sat = core_ffi.new("int *")
         self.saturated = False
@@ -107,7 +110,8 @@ class CircuitRig(WatchdogCounters):
             packet[0] = command[0]
             for j, v in enumerate(command[1]):
                 packet[1 + j] = v
-        if self.path.step(k, command is not None):     # (the network's faults, the watchdog: circuits/network.py)
+        x = float(self.row[self._meas]) if self.loop is not None else 0.0     # (what the safe state "hold" holds)
+        if self.path.step(k, command is not None, x):  # (the network's faults, the watchdog: circuits/network.py)
             mask = int(packet[0])
             for j in range(len(self.inputs)):
                 if mask >> j & 1:
@@ -120,7 +124,10 @@ class CircuitRig(WatchdogCounters):
             u[j] = v
         self.saturated = False
         for j in self.set_inputs:           # (the safe state, a command_inversion, the range: hh_path_apply)
-            u[j] = core.hh_path_apply(self.path.c, self.cmd[j], self.lo[j], self.hi[j], self._sat)
+            if j == self._cmd:              # (the loop's command: in the safe state "hold", its P law on x)
+                u[j] = core.hh_path_apply_held(self.path.c, self.cmd[j], self.lo[j], self.hi[j], x, self._sat)
+            else:
+                u[j] = core.hh_path_apply(self.path.c, self.cmd[j], self.lo[j], self.hi[j], self._sat)
             self.saturated |= bool(self._sat[0])
         P, y, m, uc, _ = self._c
         status = self.cc.lib.hc_step(P, y, m, uc, self.method, self.h)

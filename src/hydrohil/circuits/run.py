@@ -213,7 +213,8 @@ class Loop:
     encoder: bool = False               # its sensor counts (a position with a resolution: hc_sensed's encoder)
     h: float | None = None              # the step it is sampled at (its scenario's; start(h) sets it)
     network: list = field(default_factory=list)   # (type, start, end, value, slot): circuits/network.py
-    link: tuple = (0, WATCHDOG_TIMEOUT)  # ([hil] seed, watchdog_timeout [s]): its faults' streams, the watchdog
+    link: tuple = (0, WATCHDOG_TIMEOUT, 0.0)   # ([hil] seed, watchdog_timeout [s], hold_kp: > 0 the safe state
+    #                                            "hold"'s gain): its faults' streams, the watchdog
     sent: np.ndarray | None = None      # the last run's commands as the controller sent them (network faults)
     # a state feedback's load pressure pL = p1 - area_ratio * p2 (the law's kpl, tpl): the log columns of its
     # cylinder's two chambers, A_b/A_a, and their transducers (full scale, resolution, noise [Pa]; full scale 0:
@@ -386,12 +387,12 @@ class Loop:
 
     def command_path(self, h: float, stride: int = 1):
         """The command path of its network faults at step h for packets of ``stride`` values (None: none, the
-        commands reach the plant as sent)."""
+        commands reach the plant as sent; its watchdog's safe state the [hil]'s: "hold" with hold_kp > 0)."""
         from hydrohil.circuits.network import CommandPath
         if not self.network:
             return None
-        seed, timeout = self.link
-        return CommandPath(self.network, h, seed=seed, timeout=timeout, stride=stride)
+        seed, timeout, hold_kp = self.link
+        return CommandPath(self.network, h, seed=seed, timeout=timeout, stride=stride, hold_kp=hold_kp)
 
     def at(self, t: np.ndarray, h: float) -> np.ndarray:
         """The reference at the step times ``t`` of step ``h`` (the circuit's drive rule, Drive.at)."""
@@ -686,9 +687,9 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
                 loop.sent[k] = u[k, cmd]
             if path is not None and k < n:
                 path.packet[0] = u[k, cmd]
-                if path.step(k, True):
+                if path.step(k, True, row[meas]):
                     held[0] = path.packet[0]
-                u[k, cmd] = path.apply(held[0], lo, hi)
+                u[k, cmd] = path.apply(held[0], lo, hi, row[meas])
             if seen is not None:
                 u_seen[k] = seen(u[k])
 

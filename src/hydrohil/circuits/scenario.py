@@ -39,6 +39,9 @@ values on top of the circuit's, and drives of its signals in place of the circui
     interpolation = "hold"            # or "linear" between the points (its slope goes to p_ff's kff)
     [hil]                             # optional: real-time settings of `hydrohil hil` (as a paper scenario's)
     watchdog_timeout = 0.05
+    safe_state = "hold"               # on a trip: the loop's command holds its measured signal at its value
+    hold_kp = 0.002                   # then (P gain, the command's unit per the signal's SI unit); default
+                                      # "centre": the commanded inputs at 0
     [[faults]]                        # optional: a leak at a node, a parameter changed (circuits/faults.py)
     type = "leak"
     node = "line_a"
@@ -86,7 +89,7 @@ class CircuitScenario:
     hil: dict = field(default_factory=dict)        # [hil] as given (checked by hydrohil.hil.circuit)
     faults: list = field(default_factory=list)     # [[faults]] as given (compiled into the circuit: faults.py)
     repeat: bool = False                           # drives and reference again every duration (a panel session)
-    link: tuple = (0, WATCHDOG_TIMEOUT)            # ([hil] seed, watchdog_timeout): the command path's, the faults'
+    link: tuple = (0, WATCHDOG_TIMEOUT, 0.0)       # ([hil] seed, watchdog_timeout, hold_kp): the command path's
 
     @cached_property
     def compiled(self):
@@ -189,7 +192,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
             raise InputError(f"true or false{' (or {hold, by})' if key == 'rest' else ''}, got {v!r}", source=source,
                              key=key)
     loop = _loop(data, c, source, base)
-    link = _link(data.get("hil", {}), source)     # the faults' streams and the watchdog: the scenario's [hil]
+    link = _link(data.get("hil", {}), source, loop)   # the faults' streams, the watchdog: the scenario's [hil]
     if loop is not None:
         loop.link = link
     if isinstance(rest, dict):
@@ -219,16 +222,33 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
                            given, loop, dict(data.get("hil", {})), list(data.get("faults", [])), repeat, link)
 
 
-def _link(hil: dict, source: str) -> tuple[int, float]:
-    """([hil] seed, watchdog_timeout) of the command path (the full [hil] check is the HIL run's:
-    hydrohil.simulation.scenario.circuit_hil; these two act offline too)."""
+def _link(hil: dict, source: str, loop) -> tuple[int, float, float]:
+    """([hil] seed, watchdog_timeout, the safe state's hold gain: 0 for "centre") of the command path (the full
+    [hil] check is the HIL run's: hydrohil.simulation.scenario.circuit_hil; these act offline too). The safe
+    state "hold" holds the loop's measured signal at its value at the trip with the loop's command, a P law of
+    gain ``hold_kp`` [the command's unit per the signal's SI unit], given (no default fits every signal)."""
     seed, timeout = hil.get("seed", 0), hil.get("watchdog_timeout", WATCHDOG_TIMEOUT)
     if not (isinstance(seed, int) and not isinstance(seed, bool) and 0 <= seed <= 2 ** 53):
         raise InputError(f"a whole number in [0, 2^53] (the network faults' random streams), got {seed!r}",
                          source=source, key="hil.seed")
     if not (isinstance(timeout, (int, float)) and not isinstance(timeout, bool) and 0 < timeout <= 10):
         raise InputError(f"a time [s] in (0, 10], got {timeout!r}", source=source, key="hil.watchdog_timeout")
-    return seed, float(timeout)
+    safe = hil.get("safe_state", "centre")
+    if safe not in ("centre", "hold"):
+        raise InputError(f"centre (the commanded inputs to 0) or hold (the loop's measured signal held by its "
+                         f"command), got {safe!r}", source=source, key="hil.safe_state")
+    if safe == "centre":
+        return seed, float(timeout), 0.0
+    if loop is None:
+        raise InputError("the safe state \"hold\" holds the closed loop's measured signal with its command: this "
+                         "scenario has no [controller] (its safe state: \"centre\")", source=source,
+                         key="hil.safe_state")
+    kp = hil.get("hold_kp")
+    if not (isinstance(kp, (int, float)) and not isinstance(kp, bool) and 0 < kp <= 1e5):
+        raise InputError(f"the P gain in (0, 1e5] holding {loop.measure} with {loop.command} [the command's unit per "
+                         f"the signal's SI unit], required with safe_state = \"hold\", got {kp!r}", source=source,
+                         key="hil.hold_kp")
+    return seed, float(timeout), float(kp)
 
 
 def anchored(data: dict, path: Path) -> dict:

@@ -275,15 +275,20 @@ typedef struct {
     hh_watchdog link;
     double h, timeout;
     int inverted;               /* a command_inversion active at the step: the plant applies each command negated */
+    double hold_kp;             /* > 0: the safe state "hold", this P gain on the held signal (hh_path_apply_held) */
 } hh_path;
 void hh_path_init(hh_path *p, hh_fault *fault, int nfault, double h, double timeout, int stride, double *fifo,
                   int64_t cap);
-/* Step k's packet (sent 0: none) through the faults of step k and the watchdog: 1 when it reaches the plant. */
-int hh_path_step(hh_path *p, int64_t k, int sent, double *packet);
+/* Step k's packet (sent 0: none) through the faults of step k and the watchdog: 1 when it reaches the plant;
+ * x: the held signal's value at step k (its truth; the safe state "hold" keeps the value of its trip). */
+int hh_path_step(hh_path *p, int64_t k, int sent, double *packet, double x);
 /* What a commanded input receives at the plant after hh_path_step: the last command that arrived (held), 0 in the
  * watchdog's safe state, negated under a command_inversion, saturated to the input's range [lo, hi];
  * *saturated (when not NULL): 1 when a command was clamped (not the safe state's 0). */
 double hh_path_apply(const hh_path *p, double held, double lo, double hi, int *saturated);
+/* hh_path_apply for the input that holds the held signal (a loop's command): in the safe state "hold"
+ * (hold_kp > 0) the P law hold_kp*(x at the trip - x) on its value x now, in place of 0 (the rig's hold). */
+double hh_path_apply_held(const hh_path *p, double held, double lo, double hi, double x, int *saturated);
 
 /* The rig around one sim: the faults act on the parameters through a copy of the fault-free ones (base), the
  * model reads only sim->p. wire: commands of one value (hh_rig_init's fifo: 2 doubles per slot, fifo_cap slots

@@ -97,9 +97,10 @@ void hh_path_init(hh_path *p, hh_fault *fault, int nfault, double h, double time
     hh_wire_init(&p->wire, stride, fifo, cap);
     hh_watchdog_init(&p->link);
     p->inverted = 0;
+    p->hold_kp = 0.0;
 }
 
-int hh_path_step(hh_path *p, int64_t k, int sent, double *packet)
+int hh_path_step(hh_path *p, int64_t k, int sent, double *packet, double x)
 {
     uint64_t mask = hh_fault_mask(p->fault, p->nfault, k);
     int got = mask || p->wire.n ? hh_wire_deliver(&p->wire, p->fault, p->nfault, mask, p->h, sent, packet) : sent;
@@ -112,8 +113,20 @@ int hh_path_step(hh_path *p, int64_t k, int sent, double *packet)
         }
     if ((sent && !got) || silenced)
         p->link.k_interfered = k;       /* an injected fault held the controller's packet back this step */
-    hh_watchdog_command(&p->link, k, got, 0.0, p->h, p->timeout, 0, 0.0, 0.0);
+    hh_watchdog_command(&p->link, k, got, 0.0, p->h, p->timeout, p->hold_kp > 0.0, p->hold_kp, x);
     return got;
+}
+
+double hh_path_apply_held(const hh_path *p, double held, double lo, double hi, double x, int *saturated)
+{
+    double v;
+    if (!(p->link.active && p->hold_kp > 0.0))
+        return hh_path_apply(p, held, lo, hi, saturated);
+    v = p->hold_kp * (p->link.hold_x - x);     /* (the rig's p_control, clamped to the input's range below) */
+    v = p->inverted ? -v : v;
+    if (saturated)
+        *saturated = 0;
+    return hh_clamp(v, lo, hi);
 }
 
 double hh_path_apply(const hh_path *p, double held, double lo, double hi, int *saturated)

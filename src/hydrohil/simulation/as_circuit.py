@@ -22,7 +22,9 @@ python, [reference]        feedback's load pressure of ``cyl`` through the rig's
 initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "valve.command"}`` (the rig's start:
                            the piston held by the spool offset at rest); given, the first command (a circuit starts
                            at rest under it)
-[hil]                      as given; ``command_delay`` added to the valve's delay (the core's series delay)
+[hil]                      as given; ``command_delay`` added to the valve's delay (the core's series delay);
+                           ``safe_state = "hold"``: the loop's (``cyl.x`` held by ``valve.command``, ``hold_kp``
+                           written; in open loop dropped with a note: nothing trips)
 faults: network            the same faults on the loop's commands (packet_loss, network_delay, reordering,
                            controller_silence; the same streams: seed and the rig's place, ``stream``)
 faults: sensor (position)  the loop's sensor faults (stuck, offset, noise, dropout; in m; encoder_count_loss)
@@ -42,8 +44,7 @@ load_change                ``parameter`` on cyl.mass and/or cyl.force
 
 Refused (InputError naming the key): initial chamber pressures, an initial spool position other than the first
 command in open loop, a repeating reference, a network fault in open loop (the rig's acts on the drive's
-commands; a circuit's inputs take them without a network), ``safe_state = "hold"`` and ``controller_mode =
-"clock"``.
+commands; a circuit's inputs take them without a network) and ``controller_mode = "clock"``.
 """
 
 from __future__ import annotations
@@ -101,10 +102,17 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
         if key in hil:
             notes.append(f"hil.{key}: dropped (a circuit's inputs travel in SI units)")
             hil.pop(key)
-    for key, value in (("safe_state", "hold"), ("controller_mode", "clock")):
-        if getattr(s.hil, key) == value:
-            raise InputError(f"a circuit's plant has no {key} = {value!r} (its safe state sets the commanded "
-                             "inputs to 0; its controller answers each packet)", source=src, key=f"hil.{key}")
+    if s.hil.controller_mode == "clock":
+        raise InputError("a circuit's plant has no controller_mode = 'clock' (its controller answers each packet)",
+                         source=src, key="hil.controller_mode")
+    if s.hil.safe_state == "hold":          # (the loop's measure held by its command: the rig's piston, its valve)
+        if s.controller is None:            # (nothing trips: a circuit's plant applies an open loop's drives)
+            hil.pop("safe_state")
+            hil.pop("hold_kp", None)
+            notes.append("hil.safe_state = \"hold\": dropped (a circuit's plant drives its open loop's inputs "
+                         "itself, so its watchdog never trips; it holds a closed loop's measured signal)")
+        else:
+            hil["hold_kp"] = s.hil.hold_kp
     scen: dict = {"circuit": "circuit.toml", "description": f"{Path(src).name} on the generated code",
                   "duration": s.duration, "solver": {"method": s.solver.method, "step": s.solver.step,
                                                     "output_every": s.solver.output_every}}

@@ -4,7 +4,8 @@
  * (docs/protocol.md) and its plant_log.csv row. The rules are the Python plant's (src/hydrohil/circuits/rig.py,
  * CircuitRig): each step takes the scenario's drives and replaces the inputs the controller has set by their latest values (a loop's command from the
  * start: the one that holds its piston), saturated to their ranges; the watchdog's safe state sets the
- * commanded inputs to 0 (the end of their range nearest to it). The export's values (circuit_plant.h) are
+ * commanded inputs to 0 (the end of their range nearest to it), or with --hil safe_state=hold the loop's command
+ * to the P law (hold_kp) holding its measured signal at its value at the trip (link.c: hh_path_apply_held). The export's values (circuit_plant.h) are
  * fixed: no --set, --initial or --fault. The live panel (--panel, rt_side.c): the circuit's telemetry (time, its
  * signals, its inputs as applied), an input the controller does not drive held from the panel and given back to
  * its drive, a parameter changed (the slots the panel derives for it: this plant has no derivations), reset
@@ -59,6 +60,11 @@ int model_init(plant *pl)
                 pl->o->step);
         return -1;
     }
+    if (pl->o->hil[HIL_SAFE_STATE] == HIL_SAFE_STATE_HOLD && !CIRCUIT_HOLDS) {
+        fprintf(stderr, "error: --hil safe_state=hold: a circuit's hold gain is in its loop's units, so the scenario "
+                        "chooses it ([hil] safe_state = \"hold\" with its hold_kp, then --hil hold_kp=... here)\n");
+        return -1;
+    }
     pl->link = &C.path.link;
     model_reset(pl);
     return 0;
@@ -82,6 +88,7 @@ static void path_reset(const plant *pl)
     }
     hh_path_init(&C.path, C.net, CIRCUIT_NNET, CIRCUIT_STEP, pl->o->hil[HIL_WATCHDOG_TIMEOUT], CIRCUIT_NINPUTS + 1,
                  CIRCUIT_FIFO_CAP > 0 ? C.fifo : NULL, CIRCUIT_FIFO_CAP);
+    C.path.hold_kp = pl->o->hil[HIL_SAFE_STATE] == HIL_SAFE_STATE_HOLD ? pl->o->hil[HIL_HOLD_KP] : 0.0;
 }
 
 void model_reset(plant *pl)
@@ -156,12 +163,13 @@ static void describe_divergence(plant *pl, double t)
 int model_step(plant *pl, int64_t k, int arrived, double *u)
 {
     int j;
+    double x = CIRCUIT_MEASURE >= 0 ? C.row[CIRCUIT_MEASURE >= 0 ? CIRCUIT_MEASURE : 0] : 0.0;   /* (what "hold" holds) */
     (void)u;
     if (arrived) {
         C.packet[0] = (double)C.pending_mask;
         memcpy(C.packet + 1, C.pending, sizeof(double) * CIRCUIT_NINPUTS);
     }
-    if (hh_path_step(&C.path, k, arrived, C.packet)) {         /* (network faults, the watchdog: link.c) */
+    if (hh_path_step(&C.path, k, arrived, C.packet, x)) {      /* (network faults, the watchdog: link.c) */
         uint32_t mask = (uint32_t)C.packet[0];
         for (j = 0; j < CIRCUIT_NINPUTS; j++)
             if (mask >> j & 1U)
@@ -186,7 +194,9 @@ int model_step(plant *pl, int64_t k, int arrived, double *u)
         int saturated;
         if (!(C.set >> j & 1U))
             continue;
-        C.u[j] = hh_path_apply(&C.path, C.cmd[j], CIRCUIT_LO[j], CIRCUIT_HI[j], &saturated);
+        C.u[j] = j == CIRCUIT_LOOP_COMMAND ? hh_path_apply_held(&C.path, C.cmd[j], CIRCUIT_LO[j], CIRCUIT_HI[j], x,
+                                                                &saturated)
+                                           : hh_path_apply(&C.path, C.cmd[j], CIRCUIT_LO[j], CIRCUIT_HI[j], &saturated);
         C.saturated |= saturated;
     }
     if (hc_step(C.P, C.y, C.m, C.u, CIRCUIT_METHOD, CIRCUIT_STEP) != 0) {

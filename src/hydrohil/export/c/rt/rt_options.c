@@ -557,9 +557,8 @@ void parse_options(int argc, char **argv, options *o)
         die_usage("%s", msg);
 #else
     (void)msg;
-    if (o->hil[HIL_COMMAND_SCALE] != 1.0 || o->hil[HIL_SAFE_STATE] != HIL_SAFE_STATE_CENTRE)
-        die_usage("--hil command_scale / safe_state: the paper's rig's (a circuit's inputs are in their SI units; "
-                  "its watchdog sets the commanded inputs to 0)");
+    if (o->hil[HIL_COMMAND_SCALE] != 1.0)
+        die_usage("--hil command_scale: the paper's rig's (a circuit's inputs are in their SI units)");
 #endif
     if (list) {
         list_settings(o);
