@@ -218,3 +218,12 @@ def test_the_safe_state_hold_needs_a_loop(tmp_path):
     with pytest.raises(InputError, match="this scenario has no \\[controller\\]") as e:
         load_circuit_scenario(f)
     assert e.value.key == "hil.safe_state"
+
+
+def test_the_safe_state_hold_needs_a_directly_acting_loop(tmp_path):
+    """A reverse-acting loop (a larger command lowers its signal) would be pushed away by the hold's P law: refused."""
+    f = paper_scenario(tmp_path, faults='[hil]\nsafe_state = "hold"\nhold_kp = 40.0\n')
+    f.write_text(f.read_text().replace('command = "valve.command"', 'command = "valve.command"\naction = "reverse"'))
+    with pytest.raises(InputError, match="not with action = \"reverse\"") as e:
+        load_circuit_scenario(f)
+    assert e.value.key == "hil.safe_state"

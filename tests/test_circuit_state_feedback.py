@@ -209,3 +209,21 @@ def test_a_bad_transducer_fault_is_named(tmp_path, converted, fault, key, messag
     with pytest.raises(InputError, match=re.escape(message)) as e:
         load_circuit_scenario(path)
     assert e.value.key == key
+
+
+def test_a_noisy_transducer_fault_draws_without_a_sensor(tmp_path, converted):
+    """A loop reading its piston ideally (no sensor of its own) still draws a transducer fault's noise: 0.2 bar
+    on cap.p over [0.2, 0.7) s changes the commands there (at 84 % of the steps, measured; the transducer's
+    resolution rounds some draws away) and nowhere before."""
+    scen, circ = converted
+    scen = re.sub(r"sensor_resolution = [0-9.e-]+\n", "", scen).replace("duration = 6.0", "duration = 1.0")
+    runs = []
+    for extra in ("", '\n[[faults]]\ntype = "sensor_noise"\nsignal = "cap.p"\nstd = "0.2 bar"\nstart = 0.2\n'
+                      'end = 0.7\n'):
+        path = _write(tmp_path, (scen + extra, circ))
+        cs, r = _run(path)
+        assert cs.loop.sensor is None
+        runs.append(r)
+    t, a, b = runs[0].column("t"), runs[0].column("valve.command"), runs[1].column("valve.command")
+    w = (t >= 0.2 + 1e-9) & (t < 0.7)
+    assert np.array_equal(a[t < 0.2], b[t < 0.2]) and np.mean(a[w] != b[w]) > 0.5   # (some draws quantise away)

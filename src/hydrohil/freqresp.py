@@ -258,7 +258,7 @@ def _held_loop(cs, centre: float, t: np.ndarray, values: np.ndarray):
     import dataclasses
     ts = np.concatenate(([0.0], SETTLE_S + t))
     return dataclasses.replace(cs.loop, reference=(ts, np.concatenate(([centre], values))), linear=True,
-                               controller=None, sensor_faults=[])      # (the scenario's faults: not in a sine)
+                               controller=None, sensor_faults=[], pressure_faults=[])   # (its faults: not in a sine)
 
 
 def _circuit_sines(cs, loop: str, amplitude: float | None, input_: str | None, signal: str | None,

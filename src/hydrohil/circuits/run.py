@@ -373,10 +373,10 @@ class Loop:
         generators of :meth:`streams` in place of this loop's own."""
         ffi = cc.ffi
         from hydrohil.core import ffi as core_ffi
-        if self.sensor is None and not self.pressure_noise:
+        if self.sensor is None and not self.pressure_noise and not self.pressure_faults:
             return ffi.NULL, ffi.NULL
         streams = ffi.cast("void *", int(core_ffi.cast("uintptr_t", self.rng if rng is None else rng)))
-        if self.sensor is None:                          # (the generators still, for noisy pressure transducers)
+        if self.sensor is None:            # (the generators still, for noisy pressure transducers or their faults)
             return ffi.NULL, streams
         if h is None and self.h is None:
             raise ValueError("the loop's sensor needs the step it is read at (Loop.start(h), or h)")

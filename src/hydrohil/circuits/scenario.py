@@ -243,6 +243,9 @@ def _link(hil: dict, source: str, loop) -> tuple[int, float, float]:
         raise InputError("the safe state \"hold\" holds the closed loop's measured signal with its command: this "
                          "scenario has no [controller] (its safe state: \"centre\")", source=source,
                          key="hil.safe_state")
+    if loop.sign < 0:
+        raise InputError("the safe state \"hold\" holds a directly acting loop's signal (a larger command raises "
+                         "it): not with action = \"reverse\"", source=source, key="hil.safe_state")
     kp = hil.get("hold_kp")
     if not (isinstance(kp, (int, float)) and not isinstance(kp, bool) and 0 < kp <= 1e5):
         raise InputError(f"the P gain in (0, 1e5] holding {loop.measure} with {loop.command} [the command's unit per "

@@ -205,7 +205,8 @@ def _run_circuit_sequence(seq: LoadedSequence, out: Path, mode: str, controller,
                 from hydrohil.errors import unknown_name
                 raise InputError(unknown_name(sig, [c for c in cols if c != "t"], what="signal of this circuit"),
                                  source=str(seq.source), key=f"expect[{i}].signal")
-        signals = Signals(cols, seq.event_times(), mode=mode, units=units)
+        signals = Signals(cols, seq.event_times(), mode=mode, units=units,
+                          safe_state=cs.hil.get("safe_state", "centre"))
         outcomes = evaluate(seq.expectations, signals, preds)
     return _judged(seq, out, mode, outcomes, error, time.perf_counter() - t0, signals, verdict)
 
