@@ -172,13 +172,15 @@ class Drives:
         return self.values
 
 
-def run_circuit_controller(client, drives: Drives, *, log_path: Path | None = None, should_stop=lambda: False,
-                           side=None, events_path: Path | None = None) -> dict:
+def run_circuit_controller(client, drives: Drives, *, mode: str = "packet", log_path: Path | None = None,
+                           should_stop=lambda: False, side=None, events_path: Path | None = None) -> dict:
     """The scenario's controller over the link: one INPUTS packet answering each SIGNALS packet
-    (:class:`Drives`, made before the link opens). Raises LinkError when the plant serves another circuit (its
+    (:class:`Drives`, made before the link opens), or with ``mode = "clock"`` one on its own clock of the
+    scenario's step on the newest packet (hydrohil.hil.controller.sample_loop, the paper rig's controller's). Raises LinkError when the plant serves another circuit (its
     layout differs). ``side``: the live panel's side channel (columns
     :data:`hydrohil.circuits.link.CONTROLLER_SIDE_COLUMNS`); its steering events are applied before the command
     answering the next packet k and logged with that k in ``events_path``."""
+    from hydrohil.hil.controller import sample_loop
     from hydrohil.simulation.steering import EventLog, apply_controller_messages
     cs = drives.cs
     log = CsvStream(log_path, CONTROLLER_LOG_HEAD, ints={0, 6}) if log_path is not None else None
@@ -187,25 +189,25 @@ def run_circuit_controller(client, drives: Drives, *, log_path: Path | None = No
     t_start = time.perf_counter()
     cmd = drives.cmd if drives.loop is not None else None
 
+    def act(s) -> None:
+        if not isinstance(s, pr.Signals) or s.layout != drives.layout:
+            raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} serves another circuit "
+                            f"(layout {getattr(s, 'layout', 'of the paper rig')}, expected {drives.layout} of "
+                            f"{cs.circuit.name!r})")
+        if pending:
+            apply_controller_messages(pending, s.step, drives.steer, side, events, circuit=cs)
+        values = drives.answer(s)
+        client.send_inputs(drives.layout, drives.mask, values, answer=s)
+        command = values[cmd] if cmd is not None else float("nan")
+        if log is not None:
+            log.write((s.header.seq, s.t_sim, time.perf_counter() - t_start, drives.measured, drives.reference,
+                       command, s.status))
+        if side is not None and side.row(s.step, drives.reference, drives.measured, command):
+            side.flush()
+            pending.extend(side.poll())
+
     try:
-        for s in client.sensors():
-            if not isinstance(s, pr.Signals) or s.layout != drives.layout:
-                raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} serves another circuit "
-                                f"(layout {getattr(s, 'layout', 'of the paper rig')}, expected {drives.layout} of "
-                                f"{cs.circuit.name!r})")
-            if pending:
-                apply_controller_messages(pending, s.step, drives.steer, side, events, circuit=cs)
-            values = drives.answer(s)
-            client.send_inputs(drives.layout, drives.mask, values, answer=s)
-            command = values[cmd] if cmd is not None else float("nan")
-            if log is not None:
-                log.write((s.header.seq, s.t_sim, time.perf_counter() - t_start, drives.measured, drives.reference,
-                           command, s.status))
-            if side is not None and side.row(s.step, drives.reference, drives.measured, command):
-                side.flush()
-                pending.extend(side.poll())
-            if should_stop():
-                break
+        sample_loop(client, act, mode=mode, sample_time=cs.step, should_stop=should_stop)
     finally:
         if log is not None:
             log.close()

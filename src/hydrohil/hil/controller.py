@@ -252,33 +252,7 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
             pending.extend(side.poll())
 
     try:
-        if mode == "packet":
-            for s in client.sensors():
-                act(s)
-                if should_stop():
-                    break
-        else:
-            last = next(client.sensors(), None)      # LinkError when no plant answers
-            t_last = time.monotonic()
-            next_t = time.perf_counter()
-            while last is not None and not client.finished and not should_stop():
-                while True:   # take the newest packet available now
-                    s = client.receive(timeout=0.0)
-                    if s is None:
-                        break
-                    last, t_last = s, time.monotonic()
-                act(last)
-                next_t += sample_time
-                delay = next_t - time.perf_counter()
-                if delay > 0:
-                    s = client.receive(timeout=delay)
-                    if s is not None:
-                        last, t_last = s, time.monotonic()
-                    while time.perf_counter() < next_t:
-                        pass
-                if not client.finished and time.monotonic() - t_last > client.timeout:
-                    raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} went silent for "
-                                    f"{client.timeout:g} s after step {client.last_seq}")
+        sample_loop(client, act, mode=mode, sample_time=sample_time, should_stop=should_stop)
     finally:
         if log is not None:
             log.close()
@@ -286,6 +260,42 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
             events.close()
     return {"commands_sent": client.seq, "sensor_packets": client.received, "sensor_packets_bad": client.bad,
             "sensor_packets_lost": client.lost, "stopped_by_signal": bool(should_stop())}
+
+
+def sample_loop(client: PlantClient, act: Callable, *, mode: str = "packet", sample_time: float = 5e-4,
+                should_stop: Callable[[], bool] = lambda: False) -> None:
+    """A controller's sampling over the link, the one loop of the paper rig's and a circuit's controller:
+    ``act(packet)`` once per sensor packet (``mode = "packet"``: it answers each), or on the controller's own
+    periodic clock of ``sample_time`` on the newest packet received (``mode = "clock"``: the same packet again
+    when none came). Runs until the plant finishes or ``should_stop()``; LinkError when the plant goes silent
+    for longer than the client's timeout."""
+    if mode == "packet":
+        for s in client.sensors():
+            act(s)
+            if should_stop():
+                break
+        return
+    last = next(client.sensors(), None)      # LinkError when no plant answers
+    t_last = time.monotonic()
+    next_t = time.perf_counter()
+    while last is not None and not client.finished and not should_stop():
+        while True:   # take the newest packet available now
+            s = client.receive(timeout=0.0)
+            if s is None:
+                break
+            last, t_last = s, time.monotonic()
+        act(last)
+        next_t += sample_time
+        delay = next_t - time.perf_counter()
+        if delay > 0:
+            s = client.receive(timeout=delay)
+            if s is not None:
+                last, t_last = s, time.monotonic()
+            while time.perf_counter() < next_t:
+                pass
+        if not client.finished and time.monotonic() - t_last > client.timeout:
+            raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} went silent for "
+                            f"{client.timeout:g} s after step {client.last_seq}")
 
 
 def reference_table(text: str):
@@ -348,7 +358,7 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
         circuit = load_circuit_scenario(scenario)
         hil = circuit_hil(circuit)
         drives = Drives(circuit)          # (compiled, its tables made: before the first packet)
-        mode, sample = "packet", circuit.step
+        mode, sample = hil.controller_mode, circuit.step
         spin, busy_poll = _placement(hil, busy_poll)
     elif scenario is not None:
         from hydrohil.simulation.scenario import load_scenario
@@ -397,7 +407,7 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
                 if circuit is not None:
                     from hydrohil.hil.circuit import run_circuit_controller
                     summary.update(run_circuit_controller(
-                        client, drives, should_stop=lambda: bool(stop), side=side,
+                        client, drives, mode=mode, should_stop=lambda: bool(stop), side=side,
                         log_path=(log / "controller_log.csv") if log else None,
                         events_path=(log / "controller_events.jsonl") if log else None))
                 else:

@@ -44,7 +44,7 @@ load_change                ``parameter`` on cyl.mass and/or cyl.force
 
 Refused (InputError naming the key): initial chamber pressures, an initial spool position other than the first
 command in open loop, a repeating reference, a network fault in open loop (the rig's acts on the drive's
-commands; a circuit's inputs take them without a network) and ``controller_mode = "clock"``.
+commands; a circuit's inputs take them without a network).
 """
 
 from __future__ import annotations
@@ -102,9 +102,6 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
         if key in hil:
             notes.append(f"hil.{key}: dropped (a circuit's inputs travel in SI units)")
             hil.pop(key)
-    if s.hil.controller_mode == "clock":
-        raise InputError("a circuit's plant has no controller_mode = 'clock' (its controller answers each packet)",
-                         source=src, key="hil.controller_mode")
     if s.hil.safe_state == "hold":          # (the loop's measure held by its command: the rig's piston, its valve)
         if s.controller is None:            # (nothing trips: a circuit's plant applies an open loop's drives)
             hil.pop("safe_state")

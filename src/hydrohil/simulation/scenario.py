@@ -359,13 +359,13 @@ def load_scenario(path: str | Path, *, solver: str | None = None, step: float | 
 
 
 # [hil] settings that mean something for the paper's rig only, and the values a circuit takes
-RIG_ONLY = {"command_delay": 0.0, "command_scale": 1.0, "controller_mode": "packet"}
+RIG_ONLY = {"command_delay": 0.0, "command_scale": 1.0}
 
 
 def circuit_hil(cs):
     """A circuit scenario's ``[hil]`` settings (:class:`HilCfg`), checked: a circuit's inputs are in their own SI
-    units (no command scale), it has no transport delay of the paper's valve, its controller answers each packet,
-    its plant steps at the scenario's fixed step (its safe state: checked with its loop, circuits/scenario.py)."""
+    units (no command scale), it has no transport delay of the paper's valve, its plant steps at the scenario's
+    fixed step (its safe state: checked with its loop, circuits/scenario.py)."""
     try:
         hil = HilCfg.model_validate(cs.hil)
     except ValidationError as exc:
@@ -374,7 +374,7 @@ def circuit_hil(cs):
     for key, value in RIG_ONLY.items():
         if getattr(hil, key) != value:
             raise InputError(f"a setting of the paper's rig only; a circuit's inputs are in their SI units, a delay "
-                             f"is a component, its controller answers each packet (expected {value!r})",
+                             f"is a component (expected {value!r})",
                              source=cs.source, key=f"hil.{key}")
     if cs.method == "reference":
         raise InputError("a real-time plant steps the hybrid model: give a fixed-step method (rk3, ...), not the "
