@@ -24,6 +24,7 @@ from hydrohil.control import BuiltinController, Measurement, call_controller, p_
 from hydrohil.errors import InputError, LinkError
 from hydrohil.hil import protocol as pr
 from hydrohil.hil.protocol import parse_address
+from hydrohil.hil.sampling import sample_loop
 from hydrohil.circuits.scenario import is_circuit_scenario
 from hydrohil.models.sensors import count_size
 from hydrohil.simulation.outputs import CsvStream
@@ -260,42 +261,6 @@ def run_position_controller(client: PlantClient, controller: Callable[[Measureme
             events.close()
     return {"commands_sent": client.seq, "sensor_packets": client.received, "sensor_packets_bad": client.bad,
             "sensor_packets_lost": client.lost, "stopped_by_signal": bool(should_stop())}
-
-
-def sample_loop(client: PlantClient, act: Callable, *, mode: str = "packet", sample_time: float = 5e-4,
-                should_stop: Callable[[], bool] = lambda: False) -> None:
-    """A controller's sampling over the link, the one loop of the paper rig's and a circuit's controller:
-    ``act(packet)`` once per sensor packet (``mode = "packet"``: it answers each), or on the controller's own
-    periodic clock of ``sample_time`` on the newest packet received (``mode = "clock"``: the same packet again
-    when none came). Runs until the plant finishes or ``should_stop()``; LinkError when the plant goes silent
-    for longer than the client's timeout."""
-    if mode == "packet":
-        for s in client.sensors():
-            act(s)
-            if should_stop():
-                break
-        return
-    last = next(client.sensors(), None)      # LinkError when no plant answers
-    t_last = time.monotonic()
-    next_t = time.perf_counter()
-    while last is not None and not client.finished and not should_stop():
-        while True:   # take the newest packet available now
-            s = client.receive(timeout=0.0)
-            if s is None:
-                break
-            last, t_last = s, time.monotonic()
-        act(last)
-        next_t += sample_time
-        delay = next_t - time.perf_counter()
-        if delay > 0:
-            s = client.receive(timeout=delay)
-            if s is not None:
-                last, t_last = s, time.monotonic()
-            while time.perf_counter() < next_t:
-                pass
-        if not client.finished and time.monotonic() - t_last > client.timeout:
-            raise LinkError(f"the plant at {client.address[0]}:{client.address[1]} went silent for "
-                            f"{client.timeout:g} s after step {client.last_seq}")
 
 
 def reference_table(text: str):
