@@ -33,7 +33,7 @@ static double *read_doubles(const char *path, size_t n)
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every, double *u,
            double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref, const double *dref,
            int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path, double lo, double hi,
-           double *sent, const double *press, void *command, void *command_ctx, double *seen_log,
+           double *sent, double *press, void *command, void *command_ctx, double *seen_log,
            double *events_log);
 
 int main(void)
