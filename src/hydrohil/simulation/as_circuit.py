@@ -24,7 +24,8 @@ initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "v
                            at rest under it)
 [hil]                      as given; ``command_delay`` added to the valve's delay (the core's series delay);
                            ``safe_state = "hold"``: the loop's (``cyl.x`` held by ``valve.command``, ``hold_kp``
-                           written; in open loop dropped with a note: nothing trips)
+                           written; in open loop dropped with a note: nothing trips); ``controller_mode =
+                           "clock"``: the circuit's controller on its own clock
 faults: network            the same faults on the loop's commands (packet_loss, network_delay, reordering,
                            controller_silence; the same streams: seed and the rig's place, ``stream``)
 faults: sensor (position)  the loop's sensor faults (stuck, offset, noise, dropout; in m; encoder_count_loss)
