@@ -509,3 +509,32 @@ def test_the_safe_state_hold_holds_the_loops_signal_as_the_rigs(tmp_path):
     assert t[k_trip] == pytest.approx(0.6 - 5e-4 + 0.05 + 5e-4) and safe.sum() > 400   # (last arrival + timeout)
     assert np.array_equal(u[safe], np.clip(40.0 * (x[k_trip] - x[safe]), -1, 1))
     assert np.max(np.abs(u[safe])) > 1e-3 and np.all(runs["centre"].column("valve.command")[safe] == 0.0)
+
+
+def test_a_repeating_reference_repeats_on_the_circuit_as_on_the_rig(tmp_path):
+    """reference.repeat (the period of the rig's table, x_ref(t mod period)) becomes the circuit loop's
+    [reference] repeat: Fig 11's reference every 1.6 s over 4 s, the commands the core rig's bit for bit from its
+    start, the logged reference the same one period later."""
+    from hydrohil.circuits.paper import paper_start
+    f = tmp_path / "rep.toml"
+    f.write_text((EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 4.0")
+                 .replace("[reference]", "[reference]\nrepeat = 1.6"))
+    ls = load_scenario(f)
+    _, spath, _ = convert(ls, tmp_path / "c")
+    cs = load_circuit_scenario(spath)
+    assert cs.loop.period == 1.6
+    core = run_scenario(ls)
+    r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop,
+                         start=paper_start(cs.circuit, core.log[0], cs.step))
+    assert np.array_equal(core.column("u"), r.column("valve.command"))
+    ref = r.column("cyl.x.reference")
+    assert np.allclose(ref[:3200], ref[3200:6400], rtol=0, atol=1e-15) and np.ptp(ref[:3200]) > 0.1
+
+
+@pytest.mark.parametrize("value, message", [("-1.0", "in (0, 1e6]"), ('"2 bar"', "s is wanted")])
+def test_a_bad_reference_period_is_named(tmp_path, value, message):
+    _, spath, _ = convert(load_scenario(EXAMPLES / "fig11_p_control.toml"), tmp_path / "c")
+    spath.write_text(spath.read_text().replace("[reference]\n", f"[reference]\nrepeat = {value}\n"))
+    with pytest.raises(InputError, match=re.escape(message)) as e:
+        load_circuit_scenario(spath)
+    assert e.value.key == "reference.repeat"

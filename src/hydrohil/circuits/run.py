@@ -205,6 +205,7 @@ class Loop:
     reference: tuple                    # (times, values): held from each time, or linear between them
     controller: object = None           # the law at the run's step (set by simulate_circuit)
     linear: bool = False                # the reference interpolated linearly (else held)
+    period: float | None = None         # the reference repeats: its value at t mod period [s] (None: it does not)
     limits: tuple = (-1.0, 1.0)         # the command's range: [u_min, u_max] within its parameter's range
     sensor: tuple | None = None         # (quantum, lo, hi, noise) of what the controller reads; None: the signal
     sign: float = 1.0                   # -1: reverse-acting (a larger command lowers the signal)
@@ -395,12 +396,17 @@ class Loop:
         return CommandPath(self.network, h, seed=seed, timeout=timeout, stride=stride, hold_kp=hold_kp)
 
     def at(self, t: np.ndarray, h: float) -> np.ndarray:
-        """The reference at the step times ``t`` of step ``h`` (the circuit's drive rule, Drive.at)."""
-        return Drive(*self.reference, self.linear).at(t, h)
+        """The reference at the step times ``t`` of step ``h`` (the circuit's drive rule, Drive.at; a repeating
+        one at t mod its period, the paper rig's rule)."""
+        return Drive(*self.reference, self.linear).at(self._in_period(t), h)
+
+    def _in_period(self, t) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        return np.fmod(t, self.period) if self.period else t
 
     def table(self, n: int, h: float) -> tuple[np.ndarray, np.ndarray]:
         """The reference and its slope at each step (a held reference has none)."""
-        t = np.arange(n + 1) * h
+        t = self._in_period(np.arange(n + 1) * h)
         r = np.ascontiguousarray(self.at(t, h), dtype=float)
         if not self.linear:
             return r, np.zeros_like(r)

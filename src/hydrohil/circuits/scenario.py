@@ -37,6 +37,7 @@ values on top of the circuit's, and drives of its signals in place of the circui
     t = [0, 0.5, 3]
     value = ["0 rpm", "600 rpm", "300 rpm"]
     interpolation = "hold"            # or "linear" between the points (its slope goes to p_ff's kff)
+    repeat = "4 s"                    # optional: the table again every period (its value at t mod period)
     [hil]                             # optional: real-time settings of `hydrohil hil` (as a paper scenario's)
     watchdog_timeout = 0.05
     safe_state = "hold"               # on a trip: the loop's command holds its measured signal at its value
@@ -374,10 +375,19 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
                              f"got {sensor}", source=source, key="controller.sensor_resolution")
     ref = data["reference"]
     t, v = ref.get("t"), ref.get("value")
-    if set(ref) - {"t", "value", "interpolation"} or not isinstance(t, list) or not isinstance(v, list) \
+    if set(ref) - {"t", "value", "interpolation", "repeat"} or not isinstance(t, list) or not isinstance(v, list) \
             or len(t) != len(v) or not t:
-        raise InputError("t = [...] and value = [...] of one length (and interpolation = \"hold\" or \"linear\")",
-                         source=source, key="reference")
+        raise InputError("t = [...] and value = [...] of one length (and interpolation = \"hold\" or \"linear\", "
+                         "repeat = its period)", source=source, key="reference")
+    period = None
+    if "repeat" in ref:                           # the table again every period: its value at t mod period
+        try:
+            period = to_si(ref["repeat"], "s")
+        except ValueError as exc:
+            raise InputError(f"{exc} (the reference's period)", source=source, key="reference.repeat") from None
+        if not (isinstance(period, (int, float)) and not isinstance(period, bool) and 0 < period <= 1e6):
+            raise InputError(f"the reference's period [s] in (0, 1e6], got {ref['repeat']!r}", source=source,
+                             key="reference.repeat")
     if ref.get("interpolation", "hold") not in ("hold", "linear"):
         raise InputError(f"\"hold\" (from each t) or \"linear\", got {ref['interpolation']!r}", source=source,
                          key="reference.interpolation")
@@ -395,7 +405,8 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
         warn_beyond_stroke(ts, vs, c.components[comp].values["stroke"], source, "reference value", f"{comp}.stroke",
                            given=v)
     encoder = sensor is not None and sensor[0] > 0 and units[measure] in ("m", "rad")   # (counts: a position)
-    loop = Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", limits=(lo, hi),
+    loop = Loop(cfg, measure, command, (ts, vs), linear=ref.get("interpolation") == "linear", period=period,
+                limits=(lo, hi),
                 sensor=sensor, sign=-1.0 if action == "reverse" else 1.0, seed=seed, encoder=encoder,
                 base=base, source=source)
     if loop.python:

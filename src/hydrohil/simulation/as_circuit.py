@@ -13,10 +13,11 @@ paper scenario             circuit scenario
 params, [overrides]        the circuit of the parameters (circuit.toml beside the scenario; ``initial.xp`` its x0)
 [input] table / sine       ``[inputs] "valve.command"``: a table (linear) as written; a sine held per step
 [controller] p/pi/pid/     the same law on ``cyl.x`` -> ``valve.command``, reading the encoder's counts
-p_ff/state_feedback/       (``sensor_resolution`` = the count size); the reference table linear, as written; a state
-python, [reference]        feedback's load pressure of ``cyl`` through the rig's four transducers (the chambers,
-                           ``supply_node``, ``tank_node``; sensors.pressure_range, _resolution, _noise, its stream
-                           the rig's: ``pressure_seed`` = [hil] seed); a Python controller the same callable,
+p_ff/state_feedback/       (``sensor_resolution`` = the count size); the reference table linear, as written, its
+python, [reference]        ``repeat`` period too; a state feedback's load pressure of ``cyl`` through the rig's four
+                           transducers (the chambers, ``supply_node``, ``tank_node``; sensors.pressure_range,
+                           _resolution, _noise, its stream the rig's: ``pressure_seed`` = [hil] seed); a Python
+                           controller the same callable,
                            called each step with the rig's measurement (``path``: its module's folder) but status 0
                            (said in a note)
 initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "valve.command"}`` (the rig's start:
@@ -44,7 +45,7 @@ load_change                ``parameter`` on cyl.mass and/or cyl.force
 =========================  ==========================================================================================
 
 Refused (InputError naming the key): initial chamber pressures, an initial spool position other than the first
-command in open loop, a repeating reference, a network fault in open loop (the rig's acts on the drive's
+command in open loop, a network fault in open loop (the rig's acts on the drive's
 commands; a circuit's inputs take them without a network).
 """
 
@@ -150,9 +151,6 @@ def _open_loop(s, t: np.ndarray, scen: dict, src: str) -> float:
 
 def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
     ctl = s.controller
-    if s.reference.repeat:
-        raise InputError("a circuit repeats its reference only in a live panel session (repeat = true)",
-                         source=src, key="reference.repeat")
     table = ctl.model_dump(exclude_defaults=True)
     table["type"] = ctl.type
     if ctl.type == "python":                # its module where the rig's finds it (the scenario's folder)
@@ -167,7 +165,8 @@ def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
                                   pressure_resolution=p.sensors.pressure_resolution)
         if p.sensors.pressure_noise > 0:
             scen["controller"].update(pressure_noise=p.sensors.pressure_noise, pressure_seed=s.hil.seed)
-    scen["reference"] = {"t": list(s.reference.t), "value": list(s.reference.x), "interpolation": "linear"}
+    scen["reference"] = {"t": list(s.reference.t), "value": list(s.reference.x), "interpolation": "linear",
+                         **({"repeat": s.reference.repeat} if s.reference.repeat else {})}
 
 
 def _faults(s, p, src: str, notes: list[str]) -> list[dict]:
