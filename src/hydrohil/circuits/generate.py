@@ -700,8 +700,20 @@ HH_INLINE int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, c
     return 0;
 }}
 
+/* The step compiled without GCC's vectorizer (scalar code, the same results: no reassociation either way).
+ * Measured (benchmarks/paper_circuit_c.py): the paper's circuit 108.1 ns a step against the core's 107.3
+ * (vectorized: 116.5 against 109.2); `hydrohil bench`-style runs of the seven example circuits: five faster by 1-9 %,
+ * lift_platform 10 % and two_cylinders 3 % slower, the sum 1.7 % less (the vectorized step has fewer
+ * instructions but runs slower; where the time goes was not located further). */
+#if defined(__GNUC__) && !defined(__clang__)
+#define HC_STEP_CODE __attribute__((optimize("no-tree-vectorize")))
+#else
+#define HC_STEP_CODE
+#endif
+
 /* one step with the tableau of `method`, a constant in each case (the compiler specialises the step to it) */
-static int method_step(int method, double h, double *y, int64_t *m, const double *u, const double *P, int *events)
+HC_STEP_CODE static int method_step(int method, double h, double *y, int64_t *m, const double *u, const double *P,
+                                    int *events)
 {{
     switch (method) {{
     case HH_EULER: return one_step(&HH_TABLEAUS[HH_EULER], h, y, m, u, P, events);
