@@ -545,3 +545,65 @@ def test_a_bad_reference_period_is_named(tmp_path, value, message):
     with pytest.raises(InputError, match=re.escape(message)) as e:
         load_circuit_scenario(spath)
     assert e.value.key == "reference.repeat"
+
+
+def _signals(cs, k: int):
+    """A SIGNALS packet of step k from the scenario's own offline run's row (what the plant would send)."""
+    from types import SimpleNamespace
+    r = simulate_circuit(cs.circuit, 0.01, h=cs.step, loop=cs.loop)
+    lay = cs.layout
+    row = [float(r.column(c)[1]) for c in lay.log_columns]
+    t = lay.log_columns.index("t")
+    return SimpleNamespace(step=k, t_sim=k * cs.step, values=tuple(row[t + 1:]))
+
+
+def test_the_controller_process_reads_a_repeating_reference_and_each_packet_once(tmp_path):
+    """HIL's circuit controller (hil.circuit.Drives): in a panel session (repeat) a reference of its own period
+    goes on at t mod period past the scenario's duration (the rig's rule), and a packet answered twice (the clock
+    looking again) is read through the transducers once (the same noise, the same command)."""
+    from hydrohil.hil.circuit import Drives
+    f = tmp_path / "rep.toml"
+    f.write_text((EXAMPLES / "controllers" / "fig12_pressure_feedback.toml").read_text()
+                 .replace("duration = 6.0", "duration = 1.0").replace("[reference]", "[reference]\nrepeat = 0.7")
+                 .replace('"supply.ps" = 1.2e7', '"supply.ps" = 1.2e7\n"sensors.pressure_noise" = 2e4'))
+    _, spath, _ = convert(load_scenario(f), tmp_path / "c")
+    spath.write_text("repeat = true\n" + spath.read_text())
+    cs = load_circuit_scenario(spath)
+    k = 2000 + 321                                          # (past the 1 s duration: 2000 steps)
+    packet, following = _signals(cs, k), _signals(cs, k + 1)
+    d = Drives(cs)
+    first = list(d.answer(packet))
+    ref = d.reference
+    assert ref == float(cs.loop.reference_at(np.array([(k * 5e-4) % 0.7]), 5e-4)[0][0])
+    assert ref == float(cs.loop.table(2000, 5e-4)[0][round(((k * 5e-4) % 0.7) / 5e-4)])
+    again = list(d.answer(packet))
+    assert again == first
+    other = list(d.answer(following))
+    assert other != first                                   # (a new packet: new noise draws)
+
+
+def test_an_open_loops_clock_is_dropped_with_a_note(tmp_path):
+    f = tmp_path / "open.toml"
+    f.write_text((EXAMPLES / "faults" / "seal_wear.toml").read_text() + '\n[hil]\ncontroller_mode = "clock"\n')
+    _, spath, notes = convert(load_scenario(f), tmp_path / "c")
+    assert any("controller_mode" in n and "dropped" in n for n in notes)
+    assert "controller_mode" not in load_circuit_scenario(spath).hil
+
+
+def test_a_repeating_reference_is_not_in_a_sine_nor_under_reference_actions(tmp_path):
+    """A frequency response's held loop drops the reference's period (its sine is no repeat), and a test
+    sequence's step or ramp actions, which write the reference for the whole run, refuse a repeating one."""
+    from hydrohil.freqresp import _held_loop
+    from hydrohil.sequences.runner import run_sequence
+    f = tmp_path / "rep.toml"
+    f.write_text((EXAMPLES / "fig11_p_control.toml").read_text().replace("[reference]", "[reference]\nrepeat = 1.6"))
+    _, spath, _ = convert(load_scenario(f), tmp_path / "c")
+    cs = load_circuit_scenario(spath)
+    held = _held_loop(cs, 0.05, np.array([0.0, 1.0]), np.array([0.05, 0.06]))
+    assert cs.loop.period == 1.6 and held.period is None
+    seq = tmp_path / "seq.toml"
+    seq.write_text(f'scenario = "{spath}"\n[[actions]]\nname = "up"\ntype = "step"\nat = 0.5\nvalue = 0.1\n'
+                   '[[expect]]\nname = "tracks"\ntype = "tracking"\nafter = 1.0\nwithin = 0.5\ntol = 1e-3\n')
+    with pytest.raises(InputError, match="the scenario's reference repeats") as e:
+        run_sequence(seq, tmp_path / "out")
+    assert e.value.key == "actions"

@@ -236,7 +236,7 @@ CIRCUIT_AMPLITUDE = {"m": 1e-3, "m/s": 1e-3, "rad/s": 2.0, "Pa": 1e5, "m3/s": 1e
 
 @dataclass
 class CircuitSines:
-    """What a circuit's stepped sines drive and read: the closed loop's reference (around its first value) or
+    """What a circuit's stepped sines drive and read: the closed loop's reference (around its last value) or
     an input (around its value at rest, the loop opened), and the signal read (a position through its speed:
     a cylinder's position integrates, x/u = (v/u)/(jw))."""
     cs: object
@@ -258,7 +258,8 @@ def _held_loop(cs, centre: float, t: np.ndarray, values: np.ndarray):
     import dataclasses
     ts = np.concatenate(([0.0], SETTLE_S + t))
     return dataclasses.replace(cs.loop, reference=(ts, np.concatenate(([centre], values))), linear=True,
-                               controller=None, sensor_faults=[], pressure_faults=[])   # (its faults: not in a sine)
+                               period=None, controller=None, sensor_faults=[],
+                               pressure_faults=[])    # (its faults, its repeat: not in a sine)
 
 
 def _circuit_sines(cs, loop: str, amplitude: float | None, input_: str | None, signal: str | None,

@@ -406,7 +406,11 @@ class Loop:
 
     def table(self, n: int, h: float) -> tuple[np.ndarray, np.ndarray]:
         """The reference and its slope at each step (a held reference has none)."""
-        t = self._in_period(np.arange(n + 1) * h)
+        return self.reference_at(np.arange(n + 1) * h, h)
+
+    def reference_at(self, t: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """The reference and its slope at the step times ``t`` of step ``h`` (a held reference has none)."""
+        t = self._in_period(t)
         r = np.ascontiguousarray(self.at(t, h), dtype=float)
         if not self.linear:
             return r, np.zeros_like(r)

@@ -153,22 +153,35 @@ class Drives:
             at = lambda col: lay.log_columns.index(col) - lay.log_columns.index("t") - 1       # noqa: E731 (in SIGNALS)
             self.meas = at(self.loop.measure)
             self.cc = cs.compiled                   # (a loop reading pressures: its transducers, the generated C's)
-            self.streams = self.loop.sensor_args(self.cc)[1]    # (loop.rng's, alive in the loop while it runs)
+            self._rng = self.loop.rng                           # (kept alive here: the C reads it by address)
+            self.streams = self.loop.sensor_args(self.cc, self._rng)[1]
             self.press = self.loop.pressure_args(self.cc)      # (its transducers' faults' memory: this run's)
             self.cmd = lay.inputs.index(self.loop.command)
             self.mask = 1 << self.cmd
             self.steer = SteerableController(self.loop.controller, None)
         self.measured = self.reference = float("nan")
+        self._read = None                           # (the step and the pressures as read of the last packet)
 
     def answer(self, s: pr.Signals) -> list[float]:
         if self.loop is not None:
             k = int(s.step) % self.n if self.repeat else min(int(s.step), self.n)
             held = self.steer.held
-            ref, dref = (held, 0.0) if held is not None else (float(self.ref[k]), float(self.dref[k]))
+            if held is not None:
+                ref, dref = held, 0.0
+            elif self.repeat and self.loop.period:     # (a panel session: the reference's own period goes on)
+                r, d = self.loop.reference_at(np.array([int(s.step) * self.cs.step]), self.cs.step)
+                ref, dref = float(r[0]), float(d[0])
+            else:
+                ref, dref = float(self.ref[k]), float(self.dref[k])
             self.measured, self.reference = s.values[self.meas], ref
-            p1, p2, ps, pt = (self.loop.read_pressures(self.cc, [s.t_sim, *s.values], self.streams, int(s.step),
-                                                       self.press)
-                              if self.loop.pressures is not None else (0.0, 0.0, math.nan, math.nan))
+            if self.loop.pressures is None:
+                p1, p2, ps, pt = 0.0, 0.0, math.nan, math.nan
+            elif self._read is not None and self._read[0] == s.step:   # (a clock's second look at a packet: the
+                p1, p2, ps, pt = self._read[1]                          # transducers read it once, as the rig's)
+            else:
+                p1, p2, ps, pt = self.loop.read_pressures(self.cc, [s.t_sim, *s.values], self.streams, int(s.step),
+                                                          self.press)
+                self._read = (s.step, (p1, p2, ps, pt))
             self.values[self.cmd] = self.loop.update(ref, dref, self.measured, p1, p2, t=s.t_sim, ps=ps, pt=pt)
         return self.values
 

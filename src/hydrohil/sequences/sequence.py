@@ -277,6 +277,10 @@ class LoadedSequence:
             if "reference" not in data:
                 raise InputError("step and ramp actions move the loop's reference: the scenario has no [reference]",
                                  source=src, key="actions")
+            if "repeat" in data["reference"]:
+                raise InputError("step and ramp actions write the loop's reference for the whole run: the "
+                                 "scenario's reference repeats (remove its repeat, or the reference actions)",
+                                 source=src, key="actions")
             data["reference"] = _circuit_reference(data["reference"], refs, duration, src)
         circuit_inputs = read_toml(cfile).get("inputs", {})
         for a in sorted((a for a in self.actions if a.type == "set"), key=lambda a: a.at):

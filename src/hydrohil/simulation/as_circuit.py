@@ -112,6 +112,10 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
                          "itself, so its watchdog never trips; it holds a closed loop's measured signal)")
         else:
             hil["hold_kp"] = s.hil.hold_kp
+    if s.hil.controller_mode == "clock" and s.controller is None:
+        hil.pop("controller_mode")
+        notes.append("hil.controller_mode = \"clock\": dropped (a circuit's open loop has no controller: its "
+                     "controller process answers each packet)")
     scen: dict = {"circuit": "circuit.toml", "description": f"{Path(src).name} on the generated code",
                   "duration": s.duration, "solver": {"method": s.solver.method, "step": s.solver.step,
                                                     "output_every": s.solver.output_every}}
