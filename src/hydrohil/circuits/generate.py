@@ -702,9 +702,9 @@ HH_INLINE int one_step(const hh_tableau *tab, double h, double *y, int64_t *m, c
 
 /* The step compiled without GCC's vectorizer (scalar code, the same results: no reassociation either way).
  * Measured (benchmarks/paper_circuit_c.py): the paper's circuit 108.1 ns a step against the core's 107.3, in
- * other runs +0.3 and +1.5 % (vectorized: 116.5 against 109.2); `hydrohil bench`-style runs of the seven example circuits: five faster by 1-9 %,
- * lift_platform 10 % and two_cylinders 3 % slower, the sum 1.7 % less (the vectorized step has fewer
- * instructions but runs slower; where the time goes was not located further). */
+ * other runs +0.3 and +1.5 % (vectorized: 116.5 against 109.2); `hydrohil bench`-style runs of the seven
+ * example circuits: five faster by 1-9 %, lift_platform 10 % and two_cylinders 3 % slower, the sum 1.7 % less
+ * (the vectorized step has fewer instructions but runs slower; where the time goes was not located further). */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__has_attribute)
 #if __has_attribute(optimize)     /* (the package's -ffp-contract=off said again: no fused multiply-add anywhere) */
 #define HC_STEP_CODE __attribute__((optimize("no-tree-vectorize", "fp-contract=off")))

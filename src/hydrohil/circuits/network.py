@@ -9,9 +9,9 @@ The faults act where the plant receives the controller's packets (simulated ther
 a lost or stale packet leaves the plant on the last command that arrived, a delayed one arrives whole steps
 late, a silent controller trips the watchdog after ``[hil] watchdog_timeout`` (its safe state: the commanded
 inputs at 0, the end of their range nearest to it; with ``safe_state = "hold"`` the loop's command a P law of
-gain ``hold_kp`` holding its measured signal at its value at the trip, the paper's rig's hold). Their random draws come from streams seeded by
-``[hil] seed`` and the fault's place in the table; a trip while a fault held packets back is explained (it
-does not make a real-time run INVALID).
+gain ``hold_kp`` holding its measured signal at its value at the trip, the paper's rig's hold). Their random
+draws come from streams seeded by ``[hil] seed`` and the fault's place in the table; a trip while a fault held
+packets back is explained (it does not make a real-time run INVALID).
 """
 
 from __future__ import annotations

@@ -13,8 +13,8 @@ same rule as the paper's rig): no command for longer than ``watchdog_timeout`` -
 command: every input the controller drives (a loop's command from the start) at 0, or the end of its range
 nearest to 0 (a valve centred, an orifice closed, a pump stopped: the rig's "centre"), the others on their
 drives from the scenario; with ``safe_state = "hold"`` the loop's command instead a P law (``hold_kp``) holding
-its measured signal at its value at the trip (the rig's "hold"). A trip counts against the run (:mod:`hydrohil.hil.verdict`) unless a network fault
-held packets back meanwhile.
+its measured signal at its value at the trip (the rig's "hold"). A trip counts against the run
+(:mod:`hydrohil.hil.verdict`) unless a network fault held packets back meanwhile.
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ class CircuitRig(WatchdogCounters):
         self.cmd = self.u0.tolist()                     # the latest value of each input the controller set
         self.set_inputs = set()                         # the inputs set by the controller so far
         if self.loop is not None:                       # the loop's command: the one holding the piston until
-            self.set_inputs.add(self.layout.inputs.index(self.loop.command))    # the controller speaks
+            self.set_inputs.add(self._cmd)              # the controller speaks
         self.path = CommandPath(self.network, self.h, seed=self.seed, timeout=self.watchdog_timeout,
                                 stride=1 + len(self.inputs), hold_kp=self.hold_kp)   # (mask, values)
         self.link = self.path.link                      # its watchdog (counts from step 0)

@@ -398,11 +398,14 @@ class Loop:
     def at(self, t: np.ndarray, h: float) -> np.ndarray:
         """The reference at the step times ``t`` of step ``h`` (the circuit's drive rule, Drive.at; a repeating
         one at t mod its period, the paper rig's rule)."""
-        return Drive(*self.reference, self.linear).at(self._in_period(t), h)
+        return self._drive_at(self._in_period(t), h)
 
     def _in_period(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)
         return np.fmod(t, self.period) if self.period else t
+
+    def _drive_at(self, t: np.ndarray, h: float) -> np.ndarray:
+        return Drive(*self.reference, self.linear).at(t, h)
 
     def table(self, n: int, h: float) -> tuple[np.ndarray, np.ndarray]:
         """The reference and its slope at each step (a held reference has none)."""
@@ -411,7 +414,7 @@ class Loop:
     def reference_at(self, t: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
         """The reference and its slope at the step times ``t`` of step ``h`` (a held reference has none)."""
         t = self._in_period(t)
-        r = np.ascontiguousarray(self.at(t, h), dtype=float)
+        r = np.ascontiguousarray(self._drive_at(t, h), dtype=float)
         if not self.linear:
             return r, np.zeros_like(r)
         ts, vs = self.reference

@@ -117,24 +117,26 @@ int hh_path_step(hh_path *p, int64_t k, int sent, double *packet, double x)
     return got;
 }
 
-double hh_path_apply_held(const hh_path *p, double held, double lo, double hi, double x, int *saturated)
+/* What a commanded input gets of the value v (the command held, or the safe state's): negated under a
+ * command_inversion, saturated to [lo, hi]; *saturated: a command clamped (not the safe state's value). */
+static double path_value(const hh_path *p, double v, double lo, double hi, int *saturated)
 {
-    double v;
-    if (!(p->link.active && p->hold_kp > 0.0))
-        return hh_path_apply(p, held, lo, hi, saturated);
-    v = p->hold_kp * (p->link.hold_x - x);     /* (the rig's p_control, clamped to the input's range below) */
-    v = p->inverted ? -v : v;
-    if (saturated)
-        *saturated = 0;
-    return hh_clamp(v, lo, hi);
-}
-
-double hh_path_apply(const hh_path *p, double held, double lo, double hi, int *saturated)
-{
-    double v = p->link.active ? 0.0 : held, c;
+    double c;
     v = p->inverted ? -v : v;
     c = hh_clamp(v, lo, hi);
     if (saturated)
         *saturated = c != v && !p->link.active;
     return c;
+}
+
+double hh_path_apply(const hh_path *p, double held, double lo, double hi, int *saturated)
+{
+    return path_value(p, p->link.active ? 0.0 : held, lo, hi, saturated);
+}
+
+double hh_path_apply_held(const hh_path *p, double held, double lo, double hi, double x, int *saturated)
+{
+    double safe = p->hold_kp > 0.0 ? p->hold_kp * (p->link.hold_x - x) : 0.0;   /* (the rig's p_control law; the
+                                                                                   input's range its clamp) */
+    return path_value(p, p->link.active ? safe : held, lo, hi, saturated);
 }

@@ -271,7 +271,7 @@ def circuit_plant_h(cs) -> str:
              "enum { " + ", ".join(f"CPLOG_{c.upper()}" for c in PLANT_LOG_HEAD) + " };   /* plant_log.csv's first columns */",
              f"#define CIRCUIT_LOOP_COMMAND {lay.inputs.index(loop.command) if loop is not None else -1}",
              f"#define CIRCUIT_MEASURE {lay.log_columns.index(loop.measure) if loop is not None else -1}",
-             f"#define CIRCUIT_HOLDS {int(cs.link[2] > 0)}   /* 1: the scenario's safe state is \"hold\" (its hold_kp) */",
+             f"#define CIRCUIT_HOLDS {int(cs.link[2] > 0)}   /* 1: the scenario's safe state: \"hold\" */",
              f"#define CIRCUIT_HAS_SENSOR {int(loop is not None and loop.sensor is not None)}",
              f"#define CIRCUIT_SENSOR_SEED {loop.seed if loop is not None else 0}ULL",
              f"#define CIRCUIT_LOG_T {lay.log_columns.index('t')}   /* the log row's time: first, the signals after it */",

@@ -191,9 +191,10 @@ def run_circuit_controller(client, drives: Drives, *, mode: str = "packet", log_
     """The scenario's controller over the link: one INPUTS packet answering each SIGNALS packet
     (:class:`Drives`, made before the link opens), or with ``mode = "clock"`` one on its own clock of the
     scenario's step on the newest packet (:func:`~hydrohil.hil.sampling.sample_loop`, the paper rig's
-    controller's). Raises LinkError when the plant serves another circuit (its layout differs). ``side``: the live panel's side channel (columns
-    :data:`hydrohil.circuits.link.CONTROLLER_SIDE_COLUMNS`); its steering events are applied before the command
-    answering the next packet k and logged with that k in ``events_path``."""
+    controller's). Raises LinkError when the plant serves another circuit (its layout differs). ``side``: the
+    live panel's side channel (columns :data:`hydrohil.circuits.link.CONTROLLER_SIDE_COLUMNS`); its steering
+    events are applied before the command answering the next packet k and logged with that k in
+    ``events_path``."""
     from hydrohil.simulation.steering import EventLog, apply_controller_messages
     cs = drives.cs
     log = CsvStream(log_path, CONTROLLER_LOG_HEAD, ints={0, 6}) if log_path is not None else None

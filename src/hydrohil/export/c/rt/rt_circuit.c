@@ -5,7 +5,8 @@
  * CircuitRig): each step takes the scenario's drives and replaces the inputs the controller has set by their latest values (a loop's command from the
  * start: the one that holds its piston), saturated to their ranges; the watchdog's safe state sets the
  * commanded inputs to 0 (the end of their range nearest to it), or with --hil safe_state=hold the loop's command
- * to the P law (hold_kp) holding its measured signal at its value at the trip (link.c: hh_path_apply_held). The export's values (circuit_plant.h) are
+ * to the P law (hold_kp) holding its measured signal at its value at the trip (link.c: hh_path_apply_held). The
+ * export's values (circuit_plant.h) are
  * fixed: no --set, --initial or --fault. The live panel (--panel, rt_side.c): the circuit's telemetry (time, its
  * signals, its inputs as applied), an input the controller does not drive held from the panel and given back to
  * its drive, a parameter changed (the slots the panel derives for it: this plant has no derivations), reset
@@ -163,7 +164,7 @@ static void describe_divergence(plant *pl, double t)
 int model_step(plant *pl, int64_t k, int arrived, double *u)
 {
     int j;
-    double x = CIRCUIT_MEASURE >= 0 ? C.row[CIRCUIT_MEASURE >= 0 ? CIRCUIT_MEASURE : 0] : 0.0;   /* (what "hold" holds) */
+    double x = CIRCUIT_MEASURE >= 0 ? C.row[CIRCUIT_MEASURE >= 0 ? CIRCUIT_MEASURE : 0] : 0.0;   /* ("hold"'s) */
     (void)u;
     if (arrived) {
         C.packet[0] = (double)C.pending_mask;
