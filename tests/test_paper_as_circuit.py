@@ -144,10 +144,11 @@ def test_circuit_convert_on_the_command_line(tmp_path):
     assert (tmp_path / "c" / "circuit.toml").is_file() and "wrote" in r.stdout
     s = hh("simulate", tmp_path / "c" / "scenario.toml", "--out", tmp_path / "run", "--no-plot")
     assert s.returncode == 0, s.stderr
-    pressed = tmp_path / "pressed.toml"               # (a circuit starts with its chambers at rest)
-    pressed.write_text((EXAMPLES / "fig11_p_control.toml").read_text().replace("xp = 0.03", "xp = 0.03\np1 = 2e6"))
-    bad = hh("circuit", "convert", pressed, "--out", tmp_path / "d")
-    assert bad.returncode == 2 and "initial.p1" in bad.stderr and not (tmp_path / "d").exists()
+    lossy = tmp_path / "lossy.toml"                   # (an open loop's drive takes no network on a circuit)
+    lossy.write_text((EXAMPLES / "sine_open_loop.toml").read_text()
+                     + '[[faults]]\ntype = "packet_loss"\nprobability = 0.4\nstart = 0.6\n')
+    bad = hh("circuit", "convert", lossy, "--out", tmp_path / "d")
+    assert bad.returncode == 2 and "faults[0].type" in bad.stderr and not (tmp_path / "d").exists()
     again = hh("circuit", "convert", tmp_path / "c" / "scenario.toml", "--out", tmp_path / "e")
     assert again.returncode == 2 and "a circuit scenario already" in again.stderr
 
@@ -607,3 +608,122 @@ def test_a_repeating_reference_is_not_in_a_sine_nor_under_reference_actions(tmp_
     with pytest.raises(InputError, match="the scenario's reference repeats") as e:
         run_sequence(seq, tmp_path / "out")
     assert e.value.key == "actions"
+
+
+START_CASES = {       # (the paper scenario, what its [initial] gains: written as the circuit scenario's [start])
+    "chamber 1 pressed, closed loop": ("fig11_p_control.toml", "xp = 0.03", "xp = 0.03\np1 = 45e5"),
+    "spool given, closed loop": ("fig11_p_control.toml", "xp = 0.03", "xp = 0.03\nxs = 0.2"),
+    "spool and chamber 2 given, open loop": ("sine_open_loop.toml", "xp = 0.09 ", "xs = -0.1\np2 = 20e5\nxp = 0.09 "),
+}
+
+
+@pytest.mark.parametrize("case", START_CASES)
+def test_an_initial_spool_and_chamber_pressure_convert_to_the_start_table(case, tmp_path):
+    """The rig's initial.xs, p1 and p2 (the spool there at rest, its delay line holding it; a chamber's pressure
+    set on the state at rest, the other keeping its rest value) become the circuit scenario's [start]: the
+    converted run is the core's within the paper view's limits (measured: z 5.3e-11 of its peak with p1 given,
+    3.5e-12 with xs in the loop, 9.3e-12 in open loop), the modes and events the same at every row."""
+    from hydrohil.circuits.paper import paper_log
+    name, old, new = START_CASES[case]
+    f = tmp_path / "given.toml"
+    f.write_text((EXAMPLES / name).read_text().replace(old, new, 1))
+    ls = load_scenario(f)
+    _, spath, _ = convert(ls, tmp_path / "as_circuit")
+    cs = load_circuit_scenario(spath)
+    given = {"valve.command": ls.scenario.initial.xs, "cap": ls.scenario.initial.p1, "rod": ls.scenario.initial.p2}
+    assert cs.rest.inputs | cs.rest.pressures == {k: v for k, v in given.items() if v is not None}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        core = run_scenario(ls)
+        r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
+                             loop=cs.loop)
+    assert_within_paper_view_limits(core.log, paper_log(r))
+
+
+START_BASE = """circuit = "{circuit}"
+{top}
+duration = 0.01
+[solver]
+step = 0.0005
+[set]
+"cyl.x0" = "30 mm"
+[inputs]
+"valve.command" = 0.0
+"""
+
+
+def start_scenario(tmp_path, extra: str = "", name: str = "s.toml", top: str = "", command: float = 0.0):
+    f = tmp_path / name
+    f.write_text(START_BASE.format(circuit=EXAMPLES / "circuits" / "ferreira2004" / "circuit.toml", top=top)
+                 .replace('"valve.command" = 0.0', f'"valve.command" = {command}') + extra)
+    return load_circuit_scenario(f)
+
+
+def start_run(tmp_path, extra: str = "", name: str = "s.toml", top: str = "", command: float = 0.0):
+    cs = start_scenario(tmp_path, extra, name, top, command)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return cs, simulate_circuit(cs.circuit, cs.duration, h=cs.step, rest=cs.rest, every=cs.every)
+
+
+def test_a_start_table_sets_a_pressure_on_the_rest_and_rests_under_an_inputs_value(tmp_path):
+    """[start] on a circuit scenario, each rule checked against a run without it: a node's pressure is set on
+    the state at rest (the other chamber keeps its rest value bit for bit, the seal's bristles carry the new net
+    force up to the breakaway, z = F/sigma0); an input's value before t = 0 puts the circuit at rest under it (the
+    spool there, the chambers at the pressures of a run whose drive holds that value), the valve's delayed input
+    sees it until the delay has passed, then the drive's 0."""
+    cs, plain = start_run(tmp_path)
+    cyl = cs.circuit.components["cyl"].values
+    p2 = plain.column("rod.p")[0]
+    for i, f_target in enumerate((120.0, 900.0)):       # (within the breakaway; beyond it: the bristles at fs_pos)
+        p1 = float((f_target + p2 * cyl["area_b"] + cyl["force"] + cyl["weight"]) / cyl["area_a"])
+        _, pressed = start_run(tmp_path, f"[start]\ncap = {p1!r}\n", f"p{i}.toml")
+        assert pressed.column("cap.p")[0] == p1 and abs(plain.column("cap.p")[0] - p1) > 1e4
+        assert pressed.column("rod.p")[0] == p2
+        force = p1 * cyl["area_a"] - p2 * cyl["area_b"] - cyl["force"] - cyl["weight"]
+        assert pressed.column("cyl.applied_force")[0] == pytest.approx(f_target, rel=1e-12)
+        z = min(max(force, -cyl["fs_neg"]), cyl["fs_pos"]) / cyl["sigma0"]
+        assert pressed.column("cyl.z")[0] == pytest.approx(z, rel=1e-12)
+    _, opened = start_run(tmp_path, '[start]\n"valve.command" = 0.25\n', "o.toml")
+    assert opened.column("valve.x")[0] == pytest.approx(0.25, abs=1e-15)
+    n = math.floor(cs.circuit.components["valve"].values["delay"] / cs.step)     # (whole steps of the delay)
+    seen = opened.column("valve.command.seen")
+    assert np.all(seen[:n] == 0.25) and np.all(seen[n + 1:] == 0.0), seen[:n + 3]
+    _, at = start_run(tmp_path, "", "r.toml", command=0.25)           # (the same rest: the drive holding 0.25)
+    for col in ("cap.p", "rod.p", "valve.x", "cyl.z"):
+        assert opened.column(col)[0] == at.column(col)[0], col
+
+
+@pytest.mark.parametrize("table, key, message", [
+    ('cab = "45 bar"', "start.cab", "cap"),
+    ('cap = "45 l/min"', "start.cap", "l/min"),
+    ('"valve.command" = 3.0', "start.valve.command", "<= 1"),
+    ('supply = "45 bar"', "start.supply", "a node with a pressure of its own"),
+])
+def test_a_bad_start_table_is_named(tmp_path, table, key, message):
+    with pytest.raises(InputError, match=re.escape(message)) as e:
+        start_scenario(tmp_path, "[start]\n" + table + "\n")
+    assert e.value.key == key and e.value.source.endswith("s.toml")
+
+
+def test_a_start_value_of_the_input_holding_the_piston_is_refused(tmp_path):
+    with pytest.raises(InputError, match="give it a value or the hold") as e:
+        start_scenario(tmp_path, '[start]\n"valve.command" = 0.1\n',
+                       top='rest = {hold = "cyl.x", by = "valve.command"}')
+    assert e.value.key == "start.valve.command"
+
+
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_lockstep_hil_from_a_start_table_equals_offline(tmp_path, plant):
+    """A loop started from [start] (its command's value before t = 0, a chamber's pressure) on either plant:
+    lock-step, the run is the offline run bit for bit, from the same first row."""
+    from hydrohil.hil.run import run_hil
+    from hydrohil.simulation.outputs import read_csv_columns
+    src = EXAMPLES / "circuits" / "ferreira2004"
+    text = (src / "scenario.toml").read_text().replace('circuit = "circuit.toml"', f'circuit = "{src / "circuit.toml"}"')
+    f = tmp_path / "start.toml"
+    f.write_text(text.replace("duration = 6.0", "duration = 1.0") + '[start]\n"valve.command" = 0.2\ncap = "40 bar"\n')
+    r = run_hil(f, tmp_path / "out", lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
+    assert r.comparison["identical"] and r.comparison["replay_max_abs_difference"] == 0.0
+    log = read_csv_columns(tmp_path / "out" / "plant_log.csv")
+    assert log["cap.p"][0] == 40e5 and log["valve.x"][0] == pytest.approx(0.2, abs=1e-15)

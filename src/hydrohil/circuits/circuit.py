@@ -289,7 +289,7 @@ def circuit_from_dict(data: dict, source: str = "circuit", *, fault_signals: fro
         if node not in nodes or node in fixed:
             raise _err(source, f"initial.{node}", f"not a pressure node of the circuit (nodes: "
                                                   f"{', '.join(n for n in nodes if n not in fixed)})")
-        initial[node] = _value({node: v}, node, _PRESSURE, source, "initial")
+        initial[node] = _value({node: v}, node, PRESSURE, source, "initial")
     c = Circuit(str(data.get("name", Path(source).parent.name)), source, fluid, components, node_volumes, inputs,
                 initial, nodes, fixed)
     if not fixed:
@@ -389,7 +389,7 @@ def _couple(components: dict[str, Component], source: str) -> None:
 
 
 _NODE_VOLUME = Param("m3", 0.0, 10.0, "the node's own volume", 0.0)
-_PRESSURE = Param("Pa", -1e5, 1e9, "pressure (gauge)")
+PRESSURE = Param("Pa", -1e5, 1e9, "pressure (gauge)")
 
 
 def _value(body: dict, key: str, prm, source: str, where: str) -> float:

@@ -426,11 +426,13 @@ class Loop:
 
 
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
-                     inputs: dict | None = None, rest: bool | Hold = True, progress=None,
+                     inputs: dict | None = None, rest: bool | Hold | Start = True, progress=None,
                      loop: Loop | None = None, warn_unheld: bool = True, start: tuple | None = None) -> CircuitResult:
     """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
     (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
-    circuit's ``[initial]`` keeps its value; a :class:`Hold`: with a piston held by an input's value). ``method`` "reference": the continuous reference generated from
+    circuit's ``[initial]`` keeps its value; a :class:`Hold`: with a piston held by an input's value; a
+    :class:`Start`: from an input's value before t = 0 and node pressures of a scenario's [start]). ``method``
+    "reference": the continuous reference generated from
     the same description (:mod:`hydrohil.circuits.reference`), from the same state at rest (settled by RK3 at
     ``h``), its log on the same grid; ``progress(step)`` is called now and then. Raises SimulationDiverged with
     the time, the modes and the state when the state leaves the finite (or the reference's solvers fail).
@@ -508,8 +510,27 @@ class Hold(NamedTuple):
     command: str
 
 
+class Start(NamedTuple):
+    """A scenario's ``[start]``: the state a run starts from in place of the rest's alone (the paper's rig's
+    ``initial.xs``, ``initial.p1``/``p2``). ``inputs``: an input's value before t = 0 (input -> value in its SI
+    unit): the circuit comes to rest under it (a spool at that position, the nodes settled to its flows), a
+    delayed input sees it until its delay has passed, the drives act from step 0 (a closed loop's command: the
+    value it holds until the controller's first command, in place of the one that holds its piston, and the
+    circuit at rest under it). ``pressures`` (node -> Pa):
+    set on the state at rest, the other nodes keeping their rest values, the components' states at rest then
+    taking the new pressures (a LuGre seal's bristles the new net force). ``rest``: the rest it starts from
+    (True, False: the file's state, or a :class:`Hold`)."""
+    rest: bool | Hold
+    inputs: dict
+    pressures: dict
+
+    def __bool__(self) -> bool:
+        return bool(self.rest)
+
+
 def start_state(c: Circuit, *, h: float = 5e-4, method: str = "rk3", inputs: dict | None = None,
-                rest: bool | Hold = True, loop: Loop | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                rest: bool | Hold | Start = True,
+                loop: Loop | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The state a run of ``c`` starts from (states y, modes m) and the inputs of its step 0 (a closed loop's
     command, or a Hold's: the one that holds its piston): what :func:`simulate_circuit` starts from, and an
     exported plant's initial state."""
@@ -526,8 +547,20 @@ def new_state(cc, P, h: float) -> np.ndarray:
     return np.zeros(max(int(cc.lib.hc_state_size(cc.ffi.from_buffer("double[]", P), float(h))), 1))
 
 
-def _start(c: Circuit, cc, P, u, h: float, method: str, rest: bool | Hold, loop: Loop | None):
+def _start(c: Circuit, cc, P, u, h: float, method: str, rest: bool | Hold | Start, loop: Loop | None):
     ffi, lib, lay = cc.ffi, cc.lib, cc.layout
+    if isinstance(rest, Start):
+        uu = u.copy()
+        for name, value in rest.inputs.items():
+            uu[0, lay.inputs.index(name)] = value
+        held = loop is not None and loop.command in rest.inputs     # (the loop's command given: not the hold's)
+        y, m, u0 = _start(c, cc, P, uu, h, method, rest.rest, None if held else loop)
+        if rest.pressures:
+            for node, value in rest.pressures.items():
+                y[c.state_nodes.index(node)] = value
+            lib.hc_hold(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", uu), ffi.from_buffer("double[]", y),
+                        ffi.from_buffer("int64_t[]", m))
+        return y, m, u0
     if rest and loop is not None:
         return _held_by_loop(c, cc, P, u, h, method, loop.measure, loop.command)
     if isinstance(rest, Hold):

@@ -11,6 +11,13 @@ values on top of the circuit's, and drives of its signals in place of the circui
                                       # {hold = "cyl.x", by = "valve.command"}: the piston held at the start by
                                       # that input's value that holds it, the drives from t = 0 (the paper's
                                       # rig's open-loop start)
+    [start]                           # optional: the start in place of the rest's alone
+    "valve.command" = 0.3             # an input's value before t = 0: at rest under it (a spool there, the
+                                      # nodes settled to its flows; a delayed input sees it until its delay
+                                      # has passed), the drives from t = 0 (a loop's command: held until the
+                                      # controller's first, in place of the one that holds the piston)
+    cap = "50 bar"                    # a node's pressure, set on the state at rest (the other nodes keep
+                                      # their rest values; the seals take the new net force)
     [solver]
     method = "rk3"                    # euler, heun, rk3, rk4 or reference (the continuous model, LSODA)
     step = 0.0005                     # [s]
@@ -61,16 +68,17 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
-from hydrohil.circuits.circuit import TABLE_TIMES, Circuit, circuit_from_dict, circuit_path, valid_table_times
+from hydrohil.circuits.circuit import (PRESSURE, TABLE_TIMES, Circuit, circuit_from_dict, circuit_path,
+                                      valid_table_times)
 from hydrohil.circuits.faults import apply_faults, follow_derived
-from hydrohil.circuits.run import SOLVERS, Hold, Loop
+from hydrohil.circuits.run import SOLVERS, Hold, Loop, Start
 from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
 from hydrohil.errors import InputError, unknown_name
 
 # a --params given for a circuit scenario (simulate, hil, panel say it)
 NO_PARAMETER_SET = "a circuit scenario has no parameter set: give its values with --set component.key=value"
-KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "controller", "reference", "hil",
-        "repeat", "faults"}
+KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "start", "controller", "reference",
+        "hil", "repeat", "faults"}
 LOOP_TYPES = ("p", "pi", "pid", "p_ff", "state_feedback", "python")
 SOLVER_KEYS = {"method", "step", "output_every"}
 
@@ -83,7 +91,8 @@ class CircuitScenario:
     method: str = "rk3"
     step: float = 5e-4
     every: int = 1
-    rest: bool | Hold = True                       # (a Hold: an open loop starting with a piston held)
+    rest: bool | Hold | Start = True               # (a Hold: an open loop starting with a piston held; a Start:
+                                                   # with a [start] table)
     description: str = ""
     sets: dict = field(default_factory=dict)       # "component.key" -> value as given (scenario [set] + --set)
     loop: Loop | None = None                       # closed loop ([controller] + [reference])
@@ -198,6 +207,8 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
         loop.link = link
     if isinstance(rest, dict):
         rest = _hold(rest, c, loop, source)
+    if "start" in data:
+        rest = _start(data["start"], c, loop, rest, source)
     if loop is not None:
         loop.h = float(h)                         # (sampled at the scenario's step)
     if data.get("faults"):                        # the loop's sensor failing (an ideal one to fail if none given)
@@ -502,6 +513,37 @@ def _hold(table: dict, c: Circuit, loop, source: str) -> Hold:
         raise InputError(f"an input of circuit {c.name!r} (inputs: {', '.join(c.inputs) or 'none'}), got "
                          f"{table['by']!r}", source=source, key="rest.by")
     return Hold(table["hold"], table["by"])
+
+
+def _start(table, c: Circuit, loop, rest: bool | Hold, source: str) -> Start:
+    """``[start]``: inputs' values before t = 0 and node pressures set on the state at rest (run.Start)."""
+    from hydrohil.circuits.units import to_si
+    if not isinstance(table, dict) or not table:
+        raise InputError("a table of \"<input>\" = value (its value before t = 0) and \"<node>\" = pressure (set "
+                         "on the state at rest)", source=source, key="start")
+    nodes = list(c.state_nodes)
+    inputs, pressures = {}, {}
+    for key, value in table.items():
+        where = f"start.{key}"
+        if key in c.inputs:
+            prm = c.input_param(key)
+            if isinstance(rest, Hold) and key == rest.command:
+                raise InputError(f"{key} holds the piston at the start (rest = {{hold, by}}): give it a value or "
+                                 "the hold, not both", source=source, key=where)
+        elif key in nodes:
+            prm = PRESSURE
+        else:
+            raise InputError(unknown_name(key, [*c.inputs, *nodes]) + " (an input of the circuit, or a node with a "
+                             "pressure of its own)", source=source, key=where)
+        try:
+            v = to_si(value, prm.unit)
+        except ValueError as exc:
+            raise InputError(str(exc), source=source, key=where) from None
+        problem = prm.check(v)
+        if problem:
+            raise InputError(f"{problem}, got {value!r}", source=source, key=where)
+        (inputs if key in c.inputs else pressures)[key] = v
+    return Start(rest, inputs, pressures)
 
 
 def _apply(raw: dict, key: str, value, source: str) -> None:

@@ -20,9 +20,12 @@ python, [reference]        ``repeat`` period too; a state feedback's load pressu
                            controller the same callable,
                            called each step with the rig's measurement (``path``: its module's folder) but status 0
                            (said in a note)
-initial.xs                 open loop: omitted, ``rest = {hold = "cyl.x", by = "valve.command"}`` (the rig's start:
-                           the piston held by the spool offset at rest); given, the first command (a circuit starts
-                           at rest under it)
+initial.xs                 omitted: in open loop ``rest = {hold = "cyl.x", by = "valve.command"}`` (the rig's
+                           start: the piston held by the spool offset at rest), a closed loop's own start (the
+                           same); given: ``[start] "valve.command"`` (the circuit at rest under it, the spool there,
+                           its delay line holding it: the core's)
+initial.p1, p2             ``[start] cap``, ``rod``: set on the state at rest, the other chamber keeping its rest
+                           value (the core's rule)
 [hil]                      as given; ``command_delay`` added to the valve's delay (the core's series delay);
                            ``safe_state = "hold"``: the loop's (``cyl.x`` held by ``valve.command``, ``hold_kp``
                            written; in open loop dropped with a note: nothing trips); ``controller_mode =
@@ -44,9 +47,8 @@ valve_bandwidth            ``parameter`` on valve.wn (its value times the factor
 load_change                ``parameter`` on cyl.mass and/or cyl.force
 =========================  ==========================================================================================
 
-Refused (InputError naming the key): initial chamber pressures, an initial spool position other than the first
-command in open loop, a network fault in open loop (the rig's acts on the drive's
-commands; a circuit's inputs take them without a network).
+Refused (InputError naming the key): a network fault in open loop (the rig's acts on the drive's commands; a
+circuit's inputs take them without a network).
 """
 
 from __future__ import annotations
@@ -88,10 +90,6 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
     s, p, src = ls.scenario, ls.params, ls.source
     notes: list[str] = []
     ini = s.initial
-    for key in ("p1", "p2"):
-        if getattr(ini, key) is not None:
-            raise InputError("a circuit starts with its chambers at rest (SPEC §12.5): no initial chamber "
-                             "pressure", source=src, key=f"initial.{key}")
     circuit = paper_tables(p, ini.xp)
     circuit["name"] = Path(src).stem
     circuit["description"] = f"the paper's rig of {Path(src).name} (params = {s.params!r}, its overrides applied)"
@@ -121,18 +119,15 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
                                                     "output_every": s.solver.output_every}}
     t = np.arange(s.n_steps() + 1) * s.solver.step
     if s.controller is None:
-        u0 = _open_loop(s, t, scen, src)
+        _open_loop(s, t, scen)
         if ini.xs is None:                  # the rig's default: the piston held by the spool offset at rest
             scen["rest"] = {"hold": "cyl.x", "by": "valve.command"}
-        elif ini.xs != u0:
-            raise InputError(f"a circuit starts an open loop at rest under its first command ({u0:g}), or with its "
-                             f"piston held (initial.xs omitted), not with the spool at xs = {ini.xs:g}", source=src,
-                             key="initial.xs")
     else:
-        if ini.xs is not None:
-            raise InputError("a circuit's loop starts at the command that holds its piston (SPEC §12.5): no "
-                             "initial spool position", source=src, key="initial.xs")
         _loop(s, p, scen, src, count_size(p.sensors.encoder_resolution), notes)
+    start = {"valve.command": ini.xs} if ini.xs is not None else {}   # (the spool at rest there, its delay line
+    start.update({node: v for node, v in (("cap", ini.p1), ("rod", ini.p2)) if v is not None})   # too: the core's)
+    if start:                               # the chambers' pressures set on the state at rest: the core's rule
+        scen["start"] = start
     faults = _faults(s, p, src, notes)
     if faults:
         scen["faults"] = faults
@@ -141,16 +136,14 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
     return circuit, scen, notes
 
 
-def _open_loop(s, t: np.ndarray, scen: dict, src: str) -> float:
-    """The valve's command as the circuit's input (a table as written, a sine per step): its first value."""
+def _open_loop(s, t: np.ndarray, scen: dict) -> None:
+    """The valve's command as the circuit's input (a table as written, a sine per step)."""
     from hydrohil.simulation.scenario import SineInput
     inp = s.input
     if isinstance(inp, SineInput):          # held over each step, as the core samples it (t_n: the last row's)
-        u = s.commands()
-        scen["inputs"] = {"valve.command": {"t": t.tolist(), "value": u.tolist()}}
-        return float(u[0])
+        scen["inputs"] = {"valve.command": {"t": t.tolist(), "value": s.commands().tolist()}}
+        return
     scen["inputs"] = {"valve.command": {"t": list(inp.t), "value": list(inp.u), "interpolation": "linear"}}
-    return float(np.interp(0.0, inp.t, inp.u))
 
 
 def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
