@@ -115,8 +115,8 @@ def test_the_conversion_says_what_changed_form(tmp_path):
 def test_a_conversion_keeps_each_faults_random_stream(tmp_path):
     """Fig 11 with a pressure sensor's fault (not carried) or a load change (two parameter faults) before a packet
     loss: the loss keeps the rig's stream (``stream``: its place in the rig's table), the same commands reach the
-    valve as on the core's rig at every step; an open loop's packet loss (the rig's acts on the drive's commands)
-    is refused, naming the rig's key."""
+    valve as on the core's rig at every step; an open loop's packet loss with the safe state "hold" (a circuit
+    holds a closed loop's signal only) is refused, naming the rig's key."""
     base = (EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 1.5")
     loss = '[[faults]]\ntype = "packet_loss"\nprobability = 0.4\nstart = 0.6\nend = 1.2\n'
     for i, first in enumerate(('[[faults]]\ntype = "sensor_offset"\nsensor = "p1"\noffset = 1e5\nstart = 0.1\n',
@@ -132,10 +132,11 @@ def test_a_conversion_keeps_each_faults_random_stream(tmp_path):
         held = r.column("valve.command")[:-1] != r.column("valve.command.sent")[:-1]
         assert held.sum() > 100 and np.array_equal(core.column("u")[:-1], r.column("valve.command")[:-1])
     f = tmp_path / "open.toml"
-    f.write_text((EXAMPLES / "faults" / "seal_wear.toml").read_text().split("[[faults]]")[0] + loss)
-    with pytest.raises(InputError, match="acts on a closed loop's commands") as e:
+    f.write_text((EXAMPLES / "faults" / "seal_wear.toml").read_text().split("[[faults]]")[0]
+                 + '[hil]\nsafe_state = "hold"\n' + loss)
+    with pytest.raises(InputError, match="an open loop's commands take \"centre\"") as e:
         convert(load_scenario(f), tmp_path / "o")
-    assert e.value.key == "faults[0].type" and not (tmp_path / "o").exists()
+    assert e.value.key == "hil.safe_state" and not (tmp_path / "o").exists()
 
 
 def test_circuit_convert_on_the_command_line(tmp_path):
@@ -144,11 +145,11 @@ def test_circuit_convert_on_the_command_line(tmp_path):
     assert (tmp_path / "c" / "circuit.toml").is_file() and "wrote" in r.stdout
     s = hh("simulate", tmp_path / "c" / "scenario.toml", "--out", tmp_path / "run", "--no-plot")
     assert s.returncode == 0, s.stderr
-    lossy = tmp_path / "lossy.toml"                   # (an open loop's drive takes no network on a circuit)
-    lossy.write_text((EXAMPLES / "sine_open_loop.toml").read_text()
+    lossy = tmp_path / "lossy.toml"                   # (a circuit's open loop takes "centre" on a trip)
+    lossy.write_text((EXAMPLES / "sine_open_loop.toml").read_text() + '[hil]\nsafe_state = "hold"\n'
                      + '[[faults]]\ntype = "packet_loss"\nprobability = 0.4\nstart = 0.6\n')
     bad = hh("circuit", "convert", lossy, "--out", tmp_path / "d")
-    assert bad.returncode == 2 and "faults[0].type" in bad.stderr and not (tmp_path / "d").exists()
+    assert bad.returncode == 2 and "hil.safe_state" in bad.stderr and not (tmp_path / "d").exists()
     again = hh("circuit", "convert", tmp_path / "c" / "scenario.toml", "--out", tmp_path / "e")
     assert again.returncode == 2 and "a circuit scenario already" in again.stderr
 
@@ -583,12 +584,23 @@ def test_the_controller_process_reads_a_repeating_reference_and_each_packet_once
     assert other != first                                   # (a new packet: new noise draws)
 
 
-def test_an_open_loops_clock_is_dropped_with_a_note(tmp_path):
+def test_an_open_loops_controller_sends_the_drive_at_each_packets_step_on_its_clock(tmp_path):
+    """The rig's open loop on a clock of its own: converted, the circuit's controller process sends the valve's
+    drive (``commands``) on its clock too; asked for a packet (again: the same) it sends the drive's value at
+    that packet's step, its bit alone in the mask."""
+    from hydrohil.hil.circuit import Drives
     f = tmp_path / "open.toml"
     f.write_text((EXAMPLES / "faults" / "seal_wear.toml").read_text() + '\n[hil]\ncontroller_mode = "clock"\n')
-    _, spath, notes = convert(load_scenario(f), tmp_path / "c")
-    assert any("controller_mode" in n and "dropped" in n for n in notes)
-    assert "controller_mode" not in load_circuit_scenario(spath).hil
+    ls = load_scenario(f)
+    _, spath, notes = convert(ls, tmp_path / "c")
+    cs = load_circuit_scenario(spath)
+    assert cs.hil["controller_mode"] == "clock" and not any("controller_mode" in n for n in notes)
+    d = Drives(cs)
+    drive = ls.scenario.commands()
+    j = cs.layout.inputs.index("valve.command")
+    assert d.mask == 1 << j
+    for k in (0, 1, 1, 2345, 2345, 2346):
+        assert d.answer(_signals(cs, k))[j] == drive[k]
 
 
 def test_a_repeating_reference_is_not_in_a_sine_nor_under_reference_actions(tmp_path):
@@ -727,3 +739,128 @@ def test_lockstep_hil_from_a_start_table_equals_offline(tmp_path, plant):
     assert r.comparison["identical"] and r.comparison["replay_max_abs_difference"] == 0.0
     log = read_csv_columns(tmp_path / "out" / "plant_log.csv")
     assert log["cap.p"][0] == 40e5 and log["valve.x"][0] == pytest.approx(0.2, abs=1e-15)
+
+
+OPEN_LOOP_NETWORK = {     # the rig's network faults in its open loop (sine_open_loop.toml), [hil] seed 11
+    "packet_loss": 'probability = 0.4', "network_delay": 'delay = 0.012', "reordering": 'probability = 0.3',
+    "controller_silence": "", "command_inversion": ""}
+
+
+def open_loop_network(tmp_path, kind: str):
+    f = tmp_path / f"{kind}.toml"
+    f.write_text((EXAMPLES / "sine_open_loop.toml").read_text().replace("duration = 4.0", "duration = 3.0")
+                 + f'[hil]\nseed = 11\nwatchdog_timeout = 0.02\n[[faults]]\ntype = "{kind}"\n'
+                 + OPEN_LOOP_NETWORK[kind] + "\nstart = 0.7\nend = 2.2\n")
+    return f
+
+
+@pytest.mark.parametrize("kind", OPEN_LOOP_NETWORK)
+def test_an_open_loops_network_faults_act_on_its_sent_commands_as_on_the_rigs(kind, tmp_path):
+    """The rig's open loop sends its command table over the link; converted, the circuit's open loop sends the
+    valve's drive (``commands = ["valve.command"]``) and the same fault acts on it: the valve gets the core rig's
+    command at every row bit for bit (the fault changing 1 000 to 3 000 of its 6 001), the states within the
+    paper view's limits; what was sent is logged beside it (``valve.command.sent``: the drive)."""
+    from hydrohil.circuits.paper import paper_log
+    ls = load_scenario(open_loop_network(tmp_path, kind))
+    _, spath, _ = convert(ls, tmp_path / "as_circuit")
+    cs = load_circuit_scenario(spath)
+    assert cs.commands.inputs == ("valve.command",) and len(cs.commands.network) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        core = run_scenario(ls)
+        r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, rest=cs.rest, commands=cs.commands)
+    drive = ls.scenario.commands()
+    assert np.array_equal(r.column("valve.command.sent"), drive)
+    assert np.array_equal(r.column("valve.command"), core.column("u"))
+    assert 500 < np.count_nonzero(core.column("u") != drive) < 3100
+    assert_within_paper_view_limits(core.log, paper_log(r))
+
+
+def test_an_open_loops_commands_follow_the_command_paths_rule(tmp_path):
+    """On a circuit of its own (the servo_supply example's rig), an open loop's commands through the network,
+    each rule computed here from the drive: a 12 ms network delay gives each step the drive of 24 steps before
+    (the drive's value at the start before that), a controller silence leaves the last value until the watchdog
+    trips 20 ms in (then 0, the valve centred) and the drive again from the first packet after it, a
+    command_inversion negates the drive; every other step the drive itself."""
+    src = EXAMPLES / "circuits" / "ferreira2004"
+    base = (f'circuit = "{src / "circuit.toml"}"\nduration = 1.2\ncommands = ["valve.command"]\n'
+            '[set]\n"cyl.x0" = "90 mm"\n"cyl.incline" = 0.0\n'
+            '[inputs]\n"valve.command" = { t = [0, 0.3, 0.45, 0.7, 0.9], value = [0.05, 0.3, -0.2, 0.1, -0.1] }\n'
+            '[hil]\nwatchdog_timeout = 0.02\n')
+    faults = ('[[faults]]\ntype = "network_delay"\ndelay = 0.012\nstart = 0.2\nend = 0.4\n'
+              '[[faults]]\ntype = "controller_silence"\nstart = 0.5\nend = 0.6\n'
+              '[[faults]]\ntype = "command_inversion"\nstart = 0.8\nend = 1.0\n')
+    f = tmp_path / "s.toml"
+    f.write_text(base + faults)
+    cs = load_circuit_scenario(f)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, rest=cs.rest, commands=cs.commands)
+    h, sent, u = cs.step, r.column("valve.command.sent"), r.column("valve.command")
+    k = np.arange(len(sent))
+    want = sent.copy()
+    delayed = (k >= 400) & (k < 800 + 24)           # (arrivals from the delay's packets: 24 steps late)
+    want[delayed] = sent[np.maximum(k[delayed] - 24, 0)]
+    want[(k >= 400) & (k < 424)] = sent[399]        # (nothing arrives in the delay's first 24 steps: the last)
+    quiet = (k >= 1000) & (k < 1200)
+    want[quiet] = np.where(k[quiet] < 1000 + 40, sent[999], 0.0)     # (the trip after 40 silent steps)
+    inverted = (k >= 1600) & (k < 2000)
+    want[inverted] = -sent[inverted]
+    n = len(sent) - 1                               # (the last row: the drive, as a loop's last row the law's)
+    assert np.array_equal(u[:n], want[:n]), np.flatnonzero(u[:n] != want[:n])[:10]
+    assert u[n] == sent[n]
+    assert not np.array_equal(u, sent)
+
+
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_lockstep_hil_of_an_open_loops_commands_through_faults_equals_offline(tmp_path, plant):
+    """The converted open loop with a packet loss, in lock-step HIL on either plant: the controller process
+    sends the drive, the plant's command path drops the rig's packets, the run is the offline run bit for bit."""
+    from hydrohil.hil.run import run_hil
+    ls = load_scenario(open_loop_network(tmp_path, "packet_loss"))
+    _, spath, _ = convert(ls, tmp_path / "as_circuit")
+    short = spath.with_name("short.toml")
+    short.write_text(spath.read_text().replace("duration = 3.0", "duration = 1.2"))
+    r = run_hil(short, tmp_path / "out", lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
+    assert r.comparison["identical"] and r.comparison["replay_max_abs_difference"] == 0.0
+
+
+@pytest.mark.parametrize("top, key, message", [
+    ('commands = ["valve.comand"]', "commands", "did you mean 'valve.command'"),
+    ('commands = "valve.command"', "commands", "a list of the circuit's inputs"),
+    ('commands = ["valve.command", "valve.command"]', "commands", "named twice"),
+])
+def test_a_bad_commands_list_is_named(tmp_path, top, key, message):
+    with pytest.raises(InputError, match=re.escape(message)) as e:
+        start_scenario(tmp_path, top=top)
+    assert e.value.key == key
+
+
+def test_a_network_fault_in_open_loop_asks_for_its_commands_and_a_loop_sends_its_own(tmp_path):
+    loss = '[[faults]]\ntype = "packet_loss"\nprobability = 0.4\nstart = 0.001\n'
+    with pytest.raises(InputError, match=re.escape('commands = ["<input>"]')) as e:
+        start_scenario(tmp_path, loss)
+    assert e.value.key == "faults[0].type"
+    cs = start_scenario(tmp_path, loss, name="ok.toml", top='commands = ["valve.command"]')
+    assert cs.commands.network and cs.commands.network[0][0] == "packet_loss"
+    src = EXAMPLES / "circuits" / "ferreira2004"
+    f = tmp_path / "loop.toml"
+    named = f'circuit = "{src / "circuit.toml"}"\ncommands = ["valve.command"]'
+    f.write_text((src / "scenario.toml").read_text().replace('circuit = "circuit.toml"', named))
+    with pytest.raises(InputError, match="a closed loop's controller sends its command already") as e:
+        load_circuit_scenario(f)
+    assert e.value.key == "commands"
+
+
+def test_the_panel_does_not_hold_an_open_loops_command(tmp_path):
+    """An input of an open loop's ``commands`` is the controller process's: the live panel shows it as the
+    controller's (no hold slider) and refuses an event holding it; the scenario's other inputs stay free."""
+    from hydrohil.panel.views import circuit_view
+    from hydrohil.simulation.steering import parse_event
+    cs = start_scenario(tmp_path, top='commands = ["valve.command"]')
+    view = {i["name"]: i for i in circuit_view(cs)["inputs"]}
+    assert view["valve.command"]["controller"] and not any(v["controller"] for k, v in view.items()
+                                                             if k != "valve.command")
+    with pytest.raises(InputError, match="the controller process sends its drive") as e:
+        parse_event({"op": "input", "name": "valve.command", "value": 0.1}, "plant", circuit=cs)
+    assert e.value.key == "valve.command"

@@ -199,9 +199,10 @@ def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol
         raise InputError(f"a fixed-step method to search the step of: one of {', '.join(METHODS)}, got {solver!r}",
                          key="--solver")
     c, h_out = cs.circuit, cs.step
-    ref = simulate_circuit(c, cs.duration, h=h_out, method="reference", rest=cs.rest, loop=cs.loop)
+    ref = simulate_circuit(c, cs.duration, h=h_out, method="reference", rest=cs.rest, loop=cs.loop,
+                           commands=cs.commands)
     at_step = compare_to_reference(simulate_circuit(c, cs.duration, h=h_out, method=solver, rest=cs.rest,
-                                                    loop=cs.loop), ref)
+                                                    loop=cs.loop, commands=cs.commands), ref)
     trials = []
 
     def test(h):
@@ -211,6 +212,7 @@ def circuit_max_stable_step(cs, solver: str = "rk3", *, tol_x: float = 2e-3, tol
             with warnings.catch_warnings():          # (a candidate's own rest may be off: judged by its run)
                 warnings.simplefilter("ignore")
                 run = simulate_circuit(c, cs.duration, h=h, method=solver, rest=cs.rest, loop=cs.loop,
+                                       commands=cs.commands,
                                        every=max(1, int(round(h_out / h))))     # (a row per reference sample)
         except SimulationDiverged:
             r = {"stable": False, "reason": "diverged"}

@@ -241,8 +241,9 @@ def _loop_faults(faults: list, kinds: tuple, loop, what: str, source: str):
             continue
         where = f"faults[{i}]"
         if loop is None:
-            raise InputError(f"a {kind} acts on the closed loop's {what}: this scenario has no [controller]",
-                             source=source, key=f"{where}.type")
+            raise InputError(f"a {kind} acts on the closed loop's {what}: this scenario has no [controller]" + (
+                " (in open loop: name the inputs the controller process sends, commands = [\"<input>\"])"
+                if what == "commands" else ""), source=source, key=f"{where}.type")
         n += 1
         if n > MAX_LOOP_FAULTS:
             raise InputError(f"at most {MAX_LOOP_FAULTS} faults on the loop's {what}", source=source,
@@ -326,7 +327,8 @@ def follow_derived(c, source: str) -> None:
 
 
 def network_faults(faults: list, loop, source: str) -> list:
-    """The network faults among a scenario's ``faults`` (checked by :func:`apply_faults`), as the command path
+    """The network faults among a scenario's ``faults`` (checked by :func:`apply_faults`) on the commands of
+    ``loop`` (a closed loop, or an open loop's :class:`~hydrohil.circuits.run.Commands`), as the command path
     takes them (:class:`hydrohil.circuits.network.CommandPath`): (type, start, end or None, value, slot) with a
     probability, or a delay [s]; 0 for a controller_silence; slot: its place in ``faults`` (its random stream's)."""
     out = []

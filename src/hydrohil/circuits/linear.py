@@ -128,7 +128,7 @@ def run_state(cs, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if not 0 <= t <= cs.duration:
         raise InputError(f"a time within the run, [0, {cs.duration:g}] s, got {t:g}", source=cs.source, key="--at")
     res = simulate_circuit(cs.circuit, max(t, cs.step), h=cs.step, method="rk3" if cs.method == "reference" else
-                           cs.method, rest=cs.rest, loop=cs.loop)
+                           cs.method, rest=cs.rest, loop=cs.loop, commands=cs.commands)
     lay = compile_circuit(cs.circuit).layout
     k = int(round(t / cs.step))
     y = np.array([res.columns[s][k] for s in lay.states] or [0.0])

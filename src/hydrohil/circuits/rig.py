@@ -53,13 +53,18 @@ class CircuitRig(WatchdogCounters):
         self.method = METHODS.index(cs.method)
         self.seed, timeout, self.hold_kp = cs.link                # (the scenario's [hil], as offline)
         self.watchdog_timeout = float(timeout if watchdog_timeout is None else watchdog_timeout)
-        # the loop's network faults (network False: none, a replay of the inputs as applied after them)
-        self.network = cs.loop.network if network and cs.loop is not None else []
+        # the network faults on the loop's command or an open loop's commands (network False: none, a replay of
+        # the inputs as applied after them)
+        sender = cs.loop if cs.loop is not None else cs.commands
+        self.network = sender.network if network and sender is not None else []
         self.loop = cs.loop
         self._cmd = -1
+        # the inputs the controller drives from the start (until it speaks: their values at the start)
+        self.commanded = {lay.inputs.index(name) for name in cs.commands.inputs} if cs.commands is not None else set()
         if self.loop is not None:
             self._meas = lay.log_columns.index(self.loop.measure)
             self._cmd = lay.inputs.index(self.loop.command)
+            self.commanded = {self._cmd}
         self.y0, self.m0, self.u0 = start_state(c, h=self.h, method=cs.method, rest=cs.rest, loop=self.loop)
         self.row = np.zeros(len(lay.log_columns))
         self._t = lay.log_columns.index("t")
@@ -82,9 +87,8 @@ class CircuitRig(WatchdogCounters):
                    ffi.from_buffer("int64_t[]", self.m), ffi.from_buffer("double[]", self.u),
                    ffi.from_buffer("double[]", self.row)]          # (the C's views of them, made once)
         self.cmd = self.u0.tolist()                     # the latest value of each input the controller set
-        self.set_inputs = set()                         # the inputs set by the controller so far
-        if self.loop is not None:                       # the loop's command: the one holding the piston until
-            self.set_inputs.add(self._cmd)              # the controller speaks
+        self.set_inputs = set(self.commanded)           # the inputs set by the controller so far (the loop's
+        #                                                 command, the one holding the piston until it speaks)
         self.path = CommandPath(self.network, self.h, seed=self.seed, timeout=self.watchdog_timeout,
                                 stride=1 + len(self.inputs), hold_kp=self.hold_kp)   # (mask, values)
         self.link = self.path.link                      # its watchdog (counts from step 0)

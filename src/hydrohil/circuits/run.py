@@ -425,9 +425,52 @@ class Loop:
         return r, np.ascontiguousarray(dr, dtype=float)
 
 
+@dataclass
+class Commands:
+    """An open loop's commanded inputs (a scenario's ``commands``): the controller process sends their drives,
+    a value per step, as a loop's controller sends its command (the paper's rig's open loop: its command table
+    over the link), so the scenario's network faults and the watchdog act on them on the way (the command path,
+    :mod:`hydrohil.circuits.network`): a lost packet leaves an input on the last value that arrived, a silence
+    beyond ``watchdog_timeout`` puts them at 0 (the end of their range nearest to it), a command_inversion
+    negates them. Before the first packet an input has its value at the start."""
+    inputs: tuple                       # their names, in the circuit's input order
+    network: list = field(default_factory=list)   # (type, start, end, value, slot): circuits/network.py
+    link: tuple = (0, WATCHDOG_TIMEOUT, 0.0)      # ([hil] seed, watchdog_timeout, 0: the safe state "centre")
+
+    def mask(self, c: Circuit) -> int:
+        """Their bits in an INPUTS packet's mask."""
+        return sum(1 << list(c.inputs).index(name) for name in self.inputs)
+
+    def apply(self, c: Circuit, u: np.ndarray, h: float, start: np.ndarray) -> np.ndarray:
+        """The table ``u`` (a row per step, the drives as sent) with these inputs as the plant applies them
+        through the command path at step ``h`` (their values before the first packet: ``start``'s), in place, for
+        the steps before the last row (the last row's: its drive, as a loop's last row has the law's command);
+        returns what was sent (their columns of ``u`` before)."""
+        from hydrohil.circuits.network import CommandPath
+        idx = [list(c.inputs).index(name) for name in self.inputs]
+        sent = u[:, idx].copy()
+        if not self.network:                 # (nothing on the way: every packet arrives, the watchdog silent)
+            return sent
+        seed, timeout, _ = self.link
+        path = CommandPath(self.network, h, seed=seed, timeout=timeout, stride=1 + len(c.inputs))
+        ranges = [c.input_param(name) for name in self.inputs]
+        held = [float(start[j]) for j in idx]
+        mask, packet = float(self.mask(c)), path.packet
+        for k in range(len(u) - 1):
+            packet[0] = mask
+            for i, j in enumerate(idx):
+                packet[1 + j] = sent[k, i]
+            if path.step(k, True):
+                held = [packet[1 + j] for j in idx]
+            for i, j in enumerate(idx):
+                u[k, j] = path.apply(held[i], ranges[i].lo, ranges[i].hi)
+        return sent
+
+
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
                      inputs: dict | None = None, rest: bool | Hold | Start = True, progress=None,
-                     loop: Loop | None = None, warn_unheld: bool = True, start: tuple | None = None) -> CircuitResult:
+                     loop: Loop | None = None, warn_unheld: bool = True, start: tuple | None = None,
+                     commands: Commands | None = None) -> CircuitResult:
     """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
     (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
     circuit's ``[initial]`` keeps its value; a :class:`Hold`: with a piston held by an input's value; a
@@ -440,7 +483,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     warn when a piston started at rest is not held there (InputWarning: it moves at once). ``start``: (y, m, u0)
     in place of the start at rest: the state (hc_state_size values: the layout's states, then the delay lines'
     memory), the modes and the inputs of step 0 (a loop's command: the one held until the controller's first
-    arrives), e.g. :func:`hydrohil.circuits.paper.paper_start`."""
+    arrives), e.g. :func:`hydrohil.circuits.paper.paper_start`. ``commands``: an open loop's inputs sent over
+    the link (:class:`Commands`: the scenario's network faults act on them; their sent values as columns
+    ``<input>.sent``)."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
@@ -466,9 +511,10 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                              f"{sizes[1]} and {sizes[2]} values", key="start")
     if loop is not None:                  # what the valve was held at: the command the controller's first
         u[0, lay.inputs.index(loop.command)] = u0[lay.inputs.index(loop.command)]   # measurement is made with
+    sent = commands.apply(c, u, h, u0) if commands is not None and loop is None and commands.network else None
     if method == "reference":
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
-        return _with_drives(c, cc, res, u, every, loop)
+        return _with_drives(c, cc, res, u, every, loop, commands, sent)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     seen, events = np.zeros((len(log), max(len(lay.delayed), 1))), np.zeros(len(log))
     rows = ffi.new("int64_t *")
@@ -498,7 +544,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
     if rest and warn_unheld and start is None and len(log):
         _warn_unbalanced(c, res)
-    return _with_drives(c, cc, res, u, every, loop)
+    return _with_drives(c, cc, res, u, every, loop, commands, sent)
 
 
 class Hold(NamedTuple):
@@ -651,14 +697,19 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
             ffi.from_buffer("double[]", loop.sent) if path is not None else ffi.NULL, press, *command)
 
 
-def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None) -> CircuitResult:
+def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None,
+                 commands: Commands | None = None, sent: np.ndarray | None = None) -> CircuitResult:
     """The run's inputs as columns (``valve.command``: what drove each step; closed loop: what the controller
-    sent) and the loop's reference (``<measure>.reference``)."""
+    sent; an open loop's commands through network faults: what was sent, ``<input>.sent``) and the loop's
+    reference (``<measure>.reference``)."""
     rows = len(res.columns["t"])
     idx = np.minimum(np.arange(rows) * every, len(u) - 1)
     for j, sig in enumerate(c.inputs):
         res.columns[sig] = u[idx, j].copy()
         res.units[sig] = input_unit(c, sig)
+    for i, sig in enumerate(commands.inputs if sent is not None else ()):
+        res.columns[f"{sig}.sent"] = sent[idx, i].copy()
+        res.units[f"{sig}.sent"] = input_unit(c, sig)
     if loop is not None and loop.sent is not None and len(loop.sent):   # (network faults: what was sent)
         res.columns[f"{loop.command}.sent"] = loop.sent[np.minimum(idx, len(loop.sent) - 1)]
         res.units[f"{loop.command}.sent"] = input_unit(c, loop.command)

@@ -45,6 +45,9 @@ values on top of the circuit's, and drives of its signals in place of the circui
     value = ["0 rpm", "600 rpm", "300 rpm"]
     interpolation = "hold"            # or "linear" between the points (its slope goes to p_ff's kff)
     repeat = "4 s"                    # optional: the table again every period (its value at t mod period)
+    commands = ["valve.command"]      # optional, open loop: the inputs whose drives the controller process
+                                      # sends (a value per step, the paper rig's open loop): the network
+                                      # faults and the watchdog act on them
     [hil]                             # optional: real-time settings of `hydrohil hil` (as a paper scenario's)
     watchdog_timeout = 0.05
     safe_state = "hold"               # on a trip: the loop's command holds its measured signal at its value
@@ -71,14 +74,14 @@ from pathlib import Path
 from hydrohil.circuits.circuit import (PRESSURE, TABLE_TIMES, Circuit, circuit_from_dict, circuit_path,
                                       valid_table_times)
 from hydrohil.circuits.faults import apply_faults, follow_derived
-from hydrohil.circuits.run import SOLVERS, Hold, Loop, Start
+from hydrohil.circuits.run import SOLVERS, Commands, Hold, Loop, Start
 from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
 from hydrohil.errors import InputError, unknown_name
 
 # a --params given for a circuit scenario (simulate, hil, panel say it)
 NO_PARAMETER_SET = "a circuit scenario has no parameter set: give its values with --set component.key=value"
 KEYS = {"circuit", "description", "duration", "solver", "set", "inputs", "rest", "start", "controller", "reference",
-        "hil", "repeat", "faults"}
+        "hil", "repeat", "faults", "commands"}
 LOOP_TYPES = ("p", "pi", "pid", "p_ff", "state_feedback", "python")
 SOLVER_KEYS = {"method", "step", "output_every"}
 
@@ -100,6 +103,7 @@ class CircuitScenario:
     faults: list = field(default_factory=list)     # [[faults]] as given (compiled into the circuit: faults.py)
     repeat: bool = False                           # drives and reference again every duration (a panel session)
     link: tuple = (0, WATCHDOG_TIMEOUT, 0.0)       # ([hil] seed, watchdog_timeout, hold_kp): the command path's
+    commands: Commands | None = None               # an open loop's inputs sent by the controller process
 
     @cached_property
     def compiled(self):
@@ -205,6 +209,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
     link = _link(data.get("hil", {}), source, loop)   # the faults' streams, the watchdog: the scenario's [hil]
     if loop is not None:
         loop.link = link
+    commands = _commands(data["commands"], c, loop, link, source) if "commands" in data else None
     if isinstance(rest, dict):
         rest = _hold(rest, c, loop, source)
     if "start" in data:
@@ -223,15 +228,39 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
                 loop.sensor = (0.0, -1e300, 1e300, 0.0)
         if press:                                 # (its pressure transducers failing: hc_pressures_read)
             loop.pressure_faults = press
-        network = network_faults(data["faults"], loop, source)
+        network = network_faults(data["faults"], loop or commands, source)
         if network:                               # the loop's commands through the network (circuits/network.py)
-            loop.network = network
+            (loop or commands).network = network
     if loop is not None and loop.command in given:
         raise InputError(f"{loop.command} is the closed loop's command (its controller drives it): a value set "
                          "for it would be overridden", source=source if loop.command in data.get("set", {}) else
                          "--set", key=loop.command)
+    for name in commands.inputs if commands is not None else ():
+        if name in given:
+            raise InputError(f"{name} is one of the open loop's commands (the controller process sends its drive): "
+                             "give its drive in [inputs], not a value", source=source if name in data.get("set", {})
+                             else "--set", key=name)
     return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
-                           given, loop, dict(data.get("hil", {})), list(data.get("faults", [])), repeat, link)
+                           given, loop, dict(data.get("hil", {})), list(data.get("faults", [])), repeat, link,
+                           commands)
+
+
+def _commands(names, c: Circuit, loop, link: tuple, source: str) -> Commands:
+    """``commands = ["<input>", ...]``: an open loop's inputs whose drives the controller process sends
+    (run.Commands)."""
+    if loop is not None:
+        raise InputError("a closed loop's controller sends its command already; commands names an open loop's "
+                         "inputs sent over the link", source=source, key="commands")
+    if not (isinstance(names, list) and names and all(isinstance(n, str) for n in names)):
+        raise InputError(f"a list of the circuit's inputs, e.g. [\"{next(iter(c.inputs), 'valve.command')}\"], got "
+                         f"{names!r}", source=source, key="commands")
+    for name in names:
+        if name not in c.inputs:
+            raise InputError(unknown_name(name, list(c.inputs), what="input") + " (the circuit's inputs)",
+                             source=source, key="commands")
+    if len(set(names)) != len(names):
+        raise InputError(f"an input named twice: {names!r}", source=source, key="commands")
+    return Commands(tuple(n for n in c.inputs if n in names), link=link)
 
 
 def _link(hil: dict, source: str, loop) -> tuple[int, float, float]:
@@ -578,7 +607,7 @@ def run_circuit_scenario(cs: CircuitScenario, progress=None):
     column, the reference's solver statistics."""
     from hydrohil.circuits.run import simulate_circuit
     res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
-                           progress=progress, loop=cs.loop)
+                           progress=progress, loop=cs.loop, commands=cs.commands)
     wall = res.wall
     final = {k: (res.mode_names[k][int(v[-1])] if k in res.mode_names else float(v[-1]))
              for k, v in res.columns.items() if k != "t"}

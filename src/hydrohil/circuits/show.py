@@ -27,7 +27,7 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
     a held piston starting held)."""
     if scenario is not None:
         res = simulate_circuit(c, scenario.duration, h=h, method=method, every=20, rest=scenario.rest,
-                               loop=scenario.loop)
+                               loop=scenario.loop, commands=scenario.commands)
     else:                 # (a run for the nodes' stiffness: a piston its default drive leaves unheld is no news here)
         res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20, warn_unheld=False)
     stiff = {s.node: s for s in node_stiffness(c, res)}

@@ -250,6 +250,8 @@ def circuit_plant_h(cs) -> str:
                if drives[k, j] != drives[k - 1, j]]
     prm = [c.input_param(n) for n, _ in inputs]
     loop = cs.loop
+    commanded = (1 << lay.inputs.index(loop.command) if loop is not None else
+                 cs.commands.mask(c) if cs.commands is not None else 0)
     words, first = [], []
     for md in lay.modes:
         first.append(len(words))
@@ -270,6 +272,7 @@ def circuit_plant_h(cs) -> str:
              f"CIRCUIT_NDRIVES = {len(changes)}, LOG_HEAD = {len(PLANT_LOG_HEAD)} }};",
              "enum { " + ", ".join(f"CPLOG_{c.upper()}" for c in PLANT_LOG_HEAD) + " };   /* plant_log.csv's first columns */",
              f"#define CIRCUIT_LOOP_COMMAND {lay.inputs.index(loop.command) if loop is not None else -1}",
+             f"#define CIRCUIT_COMMANDED {commanded}U   /* the inputs the controller drives from the start (mask) */",
              f"#define CIRCUIT_MEASURE {lay.log_columns.index(loop.measure) if loop is not None else -1}",
              f"#define CIRCUIT_HOLDS {int(cs.link[2] > 0)}   /* 1: the scenario's safe state: \"hold\" */",
              f"#define CIRCUIT_HAS_SENSOR {int(loop is not None and loop.sensor is not None)}",
@@ -295,7 +298,8 @@ def circuit_plant_h(cs) -> str:
               "sensor: its transducer, its faults */"]
     lines += arr("double", "CIRCUIT_SENSOR", sensor)
     lines += arr("int", "CIRCUIT_SENSOR_SLOT", slots, str)      # (each fault's place in [[faults]]: its stream)
-    network = loop.network if loop is not None else []   # the loop's network faults (circuits/network.py)
+    sender = loop if loop is not None else cs.commands   # the network faults on its commands (circuits/network.py)
+    network = sender.network if sender is not None else []
     cap = delay_slots(network, cs.step)
     lines += [f"enum {{ CIRCUIT_NNET = {len(network)}, CIRCUIT_FIFO_CAP = {cap} }};   /* network faults; "
               "network_delay's line (slots) */"]

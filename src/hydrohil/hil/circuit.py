@@ -133,7 +133,8 @@ def serve_circuit_plant(scenario: Path, bind: str = "127.0.0.1:47000", duration:
 class Drives:
     """What the scenario's controller process sends for each sensor packet: the loop's command from the core's
     law on the measured signal (the same C as offline), its bit alone in the mask (the plant applies the other
-    inputs' drives itself, on time); an open loop answers each packet with nothing set. ``steer``: the live
+    inputs' drives itself, on time); an open loop sends its ``commands``' drives at the packet's step, and answers
+    each packet with nothing set without them. ``steer``: the live
     panel's changes to the loop (gains, a held reference, the law's state cleared;
     :class:`hydrohil.simulation.steering.SteerableController`)."""
 
@@ -147,6 +148,12 @@ class Drives:
         self.values = [0.0] * len(inputs)
         self.mask = 0
         self.steer = None
+        self.commands = []                          # an open loop's commands: (input, its drive per step)
+        if cs.commands is not None:
+            from hydrohil.circuits.run import input_table
+            table = input_table(cs.circuit, self.n + 1, cs.step)
+            self.commands = [(j, table[:, j].copy()) for j, name in enumerate(lay.inputs) if name in cs.commands.inputs]
+            self.mask = cs.commands.mask(cs.circuit)
         if self.loop is not None:
             self.loop.start(cs.step)
             self.ref, self.dref = self.loop.table(self.n, cs.step)
@@ -163,6 +170,8 @@ class Drives:
         self._read = None                           # (the step and the pressures as read of the last packet)
 
     def answer(self, s: pr.Signals) -> list[float]:
+        for j, drive in self.commands:              # (an open loop's: the drive at the packet's step)
+            self.values[j] = float(drive[int(s.step) % self.n if self.repeat else min(int(s.step), self.n)])
         if self.loop is not None:
             k = int(s.step) % self.n if self.repeat else min(int(s.step), self.n)
             held = self.steer.held
@@ -290,7 +299,8 @@ def compare_circuit_offline(cs, out: Path, *, plot: bool = True, verdict: dict |
     from hydrohil.circuits.units import display
     from hydrohil.simulation.outputs import read_csv_columns
     hil = read_csv_columns(out / "plant_log.csv")
-    res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, rest=cs.rest, loop=cs.loop)
+    res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, rest=cs.rest, loop=cs.loop,
+                           commands=cs.commands)
     n = min(len(hil["t"]), len(res.columns["t"]))
     # the states (an output of an input, e.g. a burst's flow, is logged under the step's new input offline and
     # under the input applied before it by the plant: at a change of input they differ by design)
@@ -332,5 +342,5 @@ def compare_circuit_offline(cs, out: Path, *, plot: bool = True, verdict: dict |
         which = {"c": " (standalone C plant)", "python": " (Python plant)"}.get(plant or "", "")
         plot_circuit_hil(out / "report.png", hil, res, cs.loop.measure if cs.loop is not None else None,
                          title=f"{Path(cs.source).name} ({cs.circuit.name}): HIL{which} vs offline", verdict=verdict,
-                         inputs=lay.inputs, commanded=cs.loop is not None)
+                         inputs=lay.inputs, commanded=cs.loop is not None or cs.commands is not None)
     return cmp

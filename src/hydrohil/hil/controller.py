@@ -323,7 +323,8 @@ def run_controller(connect: str, scenario: Path | None = None, kp: float = 50.0,
         circuit = load_circuit_scenario(scenario)
         hil = circuit_hil(circuit)
         drives = Drives(circuit)          # (compiled, its tables made: before the first packet)
-        mode = hil.controller_mode if circuit.loop is not None else "packet"   # (an open loop answers each)
+        mode = (hil.controller_mode if circuit.loop is not None or circuit.commands is not None
+                else "packet")                  # (an open loop without commands only answers each packet)
         sample = circuit.step
         spin, busy_poll = _placement(hil, busy_poll)
     elif scenario is not None:

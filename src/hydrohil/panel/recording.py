@@ -112,5 +112,5 @@ def finish_circuit_recording(cs, session: Path, folder: Path, k0: int, k1: int) 
     plot_circuit_hil(folder / "report.png", log, replayed, measure,
                      title=f"{folder.name}: steps {cmp['recorded_steps']} of {session.name} ({cs.circuit.name})",
                      verdict=timing.get("verdict") or judge(timing, circuit_hil(cs)), inputs=lay.inputs,
-                     commanded=cs.loop is not None, other="replay")
+                     commanded=cs.loop is not None or cs.commands is not None, other="replay")
     return {"comparison": cmp}

@@ -106,7 +106,8 @@ def circuit_view(cs) -> dict:
             continue                                  # (a fault's schedule: not held from the page)
         prm = c.input_param(name)
         ins.append({"name": name, "unit": unit, "shown": list(display(unit)), "lo": _num(prm.lo), "hi": _num(prm.hi),
-                    "controller": loop is not None and name == loop.command,
+                    "controller": (loop is not None and name == loop.command) or (
+                        cs.commands is not None and name in cs.commands.inputs),
                     "description": prm.text(name.split(".")[0])})
     return {"kind": "circuit", "circuit": c.name,
             "plant_columns": list(side_columns(signals, inputs)),

@@ -217,7 +217,7 @@ def _circuit_offline(cs, out: Path) -> tuple[dict, dict]:
     from hydrohil.circuits.run import simulate_circuit
     from hydrohil.circuits.show import write_log
     res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
-                           loop=cs.loop)
+                           loop=cs.loop, commands=cs.commands)
     write_log(res, out / "log.csv")
     cols = {k: np.asarray(v, float) for k, v in res.columns.items()}
     for name in cs.circuit.inputs:

@@ -11,7 +11,8 @@ The translation, key by key:
 paper scenario             circuit scenario
 =========================  ==========================================================================================
 params, [overrides]        the circuit of the parameters (circuit.toml beside the scenario; ``initial.xp`` its x0)
-[input] table / sine       ``[inputs] "valve.command"``: a table (linear) as written; a sine held per step
+[input] table / sine       ``[inputs] "valve.command"``: a table (linear) as written; a sine held per step; sent by
+                           the controller process (``commands = ["valve.command"]``: the rig's open loop)
 [controller] p/pi/pid/     the same law on ``cyl.x`` -> ``valve.command``, reading the encoder's counts
 p_ff/state_feedback/       (``sensor_resolution`` = the count size); the reference table linear, as written, its
 python, [reference]        ``repeat`` period too; a state feedback's load pressure of ``cyl`` through the rig's four
@@ -28,10 +29,11 @@ initial.p1, p2             ``[start] cap``, ``rod``: set on the state at rest, t
                            value (the core's rule)
 [hil]                      as given; ``command_delay`` added to the valve's delay (the core's series delay);
                            ``safe_state = "hold"``: the loop's (``cyl.x`` held by ``valve.command``, ``hold_kp``
-                           written; in open loop dropped with a note: nothing trips); ``controller_mode =
-                           "clock"``: the circuit's controller on its own clock
-faults: network            the same faults on the loop's commands (packet_loss, network_delay, reordering,
-                           controller_silence; the same streams: seed and the rig's place, ``stream``)
+                           written; in open loop "centre", dropped with a note where no network fault can
+                           trip it offline); ``controller_mode = "clock"``: the circuit's controller (an open
+                           loop's, sending the commands) on its own clock
+faults: network            the same faults on the loop's commands, or an open loop's (packet_loss, network_delay,
+                           reordering, controller_silence; the same streams: seed and the rig's place, ``stream``)
 faults: sensor (position)  the loop's sensor faults (stuck, offset, noise, dropout; in m; encoder_count_loss)
 faults: sensor (pressure)  the same fault on the loop's transducer of it (``signal``: cap.p, rod.p, supply.p,
                            tank.p) where the loop reads it (a state feedback's chambers, a Python controller's
@@ -47,8 +49,8 @@ valve_bandwidth            ``parameter`` on valve.wn (its value times the factor
 load_change                ``parameter`` on cyl.mass and/or cyl.force
 =========================  ==========================================================================================
 
-Refused (InputError naming the key): a network fault in open loop (the rig's acts on the drive's commands; a
-circuit's inputs take them without a network).
+Refused (InputError naming the key): ``safe_state = "hold"`` in open loop with a network fault (a circuit holds a
+closed loop's measured signal; an open loop's commands take "centre").
 """
 
 from __future__ import annotations
@@ -103,23 +105,26 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
             notes.append(f"hil.{key}: dropped (a circuit's inputs travel in SI units)")
             hil.pop(key)
     if s.hil.safe_state == "hold":          # (the loop's measure held by its command: the rig's piston, its valve)
-        if s.controller is None:            # (nothing trips: a circuit's plant applies an open loop's drives)
+        if s.controller is None:            # (a circuit holds a closed loop's measured signal only)
+            network = [i for i, f in enumerate(s.faults) if f.type in NETWORK_FAULTS]
+            if network:
+                raise InputError("a circuit's safe state \"hold\" holds a closed loop's measured signal; an open "
+                                 f"loop's commands take \"centre\", and faults[{network[0]}] may trip the watchdog "
+                                 "(the runs would differ)", source=src, key="hil.safe_state")
             hil.pop("safe_state")
             hil.pop("hold_kp", None)
-            notes.append("hil.safe_state = \"hold\": dropped (a circuit's plant drives its open loop's inputs "
-                         "itself, so its watchdog never trips; it holds a closed loop's measured signal)")
+            notes.append("hil.safe_state = \"hold\": dropped (a circuit holds a closed loop's measured signal; an "
+                         "open loop's commands take \"centre\": no fault trips the watchdog offline, a real-time "
+                         "run's silence would centre the valve)")
         else:
             hil["hold_kp"] = s.hil.hold_kp
-    if s.hil.controller_mode == "clock" and s.controller is None:
-        hil.pop("controller_mode")
-        notes.append("hil.controller_mode = \"clock\": dropped (a circuit's open loop has no controller: its "
-                     "controller process answers each packet)")
     scen: dict = {"circuit": "circuit.toml", "description": f"{Path(src).name} on the generated code",
                   "duration": s.duration, "solver": {"method": s.solver.method, "step": s.solver.step,
                                                     "output_every": s.solver.output_every}}
     t = np.arange(s.n_steps() + 1) * s.solver.step
-    if s.controller is None:
+    if s.controller is None:                # (the rig's open loop: its controller sends the command table)
         _open_loop(s, t, scen)
+        scen["commands"] = ["valve.command"]
         if ini.xs is None:                  # the rig's default: the piston held by the spool offset at rest
             scen["rest"] = {"hold": "cyl.x", "by": "valve.command"}
     else:
@@ -174,11 +179,7 @@ def _faults(s, p, src: str, notes: list[str]) -> list[dict]:
         where = f"faults[{i}]"
         window = {"start": f.start, **({"end": f.end} if f.end is not None else {})}
         stream = {"stream": i} if len(out) != i else {}
-        if f.type in NETWORK_FAULTS:
-            if s.controller is None:
-                raise InputError(f"a circuit's {f.type} acts on a closed loop's commands; in the rig's open loop it "
-                                 "acts on the commands of the drive, which a circuit's inputs take without a network",
-                                 source=src, key=f"{where}.type")
+        if f.type in NETWORK_FAULTS:          # (a loop's command, an open loop's: the valve's command sent)
             out.append({**f.model_dump(exclude_none=True), **stream})
         elif f.type in SENSOR_FAULTS:
             sensor = getattr(f, "sensor", "position")

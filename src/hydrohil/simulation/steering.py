@@ -162,6 +162,9 @@ def parse_circuit_event(data: dict, process: str, cs, source: str = "event"):
         if cs.loop is not None and ev.name == cs.loop.command:
             raise InputError("the closed loop's command: its controller drives it (steer its reference or gains)",
                              source=source, key=ev.name)
+        if cs.commands is not None and ev.name in cs.commands.inputs:
+            raise InputError("one of the open loop's commands: the controller process sends its drive",
+                             source=source, key=ev.name)
     if isinstance(ev, (HoldInput, SetValue)):
         from hydrohil.circuits.faults import driven_by_fault, follows_fault
         if isinstance(ev, HoldInput) and ev.name in c.inputs and driven_by_fault(c, ev.name):

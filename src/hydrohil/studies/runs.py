@@ -172,7 +172,7 @@ def _run_circuit(path: Path):
                          source=str(path))
     try:
         res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
-                               loop=cs.loop)
+                               loop=cs.loop, commands=cs.commands)
     except SimulationDiverged as exc:
         return {k: np.zeros(1) for k in ("t", "xp", "x_ref", "p1", "p2", "u")}, str(exc)
     cols = {k: v for k, v in res.columns.items()}

@@ -102,7 +102,7 @@ void model_reset(plant *pl)
     memcpy(C.drive, CIRCUIT_DRIVE0, sizeof C.drive);
     C.drive_next = 0;
     C.held = 0U;
-    C.set = CIRCUIT_LOOP_COMMAND >= 0 ? 1U << CIRCUIT_LOOP_COMMAND : 0U;
+    C.set = CIRCUIT_COMMANDED;     /* (the loop's command, an open loop's commands: driven from the start) */
     C.pending_mask = 0;
     C.saturated = 0;
     C.status = 0;
