@@ -165,12 +165,17 @@ def test_panel_in_chromium(browser, tmp_path, plant):
 def test_circuit_panel_in_chromium(browser, tmp_path):
     """A circuit on the panel (``hydrohil panel examples/circuits/motor_speed/scenario.toml``) as a user sees it:
     the page draws the circuit's own plots (its loop's speed in rpm first) and mode strips, an input is held from
-    its form (in its display unit) and given back to its drive, a parameter is changed from the list, stop ends
-    the session."""
+    its form (in its display unit) and given back to its drive, a parameter is changed from the list, the
+    scenario's leak is switched on and off from its faults box, stop ends the session."""
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import Select
     from conftest import EXAMPLES
-    p = PanelProcess(tmp_path / "panel", EXAMPLES / "circuits" / "motor_speed" / "scenario.toml")
+    motor = EXAMPLES / "circuits" / "motor_speed"
+    scen = tmp_path / "motor.toml"
+    scen.write_text((motor / "scenario.toml").read_text().replace('circuit = "circuit.toml"',
+                                                                   f'circuit = "{motor / "circuit.toml"}"')
+                    + '[[faults]]\ntype = "leak"\nnode = "a"\narea = "2 mm2"\nstart = 100.0\n')
+    p = PanelProcess(tmp_path / "panel", scen)
     try:
         browser.get(p.url)
         el = lambda i: browser.find_element(By.ID, i)   # noqa: E731
@@ -200,7 +205,14 @@ def test_circuit_panel_in_chromium(browser, tmp_path):
                    on_fail=lambda: el("message").text)
         el("free-motor.load_torque").click()
         wait_until(lambda: p.api("api/state")["held"] == {}, "the input back on its drive")
+        shown = lambda: browser.execute_script(          # noqa: E731 (the list is redrawn when a fault switches)
+            "return document.getElementById('cf-state-0').textContent")
+        assert el("circuit-faults-box").is_displayed() and shown() == "scheduled"
+        el("cf-on-0").click()
+        wait_until(lambda: shown() == "on", "the leak switched on", on_fail=lambda: el("message").text)
         browser.save_screenshot(str(tmp_path / "circuit_panel.png"))
+        el("cf-off-0").click()
+        wait_until(lambda: shown() == "off", "the leak switched off", on_fail=lambda: el("message").text)
         el("stop").click()
         wait_until(lambda: el("status").text == "ended", "the session to end")
         ended = p.api("api/state")["ended"]
@@ -208,6 +220,8 @@ def test_circuit_panel_in_chromium(browser, tmp_path):
     finally:
         p.close()
     events = [json.loads(x) for x in (p.session / "events.jsonl").read_text().splitlines()]
-    assert [(e["op"], e["name"], e["value"]) for e in events] == [("input", "motor.load_torque", 6.0),
-                                                                 ("set", "motor.inertia", 0.03),
-                                                                 ("input", "motor.load_torque", None)]
+    assert [(e["op"], e.get("name"), e.get("value")) for e in events[:3]] == [("input", "motor.load_torque", 6.0),
+                                                                            ("set", "motor.inertia", 0.03),
+                                                                            ("input", "motor.load_torque", None)]
+    assert [(e["op"], e["slot"], e["on"], e["inputs"]) for e in events[3:]] == [
+        ("fault", 0, True, {"leak_a.opening": 1.0}), ("fault", 0, False, {"leak_a.opening": 0.0})]

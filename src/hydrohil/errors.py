@@ -21,7 +21,7 @@ class InputError(HydrohilError):
     exit_code = 2
 
     def __init__(self, message: str, *, source: str | None = None, key: str | None = None):
-        self.source, self.key = source, key
+        self.source, self.key, self.message = source, key, message
         where = ": ".join(x for x in (source, key) if x)
         super().__init__(f"{where}: {message}" if where else message)
 

@@ -50,6 +50,7 @@ the rig's table had another order).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -222,6 +223,12 @@ def driven_by_fault(c, name: str) -> bool:
     return comp in c.components and key not in c.components[comp].type.inputs
 
 
+def leak_openings(faults: list) -> set[str]:
+    """The inputs a scenario's leaks open (``<orifice>.opening``): their schedules' (or the panel's fault
+    switches'), not held as inputs."""
+    return {f"{f.get('orifice', 'leak_' + str(f.get('node')))}.opening" for f in faults if f.get("type") == "leak"}
+
+
 def follows_fault(c, comp: str) -> bool:
     """A component whose derived values follow a fault's drive (they are inputs): a parameter of it changed
     live would leave them behind."""
@@ -345,3 +352,56 @@ def network_faults(faults: list, loop, source: str) -> list:
                                  key=f"{where}.{key}")
         out.append((kind, start, end, a, stream))
     return out
+
+
+@dataclass(frozen=True)
+class LiveSwitch:
+    """What switching fault ``slot`` of a scenario's ``[[faults]]`` on or off from the live panel changes in
+    either plant, at the step boundary k it is applied at, from then on (its schedule no longer applies): a
+    leak's opening or a parameter fault's inputs held at their values inside the fault (on) or outside it (off),
+    each value derived from the parameter with it; a sensor fault's row of the loop's sensor (``sensor``: its
+    place in :attr:`hydrohil.circuits.run.Loop.sensor_faults`) or a network fault's place in the command path
+    (``network``) active on [k, never) (on) or on no step (off), a stuck sensor's memory fresh."""
+    slot: int
+    on: dict                     # input -> value while on
+    off: dict | None             # input -> value while off (None: it has none, it starts at 0 and never ends)
+    sensor: int = -1
+    network: int = -1
+
+
+def live_switch(cs, slot: int, source: str = "event") -> LiveSwitch:
+    """Fault ``slot`` of the circuit scenario ``cs`` as the live panel switches it (:class:`LiveSwitch`);
+    InputError (key ``slot``) for one no plant switches: a fault on a pressure transducer (the controller
+    process reads those), a parameter another fault drives too."""
+    faults = cs.faults
+    if not (isinstance(slot, int) and 0 <= slot < len(faults)):
+        raise InputError(f"a place in the scenario's [[faults]] (0 to {len(faults) - 1})" if faults else
+                         "the scenario has no [[faults]] to switch", source=source, key="slot")
+    f = faults[slot]
+    kind = f["type"]
+    if kind in SENSOR_FAULTS:
+        if f.get("signal", cs.loop.measure if cs.loop is not None else None) != cs.loop.measure:
+            raise InputError(f"faults[{slot}] fails a pressure transducer the controller process reads: not "
+                             "switched from the panel (its schedule acts)", source=source, key="slot")
+        row = sum(1 for g in faults[:slot] if g["type"] in SENSOR_FAULTS
+                  and g.get("signal", cs.loop.measure) == cs.loop.measure)
+        return LiveSwitch(slot, {}, {}, sensor=row)
+    if kind in NETWORK_FAULTS:
+        return LiveSwitch(slot, {}, {}, network=sum(1 for g in faults[:slot] if g["type"] in NETWORK_FAULTS))
+    c, h = cs.circuit, cs.step
+    if kind == "leak":
+        (name,) = leak_openings([f])
+        return LiveSwitch(slot, {name: 1.0}, {name: 0.0})
+    target = f["target"]
+    others = [j for j, g in enumerate(faults)
+              if j != slot and g.get("type") == "parameter" and g.get("target") == target]
+    if others:
+        raise InputError(f"faults[{slot}] and faults[{others[0]}] drive {target}: neither is switched from the "
+                         "panel (their schedules act)", source=source, key="slot")
+    comp = c.components[target.partition(".")[0]]
+    names = [target, *(f"{comp.name}.{dk}" for dk, _ in comp.type.derived if f"{comp.name}.{dk}" in c.inputs)]
+    start, end = _window(f, f"faults[{slot}]", source)
+    at = lambda name, t: float(c.inputs[name].at(np.array([t]), h)[0])       # noqa: E731 (its drive at t)
+    outside = start - h if start >= h else end
+    return LiveSwitch(slot, {n: at(n, start) for n in names},
+                      {n: at(n, outside) for n in names} if outside is not None else None)

@@ -154,6 +154,20 @@ class CircuitRig(WatchdogCounters):
         else:
             self.held[j] = float(value)
 
+    def switch_fault(self, on: bool, inputs: dict, sensor: int, network: int, k: int) -> None:
+        """A scenario's fault switched on or off at the boundary of step k, from then on
+        (:class:`hydrohil.circuits.faults.LiveSwitch`, the panel's ``fault`` event): ``inputs`` held at their
+        values; the loop's sensor's fault row ``sensor`` or the command path's fault ``network`` active on [k,
+        never) or on no step (a stuck sensor's memory fresh, an offset's drift from k)."""
+        from hydrohil.circuits.network import NEVER
+        for name, value in inputs.items():
+            self.hold(name, value)
+        if sensor >= 0 and self.loop is not None:
+            sensor_fault_window(self._sensor[0], sensor, on, k, self.h)
+        if network >= 0 and self.network:
+            f = self.path._faults + network
+            f.k_start, f.k_end = (k, NEVER) if on else (k, k)
+
     def set_value(self, key: str, value: float) -> None:
         """Parameter ``key`` (``component.key`` or ``fluid.key``, SI, in its range: the event parser checks)
         changed from the next step on; the values derived from it follow (:func:`parameter_change`). ValueError
@@ -187,6 +201,20 @@ class CircuitRig(WatchdogCounters):
             values[self._meas - self._t - 1] = self.cc.lib.hc_sensed(float(self.row[self._meas]), *self._sensor,
                                                                      self.k)
         return values
+
+
+def sensor_fault_window(vec, row: int, on: bool, k: int, h: float) -> None:
+    """Row ``row`` of a loop's sensor vector (:meth:`hydrohil.circuits.run.Loop.sensor_vector`: 7 values, then 6
+    per fault: type, first step, end step, a, b, memory) active on [k, never) or on no step; switched on, its
+    memory fresh (a stuck reading's NaN, an offset's drift from step k's time). rt_circuit.c's steer_fault
+    does the same to its copy."""
+    from hydrohil.circuits.faults import SENSOR_FAULTS
+    from hydrohil.circuits.network import NEVER
+    base = 7 + 6 * row
+    vec[base + 1], vec[base + 2] = (float(k), float(NEVER)) if on else (float(k), float(k))
+    if on:
+        kind = SENSOR_FAULTS[int(vec[base]) - 1]
+        vec[base + 5] = float("nan") if kind in ("sensor_stuck", "encoder_count_loss") else k * h
 
 
 def parameter_change(c, layout, params: dict, fluid: dict, key: str, value: float) -> tuple[dict, dict, dict]:

@@ -92,6 +92,7 @@ class Panel:
             self.parameters = ({n: dict(comp.params) for n, comp in c.components.items()}, dict(c.fluid))
         self.held: dict[str, float] = {}             # a circuit's inputs held from the panel
         self.faults: dict[int, dict] = {}            # slot -> fault switched on from the panel
+        self.switched: dict[int, bool] = {}          # a circuit's fault (its [[faults]] place) -> switched on
         self.gains = self._initial_gains()
         self.reference: float | None = None
         self.events: list[dict] = []                 # applied changes, newest last (shown on the page)
@@ -131,7 +132,10 @@ class Panel:
                                  f"({C_PLANT_MAX_SLOTS}); run the panel on the Python plant for it", source="request",
                                  key=ev.name)
             ev = ev.model_copy(update={"slots": {str(i): v for i, v in slots.items()}})
-        ans = await self.hub.send(role, ev.model_dump(exclude_none=True))
+        body = ev.model_dump(exclude_none=True)
+        if op == "fault" and self.plant == "c":      # (the C plant's messages take an input by its place)
+            body["inputs"] = {str(self.cs.layout.inputs.index(n)): v for n, v in body["inputs"].items()}
+        ans = await self.hub.send(role, body)
         if "error" in ans:
             raise InputError(ans["error"], source=role)
         d = ev.model_dump(exclude_none=True)
@@ -148,6 +152,8 @@ class Panel:
             self.faults[ans["slot"]] = d["fault"]
         elif op == "fault_off":
             self.faults.pop(d["slot"], None)
+        elif op == "fault":
+            self.switched[d["slot"]] = d["on"]
         elif op == "gains":
             self.gains.update({k: v for k, v in d.items() if k != "op"})
         elif op == "reference":
@@ -172,6 +178,7 @@ class Panel:
                 "tunable_schema": tunable_schema() if self.sc is not None else [],
                 "fault_schema": fault_schema() if self.sc is not None else [],
                 "faults": [{"slot": k, **v} for k, v in sorted(self.faults.items())], "gains": self.gains,
+                "switched": {str(k): v for k, v in self.switched.items()},
                 "reference": self.reference, "recording": runs.recording, "recordings": runs.recordings,
                 "events": self.events[-30:], "counters": c,
                 "verdict": judge(timing, self.hil) if steps else None, "ended": runs.ended,

@@ -53,8 +53,9 @@ def paper_view() -> dict:
 def circuit_view(cs) -> dict:
     """A circuit scenario (:class:`hydrohil.circuits.scenario.CircuitScenario`): its signals by unit, its
     modes, its inputs and parameters with their units and ranges."""
-    from hydrohil.circuits.faults import driven_by_fault, follows_fault
+    from hydrohil.circuits.faults import SENSOR_FAULTS, driven_by_fault, follows_fault, leak_openings, live_switch
     from hydrohil.circuits.link import CONTROLLER_SIDE_COLUMNS, side_columns, wire_lists
+    from hydrohil.errors import InputError
     from hydrohil.circuits.units import display
     c, lay, loop = cs.circuit, cs.layout, cs.loop
     signals, inputs = wire_lists(c, lay)
@@ -101,15 +102,27 @@ def circuit_view(cs) -> dict:
             params.append({"name": name, "unit": prm.unit, "shown": [k, du], "lo": _num(prm.lo), "hi": _num(prm.hi),
                            "value": _num(comp.values[key]), "description": prm.text(comp.name)})
     ins = []
+    leaks = leak_openings(cs.faults)
     for name, unit in inputs:
-        if driven_by_fault(c, name):
+        if driven_by_fault(c, name) or name in leaks:
             continue                                  # (a fault's schedule: not held from the page)
         prm = c.input_param(name)
         ins.append({"name": name, "unit": unit, "shown": list(display(unit)), "lo": _num(prm.lo), "hi": _num(prm.hi),
                     "controller": (loop is not None and name == loop.command) or (
                         cs.commands is not None and name in cs.commands.inputs),
                     "description": prm.text(name.split(".")[0])})
-    return {"kind": "circuit", "circuit": c.name,
+    faults = []                                       # the scenario's faults, switched on and off from the page
+    for i, f in enumerate(cs.faults):
+        what = f.get("node") or f.get("target") or f.get("signal") or (loop.measure if loop is not None and
+                                                                         f["type"] in SENSOR_FAULTS else "commands")
+        try:
+            sw = live_switch(cs, i, "panel")
+            why = None if sw.off is not None else "on only: it starts at 0 and never ends"
+        except InputError as exc:
+            sw, why = None, exc.message
+        faults.append({"slot": i, "type": f["type"], "what": str(what), "switchable": sw is not None,
+                       "off": sw is not None and sw.off is not None, "why": why})
+    return {"kind": "circuit", "circuit": c.name, "faults": faults,
             "plant_columns": list(side_columns(signals, inputs)),
             "controller_columns": list(CONTROLLER_SIDE_COLUMNS) if loop is not None else [],
             "plots": plots, "modes": {"title": "modes", "rows": rows} if rows else None,

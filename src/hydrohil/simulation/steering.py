@@ -24,6 +24,10 @@ A circuit's plant (a scenario naming its circuit, :mod:`hydrohil.hil.circuit`) t
                                   (SI, in its parameter's range) held from now on, or null: its drive again
 ``set``             plant         ``name`` (``component.key`` or ``fluid.key``: any parameter but an input
                                   or a delay), ``value`` (SI, in its range); the values derived from it follow
+``fault``           plant         ``slot`` (a place in the scenario's ``[[faults]]``), ``on`` (true: active
+                                  from now on; false: inactive): its schedule no longer applies (a leak's
+                                  opening, a parameter's value with what derives from it held; a sensor's
+                                  or a network fault's window from now; circuits.faults.live_switch)
 ``reset``           plant         its states and modes back to rest (the drives and time go on)
 ``gains``           controller    as above, the loop's law
 ``reference``       controller    ``value`` (SI of the measured signal) held from now on, or null
@@ -102,6 +106,17 @@ class SetValue(StrictModel):
                                            "what the panel hands the standalone C plant")
 
 
+class CircuitFault(StrictModel):
+    op: Literal["fault"]
+    slot: int = Field(ge=0, description="the fault's place in the scenario's [[faults]]")
+    on: bool = Field(description="true: active from now on; false: inactive from now on (its schedule no longer "
+                     "applies)")
+    inputs: dict[str, float] | None = Field(None, description="the inputs it holds and their values (filled in "
+                                            "from the scenario: circuits.faults.live_switch)")
+    sensor: int = Field(-1, description="its row of the loop's sensor (filled in), -1: none")
+    network: int = Field(-1, description="its place in the command path (filled in), -1: none")
+
+
 class CircuitReference(Reference):
     value: float | None = Field(None, allow_inf_nan=False, description="held reference (SI of the measured "
                                                                       "signal); null: the scenario's")
@@ -109,7 +124,7 @@ class CircuitReference(Reference):
 
 PlantEvent = Annotated[Union[SetTunable, FaultOn, FaultOff, Reset], Field(discriminator="op")]
 ControllerEvent = Annotated[Union[Gains, Reference, Reset], Field(discriminator="op")]
-CircuitEvent = Annotated[Union[HoldInput, SetValue, Reset], Field(discriminator="op")]
+CircuitEvent = Annotated[Union[HoldInput, SetValue, CircuitFault, Reset], Field(discriminator="op")]
 CircuitControllerEvent = Annotated[Union[Gains, CircuitReference, Reset], Field(discriminator="op")]
 _PLANT, _CONTROLLER = TypeAdapter(PlantEvent), TypeAdapter(ControllerEvent)
 _CIRCUIT, _CIRCUIT_CONTROLLER = TypeAdapter(CircuitEvent), TypeAdapter(CircuitControllerEvent)
@@ -155,6 +170,14 @@ def parse_circuit_event(data: dict, process: str, cs, source: str = "event"):
         return _validate(_CIRCUIT_CONTROLLER, data, source)
     ev = _validate(_CIRCUIT, data, source)
     c = cs.circuit
+    if isinstance(ev, CircuitFault):                # (what it changes: from the scenario, whatever was given)
+        from hydrohil.circuits.faults import live_switch
+        sw = live_switch(cs, ev.slot, source)
+        if not ev.on and sw.off is None:
+            raise InputError(f"faults[{ev.slot}] starts at 0 and never ends: it has no value outside it to switch "
+                             "off to", source=source, key="slot")
+        return ev.model_copy(update={"inputs": sw.on if ev.on else sw.off, "sensor": sw.sensor,
+                                     "network": sw.network})
     if isinstance(ev, HoldInput):
         if ev.name not in c.inputs:
             raise InputError(f"not an input of circuit {c.name!r} (inputs: {', '.join(c.inputs) or 'none'})",
@@ -166,10 +189,13 @@ def parse_circuit_event(data: dict, process: str, cs, source: str = "event"):
             raise InputError("one of the open loop's commands: the controller process sends its drive",
                              source=source, key=ev.name)
     if isinstance(ev, (HoldInput, SetValue)):
-        from hydrohil.circuits.faults import driven_by_fault, follows_fault
+        from hydrohil.circuits.faults import driven_by_fault, follows_fault, leak_openings
         if isinstance(ev, HoldInput) and ev.name in c.inputs and driven_by_fault(c, ev.name):
             raise InputError("driven by the scenario's parameter fault (its schedule): not held from the panel",
                              source=source, key=ev.name)
+        if isinstance(ev, HoldInput) and ev.name in leak_openings(cs.faults):
+            raise InputError("the opening of the scenario's leak (its schedule): switch the fault on or off instead "
+                             "(op \"fault\")", source=source, key=ev.name)
         if isinstance(ev, SetValue) and follows_fault(c, ev.name.partition(".")[0]):
             raise InputError(f"{ev.name.partition('.')[0]}'s derived values follow the scenario's parameter fault: "
                              "its parameters are not changed live", source=source, key=ev.name)
@@ -213,6 +239,8 @@ def apply_circuit_event(rig, ev, k: int) -> dict:
         rig.hold(ev.name, ev.value)
     elif isinstance(ev, SetValue):
         rig.set_value(ev.name, ev.value)
+    elif isinstance(ev, CircuitFault):
+        rig.switch_fault(ev.on, ev.inputs or {}, ev.sensor, ev.network, k)
     elif isinstance(ev, Reset):
         rig.restart()
     else:

@@ -264,6 +264,7 @@ function buildCircuitForms(cv) {
       .finally(() => { delete inp.dataset.edited; }).then(refresh);
     $("free-" + i.name).onclick = () => api("/api/steer", { op: "input", name: i.name, value: null }).then(refresh);
   }
+  $("circuit-faults-box").style.display = cv.faults.length ? "" : "none";
   $("params-box").style.display = cv.params.length ? "" : "none";
   $("param-name").innerHTML = cv.params.map((q) => `<option>${q.name}</option>`).join("");
   const current = () => cv.params.find((q) => q.name === $("param-name").value);
@@ -320,13 +321,23 @@ async function refresh() {
   vd.className = "pill " + (v ? (v.valid ? "ok" : "bad") : "");
   $("session").textContent = (state.session || "") + (state.plant_address ? " · your controller → " + state.plant_address : "");
   setHTML("faults-active", state.faults.map((f) => `<li>${f.type} (slot ${f.slot}) <button data-slot="${f.slot}">off</button></li>`).join(""));
+  // a circuit scenario's faults: each switched on or off from now on (its schedule no longer applies)
+  setHTML("circuit-faults", (state.view.faults || []).map((f) => {
+    const sw = state.switched[f.slot], now = sw === undefined ? "scheduled" : sw ? "on" : "off";
+    return `<li title="${f.why || "switched from now on; its schedule no longer applies"}">faults[${f.slot}] ${f.type} ` +
+      `(${f.what}) <span id="cf-state-${f.slot}">${now}</span>` + (f.switchable ?
+      ` <button id="cf-on-${f.slot}" data-slot="${f.slot}" data-on="1">on</button>` +
+      (f.off ? ` <button id="cf-off-${f.slot}" data-slot="${f.slot}" data-on="0">off</button>` : "") : "") + "</li>";
+  }).join(""));
+  for (const b of $("circuit-faults").querySelectorAll("button")) b.onclick = () => api("/api/steer", { op: "fault", slot: +b.dataset.slot, on: b.dataset.on === "1" }).then(refresh);
   for (const b of $("faults-active").querySelectorAll("button")) b.onclick = () => api("/api/steer", { op: "fault_off", slot: +b.dataset.slot }).then(refresh);
   $("record").textContent = state.recording ? "stop recording" : "record";
   $("rec-state").textContent = state.recording ? "recording " + state.recording.name : "";
   setHTML("recordings", state.recordings.map((r) => `<li><a href="/recordings/${r.name}.zip${q}" download>${r.name}</a> ` +
     `${r.steps} steps, ${r.verdict}, report ${r.report}</li>`).join(""));
   setHTML("events", state.events.slice().reverse().map((e) => `<li>k=${e.k} (${e.t.toFixed(3)} s) ${e.process}: ${e.op} ` +
-    `${e.name ? e.name + "=" + (e.value ?? "its drive") : ""}${e.fault ? e.fault.type : ""}${e.slot !== undefined ? " slot " + e.slot : ""}</li>`).join(""));
+    `${e.name ? e.name + "=" + (e.value ?? "its drive") : ""}${e.fault ? e.fault.type : ""}${e.slot !== undefined ? " slot " + e.slot : ""}` +
+    `${e.on !== undefined ? (e.on ? " on" : " off") : ""}</li>`).join(""));
 }
 
 setInterval(() => { $("fps").textContent = fpsCount; fpsCount = 0; }, 1000);

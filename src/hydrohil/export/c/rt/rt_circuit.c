@@ -264,7 +264,7 @@ void model_timing(const plant *pl, FILE *fh)
 void model_free(plant *pl) { (void)pl; }
 
 /* ---- the live panel (rt_side.h): the circuit's telemetry, inputs and steering --------------------------- */
-const char MODEL_STEER_OPS[] = "input, set, reset";
+const char MODEL_STEER_OPS[] = "input, set, fault, reset";
 /* (the export refuses a circuit beyond the link's limits: circuits/link.py check_link_size; here for the buffers) */
 typedef char circuit_fits_the_link[((int)CIRCUIT_NSIGNALS <= (int)HHIL_MAX_SIGNALS &&
                                     (int)CIRCUIT_NINPUTS <= (int)HHIL_MAX_INPUTS && (int)CIRCUIT_NSIDE <= (int)SIDE_MAX_COLUMNS &&
@@ -358,10 +358,100 @@ static int steer_set(const jobject *o, text *ev, char *err, size_t err_size)
     return SIDE_APPLIED;
 }
 
+/* fault: a scenario's fault switched on or off at the boundary of step k, from then on. The panel sends what it
+ * changes (circuits/faults.py live_switch, as circuits/rig.py switch_fault applies it): the inputs it holds
+ * ({"input's place": value}: a leak's opening, a parameter's value and what derives from it; the event log
+ * names them), its row of the loop's
+ * sensor (sensor_vector's layout: 7 values, then 6 per fault: type, first step, end step, a, b, memory) or its
+ * place in the command path, active on [k, never) (on) or on no step (off); switched on, a sensor's memory is
+ * fresh (a stuck reading's or a count loss's NaN, an offset's drift from step k). */
+enum { SENSOR_HEAD = 7, SENSOR_ROW = 6, SENSOR_STUCK = 1, SENSOR_COUNT_LOSS = 5 };   /* (generate.py's hc_sensed) */
+
+static int steer_fault(const jobject *o, int64_t k, text *ev, char *err, size_t err_size)
+{
+    static const char *const fields[] = {"slot", "on", "inputs", "sensor", "network", NULL};
+    const jfield *slot = side_field(o, "slot"), *on = side_field(o, "on"), *sensor = side_field(o, "sensor"),
+                 *network = side_field(o, "network"), *inputs = side_field(o, "inputs");
+    const char *odd = side_unexpected_field(o, fields);
+    int idx[J_FIELDS], n = 0, i, row = -1, net = -1;
+    double v[J_FIELDS];
+    if (odd && strncmp(odd, "inputs.", 7) != 0) {
+        snprintf(err, err_size, "%.100s: not a field of fault", odd);
+        return SIDE_REFUSED;
+    }
+    if (!slot || !side_integral(slot, 0, 1e9) || !on || on->kind != J_BOOL || (inputs && inputs->kind != J_OBJ)) {
+        snprintf(err, err_size, "fault: slot (its place in the scenario's [[faults]]), on (true or false) and what "
+                 "it changes as the panel derives it (inputs, sensor, network)");
+        return SIDE_REFUSED;
+    }
+    if (sensor) {
+        if (!side_integral(sensor, -1, CIRCUIT_SENSOR_NF - 1)) {
+            snprintf(err, err_size, "sensor: -1 or a row of the loop's sensor (0 to %d)", CIRCUIT_SENSOR_NF - 1);
+            return SIDE_REFUSED;
+        }
+        row = (int)sensor->num;
+    }
+    if (network) {
+        if (!side_integral(network, -1, CIRCUIT_NNET - 1)) {
+            snprintf(err, err_size, "network: -1 or a place in the command path (0 to %d)", CIRCUIT_NNET - 1);
+            return SIDE_REFUSED;
+        }
+        net = (int)network->num;
+    }
+    for (i = 0; i < o->n; i++) {
+        const jfield *f = &o->f[i];
+        char *end;
+        long j;
+        if (strchr(f->key, '.') && strncmp(f->key, "inputs.", 7) != 0) {
+            snprintf(err, err_size, "%.100s: not a field of fault", f->key);
+            return SIDE_REFUSED;
+        }
+        if (strncmp(f->key, "inputs.", 7) != 0)
+            continue;
+        j = strtol(f->key + 7, &end, 10);
+        if (*end || end == f->key + 7 || j < 0 || j >= CIRCUIT_NINPUTS || f->kind != J_NUM || !isfinite(f->num)) {
+            snprintf(err, err_size, "inputs.%.40s: an input's place (0 to %d) and a finite number", f->key + 7,
+                     CIRCUIT_NINPUTS - 1);
+            return SIDE_REFUSED;
+        }
+        idx[n] = (int)j;
+        v[n++] = f->num;
+    }
+    for (i = 0; i < n; i++) {
+        C.held |= 1U << idx[i];
+        C.hold[idx[i]] = v[i];
+    }
+    if (row >= 0) {
+        double *F = C.sensor + SENSOR_HEAD + SENSOR_ROW * row;
+        F[1] = (double)k;
+        F[2] = on->num ? (double)HH_NEVER : (double)k;
+        if (on->num)
+            F[5] = (int)F[0] == SENSOR_STUCK || (int)F[0] == SENSOR_COUNT_LOSS ? NAN : (double)k * CIRCUIT_STEP;
+    }
+    if (net >= 0) {
+        C.net[net].k_start = k;
+        C.net[net].k_end = on->num ? HH_NEVER : k;
+    }
+    side_puts(ev, ", \"slot\": ");
+    side_put_int(ev, (int64_t)slot->num);
+    side_puts(ev, on->num ? ", \"on\": true, \"inputs\": {" : ", \"on\": false, \"inputs\": {");
+    for (i = 0; i < n; i++) {
+        side_puts(ev, i ? ", " : "");
+        side_put_string(ev, CIRCUIT_INPUT_NAMES[idx[i]]);
+        side_puts(ev, ": ");
+        side_put_double(ev, v[i]);
+    }
+    side_puts(ev, "}, \"sensor\": ");
+    side_put_int(ev, row);
+    side_puts(ev, ", \"network\": ");
+    side_put_int(ev, net);
+    return SIDE_APPLIED;
+}
+
 /* A circuit's plant events (simulation/steering.py's parse_circuit_event, apply_circuit_event): input (one the
  * controller does not drive, held at a value in its range, or null: back to its drive), set (steer_set: the
- * slots the panel derived), reset (the states and modes back to rest; the step count, drives, held inputs and
- * command path go on). */
+ * slots the panel derived), fault (steer_fault), reset (the states and modes back to rest; the step count,
+ * drives, held inputs and command path go on). */
 int model_steer(plant *pl, const jobject *o, const char *op, int64_t k, text *ev, char *extra, size_t extra_size,
                 char *err, size_t err_size)
 {
@@ -370,6 +460,8 @@ int model_steer(plant *pl, const jobject *o, const char *op, int64_t k, text *ev
     (void)pl; (void)k; (void)extra; (void)extra_size;
     if (strcmp(op, "set") == 0)
         return steer_set(o, ev, err, err_size);
+    if (strcmp(op, "fault") == 0)
+        return steer_fault(o, k, ev, err, err_size);
     if (strcmp(op, "input") != 0 && strcmp(op, "reset") != 0)
         return SIDE_UNKNOWN;
     if ((odd = side_unexpected_field(o, strcmp(op, "input") == 0 ? input_fields : none)) != NULL) {
