@@ -120,9 +120,12 @@ def test_faults_the_panel_cannot_switch_are_named(tmp_path):
         assert e.value.key == "slot"
     assert parse_event({"op": "fault", "slot": 5, "on": True}, "plant", circuit=cs).inputs == {"motor.damping": 0.01}
     assert parse_event({"op": "fault", "slot": 0, "on": False}, "plant", circuit=cs).inputs == {"leak_a.opening": 0.0}
-    with pytest.raises(InputError, match="switch the fault on or off instead") as e:     # (not an input to hold)
-        parse_event({"op": "input", "name": "leak_a.opening", "value": 1.0}, "plant", circuit=cs)
-    assert e.value.key == "leak_a.opening"
+    for name in ("leak_a.opening", "motor.load_torque"):     # (a fault's inputs: not held, even a signal's)
+        pumped = motor_with_faults(tmp_path, FAULTS + '[[faults]]\ntype = "parameter"\ntarget = "motor.load_torque"\n'
+                                                      'value = 3.0\nstart = 0.5\n')
+        with pytest.raises(InputError, match="switch the fault on or off instead") as e:
+            parse_event({"op": "input", "name": name, "value": 1.0}, "plant", circuit=pumped)
+        assert e.value.key == name
     fig12 = EXAMPLES / "circuits" / "ferreira2004"
     f = tmp_path / "sf.toml"
     f.write_text((fig12 / "scenario.toml").read_text().replace('circuit = "circuit.toml"',
@@ -168,6 +171,7 @@ def test_a_panel_session_switching_faults_replays_bit_for_bit(tmp_path, plant):
                  {"op": "fault", "slot": 3, "on": False}, {"op": "fault", "slot": 2, "on": False},
                  {"op": "fault", "slot": 0, "on": False}]
         rec, answers = _record(p, steer, steps_between=300)
+        ctl = read_csv_columns(p.session / "controller_log.csv")
         assert p.api("api/state")["switched"] == {"0": False, "1": True, "2": False, "3": False}
         with pytest.raises(urllib.error.HTTPError) as exc:
             p.api("api/steer", {"op": "fault", "slot": 7, "on": True})
@@ -192,3 +196,16 @@ def test_a_panel_session_switching_faults_replays_bit_for_bit(tmp_path, plant):
     rep = replay_circuit_session(cs, session, steps=rec["k1"])
     for i, s in enumerate(cs.layout.states):
         assert np.array_equal(rep[ks, i], log[s]), s
+    # what the replay of the inputs does not see: the controller read the speed + 20 rad/s while the sensor's
+    # offset was on, and the watchdog tripped 20 steps (10 ms) into the silence, until it was off
+    (k2, k3, k4, k5) = (answers[i]["k"] for i in (2, 3, 4, 5))
+    w = dict(zip(ks, log["motor.w"]))
+    kc = np.rint(ctl["t"] / cs.step).astype(int)
+    read = {k: m for k, m in zip(kc, ctl["measured"]) if k in w}
+    on = [k for k in read if k2 < k < k5]
+    off = [k for k in read if k < k2 - 1 or k > k5 + 1]
+    assert len(on) > 500 and all(read[k] == w[k] + 20.0 for k in on)
+    assert len(off) > 500 and all(read[k] == w[k] for k in off)
+    dog = log["watchdog"]
+    assert np.all(dog[(ks > k3 + 21) & (ks <= k4)] == 1) and np.all(dog[ks <= k3 + 19] == 0)
+    assert np.all(dog[ks > k4 + 1] == 0)

@@ -556,7 +556,7 @@ def circuit_linear(circuit: Optional[str] = None, sets: Optional[dict] = None, o
     cs = circuit_scenario(circuit=circuit, scenario=scenario, sets=sets)
     where = "at rest" if at is None else f"at t = {at:g} s of {Path(cs.source).name}"
     state = run_state(cs, at) if at is not None else None
-    lin = linearise_circuit(cs.circuit, h=cs.step, loop=cs.loop, state=state, at=where)
+    lin = linearise_circuit(cs.circuit, h=cs.step, loop=cs.loop, state=state, at=where, rest=cs.rest)
     if out is not None:
         out = Path(out)
         if out.suffix == ".npz":

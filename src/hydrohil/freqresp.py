@@ -277,7 +277,8 @@ def _circuit_sines(cs, loop: str, amplitude: float | None, input_: str | None, s
         unit = signal_units(c, lay)[sig]
         amp = amplitude if amplitude is not None else CIRCUIT_AMPLITUDE.get(unit, 1e-3)
         centre = float(cs.loop.reference[1][-1]) if around is None else float(around)
-        held = {name: float(v) for name, v in zip(lay.inputs, start_state(c, h=cs.step, loop=cs.loop)[2])
+        held = {name: float(v) for name, v in zip(lay.inputs, start_state(c, h=cs.step, loop=cs.loop,
+                                                                           rest=cs.rest)[2])
                 if name != cs.loop.command}
         res = simulate_circuit(c, SETTLE_S, h=cs.step, method=cs.method, rest=cs.rest, inputs=held,
                                loop=_held_loop(cs, centre, np.zeros(1), np.array([centre])))
@@ -298,7 +299,7 @@ def _circuit_sines(cs, loop: str, amplitude: float | None, input_: str | None, s
     prm = c.input_param(name)
     span = (prm.hi - prm.lo) if np.isfinite(prm.hi - prm.lo) else 1.0
     amp = amplitude if amplitude is not None else 0.01 * span
-    state = start_state(c, h=cs.step, loop=cs.loop)
+    state = start_state(c, h=cs.step, loop=cs.loop, rest=cs.rest)
     u0 = float(state[2][lay.inputs.index(name)])
     return CircuitSines(cs, loop, name, sig, f"{comp}.v" if integrate else sig, integrate, amp, u0, state)
 

@@ -224,9 +224,14 @@ def driven_by_fault(c, name: str) -> bool:
 
 
 def leak_openings(faults: list) -> set[str]:
-    """The inputs a scenario's leaks open (``<orifice>.opening``): their schedules' (or the panel's fault
-    switches'), not held as inputs."""
+    """The inputs a scenario's leaks open (``<orifice>.opening``)."""
     return {f"{f.get('orifice', 'leak_' + str(f.get('node')))}.opening" for f in faults if f.get("type") == "leak"}
+
+
+def fault_inputs(faults: list) -> set[str]:
+    """The inputs a scenario's faults drive: its leaks' openings and its parameter faults' targets (their
+    schedules', or the live panel's fault switches'), not held as inputs."""
+    return leak_openings(faults) | {f.get("target") for f in faults if f.get("type") == "parameter"}
 
 
 def follows_fault(c, comp: str) -> bool:
@@ -402,6 +407,6 @@ def live_switch(cs, slot: int, source: str = "event") -> LiveSwitch:
     names = [target, *(f"{comp.name}.{dk}" for dk, _ in comp.type.derived if f"{comp.name}.{dk}" in c.inputs)]
     start, end = _window(f, f"faults[{slot}]", source)
     at = lambda name, t: float(c.inputs[name].at(np.array([t]), h)[0])       # noqa: E731 (its drive at t)
-    outside = start - h if start >= h else end
+    outside = max(start - h, 0.0) if start > 0 else end      # (the step before it, else after it)
     return LiveSwitch(slot, {n: at(n, start) for n in names},
                       {n: at(n, outside) for n in names} if outside is not None else None)

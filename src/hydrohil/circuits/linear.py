@@ -78,14 +78,15 @@ class CircuitLinear:
 
 
 def linearise_circuit(c: Circuit, *, h: float = 5e-4, inputs: dict | None = None, loop=None,
-                      state: tuple | None = None, at: str = "at rest") -> CircuitLinear:
+                      state: tuple | None = None, at: str = "at rest", rest=True) -> CircuitLinear:
     """``c`` linearised where its runs start (at rest, SPEC §12.5; its [initial] pressures kept; with ``loop``
     the command that holds its piston) under its inputs at t = 0 (``inputs`` in place of its drive), or at
     ``state`` = (y, m, u) (:func:`run_state`); ``rate`` and :meth:`CircuitLinear.moving` say whether that is an
-    equilibrium. With ``loop``: the loop closed around it too (:func:`closed_loop`)."""
+    equilibrium. With ``loop``: the loop closed around it too (:func:`closed_loop`). ``rest``: a scenario's
+    start (:func:`hydrohil.circuits.run.start_state`: a Hold, a [start])."""
     cc = compile_circuit(c)
     lay, ffi, lib = cc.layout, cc.ffi, cc.lib
-    y0, m0, u0 = state if state is not None else start_state(c, h=h, inputs=inputs, loop=loop)
+    y0, m0, u0 = state if state is not None else start_state(c, h=h, inputs=inputs, loop=loop, rest=rest)
     y0, m0, u0 = (np.ascontiguousarray(y0, float), np.ascontiguousarray(m0, np.int64),
                   np.ascontiguousarray(u0, float))
     n, nu = len(lay.states), len(lay.inputs)

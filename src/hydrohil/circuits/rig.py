@@ -87,6 +87,7 @@ class CircuitRig(WatchdogCounters):
                    ffi.from_buffer("int64_t[]", self.m), ffi.from_buffer("double[]", self.u),
                    ffi.from_buffer("double[]", self.row)]          # (the C's views of them, made once)
         self.cmd = self.u0.tolist()                     # the latest value of each input the controller set
+        self.held.clear()                               # (no input held, no fault switched: as the C plant's)
         self.set_inputs = set(self.commanded)           # the inputs set by the controller so far (the loop's
         #                                                 command, the one holding the piston until it speaks)
         self.path = CommandPath(self.network, self.h, seed=self.seed, timeout=self.watchdog_timeout,

@@ -542,7 +542,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                                  "a state is not finite")
     res.units = signal_units(c, lay)
     _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
-    if rest and warn_unheld and start is None and len(log):
+    if rest and warn_unheld and start is None and len(log) and not (isinstance(rest, Start) and (
+            rest.pressures or rest.inputs)):       # (a start of the user's own: not the rest's to balance)
         _warn_unbalanced(c, res)
     return _with_drives(c, cc, res, u, every, loop, commands, sent)
 
@@ -565,7 +566,7 @@ class Start(NamedTuple):
     circuit at rest under it). ``pressures`` (node -> Pa):
     set on the state at rest, the other nodes keeping their rest values, the components' states at rest then
     taking the new pressures (a LuGre seal's bristles the new net force). ``rest``: the rest it starts from
-    (True, False: the file's state, or a :class:`Hold`)."""
+    (True, False: the file's state, the pressures set on it and nothing else, or a :class:`Hold`)."""
     rest: bool | Hold
     inputs: dict
     pressures: dict
@@ -601,10 +602,10 @@ def _start(c: Circuit, cc, P, u, h: float, method: str, rest: bool | Hold | Star
             uu[0, lay.inputs.index(name)] = value
         held = loop is not None and loop.command in rest.inputs     # (the loop's command given: not the hold's)
         y, m, u0 = _start(c, cc, P, uu, h, method, rest.rest, None if held else loop)
-        if rest.pressures:
-            for node, value in rest.pressures.items():
-                y[c.state_nodes.index(node)] = value
-            lib.hc_hold(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", uu), ffi.from_buffer("double[]", y),
+        for node, value in rest.pressures.items():
+            y[c.state_nodes.index(node)] = value
+        if rest.pressures and rest.rest:          # (the components' states at rest take them; rest = false: as is)
+            lib.hc_hold(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u0), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m))
         return y, m, u0
     if rest and loop is not None:

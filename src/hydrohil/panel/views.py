@@ -53,7 +53,7 @@ def paper_view() -> dict:
 def circuit_view(cs) -> dict:
     """A circuit scenario (:class:`hydrohil.circuits.scenario.CircuitScenario`): its signals by unit, its
     modes, its inputs and parameters with their units and ranges."""
-    from hydrohil.circuits.faults import SENSOR_FAULTS, driven_by_fault, follows_fault, leak_openings, live_switch
+    from hydrohil.circuits.faults import SENSOR_FAULTS, driven_by_fault, fault_inputs, follows_fault, live_switch
     from hydrohil.circuits.link import CONTROLLER_SIDE_COLUMNS, side_columns, wire_lists
     from hydrohil.errors import InputError
     from hydrohil.circuits.units import display
@@ -102,9 +102,9 @@ def circuit_view(cs) -> dict:
             params.append({"name": name, "unit": prm.unit, "shown": [k, du], "lo": _num(prm.lo), "hi": _num(prm.hi),
                            "value": _num(comp.values[key]), "description": prm.text(comp.name)})
     ins = []
-    leaks = leak_openings(cs.faults)
+    scheduled = fault_inputs(cs.faults)
     for name, unit in inputs:
-        if driven_by_fault(c, name) or name in leaks:
+        if driven_by_fault(c, name) or name in scheduled:
             continue                                  # (a fault's schedule: not held from the page)
         prm = c.input_param(name)
         ins.append({"name": name, "unit": unit, "shown": list(display(unit)), "lo": _num(prm.lo), "hi": _num(prm.hi),

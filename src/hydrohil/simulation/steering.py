@@ -189,13 +189,14 @@ def parse_circuit_event(data: dict, process: str, cs, source: str = "event"):
             raise InputError("one of the open loop's commands: the controller process sends its drive",
                              source=source, key=ev.name)
     if isinstance(ev, (HoldInput, SetValue)):
-        from hydrohil.circuits.faults import driven_by_fault, follows_fault, leak_openings
+        from hydrohil.circuits.faults import driven_by_fault, fault_inputs, follows_fault
         if isinstance(ev, HoldInput) and ev.name in c.inputs and driven_by_fault(c, ev.name):
             raise InputError("driven by the scenario's parameter fault (its schedule): not held from the panel",
                              source=source, key=ev.name)
-        if isinstance(ev, HoldInput) and ev.name in leak_openings(cs.faults):
-            raise InputError("the opening of the scenario's leak (its schedule): switch the fault on or off instead "
-                             "(op \"fault\")", source=source, key=ev.name)
+        if isinstance(ev, HoldInput) and ev.name in fault_inputs(cs.faults):
+            raise InputError("driven by the scenario's fault (a leak's opening, a parameter fault's target: its "
+                             "schedule): switch the fault on or off instead (op \"fault\")", source=source,
+                             key=ev.name)
         if isinstance(ev, SetValue) and follows_fault(c, ev.name.partition(".")[0]):
             raise InputError(f"{ev.name.partition('.')[0]}'s derived values follow the scenario's parameter fault: "
                              "its parameters are not changed live", source=source, key=ev.name)

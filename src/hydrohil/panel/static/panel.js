@@ -288,6 +288,8 @@ function buildFaultFields() {
       : `<input data-name="${fl.name}" type="number" step="any" value="${fl.default ?? ""}" placeholder="${fl.description}">`) + "</div>").join("");
 }
 
+// text from the scenario file or a message, as text in the page's HTML
+const esc = (t) => String(t).replace(/[&<>"']/g, (ch) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;" })[ch]);
 // lists are rebuilt only when they change (a button being clicked is never replaced under the pointer)
 function setHTML(id, html) { if ($(id).dataset.html !== html) { $(id).innerHTML = html; $(id).dataset.html = html; } }
 
@@ -324,8 +326,8 @@ async function refresh() {
   // a circuit scenario's faults: each switched on or off from now on (its schedule no longer applies)
   setHTML("circuit-faults", (state.view.faults || []).map((f) => {
     const sw = state.switched[f.slot], now = sw === undefined ? "scheduled" : sw ? "on" : "off";
-    return `<li title="${f.why || "switched from now on; its schedule no longer applies"}">faults[${f.slot}] ${f.type} ` +
-      `(${f.what}) <span id="cf-state-${f.slot}">${now}</span>` + (f.switchable ?
+    return `<li title="${esc(f.why || "switched from now on; its schedule no longer applies")}">faults[${f.slot}] ` +
+      `${esc(f.type)} (${esc(f.what)}) <span id="cf-state-${f.slot}">${now}</span>` + (f.switchable ?
       ` <button id="cf-on-${f.slot}" data-slot="${f.slot}" data-on="1">on</button>` +
       (f.off ? ` <button id="cf-off-${f.slot}" data-slot="${f.slot}" data-on="0">off</button>` : "") : "") + "</li>";
   }).join(""));
