@@ -2,6 +2,8 @@
 
     python benchmarks/parity.py record FILE.npz     # with build A (e.g. the numba model before the C core)
     python benchmarks/parity.py compare FILE.npz    # with build B: per case, the largest relative difference
+    python benchmarks/parity.py compare FILE.npz --engine generated   # run_scenario's generated engine against
+                                                    # a record of the core (its fixed-step runs without faults)
 
 Cases (all through the public Python API, so any build of the package can run them):
 * every accuracy scenario of ``examples/`` with each fixed-step solver (euler, heun, rk3, rk4) and the
@@ -88,13 +90,14 @@ def random_scenarios(n: int = N_RANDOM) -> list[dict]:
     return out
 
 
-def cases(randoms: list[dict]):
-    """(name, function returning a dict of arrays) for every case; ``randoms``: the random scenarios."""
+def cases(randoms: list[dict], engine: str = "core"):
+    """(name, function returning a dict of arrays) for every case; ``randoms``: the random scenarios; ``engine``:
+    run_scenario's."""
     from hydrohil.simulation.run import run_scenario
 
     def scenario_case(sc):
         def run():
-            r = run_scenario(sc)
+            r = run_scenario(sc, engine=engine)
             return {"log": r.log, "diverged": np.array([r.diverged is not None])}
         return run
 
@@ -153,11 +156,11 @@ def _rel(a: np.ndarray, b: np.ndarray) -> float:
     return float(d / scale) if scale > 0 else float(d)
 
 
-def compare(path: Path, worst: int = 40) -> int:
+def compare(path: Path, worst: int = 40, engine: str = "core") -> int:
     from hydrohil.simulation.loop import LOG_COLUMNS
     ref = np.load(path)
     rows = []
-    for name, fn in cases(json.loads(str(ref["scenarios.json"]))):
+    for name, fn in cases(json.loads(str(ref["scenarios.json"])), engine):
         got = fn()
         for k, v in got.items():
             a, b = ref[f"{name}|{k}"], np.asarray(v)
@@ -189,11 +192,13 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("action", choices=("record", "compare"))
     ap.add_argument("file", type=Path)
+    ap.add_argument("--engine", choices=("core", "generated"), default="core",
+                    help="compare: run_scenario's engine (record: always the core's)")
     a = ap.parse_args()
     if a.action == "record":
         record(a.file)
         return 0
-    return compare(a.file)
+    return compare(a.file, engine=a.engine)
 
 
 if __name__ == "__main__":

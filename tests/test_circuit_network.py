@@ -111,7 +111,7 @@ def test_the_circuit_loses_delays_and_reorders_as_the_cores_rig(tmp_path):
     from hydrohil.simulation.scenario import load_scenario
     core_toml = (EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 3.5")
     (tmp_path / "core.toml").write_text(core_toml + FAULTS.replace('"10 ms"', "0.01"))
-    core = run_scenario(load_scenario(tmp_path / "core.toml"))
+    core = run_scenario(load_scenario(tmp_path / "core.toml"), engine="core")
     cs = load_circuit_scenario(paper_scenario(tmp_path))
     r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
     assert np.array_equal(core.column("u")[:-1], r.column("valve.command")[:-1])   # (the last row: no step)

@@ -130,7 +130,7 @@ def test_the_papers_rig_as_a_circuit_follows_the_core(experiment, x_rms, p_rms):
     from hydrohil.simulation.scenario import load_scenario
     sc = load_scenario(EXAMPLES / experiment)
     s = sc.scenario
-    core = run_scenario(sc)
+    core = run_scenario(sc, engine="core")
     assert sc.params.spool.delay == 7.625e-4
     t = np.arange(s.n_steps() + 1) * s.solver.step
     c = paper_circuit(sc.params, s.initial.xp)
@@ -283,7 +283,7 @@ def test_the_ferreira2004_example_scenario_is_the_cores_fig_11():
     from hydrohil.simulation.scenario import load_scenario
     cs = load_circuit_scenario(CIRCUITS_DIR / "ferreira2004" / "scenario.toml")
     r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
-    core = run_scenario(load_scenario(EXAMPLES / "fig11_p_control.toml"))
+    core = run_scenario(load_scenario(EXAMPLES / "fig11_p_control.toml"), engine="core")
     rms = lambda a, b: float(np.sqrt(np.mean((core.column(a) - r.column(b)) ** 2)))  # noqa: E731
     assert rms("xp", "cyl.x") < 4e-15 and rms("p1", "cap.p") < 6e-6 and rms("p2", "rod.p") < 6e-6
     travel, friction = core.column("travel_mode"), core.column("friction_mode")

@@ -163,8 +163,8 @@ def test_noisy_transducers_convert_to_the_rigs_noise(tmp_path):
     assert 'pressure_noise = 20000.0' in spath.read_text() and "pressure_seed = 7" in spath.read_text()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        core, (cs, r) = run_scenario(ls), _run(spath)
-        quiet = run_scenario(load_scenario(FIG12_SF))
+        core, (cs, r) = run_scenario(ls, engine="core"), _run(spath)
+        quiet = run_scenario(load_scenario(FIG12_SF), engine="core")
     assert np.sqrt(np.mean((core.column("xp") - r.column("cyl.x")) ** 2)) < 4e-15
     assert np.max(np.abs(core.column("u") - r.column("valve.command"))) < 1e-13
     travel, friction = core.column("travel_mode"), core.column("friction_mode")

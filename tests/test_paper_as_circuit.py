@@ -36,7 +36,7 @@ def run_both(path, tmp_path):
     cs = load_circuit_scenario(spath)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")                  # (the examples' own warnings: meant)
-        core = run_scenario(ls)
+        core = run_scenario(ls, engine="core")
         r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
                              loop=cs.loop)
     return core, r, notes
@@ -127,7 +127,7 @@ def test_a_conversion_keeps_each_faults_random_stream(tmp_path):
         _, spath, _ = convert(ls, tmp_path / f"c{i}")
         cs = load_circuit_scenario(spath)
         assert cs.loop.network[0][-1] == 1                       # (its stream: the rig's place)
-        core = run_scenario(ls)
+        core = run_scenario(ls, engine="core")
         r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop, rest=cs.rest)
         held = r.column("valve.command")[:-1] != r.column("valve.command.sent")[:-1]
         assert held.sum() > 100 and np.array_equal(core.column("u")[:-1], r.column("valve.command")[:-1])
@@ -177,7 +177,7 @@ def test_from_the_cores_start_the_generated_code_is_the_cores_step_bit_for_bit(p
     cs = load_circuit_scenario(spath)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        core = run_scenario(ls)
+        core = run_scenario(ls, engine="core")
         r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, loop=cs.loop,
                              start=paper_start(cs.circuit, core.log[0], cs.step))
     view = paper_log(r)
@@ -471,7 +471,7 @@ def test_a_pressure_sensors_fault_acts_on_the_loops_transducer_as_on_the_rigs(la
         cs = load_circuit_scenario(spath)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            core = run_scenario(ls)
+            core = run_scenario(ls, engine="core")
             r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop,
                                  start=paper_start(cs.circuit, core.log[0], cs.step))
         assert np.array_equal(core.column("u"), r.column("valve.command")), name
@@ -506,7 +506,7 @@ def test_the_safe_state_hold_holds_the_loops_signal_as_the_rigs(tmp_path):
         _, spath, _ = convert(ls, tmp_path / safe)
         cs = load_circuit_scenario(spath)
         assert cs.loop.link[2] == (40.0 if safe == "hold" else 0.0)
-        core = run_scenario(ls)
+        core = run_scenario(ls, engine="core")
         r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop,
                              start=paper_start(cs.circuit, core.log[0], cs.step))
         assert np.array_equal(core.column("u"), r.column("valve.command")), safe
@@ -532,7 +532,7 @@ def test_a_repeating_reference_repeats_on_the_circuit_as_on_the_rig(tmp_path):
     _, spath, _ = convert(ls, tmp_path / "c")
     cs = load_circuit_scenario(spath)
     assert cs.loop.period == 1.6
-    core = run_scenario(ls)
+    core = run_scenario(ls, engine="core")
     r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop,
                          start=paper_start(cs.circuit, core.log[0], cs.step))
     assert np.array_equal(core.column("u"), r.column("valve.command"))
@@ -659,7 +659,7 @@ def test_an_initial_spool_and_chamber_pressure_convert_to_the_start_table(case, 
     assert cs.rest.inputs | cs.rest.pressures == {k: v for k, v in given.items() if v is not None}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        core = run_scenario(ls)
+        core = run_scenario(ls, engine="core")
         r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
                              loop=cs.loop, commands=cs.commands)
     assert_within_paper_view_limits(core.log, paper_log(r), START_LIMITS[case])
@@ -780,7 +780,7 @@ def test_an_open_loops_network_faults_act_on_its_sent_commands_as_on_the_rigs(ki
     assert cs.commands.inputs == ("valve.command",) and len(cs.commands.network) == 1
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        core = run_scenario(ls)
+        core = run_scenario(ls, engine="core")
         r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, rest=cs.rest, commands=cs.commands)
     drive = ls.scenario.commands()
     assert np.array_equal(r.column("valve.command.sent"), drive)
@@ -879,3 +879,115 @@ def test_the_panel_does_not_hold_an_open_loops_command(tmp_path):
     with pytest.raises(InputError, match="the controller process sends its drive") as e:
         parse_event({"op": "input", "name": "valve.command", "value": 0.1}, "plant", circuit=cs)
     assert e.value.key == "valve.command"
+
+
+PLAIN = [p for p in PAPER_SCENARIOS if not p.startswith("faults/") and "python" not in p and "c_controller" not in p]
+
+
+@pytest.mark.parametrize("path", [pytest.param(p, marks=() if p in FAST else pytest.mark.slow) for p in PLAIN])
+def test_simulate_runs_a_paper_scenario_on_the_generated_code_bit_for_bit(path):
+    """``run_scenario(..., engine="generated")`` (``hydrohil simulate --engine generated``) of a paper scenario
+    with a drive or a built-in law runs the code generated from its circuit, from the core's start: the core's
+    log bit for bit, every column and row (with RK3, and Euler on the fast ones)."""
+    for method in ("rk3", "euler") if path in FAST else ("rk3",):
+        lm = load_scenario(EXAMPLES / path, solver=method)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            gen, core = run_scenario(lm, engine="generated"), run_scenario(lm, engine="core")
+        assert gen.solver == core.solver == method and gen.diverged is None
+        assert gen.extra == {"engine": "generated"} and core.extra == {}      # (which ran: the generated code)
+        assert np.array_equal(gen.log, core.log), (path, method)
+
+
+def test_a_diverging_run_on_the_generated_code_says_what_the_cores_says(tmp_path):
+    """A 5 kg load driven open loop at 77 % with explicit Euler at 1 ms diverges (a case of the parity record):
+    the generated run is stopped (where its state leaves the finite, or at a logged row past the core's
+    physical bounds: run_generated says None) and run_scenario gives the core's run, its log up to there and
+    its message (time, modes, state)."""
+    from hydrohil.simulation.as_circuit import run_generated
+    f = tmp_path / "big.toml"
+    f.write_text('params = "ferreira2004"\nduration = 0.2\n[overrides]\n"load.mass" = 5.0\n'
+                 '"load.gravity_direction" = 1\n"friction.asymmetric" = true\n[solver]\nmethod = "euler"\n'
+                 'step = 0.001\n[initial]\nxp = 0.0\nxs = 0.0\n[input]\ntype = "sine"\namplitude = 0.09\n'
+                 'offset = 0.7669404385199566\nfrequency = 0.5\n')
+    ls = load_scenario(f)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gen, core = run_scenario(ls, engine="generated"), run_scenario(ls, engine="core")
+    assert core.diverged is not None and str(gen.diverged) == str(core.diverged)
+    assert np.array_equal(gen.log, core.log) and gen.extra == {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert run_generated(ls) is None
+
+
+def test_simulate_engine_on_the_command_line(tmp_path):
+    """``hydrohil simulate --engine generated`` writes the core's log (the same log.csv as --engine core, the
+    default); a misspelt engine is named."""
+    from hydrohil.simulation.outputs import read_csv_columns
+    scen = tmp_path / "f11.toml"
+    scen.write_text((EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 1.0"))
+    a = hh("simulate", scen, "--out", tmp_path / "gen", "--no-plot", "--engine", "generated")
+    b = hh("simulate", scen, "--out", tmp_path / "core", "--no-plot")
+    assert a.returncode == 0 and b.returncode == 0, a.stderr + b.stderr
+    ga, gb = read_csv_columns(tmp_path / "gen" / "log.csv"), read_csv_columns(tmp_path / "core" / "log.csv")
+    assert set(ga) == set(gb) and all(np.array_equal(ga[k], gb[k]) for k in ga)
+    bad = hh("simulate", scen, "--out", tmp_path / "x", "--engine", "generatd")
+    assert bad.returncode == 2 and "--engine" in bad.stderr and "generated" in bad.stderr
+
+
+def test_a_paper_table_from_any_time_with_a_time_thrice_converts_to_the_same_values(tmp_path):
+    """A paper table may start after 0 (its first value before it) and give a time three times (np.interp
+    takes the last value there); converted, the circuit's linear table has a point at 0 and that time twice:
+    the generated run of the drive and of a loop's reference is the core's bit for bit."""
+    f = tmp_path / "t.toml"
+    f.write_text('params = "ferreira2004"\nduration = 1.0\n[initial]\nxp = 0.05\n[input]\ntype = "table"\n'
+                 't = [0.1, 0.3, 0.3, 0.3, 0.6]\nu = [0.1, 0.2, -0.3, 0.25, 0.0]\n')
+    g = tmp_path / "r.toml"
+    g.write_text('params = "ferreira2004"\nduration = 1.0\n[initial]\nxp = 0.05\n[controller]\ntype = "p_ff"\n'
+                 'kp = 50.0\nkff = 1.0\n[reference]\ntype = "table"\nt = [0.2, 0.5, 0.5, 0.5, 0.8]\n'
+                 'x = [0.05, 0.1, 0.12, 0.08, 0.08]\n')
+    for path in (f, g):
+        ls = load_scenario(path)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            gen, core = run_scenario(ls, engine="generated"), run_scenario(ls, engine="core")
+        assert gen.extra == {"engine": "generated"} and np.array_equal(gen.log, core.log), path.name
+    h = tmp_path / "neg.toml"                        # (from before 0: the core runs it; convert names the key)
+    h.write_text(f.read_text().replace("t = [0.1,", "t = [-0.1,"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert run_scenario(load_scenario(h), engine="generated").extra == {}
+    with pytest.raises(InputError, match="starts before it") as e:
+        convert(load_scenario(h), tmp_path / "neg")
+    assert e.value.key == "input.t"
+
+
+VARIANTS = {      # (what the generated engine must carry as the core does)
+    "a row every 10 steps, Heun": ("fig11_p_control.toml", [("[solver]", '[solver]\noutput_every = 10'),
+                                                            ('method = "rk3"', 'method = "heun"')]),
+    "a command delay, RK4": ("fig11_p_control.toml", [('method = "rk3"', 'method = "rk4"'),
+                                                      ("kp = 50.0", "kp = 50.0\n[hil]\ncommand_delay = 0.002")]),
+    "chamber 1 pressed": ("fig11_p_control.toml", [("xp = 0.03", "xp = 0.03\np1 = 45e5")]),
+    "noisy transducers": ("controllers/fig12_pressure_feedback.toml",
+                          [('"supply.ps" = 1.2e7', '"supply.ps" = 1.2e7\n"sensors.pressure_noise" = 2e4')]),
+}
+
+
+@pytest.mark.parametrize("case", VARIANTS)
+def test_the_generated_engine_carries_each_setting_as_the_core(case, tmp_path):
+    """Output every 10th step with Heun, a command transport delay with RK4, an initial chamber pressure, a state
+    feedback reading noisy transducers (their stream from [hil] seed): the generated engine's log is the
+    core's bit for bit."""
+    name, edits = VARIANTS[case]
+    text = (EXAMPLES / name).read_text()
+    for old, new in edits:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    f = tmp_path / "v.toml"
+    f.write_text(text.replace("duration = 6.0", "duration = 2.0"))
+    ls = load_scenario(f)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gen, core = run_scenario(ls, engine="generated"), run_scenario(ls, engine="core")
+    assert gen.extra == {"engine": "generated"} and np.array_equal(gen.log, core.log)

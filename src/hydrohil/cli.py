@@ -76,17 +76,24 @@ def _main(version: bool = typer.Option(False, "--version", callback=_print_versi
 
 def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Optional[float] = None,
              plot: bool = True, progress: bool = True, params: Optional[str] = None,
-             sets: Optional[dict] = None) -> dict:
+             sets: Optional[dict] = None, engine: str = "core") -> dict:
     """Run one scenario and write ``out/log.csv``, ``out/summary.json`` and ``out/simulation.png``.
-    ``params`` replaces the scenario's parameter set, ``sets`` (dotted keys) apply on top of its overrides."""
+    ``params`` replaces the scenario's parameter set, ``sets`` (dotted keys) apply on top of its overrides;
+    ``engine``: a paper scenario's run on the hand-written core or the generated code
+    (:func:`hydrohil.simulation.run.run_scenario`)."""
     from hydrohil.circuits.scenario import NO_PARAMETER_SET, is_circuit_scenario
     from hydrohil.simulation.outputs import write_json, write_log_csv
-    from hydrohil.simulation.run import run_scenario
+    from hydrohil.simulation.run import ENGINES, run_scenario
     from hydrohil.simulation.scenario import load_scenario
 
+    if engine not in ENGINES:
+        raise InputError(f"one of {', '.join(ENGINES)}, got {engine!r}", source="--engine")
     if is_circuit_scenario(scenario):
         if params is not None:
             raise InputError(NO_PARAMETER_SET, source="--params", key=params)
+        if engine != "core":
+            raise InputError("a circuit scenario runs on its generated code: --engine is a paper scenario's",
+                             source="--engine")
         return simulate_circuit_scenario(scenario, out, solver, step, plot, progress, sets)
     sc = load_scenario(scenario, solver=solver, step=step, params=params, sets=sets)
     prog = None
@@ -97,7 +104,7 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
         task = bar.add_task("reference (LSODA)", total=sc.scenario.n_steps())
         prog = lambda k: bar.update(task, completed=k)  # noqa: E731
     try:
-        res = run_scenario(sc, progress=prog)
+        res = run_scenario(sc, progress=prog, engine=engine)
     finally:
         if prog:
             bar.stop()
@@ -162,10 +169,13 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                  params: Optional[str] = typer.Option(None, "--params", help="parameter set (name or TOML path) in place of "
                                                    "the scenario's"),
                  sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on top of "
-                                                "the scenario's [overrides], e.g. --set load.mass=120")):
+                                                "the scenario's [overrides], e.g. --set load.mass=120"),
+                 engine: str = typer.Option("core", help="a paper scenario's fixed-step run without faults: core (the "
+                                            "hand-written model) or generated (the code generated from its "
+                                            "circuit)")):
     """Simulate a scenario with the hybrid model (or the continuous reference)."""
     try:
-        s = simulate(scenario, out, solver, step, plot, params=params, sets=_parse_sets(sets))
+        s = simulate(scenario, out, solver, step, plot, params=params, sets=_parse_sets(sets), engine=engine)
     except HydrohilError as exc:
         fail(exc)
     if "circuit" in s:
@@ -176,7 +186,8 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                    f"summary.json" + (", plot.png" if plot else ""))
         return
     written = ", ".join(["log.csv", "summary.json"] + (["simulation.png"] if plot else []))
-    typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']}: wall {s['wall_time_s']:.3f} s, "
+    on = " on the generated code" if s.get("engine") == "generated" else ""
+    typer.echo(f"{s['steps']} steps of {s['step']:g} s with {s['solver']}{on}: wall {s['wall_time_s']:.3f} s, "
                f"real-time factor {s['realtime_factor']:.0f}; final xp = {s['final_state']['xp'] * 1e3:.3f} mm; "
                f"wrote {out}/{written}")
 
@@ -467,9 +478,10 @@ def circuit_convert(scenario: Path, out: Path, params: Optional[str] = None, set
     """A scenario of the paper's rig (``params``, ``sets`` applied as ``simulate`` does) written as a circuit
     scenario into the folder ``out`` (circuit.toml, scenario.toml; :mod:`hydrohil.simulation.as_circuit`): what
     it wrote and the notes on what changed form. ``check``: both run, the core's log against the generated
-    code's column by column (:func:`hydrohil.simulation.as_circuit.check`, also written to ``out/check.json``)."""
+    code's column by column (:func:`hydrohil.simulation.convert_check.check`, also written to ``out/check.json``)."""
     from hydrohil.circuits.scenario import is_circuit_scenario
-    from hydrohil.simulation.as_circuit import check as check_runs, convert
+    from hydrohil.simulation.as_circuit import convert
+    from hydrohil.simulation.convert_check import check as check_runs
     from hydrohil.simulation.scenario import load_scenario
     if is_circuit_scenario(scenario):
         raise InputError("a circuit scenario already (it names its circuit): nothing to convert", source=str(scenario),

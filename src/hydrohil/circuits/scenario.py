@@ -150,17 +150,19 @@ def load_circuit_scenario(path: str | Path, *, solver: str | None = None, step: 
 
 
 def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | None = None, step: float | None = None,
-                       duration: float | None = None, sets: dict | None = None) -> CircuitScenario:
-    """A circuit scenario from its tables (``base``: the folder its circuit path is relative to)."""
+                       duration: float | None = None, sets: dict | None = None,
+                       circuit: dict | None = None) -> CircuitScenario:
+    """A circuit scenario from its tables (``base``: the folder its circuit path is relative to; ``circuit``: the
+    circuit file's tables in place of reading the file it names, e.g. a paper scenario's, converted in memory)."""
     unknown = set(data) - KEYS
     if unknown:
         raise InputError(unknown_name(sorted(unknown)[0], sorted(KEYS)) + " (a circuit scenario's keys)",
                          source=source, key=sorted(unknown)[0])
     if not isinstance(data.get("circuit"), str):
         raise InputError("the circuit's file or built-in name", source=source, key="circuit")
-    cfile = circuit_file(data["circuit"], base, source)
+    cfile = circuit_file(data["circuit"], base, source) if circuit is None else base / data["circuit"]
     try:
-        raw = tomllib.loads(cfile.read_text())
+        raw = tomllib.loads(cfile.read_text()) if circuit is None else circuit
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"not valid TOML: {exc}", source=str(cfile)) from None
     solver_t = data.get("solver", {})

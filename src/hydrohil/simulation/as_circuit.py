@@ -123,7 +123,7 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
                                                     "output_every": s.solver.output_every}}
     t = np.arange(s.n_steps() + 1) * s.solver.step
     if s.controller is None:                # (the rig's open loop: its controller sends the command table)
-        _open_loop(s, t, scen)
+        _open_loop(s, t, scen, src)
         scen["commands"] = ["valve.command"]
         if ini.xs is None:                  # the rig's default: the piston held by the spool offset at rest
             scen["rest"] = {"hold": "cyl.x", "by": "valve.command"}
@@ -141,14 +141,30 @@ def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
     return circuit, scen, notes
 
 
-def _open_loop(s, t: np.ndarray, scen: dict) -> None:
+def _open_loop(s, t: np.ndarray, scen: dict, src: str) -> None:
     """The valve's command as the circuit's input (a table as written, a sine per step)."""
     from hydrohil.simulation.scenario import SineInput
     inp = s.input
     if isinstance(inp, SineInput):          # held over each step, as the core samples it (t_n: the last row's)
         scen["inputs"] = {"valve.command": {"t": t.tolist(), "value": s.commands().tolist()}}
         return
-    scen["inputs"] = {"valve.command": {"t": list(inp.t), "value": list(inp.u), "interpolation": "linear"}}
+    t, u = _linear_table(inp.t, inp.u, src, "input.t")
+    scen["inputs"] = {"valve.command": {"t": t, "value": u, "interpolation": "linear"}}
+
+
+def _linear_table(t, v, src: str, key: str) -> tuple[list, list]:
+    """A paper table (times non-decreasing, from any time, a time given any number of times; np.interp's
+    values between them, its first value before them) as a circuit's linear table (from 0, a time at most
+    twice) of the same values and slopes at every time: the first point at 0 too, of a time given more than
+    twice its first and last points (np.interp takes the last there). A table from before 0: InputError (its
+    slope at 0 would be another line's)."""
+    t, v = [float(x) for x in t], [float(x) for x in v]
+    if t[0] < 0.0:
+        raise InputError("a circuit's table starts at 0 s: this one starts before it", source=src, key=key)
+    if t[0] > 0.0:
+        t, v = [0.0, *t], [v[0], *v]
+    keep = [i for i in range(len(t)) if not (0 < i < len(t) - 1 and t[i - 1] == t[i] == t[i + 1])]
+    return [t[i] for i in keep], [v[i] for i in keep]
 
 
 def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
@@ -167,7 +183,8 @@ def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
                                   pressure_resolution=p.sensors.pressure_resolution)
         if p.sensors.pressure_noise > 0:
             scen["controller"].update(pressure_noise=p.sensors.pressure_noise, pressure_seed=s.hil.seed)
-    scen["reference"] = {"t": list(s.reference.t), "value": list(s.reference.x), "interpolation": "linear",
+    t, x = _linear_table(s.reference.t, s.reference.x, src, "reference.t")
+    scen["reference"] = {"t": t, "value": x, "interpolation": "linear",
                          **({"repeat": s.reference.repeat} if s.reference.repeat else {})}
 
 
@@ -226,33 +243,63 @@ def convert(ls, out: str | Path) -> tuple[Path, Path, list[str]]:
     return cpath, spath, notes
 
 
-def check(ls, spath: str | Path) -> dict:
-    """The paper scenario ``ls`` run by the core and its conversion (circuit scenario ``spath``, :func:`convert`'s)
-    run by the generated code, compared column by column of the core's log (the circuit's through
-    :func:`hydrohil.circuits.paper.paper_log`): per real column the largest difference, the core's peak and
-    their ratio; per discrete column (the modes, the events) the rows that differ. ``same_discrete``: no row
-    differs; ``worst``: the real column of the largest ratio."""
+def circuit_scenario_of(ls):
+    """The paper scenario ``ls`` as a circuit scenario in memory (:func:`circuit_tables`; no file written)."""
+    from hydrohil.circuits.scenario import scenario_from_dict
+    circuit, scen, _ = circuit_tables(ls)
+    return scenario_from_dict(scen, Path(ls.source).parent, f"{ls.source} (as a circuit, in memory)",
+                              circuit=circuit)
+
+
+def run_generated(ls, *, progress=None):
+    """``run_scenario``'s fixed-step run of the paper scenario ``ls`` (a drive or a built-in law, no fault, no
+    Python controller) on the code generated from its circuit (:func:`circuit_scenario_of`), from the core's
+    state at rest (``hh_initial_state``, SPEC §12.5: circuits.paper.paper_start), as the core's log
+    (circuits.paper.paper_log; ``extra["engine"]`` "generated"), or None when the run diverges (its state
+    non-finite, or a logged row the core calls diverged: run_scenario then gives the core's run, its log up to
+    the step and its message) or the scenario has what a circuit does not take. The core's
+    run bit for bit on the paper's examples (tests); not yet everywhere (benchmarks/parity.py, README: a
+    chamber in the stiff-node form, a dead volume of a few cm3, differs in its last bits)."""
     import warnings
 
-    from hydrohil.circuits.paper import paper_log
-    from hydrohil.circuits.scenario import run_circuit_scenario, load_circuit_scenario
-    from hydrohil.core.shape import LOG
-    from hydrohil.simulation.run import run_scenario
+    from hydrohil.circuits.paper import paper_log, paper_start
+    from hydrohil.circuits.run import simulate_circuit
+    from hydrohil.core.shape import LOG_COLUMNS
+    from hydrohil.errors import SimulationDiverged
+    from hydrohil.models.layout import MODE_COLUMNS, STATE_NAMES
+    from hydrohil.simulation.loop import initial_state
+    from hydrohil.simulation.result import SimulationResult
+    s = ls.scenario
+    ini = s.initial
+    y, m = initial_state(ls.params, ini.xp, xs=ini.xs, p1=ini.p1, p2=ini.p2)   # (its warnings: the user's)
+    row = np.zeros(len(LOG_COLUMNS))
+    for i, name in enumerate(STATE_NAMES):
+        row[LOG_COLUMNS.index(name)] = y[i]
+    for i, name in enumerate(MODE_COLUMNS):
+        row[LOG_COLUMNS.index(name)] = m[i]
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")              # (the scenario's own warnings: said by the runs themselves)
-        core = run_scenario(ls)
-        res = run_circuit_scenario(load_circuit_scenario(spath))[0]
-    if core.diverged is not None:
-        raise core.diverged
-    a, b = core.log, paper_log(res)
-    columns = {}
-    for j, col in enumerate(LOG):
-        if col.kind == "real":
-            diff, peak = float(np.max(np.abs(a[:, j] - b[:, j]))), float(np.max(np.abs(a[:, j])))
-            columns[col.name] = {"max_abs_difference": diff, "peak": peak, "relative": diff / peak if peak else diff}
-        else:
-            columns[col.name] = {"rows_differing": int(np.count_nonzero(a[:, j] != b[:, j]))}
-    reals = {k: v for k, v in columns.items() if "relative" in v and k != "t"}
-    return {"scenario": str(ls.source), "rows": len(a), "columns": columns,
-            "same_discrete": all(v.get("rows_differing", 0) == 0 for v in columns.values()),
-            "worst": max(reals, key=lambda k: reals[k]["relative"])}
+        warnings.simplefilter("ignore")          # (the conversion's own: said by the core's start above)
+        try:
+            cs = circuit_scenario_of(ls)
+        except InputError:                       # (what a circuit does not take: a table from before 0)
+            return None
+    try:
+        res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, loop=cs.loop,
+                               commands=cs.commands, start=paper_start(cs.circuit, row, cs.step), progress=progress)
+    except SimulationDiverged:
+        return None                              # (run_scenario: the core's run, the same steps)
+    log = paper_log(res)
+    if _unphysical(log, ls.params):               # (the core stops there: far outside any physical range)
+        return None
+    return SimulationResult(log, s.solver.method, s.solver.step, res.wall, extra={"engine": "generated"})
+
+
+def _unphysical(log: np.ndarray, params) -> bool:
+    """A row of the core's log whose state the core calls diverged (``hh_diverged``: far outside any physical
+    range), which a circuit's run does not stop at (only where its state leaves the finite)."""
+    from hydrohil.core import dptr, lib
+    from hydrohil.core.shape import LOG_COLUMNS
+    from hydrohil.models.layout import STATE_NAMES, pack
+    p = dptr(pack(params))
+    states = np.ascontiguousarray(log[:, [LOG_COLUMNS.index(name) for name in STATE_NAMES]])
+    return any(lib.hh_diverged(dptr(row), p) for row in states)

@@ -15,12 +15,27 @@ from hydrohil.simulation.result import SimulationResult
 from hydrohil.simulation.scenario import LoadedScenario
 
 
-def run_scenario(sc: LoadedScenario, *, progress=None) -> SimulationResult:
-    """Simulate a loaded scenario; returns the log (also when the run diverged: see ``.diverged``)."""
+ENGINES = ("generated", "core")
+
+
+def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "core") -> SimulationResult:
+    """Simulate a loaded scenario; returns the log (also when the run diverged: see ``.diverged``).
+
+    ``engine = "generated"``: a fixed-step run of a drive or a built-in law runs on the code generated from the
+    scenario's circuit (:func:`hydrohil.simulation.as_circuit.run_generated`); ``"core"`` (the default) on the
+    hand-written core. Runs with faults or a Python controller (the virtual rig's) and the continuous reference
+    run on the core either way."""
+    if engine not in ENGINES:
+        raise ValueError(f"engine: one of {', '.join(ENGINES)}, got {engine!r}")
     s, params = sc.scenario, sc.params
     if s.faults or s.python_controller:          # a Python loop: the virtual rig's
         from hydrohil.simulation.rig import run_rig
         return run_rig(sc, progress=progress)
+    if engine == "generated" and s.solver.method != "reference":
+        from hydrohil.simulation.as_circuit import run_generated
+        res = run_generated(sc, progress=progress)
+        if res is not None:
+            return res                           # (None: it diverged; the core's run says where, below)
     h, n = s.solver.step, s.n_steps()
     p = pack(params)
     y, m = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
