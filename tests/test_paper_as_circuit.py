@@ -991,3 +991,32 @@ def test_the_generated_engine_carries_each_setting_as_the_core(case, tmp_path):
         warnings.simplefilter("ignore")
         gen, core = run_scenario(ls, engine="generated"), run_scenario(ls, engine="core")
     assert gen.extra == {"engine": "generated"} and np.array_equal(gen.log, core.log)
+
+
+def test_a_stiff_chamber_steps_as_the_cores_on_the_generated_engine(tmp_path):
+    """A 5 cm3 dead volume (the chambers in the stiff-node form at 0.5 ms) under a P loop from the retract stop
+    (parity case random213) and an open-loop table with Heun (random128): the generated engine's log is the core's
+    bit for bit (their relaxation's lambda*h in the core's order, hc_stiff_first; before: the last bits of p1 in
+    the first, other stick-slip modes in the second)."""
+    common = ('params = "ferreira2004"\n[overrides]\n"cylinder.v01" = 5e-06\n"friction.asymmetric" = false\n')
+    f = tmp_path / "loop.toml"
+    f.write_text(common + '"supply.ps" = 10760197.780452691\n"load.mass" = 199.04783126550404\n'
+                 '"friction.sigma0" = 32802535.998764332\n"load.gravity_direction" = 1\n[solver]\nmethod = "euler"\nstep = 0.0005\n[initial]\nxp = 0.0\n'
+                 'xs = 0.0\n[controller]\ntype = "p"\nkp = 293.01693353010415\n[reference]\ntype = "table"\n'
+                 't = [0.0, 0.16096116870053515, 0.33484536761597045]\n'
+                 'x = [0.10820776768380806, 0.08997997755384213, 0.02925572672515668]\n')
+    g = tmp_path / "open.toml"
+    g.write_text(common + '"load.gravity_direction" = -1\n"cylinder.bulk_modulus" = "constant"\n'
+                 '"load.force" = -1.1125369292536007e-308\n"spool.delay" = 1.1058327233784222e-237\n[solver]\n'
+                 'method = "heun"\nstep = 0.0005\n[initial]\nxp = 0.0035633746441369606\nxs = -0.5713559009125365\n'
+                 '[input]\ntype = "table"\nt = [5e-324, 3.5941842300384624e-203, 1.353974996458121e-81, 0.0001, '
+                 '0.06444761565083709, 0.15248069779124773]\nu = [0.7432435257490675, 0.9048784761045829, '
+                 '5.207357872661646e-136, -5.042560250207126e-86, -0.6271793860521453, 0.1972749229206372]\n')
+    for path, duration in ((f, 0.5), (g, 0.2)):
+        text = path.read_text()
+        path.write_text(text.replace('params = "ferreira2004"\n', f'params = "ferreira2004"\nduration = {duration}\n'))
+        ls = load_scenario(path)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            gen, core = run_scenario(ls, engine="generated"), run_scenario(ls, engine="core")
+        assert gen.extra == {"engine": "generated"} and np.array_equal(gen.log, core.log), path.name

@@ -37,7 +37,8 @@ HH_INLINE double hc_node_rate_oil(double c, double q_in, double volume, double b
 #define HC_LAMBDA_H_ROW 1.9
 HH_INLINE void hc_stiff_first(double g, double volume, double beta, double c_extra, double h, double *sc)
 {
-    double cap = volume / beta + c_extra, l = g / cap * h;
+    double cap = volume / beta + c_extra;
+    double l = c_extra == 0.0 ? beta / volume * g * h : g / cap * h;   /* (oil alone: the core's chamber's order) */
     sc[0] = l > HC_LAMBDA_H_MAX ? HC_LAMBDA_H_MAX / l : 1.0;   /* c */
     sc[1] = cap;                                              /* (C, until hc_stiff_last) */
     sc[2] = sc[0] * l;                                        /* the row's reach r */
