@@ -76,7 +76,7 @@ def _main(version: bool = typer.Option(False, "--version", callback=_print_versi
 
 def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Optional[float] = None,
              plot: bool = True, progress: bool = True, params: Optional[str] = None,
-             sets: Optional[dict] = None, engine: str = "core") -> dict:
+             sets: Optional[dict] = None, engine: str = "generated") -> dict:
     """Run one scenario and write ``out/log.csv``, ``out/summary.json`` and ``out/simulation.png``.
     ``params`` replaces the scenario's parameter set, ``sets`` (dotted keys) apply on top of its overrides;
     ``engine``: a paper scenario's run on the hand-written core or the generated code
@@ -91,9 +91,9 @@ def simulate(scenario: Path, out: Path, solver: Optional[str] = None, step: Opti
     if is_circuit_scenario(scenario):
         if params is not None:
             raise InputError(NO_PARAMETER_SET, source="--params", key=params)
-        if engine != "core":
-            raise InputError("a circuit scenario runs on its generated code: --engine is a paper scenario's",
-                             source="--engine")
+        if engine != "generated":
+            raise InputError("a circuit scenario runs on its generated code (no hand-written core): --engine core "
+                             "is a paper scenario's", source="--engine")
         return simulate_circuit_scenario(scenario, out, solver, step, plot, progress, sets)
     sc = load_scenario(scenario, solver=solver, step=step, params=params, sets=sets)
     prog = None
@@ -170,9 +170,9 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                                                    "the scenario's"),
                  sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on top of "
                                                 "the scenario's [overrides], e.g. --set load.mass=120"),
-                 engine: str = typer.Option("core", help="a paper scenario's fixed-step run without faults: core (the "
-                                            "hand-written model) or generated (the code generated from its "
-                                            "circuit)")):
+                 engine: str = typer.Option("generated", help="a paper scenario's fixed-step run without faults: "
+                                            "generated (the code generated from its circuit, the core's log bit "
+                                            "for bit) or core (the hand-written model)")):
     """Simulate a scenario with the hybrid model (or the continuous reference)."""
     try:
         s = simulate(scenario, out, solver, step, plot, params=params, sets=_parse_sets(sets), engine=engine)

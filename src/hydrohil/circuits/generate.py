@@ -943,6 +943,7 @@ def _node_terms(c: Circuit, lay: Layout, emits) -> dict:
     """Per state node: (its flows' sum in, its volume, its oil's bulk modulus, its extra capacitance, its
     conductance, its flows' rate in with the pressures held), C expressions."""
     qin, g, rate = ({n: [] for n in c.state_nodes} for _ in range(3))
+    by_speed: dict = {n: {} for n in c.state_nodes}     # node -> speed -> its factors (summed, then times it)
     cap, vol = {n: [] for n in c.state_nodes}, {n: [] for n in c.state_nodes}
     beta = {n: f"P[{lay.slot['fluid.bulk_modulus']}]" for n in c.state_nodes}
     for comp, e in emits:
@@ -958,7 +959,13 @@ def _node_terms(c: Circuit, lay: Layout, emits) -> dict:
                     qin[node].append(f"{sign} {var}")
                     if slope is not None:
                         g[node].append(f"+ {slope}")
-                    if drift is not None:
+                    if isinstance(drift, tuple):             # (factor, speed): the factors of one speed summed
+                        factor, speed = drift
+                        if speed not in by_speed[node]:
+                            by_speed[node][speed] = []
+                            rate[node].append(speed)            # (its place: its first term's)
+                        by_speed[node][speed].append(f"{sign} {factor}")
+                    elif drift is not None:
                         rate[node].append(f"{sign} {drift}")
         for port, expr in e.capacitance:
             if comp.ports[port] in cap:
@@ -966,6 +973,8 @@ def _node_terms(c: Circuit, lay: Layout, emits) -> dict:
         for port, expr in e.volume:
             if comp.ports[port] in vol:
                 vol[comp.ports[port]].append(expr)
+    for node, groups in by_speed.items():
+        rate[node] = [f"+ ({' '.join(groups[t])}) * {t}" if t in groups else t for t in rate[node]]
     return {node: (" ".join(qin[node]) or "0.0",
                    " + ".join([f"P[{lay.slot[f'node.{node}.volume']}]", *vol[node]]), beta[node],
                    " + ".join(cap[node]) or "0.0", " ".join(g[node]) or "0.0", " ".join(rate[node]) or "0.0")

@@ -42,7 +42,8 @@ class Emit:
     expression), named ``c.v(name)``), flows (from port, to port, C expression[, conductance, rate]; a port
     None: the flow leaves or enters the circuit's nodes there, e.g. a piston's displacement; the conductance
     d(q)/d(p_from - p_to) >= 0 and the rate d(q)/dt with the pressures held, its states moving at ``c.dx(state)``:
-    C expressions, None where they are 0, for the stiff-node treatment of hc_node.h), capacitance [m³/Pa] and
+    C expressions, None where they are 0, for the stiff-node treatment of hc_node.h; a rate (factor, speed):
+    factor * speed, a node summing the factors of one speed first), capacitance [m³/Pa] and
     volume [m³] (C expressions) at a port's node, its states' derivatives (state -> C) and initial values
     (state -> C, may use the inputs u), the update of its mode after a step (C statements, may clamp its
     states), its states once the nodes settled at rest (``at_rest``: the bristles taking the load, SPEC §12.5),
@@ -381,7 +382,7 @@ def _emit_servo_valve(c):
     def edge_flow(name, sign, coeffs, a, b):      # (its ports, flow, conductance, rate with the pressures held)
         dp, s = f"{c.p(a)} - {c.p(b)}", c.v(name)     # (its section once per right-hand side: flow and conductance)
         return (a, b, edge(sign, coeffs, c.p(a), c.p(b), s), f"hc_sqrt_law_slope({s} * HH_LPM_PER_SQRT_BAR, {dp}, {dpt})",
-                f"hc_servo_edge_rate({sign}1, {x}, {c.dx('x')}, {coeffs}, {dp}, {dpt})")
+                (f"hc_servo_edge_slope({sign}1, {x}, {coeffs}, {dp}, {dpt})", c.dx("x")))
     qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T), "PB": edge("", k, P, B), "BT": edge("-", kt, B, T)}
     u = c.par("command")
     return Emit(pre=[("s_pa", section("-", k)), ("s_at", section("", kt)), ("s_pb", section("", k)),

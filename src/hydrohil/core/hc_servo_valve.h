@@ -24,16 +24,18 @@ HH_INLINE double hc_section_slope(double x, double k1, double k2, double k3, dou
     return r > 0.0 ? k1 + (2.0 * k3 * x + k4) / (2.0 * r) : k1;
 }
 
-/* The rate d(q)/dt of an edge's flow (eq 3 with the laminar transition) with the pressures held, the spool at
- * x (clamped to [-1, 1]: no change beyond) moving at dx [1/s]; sign +1: s(x), -1: s(-x) (wear is constant) */
-HH_INLINE double hc_servo_edge_rate(int sign, double x, double dx, double k1, double k2, double k3, double k4,
-                                    double k5, double dp, double dp_t)
+/* d(q)/dx of an edge's flow (eq 3 with the laminar transition) with the pressures held, the spool at x
+ * (clamped to [-1, 1]: no change beyond); sign +1: s(x), -1: s(-x) (wear is constant). Times the spool's speed,
+ * the flow's rate with the pressures held (a node sums its edges' before multiplying, as the core's chamber,
+ * cylinder.c: quasi_static_drift) */
+HH_INLINE double hc_servo_edge_slope(int sign, double x, double k1, double k2, double k3, double k4, double k5,
+                                     double dp, double dp_t)
 {
     double ds;
     if (x >= 1.0 || x <= -1.0)
         return 0.0;
     ds = sign * hc_section_slope(sign * x, k1, k2, k3, k4, k5);
-    return hc_sqrt_law(ds * HH_LPM_PER_SQRT_BAR, dp, dp_t) * dx;
+    return hc_sqrt_law(ds * HH_LPM_PER_SQRT_BAR, dp, dp_t);
 }
 
 

@@ -255,11 +255,10 @@ def run_generated(ls, *, progress=None):
     """``run_scenario``'s fixed-step run of the paper scenario ``ls`` (a drive or a built-in law, no fault, no
     Python controller) on the code generated from its circuit (:func:`circuit_scenario_of`), from the core's
     state at rest (``hh_initial_state``, SPEC §12.5: circuits.paper.paper_start), as the core's log
-    (circuits.paper.paper_log; ``extra["engine"]`` "generated"), or None when the run diverges (its state
-    non-finite, or a logged row the core calls diverged: run_scenario then gives the core's run, its log up to
-    the step and its message) or the scenario has what a circuit does not take. The core's
-    run bit for bit on the paper's examples (tests); not yet everywhere (benchmarks/parity.py, README: a
-    chamber in the stiff-node form, a dead volume of a few cm3, differs in its last bits)."""
+    (circuits.paper.paper_log; ``extra["engine"]`` "generated"): the core's run bit for bit (tests;
+    benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record). None when the run diverges
+    (its state non-finite, or a logged row the core calls diverged: run_scenario then gives the core's run,
+    its log up to the step and its message) or the scenario has what a circuit does not take."""
     import warnings
 
     from hydrohil.circuits.paper import paper_log, paper_start

@@ -18,13 +18,13 @@ from hydrohil.simulation.scenario import LoadedScenario
 ENGINES = ("generated", "core")
 
 
-def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "core") -> SimulationResult:
+def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated") -> SimulationResult:
     """Simulate a loaded scenario; returns the log (also when the run diverged: see ``.diverged``).
 
-    ``engine = "generated"``: a fixed-step run of a drive or a built-in law runs on the code generated from the
-    scenario's circuit (:func:`hydrohil.simulation.as_circuit.run_generated`); ``"core"`` (the default) on the
-    hand-written core. Runs with faults or a Python controller (the virtual rig's) and the continuous reference
-    run on the core either way."""
+    ``engine = "generated"`` (the default): a fixed-step run of a drive or a built-in law runs on the code
+    generated from the scenario's circuit (:func:`hydrohil.simulation.as_circuit.run_generated`: the core's log
+    bit for bit); ``"core"`` on the hand-written core. Runs with faults or a Python controller (the virtual
+    rig's) and the continuous reference run on the core either way."""
     if engine not in ENGINES:
         raise ValueError(f"engine: one of {', '.join(ENGINES)}, got {engine!r}")
     s, params = sc.scenario, sc.params
