@@ -548,7 +548,7 @@ def _hold(table: dict, c: Circuit, loop, source: str) -> Hold:
 
 def _start(table, c: Circuit, loop, rest: bool | Hold, source: str) -> Start:
     """``[start]``: inputs' values before t = 0 and node pressures set on the state at rest (run.Start)."""
-    from hydrohil.circuits.units import to_si
+    from hydrohil.circuits.circuit import _value          # (the circuit file's value check: unit, range, key)
     if not isinstance(table, dict) or not table:
         raise InputError("a table of \"<input>\" = value (its value before t = 0) and \"<node>\" = pressure (set "
                          "on the state at rest)", source=source, key="start")
@@ -566,14 +566,7 @@ def _start(table, c: Circuit, loop, rest: bool | Hold, source: str) -> Start:
         else:
             raise InputError(unknown_name(key, [*c.inputs, *nodes]) + " (an input of the circuit, or a node with a "
                              "pressure of its own)", source=source, key=where)
-        try:
-            v = to_si(value, prm.unit)
-        except ValueError as exc:
-            raise InputError(str(exc), source=source, key=where) from None
-        problem = prm.check(v)
-        if problem:
-            raise InputError(f"{problem}, got {value!r}", source=source, key=where)
-        (inputs if key in c.inputs else pressures)[key] = v
+        (inputs if key in c.inputs else pressures)[key] = _value(table, key, prm, source, "start")   # (unit, range)
     return Start(rest, inputs, pressures)
 
 
