@@ -921,6 +921,43 @@ def test_a_diverging_run_on_the_generated_code_says_what_the_cores_says(tmp_path
         assert run_generated(ls) is None
 
 
+def test_a_paper_scenario_under_any_file_name_runs_the_same_compiled_module(tmp_path):
+    """The generated C does not name its circuit: a paper scenario converted in memory (its circuit named after
+    the scenario's file) under two file names in two folders is one source and one compiled module (before, each
+    file name was a gcc build of its own: a study writes a file per run)."""
+    from hydrohil.simulation.as_circuit import circuit_scenario_of
+    text = (EXAMPLES / "fig11_p_control.toml").read_text()
+    runs = []
+    for folder, name in (("a", "run_0001.toml"), ("b", "other.toml")):
+        (tmp_path / folder).mkdir()
+        f = tmp_path / folder / name
+        f.write_text(text.replace("duration = 6.0", "duration = 0.2"))
+        ls = load_scenario(f)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            cs = circuit_scenario_of(ls)
+        runs.append((cs.circuit.name, cs.compiled))
+    (name_a, cc_a), (name_b, cc_b) = runs
+    assert name_a == "run_0001" and name_b == "other"
+    assert cc_a.source == cc_b.source and cc_a.path == cc_b.path and name_a not in cc_a.source
+
+
+def test_a_logged_row_past_the_cores_bounds_is_seen(tmp_path):
+    """run_generated's check of the logged rows (as_circuit._unphysical: the core's hh_diverged over each row,
+    hh_first_diverged) passes a run of Fig 11 and finds one row moved past a bound: the piston at 2.5 strokes, or
+    a chamber pressure of 2e9 Pa, in the last row."""
+    from hydrohil.core.shape import LOG_COLUMNS
+    from hydrohil.simulation.as_circuit import _unphysical
+    ls = load_scenario(EXAMPLES / "fig11_p_control.toml", duration=0.5)
+    log = run_scenario(ls, engine="core").log
+    assert not _unphysical(log, ls.params)
+    stroke = ls.params.cylinder.stroke
+    for col, value in (("xp", 2.5 * stroke), ("p1", 2e9), ("xp", math.nan)):
+        bad = log.copy()
+        bad[-1, LOG_COLUMNS.index(col)] = value
+        assert _unphysical(bad, ls.params), col
+
+
 def test_simulate_engine_on_the_command_line(tmp_path):
     """``hydrohil simulate`` (its default, --engine generated) writes the core's log (the same log.csv as
     --engine core) and says the generated code ran; a misspelt engine is named."""

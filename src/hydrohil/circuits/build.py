@@ -4,6 +4,7 @@ seconds), then loaded at once."""
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.machinery
 import importlib.util
@@ -39,6 +40,7 @@ extern "Python" double hc_py_command(void *ctx, int64_t k, double sensed, double
                                      double pt);
 void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out);
 double hc_sensed(double x, double *sensor, void *rng, int64_t k);
+void hc_sensed_rows(const double *x, int64_t rows, int64_t every, double *sensor, void *rng, double *out);
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row);
 void hc_reference_rhs(const double *P, const double *y, const double *u, double *dy);
@@ -63,23 +65,34 @@ def _python_command(ffi) -> None:
         return ffi.from_handle(ctx)(int(k), sensed, p1, p2, ps, pt)
 
 
-def compile_circuit(c: Circuit) -> CompiledCircuit:
-    """The circuit's extension, built into the cache unless it is there."""
-    from cffi import FFI
-    from hydrohil.core.build import CFLAGS
-    source, lay = generate(c)
-    from hydrohil.core.build import c_compiler
-    digest = hashlib.sha256(source.encode() + CDEF.encode())
+_LOADED: dict[Path, object] = {}           # the modules this process loaded, by the file they came from
+
+
+@functools.lru_cache(maxsize=1)
+def _build_digest() -> bytes:
+    """The hash of what every circuit's build shares (the interface, the Python, the compiler and its flags, the
+    core's C the generated code includes): read once per process."""
+    from hydrohil.core.build import CFLAGS, c_compiler
+    digest = hashlib.sha256(CDEF.encode())
     digest.update(f"{sys.version}|{importlib.machinery.EXTENSION_SUFFIXES[0]}|{c_compiler()}".encode())
     for f in sorted(CORE.glob("*.[ch]")):
         digest.update(f.name.encode() + b"\0" + f.read_bytes())
     digest.update(" ".join(CFLAGS).encode())
-    name = f"_hc_{digest.hexdigest()[:16]}"
+    return digest.digest()
+
+
+def compile_circuit(c: Circuit) -> CompiledCircuit:
+    """The circuit's extension, built into the cache unless it is there (loaded once per process)."""
+    from cffi import FFI
+    from hydrohil.core.build import CFLAGS
+    source, lay = generate(c)
+    name = f"_hc_{hashlib.sha256(source.encode() + _build_digest()).hexdigest()[:16]}"
     folder = cache_dir()
-    folder.mkdir(parents=True, exist_ok=True)
     path = folder / (name + importlib.machinery.EXTENSION_SUFFIXES[0])
-    found = [path] if path.exists() else []
-    if not found:
+    if path in _LOADED and path.exists():
+        return CompiledCircuit(_LOADED[path], lay, source, path)
+    folder.mkdir(parents=True, exist_ok=True)
+    if not path.exists():
         ffi = FFI()
         ffi.cdef(CDEF)
         ffi.set_source(name, source, include_dirs=[str(CORE)], extra_compile_args=list(CFLAGS), libraries=["m"])
@@ -91,10 +104,9 @@ def compile_circuit(c: Circuit) -> CompiledCircuit:
             part = path.with_name(path.name + f".part{os.getpid()}")
             shutil.copyfile(built, part)
             os.replace(part, path)                  # (atomic: another process may build the same meanwhile)
-            found = [path]
-    path = found[0]
     loader = importlib.machinery.ExtensionFileLoader(name, str(path))
     spec = importlib.util.spec_from_file_location(name, path, loader=loader)
     module = importlib.util.module_from_spec(spec)
     loader.exec_module(module)
+    _LOADED[path] = module
     return CompiledCircuit(module, lay, source, path)

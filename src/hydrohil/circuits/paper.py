@@ -48,15 +48,16 @@ def paper_log(res) -> np.ndarray:
     return np.column_stack([cols[name] for name in LOG_COLUMNS])
 
 
-def paper_start(c: Circuit, core_row, h: float = 5e-4, command: str = "valve.command") -> tuple:
+def paper_start(c: Circuit, core_row, h: float = 5e-4, command: str = "valve.command", compiled=None) -> tuple:
     """(y, m, u0) of the paper's circuit ``c`` for :func:`~hydrohil.circuits.run.simulate_circuit`'s ``start``:
     the core's state of its log row ``core_row`` (the 15 columns of LOG_COLUMNS; row 0: the core's start at
     rest) in the circuit's layout, the valve's delay line full of the spool's position there (the core's reset,
     loop.c: hh_sim_reset) and step 0's ``command`` at it (a loop's held command). From the same start the
-    generated code steps as the core does (README: bit for bit on the paper's examples)."""
+    generated code steps as the core does (README: bit for bit on the paper's examples). ``compiled``:
+    ``compile_circuit(c)`` when the caller has it."""
     from hydrohil.circuits.build import compile_circuit
     from hydrohil.circuits.run import input_table, new_state
-    cc = compile_circuit(c)
+    cc = compile_circuit(c) if compiled is None else compiled
     lay, ffi = cc.layout, cc.ffi
     P = np.ascontiguousarray(lay.values())
     col = dict(zip(LOG_COLUMNS, (float(v) for v in core_row)))

@@ -470,7 +470,7 @@ class Commands:
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
                      inputs: dict | None = None, rest: bool | Hold | Start = True, progress=None,
                      loop: Loop | None = None, warn_unheld: bool = True, start: tuple | None = None,
-                     commands: Commands | None = None) -> CircuitResult:
+                     commands: Commands | None = None, compiled=None) -> CircuitResult:
     """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
     (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
     circuit's ``[initial]`` keeps its value; a :class:`Hold`: with a piston held by an input's value; a
@@ -485,12 +485,12 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     memory), the modes and the inputs of step 0 (a loop's command: the one held until the controller's first
     arrives), e.g. :func:`hydrohil.circuits.paper.paper_start`. ``commands``: an open loop's inputs sent over
     the link (:class:`Commands`: the scenario's network faults act on them; their sent values as columns
-    ``<input>.sent``)."""
+    ``<input>.sent``). ``compiled``: ``compile_circuit(c)`` when the caller has it (a scenario's ``compiled``)."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
         raise InputError(f"need h > 0, duration >= 0, every >= 1 (got {h}, {duration}, {every})")
-    cc = compile_circuit(c)
+    cc = compile_circuit(c) if compiled is None else compiled
     lay = cc.layout
     n = int(round(duration / h))
     u = np.ascontiguousarray(input_table(c, n + 1, h, inputs))    # (the last: the last row's, at t_n)
@@ -729,12 +729,10 @@ def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
     rows drawn and left)."""
     generator = loop.streams()
     sensor, rng = loop.sensor_args(cc, generator)
+    x = np.ascontiguousarray(x, dtype=float)
     out = np.empty(len(x))
-    for i, v in enumerate(x):
-        out[i] = cc.lib.hc_sensed(float(v), sensor, rng, i * every)
-        if i + 1 < len(x):                 # the readings between rows: their draws and a fault's first reading
-            for j in range(1, every):      # (of the row's value: exact when every row is logged)
-                cc.lib.hc_sensed(float(v), sensor, rng, i * every + j)
+    cc.lib.hc_sensed_rows(cc.ffi.from_buffer("double[]", x), len(x), every, sensor, rng,
+                          cc.ffi.from_buffer("double[]", out))
     return out
 
 

@@ -207,22 +207,28 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
         if not isinstance(v, bool) and not (key == "rest" and isinstance(v, dict)):
             raise InputError(f"true or false{' (or {hold, by})' if key == 'rest' else ''}, got {v!r}", source=source,
                              key=key)
-    loop = _loop(data, c, source, base)
+    built: list = []                              # (its circuit compiled once, when a check needs its layout)
+
+    def layout():
+        if not built:
+            from hydrohil.circuits.build import compile_circuit
+            built.append(compile_circuit(c))
+        return built[0].layout
+    loop = _loop(data, c, source, base, layout)
     link = _link(data.get("hil", {}), source, loop)   # the faults' streams, the watchdog: the scenario's [hil]
     if loop is not None:
         loop.link = link
     commands = _commands(data["commands"], c, loop, link, source) if "commands" in data else None
     if isinstance(rest, dict):
-        rest = _hold(rest, c, loop, source)
+        rest = _hold(rest, c, loop, source, layout)
     if "start" in data:
         rest = _start(data["start"], c, loop, rest, source)
     if loop is not None:
         loop.h = float(h)                         # (sampled at the scenario's step)
     if data.get("faults"):                        # the loop's sensor failing (an ideal one to fail if none given)
-        from hydrohil.circuits.build import compile_circuit
         from hydrohil.circuits.faults import network_faults, sensor_faults
         from hydrohil.circuits.run import signal_units
-        units = signal_units(c, compile_circuit(c).layout)
+        units = signal_units(c, layout())
         found, press = sensor_faults(data["faults"], loop, units, source)
         if found:
             loop.sensor_faults = found
@@ -242,9 +248,11 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
             raise InputError(f"{name} is one of the open loop's commands (the controller process sends its drive): "
                              "give its drive in [inputs], not a value", source=source if name in data.get("set", {})
                              else "--set", key=name)
-    return CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
-                           given, loop, dict(data.get("hil", {})), list(data.get("faults", [])), repeat, link,
-                           commands)
+    cs = CircuitScenario(source, c, float(dur), method, float(h), every, rest, str(data.get("description", "")),
+                         given, loop, dict(data.get("hil", {})), list(data.get("faults", [])), repeat, link, commands)
+    if built:
+        cs.__dict__["compiled"] = built[0]        # (its cached_property: the circuit is not changed after)
+    return cs
 
 
 def _commands(names, c: Circuit, loop, link: tuple, source: str) -> Commands:
@@ -334,13 +342,12 @@ FEEDBACK_KEYS = ("load_pressure", "pressure_range", "pressure_resolution", "pres
 LOOP_KEYS = ("measure", "command", *LIMIT_KEYS, *SENSOR_KEYS, "sensor_seed", "action", *FEEDBACK_KEYS)
 
 
-def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
+def _loop(data: dict, c: Circuit, source: str, base: Path, layout) -> Loop | None:
     """The closed loop of [controller] + [reference]: the core's built-in law (hydrohil.control) with its gains
     checked as a paper scenario's are, the measured signal and the driven input named, the reference in the
-    measured signal's unit."""
+    measured signal's unit (``layout()``: the circuit's layout, compiled once per scenario)."""
     import numpy as np
     from pydantic import ValidationError
-    from hydrohil.circuits.build import compile_circuit
     from hydrohil.circuits.units import to_si
     from hydrohil.control import (PControllerCfg, PFFControllerCfg, PIControllerCfg, PIDControllerCfg,
                                   PythonControllerCfg, StateFeedbackControllerCfg, anchor_controller)
@@ -385,7 +392,7 @@ def _loop(data: dict, c: Circuit, source: str, base: Path) -> Loop | None:
         hint = (" (gains are positive; a loop where a larger command lowers the measured signal says action = "
                 "\"reverse\")" if loc in ("kp", "ki") and "greater than" in e["msg"] else "")
         raise InputError(e["msg"] + hint, source=source, key=f"controller.{loc}") from None
-    lay = compile_circuit(c).layout
+    lay = layout()
     units = {"t": "s", **{f"{n}.p": "Pa" for n in c.nodes}, **dict(lay.outputs)}
     if measure not in units or measure == "t":
         raise InputError(f"not a signal of circuit {c.name!r} (signals: {', '.join(x for x in units if x != 't')})",
@@ -520,10 +527,9 @@ def _load_pressure(loop: Loop, feedback: dict, c: Circuit, source: str) -> None:
     loop.pressure_sensor, loop.pressure_seed, loop.supply_tank = sensor, seed, tuple(reads)
 
 
-def _hold(table: dict, c: Circuit, loop, source: str) -> Hold:
+def _hold(table: dict, c: Circuit, loop, source: str, layout) -> Hold:
     """``rest = {hold = "<piston>.x", by = "<input>"}``: an open loop starting with the piston held by the input's
     value that holds it (run.Hold)."""
-    from hydrohil.circuits.build import compile_circuit
     if set(table) != {"hold", "by"}:
         raise InputError("rest = {hold = \"<component>.x\", by = \"<input>\"}: the piston held at the start and the "
                          "input that holds it", source=source, key="rest")
@@ -531,7 +537,7 @@ def _hold(table: dict, c: Circuit, loop, source: str) -> Hold:
         raise InputError("a closed loop starts with its piston held by its own command already: rest = true",
                          source=source, key="rest")
     from hydrohil.circuits.run import MOVING
-    lay = compile_circuit(c).layout
+    lay = layout()
     comp = c.components.get(str(table["hold"]).rsplit(".", 1)[0])
     if comp is not None and comp.coupled:                 # (a coupled rod's position is its load's)
         comp = c.components[comp.coupled]
@@ -602,7 +608,7 @@ def run_circuit_scenario(cs: CircuitScenario, progress=None):
     column, the reference's solver statistics."""
     from hydrohil.circuits.run import simulate_circuit
     res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
-                           progress=progress, loop=cs.loop, commands=cs.commands)
+                           progress=progress, loop=cs.loop, commands=cs.commands, compiled=cs.compiled)
     wall = res.wall
     final = {k: (res.mode_names[k][int(v[-1])] if k in res.mode_names else float(v[-1]))
              for k, v in res.columns.items() if k != "t"}

@@ -284,7 +284,8 @@ def run_generated(ls, *, progress=None):
             return None
     try:
         res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, loop=cs.loop,
-                               commands=cs.commands, start=paper_start(cs.circuit, row, cs.step), progress=progress)
+                               commands=cs.commands, start=paper_start(cs.circuit, row, cs.step, compiled=cs.compiled),
+                               progress=progress, compiled=cs.compiled)
     except SimulationDiverged:
         return None                              # (run_scenario: the core's run, the same steps)
     log = paper_log(res)
@@ -299,6 +300,5 @@ def _unphysical(log: np.ndarray, params) -> bool:
     from hydrohil.core import dptr, lib
     from hydrohil.core.shape import LOG_COLUMNS
     from hydrohil.models.layout import STATE_NAMES, pack
-    p = dptr(pack(params))
     states = np.ascontiguousarray(log[:, [LOG_COLUMNS.index(name) for name in STATE_NAMES]])
-    return any(lib.hh_diverged(dptr(row), p) for row in states)
+    return lib.hh_first_diverged(dptr(states), len(states), dptr(pack(params))) >= 0

@@ -152,8 +152,8 @@ def _run_scenario(path: Path):
     sc = load_scenario(path)
     if not sc.scenario.closed_loop:
         raise InputError("a study's scenario must be closed loop ([controller] + [reference])", source=str(path))
-    res = run_scenario(sc, engine="core")   # (the same log; the generated engine's per-run set-up, ~18 ms, waits
-    t = res.column("t")                      # for issue #29: a study's runs/s stay the core's)
+    res = run_scenario(sc, engine="core")   # (the same log; on the generated engine a study runs 25 % slower,
+    t = res.column("t")                      # README: issue #29's to remove)
     cols = {c: res.column(c) for c in ("t", "xp", "p1", "p2", "u", "xs", "friction_mode")}
     cols["x_ref"] = sc.scenario.reference.sample(t)[0]
     return cols, (str(res.diverged) if res.diverged else None)
@@ -172,7 +172,7 @@ def _run_circuit(path: Path):
                          source=str(path))
     try:
         res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
-                               loop=cs.loop, commands=cs.commands)
+                               loop=cs.loop, commands=cs.commands, compiled=cs.compiled)
     except SimulationDiverged as exc:
         return {k: np.zeros(1) for k in ("t", "xp", "x_ref", "p1", "p2", "u")}, str(exc)
     cols = {k: v for k, v in res.columns.items()}
