@@ -942,20 +942,92 @@ def test_a_paper_scenario_under_any_file_name_runs_the_same_compiled_module(tmp_
     assert cc_a.source == cc_b.source and cc_a.path == cc_b.path and name_a not in cc_a.source
 
 
-def test_a_logged_row_past_the_cores_bounds_is_seen(tmp_path):
-    """run_generated's check of the logged rows (as_circuit._unphysical: the core's hh_diverged over each row,
-    hh_first_diverged) passes a run of Fig 11 and finds one row moved past a bound: the piston at 2.5 strokes, or
-    a chamber pressure of 2e9 Pa, in the last row."""
-    from hydrohil.core.shape import LOG_COLUMNS
-    from hydrohil.simulation.as_circuit import _unphysical
-    ls = load_scenario(EXAMPLES / "fig11_p_control.toml", duration=0.5)
-    log = run_scenario(ls, engine="core").log
-    assert not _unphysical(log, ls.params)
-    stroke = ls.params.cylinder.stroke
-    for col, value in (("xp", 2.5 * stroke), ("p1", 2e9), ("xp", math.nan)):
-        bad = log.copy()
-        bad[-1, LOG_COLUMNS.index(col)] = value
-        assert _unphysical(bad, ls.params), col
+DIVERGING = ('params = "ferreira2004"\nduration = 0.2\n[overrides]\n"load.mass" = 5.0\n"load.gravity_direction" = 1\n'
+             '"friction.asymmetric" = true\n[solver]\nmethod = "euler"\nstep = 0.001\n[initial]\nxp = 0.0\nxs = 0.0\n'
+             '[input]\ntype = "sine"\namplitude = 0.09\noffset = 0.7669404385199566\nfrequency = 0.5\n')
+# (a case of the parity record: the core stops at t = 0.022 s, the piston at 161.828 m/s)
+CORE_STOP = "t = 0.022000 s"
+NAMED = r"cyl\.v = 161\.828 outside its physical range \[-100, 100\]"
+
+
+def test_a_generated_run_stops_where_the_core_does_and_names_the_state(tmp_path):
+    """The paper's components declare the core's physical bounds (hh_diverged: the piston within a stroke beyond
+    either end and slower than 100 m/s, the spool within ±10, chamber pressures within ±1e9 Pa), checked after
+    every step of the generated code (hc_unphysical): from the core's start the converted run stops at the
+    core's step, in the core's state, and says which state left its range and what the range is."""
+    from hydrohil.circuits.paper import paper_start
+    from hydrohil.errors import SimulationDiverged
+    from hydrohil.simulation.as_circuit import circuit_scenario_of
+    f = tmp_path / "big.toml"
+    f.write_text(DIVERGING)
+    ls = load_scenario(f)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        core = run_scenario(ls, engine="core")
+        cs = circuit_scenario_of(ls)
+        with pytest.raises(SimulationDiverged, match=NAMED) as e:
+            simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, loop=cs.loop,
+                             start=paper_start(cs.circuit, core.log[0], cs.step))
+    assert CORE_STOP in str(core.diverged) and CORE_STOP in str(e.value)
+    names = {"xs": "valve.x", "vs": "valve.v", "p1": "cap.p", "p2": "rod.p", "xp": "cyl.x", "vp": "cyl.v",
+             "z": "cyl.z"}
+    assert {names[k]: v for k, v in core.diverged.state.items()} == e.value.state
+
+
+@pytest.mark.parametrize("plant", ["python", "c"])
+def test_a_plant_stops_at_the_physical_range_and_names_it(tmp_path, plant):
+    """Both HIL plants of the converted diverging scenario stop at the step the offline run stops (lock-step)
+    and say why, naming the state and its range: the run fails with the plant's message."""
+    from hydrohil.errors import HydrohilError
+    from hydrohil.hil.run import run_hil
+    f = tmp_path / "big.toml"
+    f.write_text(DIVERGING)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, spath, _ = convert(load_scenario(f), tmp_path / "as_circuit")
+        with pytest.raises(HydrohilError, match=NAMED) as e:
+            run_hil(spath, tmp_path / "out", lockstep=True, plot=False, ready=lambda *a, **k: None, plant=plant)
+    assert "diverged at t = " in str(e.value)
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_an_fmu_stops_at_the_physical_range_and_names_it(tmp_path, fmi):
+    """The FMU (RK3 at 1 ms) of the converted diverging scenario with a 1 kg load, driven by its drive, fails the
+    step where simulate's run at that step stops (t = 0.013 s, the piston at 111.954 m/s: measured) and logs the
+    state and its range."""
+    from fmpy import extract
+    from test_fmu import Fmu
+    from hydrohil.circuits.run import input_table
+    from hydrohil.errors import SimulationDiverged
+    from hydrohil.export.fmu import export_circuit_fmu
+    f = tmp_path / "big.toml"
+    f.write_text(DIVERGING.replace('"load.mass" = 5.0', '"load.mass" = 1.0'))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, spath, _ = convert(load_scenario(f), tmp_path / "as_circuit")
+    c = load_circuit_scenario(spath).circuit
+    h, n = 1e-3, 200
+    with pytest.raises(SimulationDiverged, match=r"t = 0\.013000 s \(cyl\.v = 111\.954 outside its physical range "
+                                                 r"\[-100, 100\]\)"):
+        simulate_circuit(c, n * h, h=h)
+    path = export_circuit_fmu(c, tmp_path / "big.fmu", fmi=fmi, step=h)
+    said: list = []
+    fmu = Fmu(str(path), extract(str(path), unzipdir=tmp_path / "u"), log=lambda m: said.append(
+        m.decode() if isinstance(m, bytes) else str(m)))
+    fmu.s.enterInitializationMode()
+    fmu.s.exitInitializationMode()
+    u = input_table(c, n, h)
+    failed = None
+    for k in range(n):
+        fmu.set(**{s: u[k, j] for j, s in enumerate(c.inputs)})
+        try:
+            fmu.s.doStep(k * h, h)
+        except Exception:                   # noqa: BLE001 - FMPy's exception for fmi2Error / fmi3Error
+            failed = k
+            break
+    assert failed == 12                                     # (the step from 0.012 s to 0.013 s)
+    assert any("diverged at t = 0.013 s (cyl.v = 111.954 outside its physical range [-100, 100])" in m
+               for m in said), said
 
 
 def test_simulate_engine_on_the_command_line(tmp_path):

@@ -43,6 +43,8 @@ double hc_sensed(double x, double *sensor, void *rng, int64_t k);
 void hc_sensed_rows(const double *x, int64_t rows, int64_t every, double *sensor, void *rng, double *out);
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row);
+void hc_state_bounds(const double *P, double *lo, double *hi);
+int64_t hc_unphysical(const double *P, const double *y);
 void hc_reference_rhs(const double *P, const double *y, const double *u, double *dy);
 void hc_reference_row(const double *P, const double *y, const double *u, double t, double *row);
 """

@@ -42,6 +42,7 @@ class Layout:
         self.modes = [f"{comp.name}.mode" for comp in c.components.values() if comp.modes]
         self.mode_names = {f"{comp.name}.mode": comp.modes for comp in c.components.values() if comp.modes}
         self.outputs: list[tuple[str, str]] = []      # (log column, SI unit)
+        self.bounded: list[str] = []                  # the states with a physical range (hc_state_bounds)
 
     def values(self):
         import numpy as np
@@ -142,6 +143,13 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     step_inputs += [f"    {_mode_update(comp, e, lay)}   /* {comp.name}: its clamp of a driven parameter, from now */"
                     for comp, e in emits if any(f"{comp.name}.{k}" in lay.inputs for k in e.clamps)]
 
+    bounds = [(i, "-NODE_BOUND", "NODE_BOUND", f"{node}.p") for i, node in enumerate(c.state_nodes)]
+    bounds += [(lay.states.index(f"{comp.name}.{st}"), lo, hi, f"{comp.name}.{st}") for comp, e in emits
+               for st, (lo, hi) in e.bounds.items()]
+    lay.bounded = [name for _, _, _, name in bounds]
+    bound_checks = [f"    if (!({lo} <= y[{i}] && y[{i}] <= {hi}))   /* {name} */\n        return {i + 1};"
+                    for i, lo, hi, name in bounds]
+    bound_sets = [f"    lo[{i}] = {lo};   /* {name} */\n    hi[{i}] = {hi};" for i, lo, hi, name in bounds]
     nout = len(outs)
     cols = ["t"] + [f"{n}.p" for n in c.nodes] + [n for n, _ in lay.outputs] + lay.modes
     clash = sorted((set(cols) & set(c.inputs)) | {n for n in cols if cols.count(n) > 1})
@@ -287,6 +295,34 @@ static void outputs(const double *y, const int64_t *m, const double *u, const do
 {{
     (void)m; (void)u; (void)P; (void)y; (void)o;
 {chr(10).join(outs)}
+}}
+
+/* Each state's physical range (a node's pressure within NODE_BOUND; a component's states: its declaration,
+ * library.py Emit.bounds; none: +-INFINITY), far outside what any rig reaches: beyond it the run has diverged
+ * (the paper's rig: the core's hh_diverged, loop.c) */
+#define NODE_BOUND 1e9
+void hc_state_bounds(const double *P, double *lo, double *hi)
+{{
+    int i;
+    (void)P;
+    for (i = 0; i < NY; i++) {{
+        lo[i] = -INFINITY;
+        hi[i] = INFINITY;
+    }}
+{chr(10).join(bound_sets)}
+}}
+
+/* The first state (its index + 1) outside its physical range or not finite there; 0: none */
+HH_INLINE int64_t unphysical(const double *P, const double *y)
+{{
+    (void)P; (void)y;
+{chr(10).join(bound_checks)}
+    return 0;
+}}
+
+int64_t hc_unphysical(const double *P, const double *y)
+{{
+    return unphysical(P, y);
 }}
 
 /* the stiff-node constants sc (NSC) of a step of h from (y, m) under u (hc_node.h; circuit show's report) */
@@ -799,7 +835,8 @@ void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, dou
  * its line would give it); events_log (not NULL): per row the events located in the steps since the last row
  * (the core's log columns ud and events).
  * Returns 0, or 1 when the state went non-finite, 2 when h is not the step the state was made for (hc_init), 3
- * when the command callback failed (rows so far written, *rows set). */
+ * when the command callback failed, 4 when a state left its physical range (hc_unphysical) (rows so far
+ * written, *rows set). */
 typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, double p2, double ps, double pt);
 
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
@@ -853,6 +890,8 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
         if (step == n)
             break;
         int status = method_step(method, h, y, m, uk, P, &ev);
+        if (!status && unphysical(P, y))
+            status = 4;
         if (status) {{
             *rows = row;
             return status;
@@ -864,11 +903,12 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
 }}
 
 /* The per-step interface (the FMU, a plant): one step of h with the core's tableau `method` under the inputs
- * u (h: the step the state was made for, hc_init; 2 otherwise, nothing done); a log row of the state at t. */
+ * u (h: the step the state was made for, hc_init; 2 otherwise, nothing done; hc_run's other codes); a log row
+ * of the state at t. */
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h)
 {{
-    int events;
-    return method_step(method, h, y, m, u, P, &events);
+    int events, status = method_step(method, h, y, m, u, P, &events);
+    return !status && unphysical(P, y) ? 4 : status;
 }}
 
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row)

@@ -62,7 +62,10 @@ class Emit:
     step locates the earliest crossing of all the circuit's guards inside the step and applies its transition
     there (SPEC §6, as the core's hybrid.c); its ``mode_update`` sets its mode at the start and in the rest
     march. ``mode_at_rest``: its mode once the nodes settled at rest (C expression; a piston against its stop
-    pushed into it rests there, as the core's)."""
+    pushed into it rests there, as the core's). ``bounds``: a state's physical range (state -> (lo, hi), C
+    expressions, None for no bound), far outside what any rig reaches: a state beyond it means the run has
+    diverged, and it stops there with the time, the modes and the state, naming the state (generate.py:
+    hc_unphysical; the paper's rig: the core's hh_diverged, whose bounds the paper's components declare)."""
     pre: list = field(default_factory=list)
     flows: list = field(default_factory=list)
     capacitance: list = field(default_factory=list)
@@ -78,6 +81,7 @@ class Emit:
     at_rest: dict = field(default_factory=dict)          # state -> C: its value once the nodes settled at rest
     delays: list = field(default_factory=list)           # (input key, delay's parameter key): seen that late
     mode_at_rest: str | None = None
+    bounds: dict = field(default_factory=dict)           # state -> (lo, hi) C (None: unbounded): its physical range
     # the parameters its mode_update's clamps read: one a fault drives (an input of the circuit) is applied at the
     # step's start too, so a clamp tightened between steps holds from then (a spool's speed limit set to 0: stuck
     # at once; a live panel's `set` changes the parameter itself: its clamp acts from the step's end)
@@ -240,6 +244,7 @@ def _emit_motor(c):
     if not c.comp.coupled:       # its own inertia (coupled: its shaft's load turns it, shaft)
         e.derivatives = {"w": f"{_net_torque(c, c.v('torque'))} / {c.par('inertia')}"}
         e.initial = {"w": c.par("speed0")}
+        e.bounds = _SHAFT
     return e
 
 
@@ -247,13 +252,25 @@ def _emit_rotary_load(c):
     """A rotary load driven by the motors coupled to it (their shaft): one inertia, their torques summed."""
     net = _net_torque(c, " + ".join(f"({_motor_torque(a)})" for a in c.coupled_views()))
     return Emit(pre=[("t", net)], derivatives={"w": f"{c.v('t')} / {c.par('inertia')}"},
-                initial={"w": c.par("speed0")},
+                initial={"w": c.par("speed0")}, bounds=_SHAFT,
                 outputs={"w": (c.x("w"), "rad/s"), "net_torque": (net, "N.m")})
 
 
 def _piston_force(c) -> str:
     """The chambers' force on a cylinder's piston [N], + extending (SPEC §12.3)."""
     return f"{c.p('a')} * {c.par('area_a')} - {c.p('b')} * {c.par('area_b')}"
+
+
+SPEED_BOUND = 100.0          # [m/s] a piston's or a load's: far beyond any hydraulic drive (the core's hh_diverged)
+SPOOL_BOUND = 10.0           # a spool's position in its own travels (normalised ±1, or x_max): the core's
+SHAFT_BOUND = 1e4            # [rad/s] a shaft's speed (95 000 rpm)
+_SHAFT = {"w": (f"-{SHAFT_BOUND!r}", f"{SHAFT_BOUND!r}")}
+
+
+def _travel_bounds(stroke: str) -> dict:
+    """A piston's physical range (the core's hh_diverged): within a stroke beyond either end, and slower than
+    SPEED_BOUND."""
+    return {"x": (f"-{stroke}", f"2.0 * {stroke}"), "v": (f"-{SPEED_BOUND!r}", f"{SPEED_BOUND!r}")}
 
 
 def _motion(c, force: str, stroke: str) -> Emit:
@@ -271,6 +288,7 @@ def _motion(c, force: str, stroke: str) -> Emit:
                 initial={"x": c.par("x0"), "v": "0.0"},
                 mode_update=f"{c.mode} = hc_stop_mode((int){c.mode}, &{x}, &{v}, {stroke}, {force});",
                 outputs={"x": (x, "m"), "v": (v, "m/s"), "net_force": (force, "N")},
+                bounds=_travel_bounds(stroke),
                 reference={"x": v, "v": f"({c.v('f')} + hc_stop_penalty({x}, {v}, {stroke}, "
                                         f"{c.par('mass')})) / {c.par('mass')}"})
 
@@ -358,7 +376,8 @@ def _emit_valve43(c):
                 mode_update=f"hc_spool_clamp(&{x}, &{v}, {c.par('x_max')});",
                 reference={"v": f"hc_spool_accel({x}, {v}, {c.par('command')} * {c.par('x_max')}, {c.par('wn')}, "
                                 f"{c.par('xi')}) + hc_spool_penalty({x}, {v}, {c.par('x_max')}, {c.par('wn')})"},
-                outputs={"x": (x, "m"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}})
+                outputs={"x": (x, "m"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}},
+                bounds={"x": (f"-{SPOOL_BOUND!r} * {c.par('x_max')}", f"{SPOOL_BOUND!r} * {c.par('x_max')}")})
 
 
 def _emit_servo_valve(c):
@@ -396,7 +415,8 @@ def _emit_servo_valve(c):
                 mode_update=f"hc_spool_project(&{x}, &{v}, {c.par('lv')}); "
                             f"{c.mode} = hc_spool_region({x}, {v}, {u}, {spool});", clamps=("lv",),
                 reference={"x": v, "v": f"hc_servo_spool_accel_free({x}, {v}, {u}, {spool})"},
-                outputs={"x": (x, "-"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}})
+                outputs={"x": (x, "-"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}},
+                bounds={"x": (f"-{SPOOL_BOUND!r}", f"{SPOOL_BOUND!r}")})
 
 
 def _emit_lugre_cylinder(c):
@@ -435,7 +455,8 @@ def _emit_lugre_cylinder(c):
                         "v": f"({c.v('f')} - ({c.par('sigma0')} * {z} + {c.par('sigma1')} * ({v} - "
                              f"{c.par('sigma0')} * fabs({v}) * {z} / {g}) + {kv} * {v}) + "
                              f"hc_stop_penalty({x}, {v}, {stroke}, {c.par('mass')})) / {c.par('mass')}"},
-             outputs={"x": (x, "m"), "v": (v, "m/s"), "applied_force": (f_ext, "N"), "friction": (ff, "N")})
+             outputs={"x": (x, "m"), "v": (v, "m/s"), "applied_force": (f_ext, "N"), "friction": (ff, "N")},
+             bounds=_travel_bounds(stroke))
     val = c.comp.values
     if val["bulk_b"] == val["bulk_b"]:                                     # eq 21 given (not NaN)
         e.bulk_modulus = [(port, f"hc_bulk_modulus({c.p(port)}, {c.par('bulk_b')}, {c.par('bulk_c')})")
@@ -479,7 +500,8 @@ def _emit_lugre_motor(c):
                 mode_update=f"{c.mode} = hc_lc_friction_mode((int){c.mode}, &{w}, &{z}, {c.par('sigma0')}, {fs});",
                 reference={"z": dz, "w": f"({c.v('drive')} - ({c.par('sigma0')} * {z} + {c.par('sigma1')} * {dz} + "
                                          f"{kv} * {w})) / {c.par('inertia')}"},
-                outputs={"w": (w, "rad/s"), "q": (q, "m3/s"), "torque": (torque, "N.m"), "friction": (ff, "N.m")})
+                outputs={"w": (w, "rad/s"), "q": (q, "m3/s"), "torque": (torque, "N.m"), "friction": (ff, "N.m")},
+                bounds=_SHAFT)
 
 
 _EMIT = {"tank": _emit_tank, "pressure_source": _emit_tank, "pump": _emit_pump,

@@ -24,7 +24,7 @@ import numpy as np
 from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.link import wire_lists
 from hydrohil.circuits.network import CommandPath
-from hydrohil.circuits.run import METHODS, input_table, start_state
+from hydrohil.circuits.run import METHODS, divergence_reason, input_table, start_state
 from hydrohil.core import ffi as core_ffi
 from hydrohil.core import lib as core
 from hydrohil.core.watchdog import WatchdogCounters
@@ -141,7 +141,7 @@ class CircuitRig(WatchdogCounters):
             lay = self.layout
             modes = {name: lay.mode_names[name][int(self.m[i])] for i, name in enumerate(lay.modes)}
             raise SimulationDiverged(self.k * self.h, modes, {s: float(self.y[i]) for i, s in enumerate(lay.states)},
-                                     "a state is not finite")
+                                     divergence_reason(self.cc, self.P, self.y))
         self._row(self.k * self.h)
         return u
 

@@ -539,7 +539,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         k = int(rows[0]) * every
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         raise SimulationDiverged(k * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
-                                 "a state is not finite")
+                                 divergence_reason(cc, P, y))
     res.units = signal_units(c, lay)
     _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
     if rest and warn_unheld and start is None and len(log) and not (isinstance(rest, Start) and (
@@ -734,6 +734,31 @@ def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
     cc.lib.hc_sensed_rows(cc.ffi.from_buffer("double[]", x), len(x), every, sensor, rng,
                           cc.ffi.from_buffer("double[]", out))
     return out
+
+
+def divergence_reason(cc, P: np.ndarray, y: np.ndarray) -> str:
+    """Why a run of ``cc`` stopped at state ``y``: the state outside its physical range (hc_unphysical, the
+    components' declared bounds: "cyl.x = 0.5 outside its physical range [-0.18, 0.36]"), or a state not finite."""
+    ffi = cc.ffi
+    P = np.ascontiguousarray(P, dtype=float)
+    y = np.ascontiguousarray(y, dtype=float)
+    bad = int(cc.lib.hc_unphysical(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y)))
+    if bad <= 0:
+        return "a state is not finite"
+    lo, hi = state_bounds(cc, P)
+    i = bad - 1
+    return f"{cc.layout.states[i]} = {y[i]:.6g} outside its physical range [{lo[i]:.6g}, {hi[i]:.6g}]"
+
+
+def state_bounds(cc, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi): each state's physical range under parameters ``P`` (hc_state_bounds, the components' declared
+    bounds; ±inf: none), in the layout's state order."""
+    ffi, n = cc.ffi, len(cc.layout.states)
+    P = np.ascontiguousarray(P, dtype=float)
+    lo, hi = np.empty(n), np.empty(n)
+    cc.lib.hc_state_bounds(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", lo),
+                           ffi.from_buffer("double[]", hi))
+    return lo, hi
 
 
 def input_range(c: Circuit, sig: str) -> tuple[float, float]:

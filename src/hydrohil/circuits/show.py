@@ -12,7 +12,7 @@ import numpy as np
 
 from hydrohil.circuits.circuit import Circuit
 from hydrohil.circuits.build import compile_circuit
-from hydrohil.circuits.run import CircuitResult, input_unit, node_stiffness, simulate_circuit
+from hydrohil.circuits.run import CircuitResult, input_unit, node_stiffness, simulate_circuit, state_bounds
 
 
 def default_duration(c: Circuit) -> float:
@@ -31,7 +31,9 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
     else:                 # (a run for the nodes' stiffness: a piston its default drive leaves unheld is no news here)
         res = simulate_circuit(c, default_duration(c), h=h, method=method, every=20, warn_unheld=False)
     stiff = {s.node: s for s in node_stiffness(c, res)}
-    lay = compile_circuit(c).layout
+    cc = compile_circuit(c)
+    lay = cc.layout
+    lo, hi = state_bounds(cc, lay.values())
     comps = []
     for comp in c.components.values():
         prm = [{"key": k, "value": _num(comp.values[k]), "unit": p.unit, "description": p.text(comp.name),
@@ -62,7 +64,8 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
     return {"name": c.name, "source": c.source, "step_s": h, "method": method,
             "stiffness_run": "the default drive" if scenario is None else f"the scenario {scenario.source}",
             "fluid": [{"key": k, "value": v} for k, v in c.fluid.items()], "components": comps, "nodes": nodes,
-            "states": [{"name": s, "unit": u} for s, u in zip(lay.states, lay.state_units)],
+            "states": [{"name": s, "unit": u, "range": [float(a), float(b)] if math.isfinite(a) else None}
+                       for s, u, a, b in zip(lay.states, lay.state_units, lo, hi)],
             "modes": [{"name": m, "values": list(lay.mode_names[m])} for m in lay.modes],
             "guards": list(lay.guards), "delayed_inputs": list(lay.delayed),
             "inputs": [{"name": n, "unit": input_unit(c, n), "drive": _drive_text(d)} for n, d in c.inputs.items()],
@@ -115,7 +118,9 @@ def text(d: dict) -> str:
         else:
             out.append(f"  {n['name']:<14} pressure state, volume {n['volume_m3'] * 1e3:.4g} l, initially "
                        f"{n['initial_pa'] / 1e5:g} bar; stiffness {n['stiffness_per_s']:.4g} 1/s: {n['treatment']}")
-    out += ["", "states: " + ", ".join(f"{s['name']} [{s['unit']}]" for s in d["states"]),
+    out += ["", "states (a run stops outside a physical range): " + ", ".join(
+                f"{s['name']} [{s['unit']}]" + (f" in [{s['range'][0]:.4g}, {s['range'][1]:.4g}]" if s["range"] else "")
+                for s in d["states"]),
             "modes: " + (", ".join(f"{m['name']} ({'|'.join(m['values'])})" for m in d["modes"]) or "none"),
             "events located inside the step (guards): " + (", ".join(d["guards"]) or "none"),
             "inputs seen late (delay lines): " + (", ".join(d["delayed_inputs"]) or "none"),

@@ -196,9 +196,6 @@ int hh_sim_run(hh_sim *sim, const hh_drive *drive, int64_t n_steps, int64_t ever
                int64_t *steps_done, int64_t *rows);
 /* Whether y is non-finite or far outside any physical range (divergence, hybrid.h). */
 int hh_diverged(const double *y, const double *p);
-/* The first of n states ys (n rows of HH_NY) that hh_diverged calls diverged (a log's state columns checked
- * after a run); -1: none. */
-int64_t hh_first_diverged(const double *ys, int64_t n, const double *p);
 
 /* ---- the rig: command path, watchdog, pressure transducers, noise (rig.c) ------------------- */
 void hh_rng_seed(hh_rng *r, uint64_t seed);

@@ -55,15 +55,6 @@ int hh_diverged(const double *y, const double *p)
            || y[HH_XP] < -p[HH_CYLINDER_STROKE] || y[HH_XP] > 2.0 * p[HH_CYLINDER_STROKE];
 }
 
-int64_t hh_first_diverged(const double *ys, int64_t n, const double *p)
-{
-    int64_t k;
-    for (k = 0; k < n; k++)
-        if (hh_diverged(ys + k * HH_NY, p))
-            return k;
-    return -1;
-}
-
 HH_INLINE int sim_diverged(const hh_sim *sim)
 {
     const double *y = sim->y, *p = sim->p;

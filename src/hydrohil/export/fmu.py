@@ -320,6 +320,7 @@ def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
              f"#define CIRCUIT_NY {len(y0)}", f"#define CIRCUIT_NM {max(len(lay.modes), 1)}",
              f"#define CIRCUIT_NLOG {len(lay.log_columns)}", f"#define CIRCUIT_NINPUTS {len(lay.inputs)}",
              f"#define CIRCUIT_NOUTPUTS {len(outputs)}", f"#define CIRCUIT_NMODES {len(lay.modes)}",
+             f"#define CIRCUIT_NSTATES {len(lay.states)}",
              f"#define VR_INPUT0 {VR_INPUT0}", f"#define VR_OUTPUT0 {VR_OUTPUT0}", f"#define VR_MODE0 {VR_MODE0}", ""]
     lines += _c_array("double", "CIRCUIT_P", lay.values(), _c_double)
     lines += _c_array("double", "CIRCUIT_U0", u0[:max(len(lay.inputs), 1)], _c_double)
@@ -327,6 +328,7 @@ def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
     lines += _c_array("int64_t", "CIRCUIT_M0", m0, lambda v: str(int(v)))
     lines += _c_array("int", "CIRCUIT_OUTPUT_COLUMN", outputs, str)
     lines += _c_array("char *const", "CIRCUIT_INPUT_NAMES", lay.inputs, q, empty='""')
+    lines += _c_array("char *const", "CIRCUIT_STATE_NAMES", lay.states, q, empty='""')
     lines += _c_array("int64_t", "CIRCUIT_HELD", held or [0], str)          # nodes given in [initial]
     lines += ["", "#endif", ""]
     return "\n".join(lines)

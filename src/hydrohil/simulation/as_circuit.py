@@ -257,8 +257,9 @@ def run_generated(ls, *, progress=None):
     state at rest (``hh_initial_state``, SPEC §12.5: circuits.paper.paper_start), as the core's log
     (circuits.paper.paper_log; ``extra["engine"]`` "generated"): the core's run bit for bit (tests;
     benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record). None when the run diverges
-    (its state non-finite, or a logged row the core calls diverged: run_scenario then gives the core's run,
-    its log up to the step and its message) or the scenario has what a circuit does not take."""
+    (a state non-finite, or outside the physical range the paper's components declare, the core's hh_diverged:
+    run_scenario then gives the core's run, its log up to the step and its message) or the scenario has what a
+    circuit does not take."""
     import warnings
 
     from hydrohil.circuits.paper import paper_log, paper_start
@@ -286,19 +287,7 @@ def run_generated(ls, *, progress=None):
         res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, loop=cs.loop,
                                commands=cs.commands, start=paper_start(cs.circuit, row, cs.step, compiled=cs.compiled),
                                progress=progress, compiled=cs.compiled)
-    except SimulationDiverged:
-        return None                              # (run_scenario: the core's run, the same steps)
-    log = paper_log(res)
-    if _unphysical(log, ls.params):               # (the core stops there: far outside any physical range)
-        return None
-    return SimulationResult(log, s.solver.method, s.solver.step, res.wall, extra={"engine": "generated"})
-
-
-def _unphysical(log: np.ndarray, params) -> bool:
-    """A row of the core's log whose state the core calls diverged (``hh_diverged``: far outside any physical
-    range), which a circuit's run does not stop at (only where its state leaves the finite)."""
-    from hydrohil.core import dptr, lib
-    from hydrohil.core.shape import LOG_COLUMNS
-    from hydrohil.models.layout import STATE_NAMES, pack
-    states = np.ascontiguousarray(log[:, [LOG_COLUMNS.index(name) for name in STATE_NAMES]])
-    return lib.hh_first_diverged(dptr(states), len(states), dptr(pack(params))) >= 0
+    except SimulationDiverged:                   # (non-finite, or outside the core's physical range: the paper's
+        return None                              # components declare hh_diverged's bounds; run_scenario: the core's
+                                                 # run, the same steps, and its message)
+    return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, extra={"engine": "generated"})

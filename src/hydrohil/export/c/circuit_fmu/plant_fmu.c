@@ -139,8 +139,16 @@ int plant_do_step(plant *pl, double t, double dt)
     n = (long long)floor((t + dt - pl->t0) / h + 1e-6) - (long long)pl->v.k;
     for (i = 0; i < n; i++) {
         if (hc_step(pl->v.P, pl->v.y, pl->v.m, pl->v.u, CIRCUIT_METHOD, h) != 0) {
-            plant_logf(pl, PLANT_ERROR, "the simulation diverged at t = %.6g s (a state is not finite)",
-                       pl->t0 + (double)(pl->v.k + 1) * h);
+            int64_t bad = hc_unphysical(pl->v.P, pl->v.y);   /* (0: a state not finite) */
+            double lo[CIRCUIT_NSTATES + 1], hi[CIRCUIT_NSTATES + 1];   /* (+1: C has no empty arrays) */
+            hc_state_bounds(pl->v.P, lo, hi);
+            if (bad > 0)
+                plant_logf(pl, PLANT_ERROR, "the simulation diverged at t = %.6g s (%s = %.6g outside its physical "
+                           "range [%.6g, %.6g])", pl->t0 + (double)(pl->v.k + 1) * h, CIRCUIT_STATE_NAMES[bad - 1],
+                           pl->v.y[bad - 1], lo[bad - 1], hi[bad - 1]);
+            else
+                plant_logf(pl, PLANT_ERROR, "the simulation diverged at t = %.6g s (a state is not finite)",
+                           pl->t0 + (double)(pl->v.k + 1) * h);
             pl->mode = PLANT_FAILED;
             return PLANT_ERROR;
         }

@@ -36,6 +36,8 @@ struct plant {
 void hc_init(const double *P, const double *u, double h, double *y, int64_t *m);
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row);
+int64_t hc_unphysical(const double *P, const double *y);
+void hc_state_bounds(const double *P, double *lo, double *hi);
 int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const int64_t *held, int method, double h,
                 int64_t max_steps, double rel_tol);
 

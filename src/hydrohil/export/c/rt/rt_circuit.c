@@ -23,6 +23,8 @@
 /* the generated circuit's per-step interface (circuit.c) */
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);
 void hc_row(const double *P, const double *y, const int64_t *m, const double *u, double t, double *row);
+int64_t hc_unphysical(const double *P, const double *y);
+void hc_state_bounds(const double *P, double *lo, double *hi);
 double hc_sensed(double x, double *sensor, void *rng, int64_t k);
 
 static struct {
@@ -147,10 +149,19 @@ void model_take(plant *pl, const hhil_message *msg)
 
 static void describe_divergence(plant *pl, double t)
 {
-    size_t n = (size_t)snprintf(pl->fault, sizeof pl->fault, "simulation diverged at t = %.6f s (a state is not "
-                                "finite); modes: ", t);
-    char b[32];
+    int64_t bad = hc_unphysical(C.P, C.y);   /* (the state out of its physical range; 0: one not finite) */
+    double lo[CIRCUIT_NSTATES + 1], hi[CIRCUIT_NSTATES + 1];   /* (+1: C has no empty arrays) */
+    char b[32], l[32], r[32];
+    size_t n;
     int i;
+    hc_state_bounds(C.P, lo, hi);
+    if (bad > 0)
+        n = (size_t)snprintf(pl->fault, sizeof pl->fault, "simulation diverged at t = %.6f s (%s = %s outside its "
+                             "physical range [%s, %s]); modes: ", t, CIRCUIT_STATE_NAMES[bad - 1],
+                             fmt_g6(b, C.y[bad - 1]), fmt_g6(l, lo[bad - 1]), fmt_g6(r, hi[bad - 1]));
+    else
+        n = (size_t)snprintf(pl->fault, sizeof pl->fault, "simulation diverged at t = %.6f s (a state is not "
+                             "finite); modes: ", t);
     for (i = 0; i < CIRCUIT_NMODES && n < sizeof pl->fault; i++)
         n += (size_t)snprintf(pl->fault + n, sizeof pl->fault - n, "%s%s=%s", i ? ", " : "", CIRCUIT_MODE_NAMES[i],
                               CIRCUIT_MODE_WORDS[CIRCUIT_MODE_FIRST[i] + (int)C.m[i]]);
