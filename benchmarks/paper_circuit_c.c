@@ -34,7 +34,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref, const double *dref,
            int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path, double lo, double hi,
            double *sent, double *press, void *command, void *command_ctx, double *seen_log,
-           double *events_log);
+           double *events_log, int64_t *steps);
 
 int main(void)
 {
@@ -48,8 +48,11 @@ int main(void)
         memcpy(y, Y0, sizeof y);
         memcpy(m, M0, sizeof m);
         t0 = now();
-        hc_run(P0, y, m, 2, STEP, N, 1000, u, log, &rows, 0, 0, 0, 0, 0, 0, 0, 0, 1.0, 0, 0.0, 0.0, 0, 0, 0, 0, seen,
-               events);          /* (its spool's input and events logged, as the core's log has them) */
+        if (hc_run(P0, y, m, 2, STEP, N, 1000, u, log, &rows, 0, 0, 0, 0, 0, 0, 0, 0, 1.0, 0, 0.0, 0.0, 0, 0, 0, 0, seen,
+                   events, 0) != 0) {   /* (its spool's input and events logged, as the core's log has them) */
+            fprintf(stderr, "the circuit's run stopped before its end\n");
+            return 1;
+        }
         printf("%.3f ", (now() - t0) / N * 1e9);
     }
     printf("\nxp %.17g\n", y[XP_INDEX]);
@@ -79,7 +82,10 @@ int main(void)
         hh_initial_state(p, XP0, XS0, 0.0, NAN, NAN, 0.0, sim.y, sim.m);
         hh_sim_reset(&sim);
         t0 = now();
-        hh_sim_run(&sim, &drive, N, 1000, log, &done, &rows);
+        if (hh_sim_run(&sim, &drive, N, 1000, log, &done, &rows) != HH_OK) {
+            fprintf(stderr, "the core's run stopped before its end\n");
+            return 1;
+        }
         printf("%.3f ", (now() - t0) / N * 1e9);
     }
     printf("\nxp %.17g\n", sim.y[HH_XP]);

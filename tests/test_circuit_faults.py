@@ -257,6 +257,31 @@ def test_sensor_faults_act_where_the_loop_reads_its_signal(tmp_path):
     assert np.array_equal(again.column("motor.w.sensed"), seen)
 
 
+@pytest.mark.parametrize("example, target, value, state, nominal", [
+    ("ferreira2004", "cyl.stroke", "0.15", "cyl.x", (-0.18, 0.36)),
+    ("lift_platform", "valve.x_max", '"1 mm"', "valve.x", (-0.015, 0.015)),
+    ("lift_platform", "left.stroke", '"0.4 m"', "deck.x", (-0.5, 1.0))])
+def test_a_fault_on_a_parameter_a_physical_range_is_of_keeps_the_files_range(tmp_path, example, target, value,
+                                                                             state, nominal):
+    """A parameter fault on a stroke or a spool's travel drives that parameter as a signal; the physical range
+    (the run's stop, library Emit.bounds) stays the file's (its nominal value, P): the circuit compiles, runs
+    through the fault and circuit show's range is the file's."""
+    from hydrohil.circuits.run import state_bounds
+    src = CIRCUITS_DIR / example
+    f = tmp_path / "s.toml"
+    f.write_text((src / "scenario.toml").read_text().replace('circuit = "circuit.toml"',
+                                                              f'circuit = "{src / "circuit.toml"}"')
+                 .replace("duration = ", "duration = 1.0\n# was ", 1)
+                 + f'\n[[faults]]\ntype = "parameter"\ntarget = "{target}"\nvalue = {value}\nstart = 0.5\n')
+    cs = load_circuit_scenario(f)
+    assert target in cs.circuit.inputs
+    r = run(cs)
+    assert r.column("t")[-1] == pytest.approx(1.0)
+    lo, hi = state_bounds(cs.compiled, cs.layout.values())
+    i = cs.layout.states.index(state)
+    assert (lo[i], hi[i]) == pytest.approx(nominal, rel=1e-15)
+
+
 def test_a_parameter_faults_schedule_is_not_steered_and_errors_name_the_fault(tmp_path):
     """The live panel's view of a scenario with a parameter fault whose derived value follows it (a load's mass,
     its weight): built, the fault's inputs not offered to hold, the component's parameters not offered to set,

@@ -260,7 +260,7 @@ def test_circuit_show_and_run_as_a_user_types_them(tmp_path):
     assert ("cyl.x [m] in [-0.18, 0.36], cyl.v [m/s] in [-100, 100], cyl.z [m]" in r.stdout      # (the ranges
             and "valve.x [-] in [-10, 10], valve.v [1/s]," in r.stdout)              # a run stops outside)
     ranges = {s["name"]: s["range"] for s in json.loads(hh("circuit", "show", "motor_speed", "--json").stdout)["states"]}
-    assert ranges["supply.p"] == [-1e9, 1e9] and ranges["motor.w"] == [-1e4, 1e4] and ranges["valve.v"] is None
+    assert ranges["supply.p"] == [-1e9, 1e9] and ranges["motor.w"] == [-1e5, 1e5] and ranges["valve.v"] is None
     r = hh("circuit", "show", "--scenario", CIRCUITS_DIR / "ferreira2004" / "scenario.toml")
     assert r.returncode == 0 and "is not held" not in r.stderr and "over a run of the scenario" in r.stdout
     out = tmp_path / "run"

@@ -901,9 +901,9 @@ def test_simulate_runs_a_paper_scenario_on_the_generated_code_bit_for_bit(path):
 
 def test_a_diverging_run_on_the_generated_code_says_what_the_cores_says(tmp_path):
     """A 5 kg load driven open loop at 77 % with explicit Euler at 1 ms diverges (a case of the parity record):
-    the generated run is stopped (where its state leaves the finite, or at a logged row past the core's
-    physical bounds: run_generated says None) and run_scenario gives the core's run, its log up to there and
-    its message (time, modes, state)."""
+    the generated run stops (at the step its state leaves the physical range the paper's components declare,
+    the core's: run_generated says None) and run_scenario gives the core's run, its log up to there and its
+    message (time, modes, state)."""
     from hydrohil.simulation.as_circuit import run_generated
     f = tmp_path / "big.toml"
     f.write_text('params = "ferreira2004"\nduration = 0.2\n[overrides]\n"load.mass" = 5.0\n'
@@ -940,6 +940,7 @@ def test_a_paper_scenario_under_any_file_name_runs_the_same_compiled_module(tmp_
     (name_a, cc_a), (name_b, cc_b) = runs
     assert name_a == "run_0001" and name_b == "other"
     assert cc_a.source == cc_b.source and cc_a.path == cc_b.path and name_a not in cc_a.source
+    assert cc_a.lib is cc_b.lib                             # (loaded once in this process)
 
 
 DIVERGING = ('params = "ferreira2004"\nduration = 0.2\n[overrides]\n"load.mass" = 5.0\n"load.gravity_direction" = 1\n'
@@ -968,7 +969,10 @@ def test_a_generated_run_stops_where_the_core_does_and_names_the_state(tmp_path)
         with pytest.raises(SimulationDiverged, match=NAMED) as e:
             simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, loop=cs.loop,
                              start=paper_start(cs.circuit, core.log[0], cs.step))
-    assert CORE_STOP in str(core.diverged) and CORE_STOP in str(e.value)
+        with pytest.raises(SimulationDiverged, match=NAMED) as sparse:     # (a row every 7 steps: 22 is not one)
+            simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, loop=cs.loop, every=7,
+                             start=paper_start(cs.circuit, core.log[0], cs.step))
+    assert CORE_STOP in str(core.diverged) and CORE_STOP in str(e.value) and str(sparse.value) == str(e.value)
     names = {"xs": "valve.x", "vs": "valve.v", "p1": "cap.p", "p2": "rod.p", "xp": "cyl.x", "vp": "cyl.v",
              "z": "cyl.z"}
     assert {names[k]: v for k, v in core.diverged.state.items()} == e.value.state

@@ -12,6 +12,7 @@ import os
 import shutil
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 from hydrohil.circuits.circuit import Circuit
@@ -35,7 +36,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
            double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
-           double *seen_log, double *events_log);
+           double *seen_log, double *events_log, int64_t *steps);
 extern "Python" double hc_py_command(void *ctx, int64_t k, double sensed, double p1, double p2, double ps,
                                      double pt);
 void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out);
@@ -73,7 +74,8 @@ _LOADED: dict[Path, object] = {}           # the modules this process loaded, by
 @functools.lru_cache(maxsize=1)
 def _build_digest() -> bytes:
     """The hash of what every circuit's build shares (the interface, the Python, the compiler and its flags, the
-    core's C the generated code includes): read once per process."""
+    core's C the generated code includes): read once per process (a core edited while a process runs is seen
+    by the next process)."""
     from hydrohil.core.build import CFLAGS, c_compiler
     digest = hashlib.sha256(CDEF.encode())
     digest.update(f"{sys.version}|{importlib.machinery.EXTENSION_SUFFIXES[0]}|{c_compiler()}".encode())
@@ -91,7 +93,7 @@ def compile_circuit(c: Circuit) -> CompiledCircuit:
     name = f"_hc_{hashlib.sha256(source.encode() + _build_digest()).hexdigest()[:16]}"
     folder = cache_dir()
     path = folder / (name + importlib.machinery.EXTENSION_SUFFIXES[0])
-    if path in _LOADED and path.exists():
+    if path in _LOADED:                             # (loaded: its name is its content's hash; CPython keeps it)
         return CompiledCircuit(_LOADED[path], lay, source, path)
     folder.mkdir(parents=True, exist_ok=True)
     if not path.exists():
@@ -103,7 +105,7 @@ def compile_circuit(c: Circuit) -> CompiledCircuit:
                 built = Path(ffi.compile(tmpdir=tmp, verbose=False))
             except Exception as exc:        # noqa: BLE001 - the compiler's message, with the file it failed on
                 raise HydrohilError(f"compiling circuit {c.name!r} ({c.source}) failed: {exc}") from None
-            part = path.with_name(path.name + f".part{os.getpid()}")
+            part = path.with_name(path.name + f".part{os.getpid()}-{threading.get_ident()}")
             shutil.copyfile(built, part)
             os.replace(part, path)                  # (atomic: another process may build the same meanwhile)
     loader = importlib.machinery.ExtensionFileLoader(name, str(path))

@@ -5,8 +5,11 @@ the core's Butcher tableaus (core/rk.c, one source of them) over the circuit's s
 
 Interface of the generated file (``hc_*``; :mod:`hydrohil.circuits.build` compiles and loads it):
 ``hc_init(P, u, y, m)`` the initial state (under the inputs u of step 0), ``hc_run(P, y, m, method, h, n, every, u, log, *rows)`` n steps with
-the inputs u[k*NU..] held over step k and a log row (NLOG columns) every ``every`` steps, ``hc_rhs(P, y, m, u,
-dy)`` the right-hand side (for the nodes' stiffness).
+the inputs u[k*NU..] held over step k and a log row (NLOG columns) every ``every`` steps (its loop's, its logs'
+arguments: build.CDEF; status 4 and ``*steps``: a state left its physical range), ``hc_step`` one step (a plant,
+the FMU), ``hc_rhs(P, y, m, u, dy)`` the right-hand side (for the nodes' stiffness), ``hc_state_bounds(P, lo,
+hi)`` and ``hc_unphysical(P, y)`` the states' physical ranges (library.Emit.bounds) and the first state outside
+its range, ``hc_sensed(x, sensor, rng, k)`` / ``hc_sensed_rows`` what a loop's sensor reads.
 """
 
 from __future__ import annotations
@@ -42,7 +45,6 @@ class Layout:
         self.modes = [f"{comp.name}.mode" for comp in c.components.values() if comp.modes]
         self.mode_names = {f"{comp.name}.mode": comp.modes for comp in c.components.values() if comp.modes}
         self.outputs: list[tuple[str, str]] = []      # (log column, SI unit)
-        self.bounded: list[str] = []                  # the states with a physical range (hc_state_bounds)
 
     def values(self):
         import numpy as np
@@ -62,6 +64,11 @@ class _View:
         if sig in self.lay.inputs:
             return f"u[{self.lay.inputs.index(sig)}]"
         return f"P[{self.lay.slot[sig]}]"
+
+    def nominal(self, key: str) -> str:
+        """A parameter's value as the file gives it (P), also where a signal or a fault drives it (a physical
+        range's bound: of the parameters alone, hc_state_bounds)."""
+        return f"P[{self.lay.slot[f'{self.comp.name}.{key}']}]"
 
     def p(self, port: str) -> str:
         return _pressure(self.lay, self.comp.ports[port])
@@ -144,9 +151,10 @@ def generate(c: Circuit) -> tuple[str, Layout]:
                     for comp, e in emits if any(f"{comp.name}.{k}" in lay.inputs for k in e.clamps)]
 
     bounds = [(i, "-NODE_BOUND", "NODE_BOUND", f"{node}.p") for i, node in enumerate(c.state_nodes)]
-    bounds += [(lay.states.index(f"{comp.name}.{st}"), lo, hi, f"{comp.name}.{st}") for comp, e in emits
-               for st, (lo, hi) in e.bounds.items()]
-    lay.bounded = [name for _, _, _, name in bounds]
+    bounds += [(lay.states.index(f"{comp.name}.{st}"), lo or "-INFINITY", hi or "INFINITY", f"{comp.name}.{st}")
+               for comp, e in emits for st, (lo, hi) in e.bounds.items()]
+    if any("u[" in lo + hi for _, lo, hi, _ in bounds):     # (a library mistake: the check has no inputs)
+        raise RuntimeError(f"circuit {c.name}: a physical range reads an input (Emit.bounds: _View.nominal)")
     bound_checks = [f"    if (!({lo} <= y[{i}] && y[{i}] <= {hi}))   /* {name} */\n        return {i + 1};"
                     for i, lo, hi, name in bounds]
     bound_sets = [f"    lo[{i}] = {lo};   /* {name} */\n    hi[{i}] = {hi};" for i, lo, hi, name in bounds]
@@ -836,14 +844,15 @@ void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, dou
  * (the core's log columns ud and events).
  * Returns 0, or 1 when the state went non-finite, 2 when h is not the step the state was made for (hc_init), 3
  * when the command callback failed, 4 when a state left its physical range (hc_unphysical) (rows so far
- * written, *rows set). */
+ * written, *rows set; *steps (not NULL): the steps taken, the failed one included: its end is where the run
+ * stopped). */
 typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, double p2, double ps, double pt);
 
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
            double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
-           double *seen_log, double *events_log)
+           double *seen_log, double *events_log, int64_t *steps)
 {{
     double seen[NLOG], held = 0.0, events = 0.0;
     int64_t step, row = 0;
@@ -864,6 +873,8 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                 c = ((hc_command_fn)command)(command_ctx, step, sensed, pr[0], pr[1], pr[2], pr[3]);
                 if (c != c) {{
                     *rows = row;
+                    if (steps)
+                        *steps = step;
                     return 3;
                 }}
             }} else
@@ -894,11 +905,15 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             status = 4;
         if (status) {{
             *rows = row;
+            if (steps)
+                *steps = step + 1;
             return status;
         }}
         events += ev;
     }}
     *rows = row;
+    if (steps)
+        *steps = n;
     return 0;
 }}
 

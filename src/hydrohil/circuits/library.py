@@ -63,7 +63,8 @@ class Emit:
     there (SPEC §6, as the core's hybrid.c); its ``mode_update`` sets its mode at the start and in the rest
     march. ``mode_at_rest``: its mode once the nodes settled at rest (C expression; a piston against its stop
     pushed into it rests there, as the core's). ``bounds``: a state's physical range (state -> (lo, hi), C
-    expressions, None for no bound), far outside what any rig reaches: a state beyond it means the run has
+    expressions of constants and the parameters' nominal values, ``c.nominal``; None: no bound on that side), far
+    outside what any rig reaches: a state beyond it means the run has
     diverged, and it stops there with the time, the modes and the state, naming the state (generate.py:
     hc_unphysical; the paper's rig: the core's hh_diverged, whose bounds the paper's components declare)."""
     pre: list = field(default_factory=list)
@@ -263,17 +264,17 @@ def _piston_force(c) -> str:
 
 SPEED_BOUND = 100.0          # [m/s] a piston's or a load's: far beyond any hydraulic drive (the core's hh_diverged)
 SPOOL_BOUND = 10.0           # a spool's position in its own travels (normalised ±1, or x_max): the core's
-SHAFT_BOUND = 1e4            # [rad/s] a shaft's speed (95 000 rpm)
+SHAFT_BOUND = 1e5            # [rad/s] a shaft's speed (955 000 rpm; a shaft may start at up to 1e4)
 _SHAFT = {"w": (f"-{SHAFT_BOUND!r}", f"{SHAFT_BOUND!r}")}
 
 
 def _travel_bounds(stroke: str) -> dict:
-    """A piston's physical range (the core's hh_diverged): within a stroke beyond either end, and slower than
-    SPEED_BOUND."""
-    return {"x": (f"-{stroke}", f"2.0 * {stroke}"), "v": (f"-{SPEED_BOUND!r}", f"{SPEED_BOUND!r}")}
+    """A piston's physical range (the core's hh_diverged): within a stroke (``stroke``: its nominal value's C,
+    _View.nominal) beyond either end, and slower than SPEED_BOUND."""
+    return {"x": (f"-({stroke})", f"2.0 * ({stroke})"), "v": (f"-{SPEED_BOUND!r}", f"{SPEED_BOUND!r}")}
 
 
-def _motion(c, force: str, stroke: str) -> Emit:
+def _motion(c, force: str, stroke: str, nominal_stroke: str) -> Emit:
     """A rigid body moving along a rod between end stops (a cylinder with its own load, or a load driven by the
     cylinders coupled to it): x' = v, M v' = F (net ``force``), plastic end stops at 0 and ``stroke`` as modes
     with their guards (hc_stop_*), the reference's stops stiff spring-dampers."""
@@ -288,7 +289,7 @@ def _motion(c, force: str, stroke: str) -> Emit:
                 initial={"x": c.par("x0"), "v": "0.0"},
                 mode_update=f"{c.mode} = hc_stop_mode((int){c.mode}, &{x}, &{v}, {stroke}, {force});",
                 outputs={"x": (x, "m"), "v": (v, "m/s"), "net_force": (force, "N")},
-                bounds=_travel_bounds(stroke),
+                bounds=_travel_bounds(nominal_stroke),
                 reference={"x": v, "v": f"({c.v('f')} + hc_stop_penalty({x}, {v}, {stroke}, "
                                         f"{c.par('mass')})) / {c.par('mass')}"})
 
@@ -316,7 +317,7 @@ def _emit_cylinder(c):
     if c.comp.coupled:           # its rod drives a load (rod_end): the load's motion is its piston's
         e.outputs = {"x": (c.x("x"), "m"), "v": (c.x("v"), "m/s"), "piston_force": (_piston_force(c), "N")}
         return e
-    m = _motion(c, f"{_piston_force(c)} - ({_load_forces(c)})", c.par("stroke"))
+    m = _motion(c, f"{_piston_force(c)} - ({_load_forces(c)})", c.par("stroke"), c.nominal("stroke"))
     m.flows, m.volume = e.flows, e.volume
     return m
 
@@ -326,10 +327,10 @@ def _emit_load(c):
     summed, its travel the shortest of their strokes (SPEC §12.3: a mechanical coupling)."""
     actuators = c.coupled_views()
     drive = " + ".join(f"({_piston_force(a)})" for a in actuators)
-    stroke = actuators[0].par("stroke")
+    stroke, nominal = actuators[0].par("stroke"), actuators[0].nominal("stroke")
     for a in actuators[1:]:
-        stroke = f"fmin({stroke}, {a.par('stroke')})"
-    return _motion(c, f"{drive} - ({_load_forces(c)})", stroke)
+        stroke, nominal = f"fmin({stroke}, {a.par('stroke')})", f"fmin({nominal}, {a.nominal('stroke')})"
+    return _motion(c, f"{drive} - ({_load_forces(c)})", stroke, nominal)
 
 
 def _emit_counterbalance(c):
@@ -377,7 +378,7 @@ def _emit_valve43(c):
                 reference={"v": f"hc_spool_accel({x}, {v}, {c.par('command')} * {c.par('x_max')}, {c.par('wn')}, "
                                 f"{c.par('xi')}) + hc_spool_penalty({x}, {v}, {c.par('x_max')}, {c.par('wn')})"},
                 outputs={"x": (x, "m"), **{f"q_{e.lower()}": (q, "m3/s") for e, q in qs.items()}},
-                bounds={"x": (f"-{SPOOL_BOUND!r} * {c.par('x_max')}", f"{SPOOL_BOUND!r} * {c.par('x_max')}")})
+                bounds={"x": (f"-{SPOOL_BOUND!r} * {c.nominal('x_max')}", f"{SPOOL_BOUND!r} * {c.nominal('x_max')}")})
 
 
 def _emit_servo_valve(c):
@@ -456,7 +457,7 @@ def _emit_lugre_cylinder(c):
                              f"{c.par('sigma0')} * fabs({v}) * {z} / {g}) + {kv} * {v}) + "
                              f"hc_stop_penalty({x}, {v}, {stroke}, {c.par('mass')})) / {c.par('mass')}"},
              outputs={"x": (x, "m"), "v": (v, "m/s"), "applied_force": (f_ext, "N"), "friction": (ff, "N")},
-             bounds=_travel_bounds(stroke))
+             bounds=_travel_bounds(c.nominal("stroke")))
     val = c.comp.values
     if val["bulk_b"] == val["bulk_b"]:                                     # eq 21 given (not NaN)
         e.bulk_modulus = [(port, f"hc_bulk_modulus({c.p(port)}, {c.par('bulk_b')}, {c.par('bulk_c')})")

@@ -141,7 +141,7 @@ class CircuitRig(WatchdogCounters):
             lay = self.layout
             modes = {name: lay.mode_names[name][int(self.m[i])] for i, name in enumerate(lay.modes)}
             raise SimulationDiverged(self.k * self.h, modes, {s: float(self.y[i]) for i, s in enumerate(lay.states)},
-                                     divergence_reason(self.cc, self.P, self.y))
+                                     divergence_reason(self.cc, self.P, self.y, status))
         self._row(self.k * self.h)
         return u
 

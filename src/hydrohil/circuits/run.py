@@ -478,7 +478,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     "reference": the continuous reference generated from
     the same description (:mod:`hydrohil.circuits.reference`), from the same state at rest (settled by RK3 at
     ``h``), its log on the same grid; ``progress(step)`` is called now and then. Raises SimulationDiverged with
-    the time, the modes and the state when the state leaves the finite (or the reference's solvers fail).
+    the time, the modes and the state when a state leaves its physical range or the finite (the fixed-step
+    solvers: checked after every step, hc_unphysical; the reference: where it leaves the finite or its solvers
+    fail).
     ``loop``: closed loop (:class:`Loop`); the log gets the controller's reference as a column. ``warn_unheld``:
     warn when a piston started at rest is not held there (InputWarning: it moves at once). ``start``: (y, m, u0)
     in place of the start at rest: the state (hc_state_size values: the layout's states, then the delay lines'
@@ -517,7 +519,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         return _with_drives(c, cc, res, u, every, loop, commands, sent)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     seen, events = np.zeros((len(log), max(len(lay.delayed), 1))), np.zeros(len(log))
-    rows = ffi.new("int64_t *")
+    rows, steps = ffi.new("int64_t *"), ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h, input_range(c, loop.command)) if loop is not None else
            (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, 0.0, ffi.NULL,
             ffi.NULL, ffi.NULL, ffi.NULL))
@@ -525,7 +527,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
                         ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows, *ctl,
-                        ffi.from_buffer("double[]", seen), ffi.from_buffer("double[]", events))
+                        ffi.from_buffer("double[]", seen), ffi.from_buffer("double[]", events), steps)
     wall = time.perf_counter() - t0
     log = log[:rows[0]]
     res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method,
@@ -535,11 +537,10 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     if status == 2:                       # (a state sized for another step: not from simulate_circuit)
         raise HydrohilError(f"circuit {c.name!r}: the step {h} s is not the one its state's delay lines were sized "
                             "for (hc_init)")
-    if status != 0:
-        k = int(rows[0]) * every
+    if status != 0:                       # (the end of the failed step, whichever rows were logged)
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
-        raise SimulationDiverged(k * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
-                                 divergence_reason(cc, P, y))
+        raise SimulationDiverged(int(steps[0]) * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
+                                 divergence_reason(cc, P, y, status))
     res.units = signal_units(c, lay)
     _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
     if rest and warn_unheld and start is None and len(log) and not (isinstance(rest, Start) and (
@@ -736,9 +737,12 @@ def sensed_column(cc, loop: Loop, x: np.ndarray, every: int = 1) -> np.ndarray:
     return out
 
 
-def divergence_reason(cc, P: np.ndarray, y: np.ndarray) -> str:
-    """Why a run of ``cc`` stopped at state ``y``: the state outside its physical range (hc_unphysical, the
-    components' declared bounds: "cyl.x = 0.5 outside its physical range [-0.18, 0.36]"), or a state not finite."""
+def divergence_reason(cc, P: np.ndarray, y: np.ndarray, status: int) -> str:
+    """Why a run of ``cc`` stopped at state ``y`` with hc_run's or hc_step's ``status``: 4, the state outside its
+    physical range (hc_unphysical, the components' declared bounds: "cyl.x = 0.5 outside its physical range
+    [-0.18, 0.36]"); another, a state not finite."""
+    if status != 4:
+        return "a state is not finite"
     ffi = cc.ffi
     P = np.ascontiguousarray(P, dtype=float)
     y = np.ascontiguousarray(y, dtype=float)

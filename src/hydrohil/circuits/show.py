@@ -15,6 +15,11 @@ from hydrohil.circuits.build import compile_circuit
 from hydrohil.circuits.run import CircuitResult, input_unit, node_stiffness, simulate_circuit, state_bounds
 
 
+def _bound(v: float) -> float | None:
+    """A physical range's side for --json: None where it is open."""
+    return float(v) if math.isfinite(v) else None
+
+
 def default_duration(c: Circuit) -> float:
     """Long enough to see the default drive: its last change + 2 s (at least 2 s)."""
     last = max((float(d[0][-1]) for d in c.inputs.values() if isinstance(d, tuple)), default=0.0)
@@ -64,7 +69,8 @@ def describe(c: Circuit, *, h: float = 5e-4, method: str = "rk3", scenario=None)
     return {"name": c.name, "source": c.source, "step_s": h, "method": method,
             "stiffness_run": "the default drive" if scenario is None else f"the scenario {scenario.source}",
             "fluid": [{"key": k, "value": v} for k, v in c.fluid.items()], "components": comps, "nodes": nodes,
-            "states": [{"name": s, "unit": u, "range": [float(a), float(b)] if math.isfinite(a) else None}
+            "states": [{"name": s, "unit": u, "range": [_bound(a), _bound(b)]
+                        if math.isfinite(a) or math.isfinite(b) else None}          # (None: an open side)
                        for s, u, a, b in zip(lay.states, lay.state_units, lo, hi)],
             "modes": [{"name": m, "values": list(lay.mode_names[m])} for m in lay.modes],
             "guards": list(lay.guards), "delayed_inputs": list(lay.delayed),
@@ -118,8 +124,11 @@ def text(d: dict) -> str:
         else:
             out.append(f"  {n['name']:<14} pressure state, volume {n['volume_m3'] * 1e3:.4g} l, initially "
                        f"{n['initial_pa'] / 1e5:g} bar; stiffness {n['stiffness_per_s']:.4g} 1/s: {n['treatment']}")
-    out += ["", "states (a run stops outside a physical range): " + ", ".join(
-                f"{s['name']} [{s['unit']}]" + (f" in [{s['range'][0]:.4g}, {s['range'][1]:.4g}]" if s["range"] else "")
+    out += ["", "states (a fixed-step run stops outside a physical range): " + ", ".join(
+                f"{s['name']} [{s['unit']}]" + (" in [" + ", ".join("-inf" if i == 0 and v is None else "inf"
+                                                                    if v is None else f"{v:.4g}"
+                                                                    for i, v in enumerate(s["range"])) + "]"
+                                                 if s["range"] else "")
                 for s in d["states"]),
             "modes: " + (", ".join(f"{m['name']} ({'|'.join(m['values'])})" for m in d["modes"]) or "none"),
             "events located inside the step (guards): " + (", ".join(d["guards"]) or "none"),

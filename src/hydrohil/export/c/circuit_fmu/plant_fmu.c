@@ -138,8 +138,9 @@ int plant_do_step(plant *pl, double t, double dt)
         return PLANT_ERROR;
     n = (long long)floor((t + dt - pl->t0) / h + 1e-6) - (long long)pl->v.k;
     for (i = 0; i < n; i++) {
-        if (hc_step(pl->v.P, pl->v.y, pl->v.m, pl->v.u, CIRCUIT_METHOD, h) != 0) {
-            int64_t bad = hc_unphysical(pl->v.P, pl->v.y);   /* (0: a state not finite) */
+        int status = hc_step(pl->v.P, pl->v.y, pl->v.m, pl->v.u, CIRCUIT_METHOD, h);
+        if (status != 0) {
+            int64_t bad = status == 4 ? hc_unphysical(pl->v.P, pl->v.y) : 0;   /* (4: out of its range) */
             double lo[CIRCUIT_NSTATES + 1], hi[CIRCUIT_NSTATES + 1];   /* (+1: C has no empty arrays) */
             hc_state_bounds(pl->v.P, lo, hi);
             if (bad > 0)

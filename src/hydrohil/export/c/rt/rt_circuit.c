@@ -147,9 +147,9 @@ void model_take(plant *pl, const hhil_message *msg)
 }
 
 
-static void describe_divergence(plant *pl, double t)
+static void describe_divergence(plant *pl, double t, int status)
 {
-    int64_t bad = hc_unphysical(C.P, C.y);   /* (the state out of its physical range; 0: one not finite) */
+    int64_t bad = status == 4 ? hc_unphysical(C.P, C.y) : 0;   /* (4: the state out of its physical range) */
     double lo[CIRCUIT_NSTATES + 1], hi[CIRCUIT_NSTATES + 1];   /* (+1: C has no empty arrays) */
     char b[32], l[32], r[32];
     size_t n;
@@ -211,8 +211,9 @@ int model_step(plant *pl, int64_t k, int arrived, double *u)
                                            : hh_path_apply(&C.path, C.cmd[j], CIRCUIT_LO[j], CIRCUIT_HI[j], &saturated);
         C.saturated |= saturated;
     }
-    if (hc_step(C.P, C.y, C.m, C.u, CIRCUIT_METHOD, CIRCUIT_STEP) != 0) {
-        describe_divergence(pl, (double)(k + 1) * CIRCUIT_STEP);
+    int status = hc_step(C.P, C.y, C.m, C.u, CIRCUIT_METHOD, CIRCUIT_STEP);
+    if (status != 0) {
+        describe_divergence(pl, (double)(k + 1) * CIRCUIT_STEP, status);
         return -1;
     }
     row_now((double)(k + 1) * CIRCUIT_STEP);
