@@ -70,6 +70,39 @@ def test_the_law_reads_the_load_pressure_of_its_cylinder(tmp_path, converted):
         u[k] = np.clip(kp * e[k] - kpl * plf, -1.0, 1.0)
     assert np.max(np.abs(u - r.column("valve.command")[:-1])) < 1e-12
     assert np.max(np.abs(kpl * np.array(pl))) > 0.05          # (the pressures' share is no rounding: > 5 % of ū)
+    sensed = sorted(k for k in r.columns if k.endswith(".p.sensed"))
+    assert sensed == ["cap.p.sensed", "rod.p.sensed", "supply.p.sensed", "tank.p.sensed"]   # (the rig's four)
+    for name in sensed:                                       # the readings logged: the transducers' rule, here
+        assert np.array_equal(r.column(name), read(r.column(name[:-len(".sensed")]))), name
+        assert r.units[name] == "Pa"
+
+
+def test_the_noisy_readings_logged_are_what_the_law_read(tmp_path, converted):
+    """With 2 bar of transducer noise the log's cap.p.sensed and rod.p.sensed are what the law read: every
+    command is the law computed here from them (to 1e-12), their noise about the truth is 2 bar (sample
+    standard deviation within 5 %, 2001 draws each), and logged every 5th step they are the every-step run's
+    at those rows (the draws between rows kept)."""
+    path = _write(tmp_path, converted, [("duration = 6.0", "duration = 1.0"),
+                                        ("pressure_range = 25000000.0", "pressure_range = 25000000.0\n"
+                                                                        "pressure_noise = 2e5")])
+    cs, r = _run(path)
+    p = load_parameters("ferreira2004")
+    ratio, h, kp, kpl, tpl = p.cylinder.a2 / p.cylinder.a1, cs.step, 100.0, 2e-8, 0.05
+    pl = r.column("cap.p.sensed") - ratio * r.column("rod.p.sensed")
+    e = r.column("cyl.x.reference") - r.column("cyl.x.sensed")
+    u, plf = np.empty(len(pl) - 1), 0.0
+    for k in range(len(u)):
+        if k > 0:
+            plf = tpl / (tpl + h) * (plf + pl[k] - pl[k - 1])
+        u[k] = np.clip(kp * e[k] - kpl * plf, -1.0, 1.0)
+    assert np.max(np.abs(u - r.column("valve.command")[:-1])) < 1e-12
+    for node in ("cap", "rod"):
+        noise = r.column(f"{node}.p.sensed") - r.column(f"{node}.p")
+        assert abs(np.std(noise) / 2e5 - 1.0) < 0.05, np.std(noise)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sparse = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop, every=5)
+    assert np.array_equal(sparse.column("cap.p.sensed"), r.column("cap.p.sensed")[::5])
 
 
 def test_noisy_transducers_without_a_position_sensor(tmp_path, converted):

@@ -40,6 +40,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
 extern "Python" double hc_py_command(void *ctx, int64_t k, double sensed, double p1, double p2, double ps,
                                      double pt);
 void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out);
+void hc_pressures_rows(const double *v, int64_t rows, int64_t every, double *press, void *rng, double *out);
 double hc_sensed(double x, double *sensor, void *rng, int64_t k);
 void hc_sensed_rows(const double *x, int64_t rows, int64_t every, double *sensor, void *rng, double *out);
 int hc_step(const double *P, double *y, int64_t *m, const double *u, int method, double h);

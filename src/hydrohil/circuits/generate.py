@@ -822,6 +822,21 @@ void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, dou
     }}
 }}
 
+/* What the loop's transducers read of a run logged every `every` steps (rows v of NLOG columns): hc_pressures_read
+ * of each row into out (4 per row), the readings of the steps between rows (their noise draws, a fault's first
+ * reading) of the row's values too and not kept (exact when every row is logged). */
+void hc_pressures_rows(const double *v, int64_t rows, int64_t every, double *press, void *rng, double *out)
+{{
+    double skip[4];
+    int64_t i, j;
+    for (i = 0; i < rows; i++) {{
+        hc_pressures_read(v + i * NLOG, press, rng, i * every, out + 4 * i);
+        if (i + 1 < rows)
+            for (j = 1; j < every; j++)
+                hc_pressures_read(v + i * NLOG, press, rng, i * every + j, skip);
+    }}
+}}
+
 /* n steps of h with the core's tableau `method`; u: NU inputs per step (held over it), n + 1 rows (the last:
  * the last log row's, as the drive gives it at t_n); a row every `every` steps from step 0 (the state before
  * the step). Closed loop (ctl not NULL, the core's controller law,

@@ -721,6 +721,8 @@ def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, 
         if loop.sensor is not None:          # what the controller read (through the sensor: the C's hc_sensed)
             res.columns[f"{loop.measure}.sensed"] = sensed_column(cc, loop, res.columns[loop.measure], every)
             res.units[f"{loop.measure}.sensed"] = res.units.get(loop.measure, "-")
+        for name, column in pressures_sensed(cc, loop, res, every).items():   # (its transducers': Pa)
+            res.columns[name], res.units[name] = column, "Pa"
     return res
 
 
@@ -763,6 +765,25 @@ def state_bounds(cc, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     cc.lib.hc_state_bounds(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", lo),
                            ffi.from_buffer("double[]", hi))
     return lo, hi
+
+
+def pressures_sensed(cc, loop: Loop, res: CircuitResult, every: int = 1) -> dict[str, np.ndarray]:
+    """What the loop's pressure transducers read of the run ``res`` logged every ``every`` steps (a state
+    feedback's chambers, a user's controller's supply and tank: hc_pressures_read, its noise drawn again from
+    the seed, its faults acting): ``<node>.p.sensed`` per node read; none when the loop reads no pressure."""
+    if loop.pressures is None:
+        return {}
+    lay = cc.layout
+    reads = [*loop.pressures, *(col for _, col in loop.supply_tank)]
+    rows = np.ascontiguousarray(np.column_stack([res.columns[col] for col in lay.log_columns]), dtype=float)
+    out = np.empty((len(rows), 4))
+    generator = loop.streams()                     # (alive while the C draws from it)
+    _, rng = loop.sensor_args(cc, generator)
+    ffi = cc.ffi
+    cc.lib.hc_pressures_rows(ffi.from_buffer("double[]", rows), len(rows), every, loop.pressure_args(cc), rng,
+                             ffi.from_buffer("double[]", out))
+    slots = [0, 1, *(slot for slot, _ in loop.supply_tank)]
+    return {f"{col}.sensed": out[:, slot].copy() for slot, col in zip(slots, reads)}
 
 
 def input_range(c: Circuit, sig: str) -> tuple[float, float]:
