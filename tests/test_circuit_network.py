@@ -96,6 +96,7 @@ def test_network_faults_deliver_the_commands_by_their_rules(tmp_path):
     assert np.array_equal(applied[:-1], want)
     t = r.column("t")[:-1]
     assert t[dog][0] == pytest.approx(3.1 + TIMEOUT, abs=1e-9) and t[dog][-1] == pytest.approx(3.3 - H, abs=1e-9)
+    assert np.array_equal(r.column("watchdog")[:-1] > 0, dog) and r.units["watchdog"] == "-"   # (logged: these)
     window = (t >= 0.6) & (t < 1.2)
     assert 0.25 < np.mean(applied[:-1][window] != sent[:-1][window]) < 0.45   # (many commands repeat: quantised)
     assert r.units["valve.command.sent"] == "-"
@@ -118,6 +119,7 @@ def test_the_circuit_loses_delays_and_reorders_as_the_cores_rig(tmp_path):
     assert float(np.sqrt(np.mean((core.column("xp") - r.column("cyl.x")) ** 2))) < 4e-15
     _, dog = expected_applied(r.column("valve.command.sent")[:-1], r.column("valve.command")[0])
     assert dog.any() and np.array_equal(core.column("watchdog")[1:] > 0, dog)     # (its row k+1: after step k)
+    assert np.array_equal(core.column("watchdog")[1:] > 0, r.column("watchdog")[:-1] > 0)   # (the circuit's: k)
 
 
 def test_the_reference_takes_the_same_commands(tmp_path):
@@ -128,8 +130,9 @@ def test_the_reference_takes_the_same_commands(tmp_path):
     r = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop, method="reference")
     rk = simulate_circuit(cs.circuit, cs.duration, h=cs.step, loop=cs.loop)
     sent, applied = r.column("valve.command.sent"), r.column("valve.command")
-    want, _ = expected_applied(sent[:-1], applied[0])
+    want, dog = expected_applied(sent[:-1], applied[0])
     assert np.array_equal(applied[:-1], want)
+    assert np.array_equal(r.column("watchdog")[:-1] > 0, dog)
     assert float(np.sqrt(np.mean((r.column("cyl.x") - rk.column("cyl.x")) ** 2))) < 2e-6
 
 

@@ -825,6 +825,7 @@ def test_an_open_loops_commands_follow_the_command_paths_rule(tmp_path):
     assert u[n] == sent[n]
     for a, b in ((420, 0.05), (790, 0.3), (1030, -0.2), (1700, -0.15)):   # (each rule where the drive changed)
         assert u[a] == want[a] == b and sent[a] != b, a
+    assert np.array_equal(r.column("watchdog")[:n] > 0, ((k >= 1040) & (k < 1200))[:n])   # (its safe state, logged)
 
 
 @pytest.mark.parametrize("plant", ["python", "c"])

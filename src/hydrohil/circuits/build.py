@@ -36,7 +36,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
            double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
-           double *seen_log, double *events_log, int64_t *steps);
+           double *seen_log, double *events_log, double *watchdog_log, int64_t *steps);
 extern "Python" double hc_py_command(void *ctx, int64_t k, double sensed, double p1, double p2, double ps,
                                      double pt);
 void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out);

@@ -856,7 +856,8 @@ void hc_pressures_rows(const double *v, int64_t rows, int64_t every, double *pre
  * of the core's law; NaN: it failed (3 returned).
  * seen_log (not NULL): per row the ND delayed inputs of its step as the components see them (the last row's as
  * its line would give it); events_log (not NULL): per row the events located in the steps since the last row
- * (the core's log columns ud and events).
+ * (the core's log columns ud and events); watchdog_log (not NULL, with a path): per step (n + 1) 1 where the
+ * command path's watchdog held the loop's command in its safe state (the last step: the step before's).
  * Returns 0, or 1 when the state went non-finite, 2 when h is not the step the state was made for (hc_init), 3
  * when the command callback failed, 4 when a state left its physical range (hc_unphysical) (rows so far
  * written, *rows set; *steps (not NULL): the steps taken, the failed one included: its end is where the run
@@ -867,7 +868,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
            double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
-           double *seen_log, double *events_log, int64_t *steps)
+           double *seen_log, double *events_log, double *watchdog_log, int64_t *steps)
 {{
     double seen[NLOG], held = 0.0, events = 0.0;
     int64_t step, row = 0;
@@ -903,6 +904,8 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                     held = c;
                 c = hh_path_apply_held(pa, held, lo, hi, seen[meas], 0);
             }}
+            if (path && watchdog_log)     /* (the safe state that decided the step's command: link.c's) */
+                watchdog_log[step] = (double)((hh_path *)path)->link.active;
             uk[cmd] = c;
         }}
         if (step % every == 0) {{

@@ -217,6 +217,7 @@ class Loop:
     link: tuple = (0, WATCHDOG_TIMEOUT, 0.0)   # ([hil] seed, watchdog_timeout [s], hold_kp: > 0 the safe state
     #                                            "hold"'s gain): its faults' streams, the watchdog
     sent: np.ndarray | None = None      # the last run's commands as the controller sent them (network faults)
+    watchdog: np.ndarray | None = None  # ... and per step 1 where its command path's watchdog held the safe state
     # a state feedback's load pressure pL = p1 - area_ratio * p2 (the law's kpl, tpl): the log columns of its
     # cylinder's two chambers, A_b/A_a, and their transducers (full scale, resolution, noise [Pa]; full scale 0:
     # none); the supply's and the tank's pressures it reads too ((slot 2 or 3, log column)); the seed of the
@@ -445,12 +446,14 @@ class Commands:
         """The table ``u`` (a row per step, the drives as sent) with these inputs as the plant applies them
         through the command path at step ``h`` (their values before the first packet: ``start``'s), in place, for
         the steps before the last row (the last row's: its drive, as a loop's last row has the law's command);
-        returns what was sent (their columns of ``u`` before)."""
+        returns what was sent (their columns of ``u`` before) and per step 1 where the watchdog held the safe
+        state."""
         from hydrohil.circuits.network import CommandPath
         idx = [list(c.inputs).index(name) for name in self.inputs]
         sent = u[:, idx].copy()
+        dog = np.zeros(len(u))
         if not self.network:                 # (nothing on the way: every packet arrives, the watchdog silent)
-            return sent
+            return sent, dog
         seed, timeout, _ = self.link
         path = CommandPath(self.network, h, seed=seed, timeout=timeout, stride=1 + len(c.inputs))
         ranges = [c.input_param(name) for name in self.inputs]
@@ -462,9 +465,11 @@ class Commands:
                 packet[1 + j] = sent[k, i]
             if path.step(k, True):
                 held = [packet[1 + j] for j in idx]
+            dog[k] = float(path.link.active)
             for i, j in enumerate(idx):
                 u[k, j] = path.apply(held[i], ranges[i].lo, ranges[i].hi)
-        return sent
+        dog[-1] = dog[-2] if len(dog) > 1 else 0.0       # (the last row: no step; the step before's)
+        return sent, dog
 
 
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
@@ -513,10 +518,11 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                              f"{sizes[1]} and {sizes[2]} values", key="start")
     if loop is not None:                  # what the valve was held at: the command the controller's first
         u[0, lay.inputs.index(loop.command)] = u0[lay.inputs.index(loop.command)]   # measurement is made with
-    sent = commands.apply(c, u, h, u0) if commands is not None and loop is None and commands.network else None
+    sent, dog = (commands.apply(c, u, h, u0) if commands is not None and loop is None and commands.network
+                 else (None, None))
     if method == "reference":
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
-        return _with_drives(c, cc, res, u, every, loop, commands, sent)
+        return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)
     log = np.zeros((n // every + 1, len(lay.log_columns)))
     seen, events = np.zeros((len(log), max(len(lay.delayed), 1))), np.zeros(len(log))
     rows, steps = ffi.new("int64_t *"), ffi.new("int64_t *")
@@ -527,7 +533,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
                         ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows, *ctl,
-                        ffi.from_buffer("double[]", seen), ffi.from_buffer("double[]", events), steps)
+                        ffi.from_buffer("double[]", seen), ffi.from_buffer("double[]", events),
+                        ffi.from_buffer("double[]", loop.watchdog) if loop is not None and loop.watchdog is not None
+                        else ffi.NULL, steps)
     wall = time.perf_counter() - t0
     log = log[:rows[0]]
     res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method,
@@ -546,7 +554,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     if rest and warn_unheld and start is None and len(log) and not (isinstance(rest, Start) and (
             rest.pressures or rest.inputs)):       # (a start of the user's own: not the rest's to balance)
         _warn_unbalanced(c, res)
-    return _with_drives(c, cc, res, u, every, loop, commands, sent)
+    return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)
 
 
 class Hold(NamedTuple):
@@ -689,6 +697,7 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
     sensor, rng = loop.sensor_args(cc)
     path = loop.command_path(h)                                  # (its network faults: circuits/network.py)
     loop.sent = np.zeros(n + 1) if path is not None else None    # what the controller sent (the path's input)
+    loop.watchdog = np.zeros(n + 1) if path is not None else None
     press = loop.pressure_args(cc, h)                           # (a state feedback's load pressure)
     command = loop.command_callback(cc, ref, dref, h)            # (a user's controller, called back)
     loop._keep = (ref, dref, sensor, path, press, command)       # alive while hc_run reads them
@@ -700,7 +709,8 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
 
 
 def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None,
-                 commands: Commands | None = None, sent: np.ndarray | None = None) -> CircuitResult:
+                 commands: Commands | None = None, sent: np.ndarray | None = None,
+                 dog: np.ndarray | None = None) -> CircuitResult:
     """The run's inputs as columns (``valve.command``: what drove each step; closed loop: what the controller
     sent; an open loop's commands through network faults: what was sent, ``<input>.sent``) and the loop's
     reference (``<measure>.reference``)."""
@@ -715,6 +725,9 @@ def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, 
     if loop is not None and loop.sent is not None and len(loop.sent):   # (network faults: what was sent)
         res.columns[f"{loop.command}.sent"] = loop.sent[np.minimum(idx, len(loop.sent) - 1)]
         res.units[f"{loop.command}.sent"] = input_unit(c, loop.command)
+        dog = loop.watchdog
+    if dog is not None and len(dog):      # (a command path: 1 where its watchdog held the safe state)
+        res.columns["watchdog"], res.units["watchdog"] = dog[np.minimum(idx, len(dog) - 1)].copy(), "-"
     if loop is not None:
         res.columns[f"{loop.measure}.reference"] = loop.at(res.columns["t"], res.h)
         res.units[f"{loop.measure}.reference"] = res.units.get(loop.measure, "-")
@@ -823,6 +836,7 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         press = loop.pressure_args(cc, h)      # (its transducers, their faults' memory: this run's)
         path = loop.command_path(h)            # (its network faults: hc_run's rule, the same C)
         loop.sent = np.zeros(n + 1) if path is not None else None
+        loop.watchdog = np.zeros(n + 1) if path is not None else None
         (lo, hi), held = input_range(c, loop.command), [u[0, cmd]]
 
         def control(k, row):                   # (k = n: the last row's command, the law's, not sent)
@@ -836,6 +850,8 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
                 if path.step(k, True, row[meas]):
                     held[0] = path.packet[0]
                 u[k, cmd] = path.apply(held[0], lo, hi, row[meas])
+            if path is not None:
+                loop.watchdog[k] = float(path.link.active) if k < n else loop.watchdog[k - 1]
             if seen is not None:
                 u_seen[k] = seen(u[k])
 
