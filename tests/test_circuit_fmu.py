@@ -10,7 +10,6 @@ import sys
 import numpy as np
 import pytest
 
-fmpy = pytest.importorskip("fmpy")   # a test dependency ([test] extra): always there in CI
 from fmpy import extract  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 

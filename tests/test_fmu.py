@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-fmpy = pytest.importorskip("fmpy")   # a test dependency ([test] extra): always there in CI
 from fmpy import extract, read_model_description  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 

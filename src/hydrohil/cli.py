@@ -432,8 +432,9 @@ app.add_typer(circuit_app, name="circuit")
 
 
 @circuit_app.command("show")
-def circuit_show(circuit: Optional[str] = typer.Argument(None, help="built-in name (examples/circuits/NAME) or "
-                                                         "circuit TOML (or --scenario)"),
+def circuit_show(circuit: Optional[str] = typer.Argument(None, help="built-in name (an example circuit or a "
+                                                         "parameter set), circuit TOML or parameter file (or "
+                                                         "--scenario)"),
                  scenario: Optional[Path] = typer.Option(None, "--scenario", help="a scenario naming its circuit: "
                                                          "its [set], drives and loop (the stiffness over its run)"),
                  as_json: bool = typer.Option(False, "--json", help="print JSON"),
@@ -537,7 +538,8 @@ def _print_check(c: dict, path: Path) -> None:
 
 
 @circuit_app.command("run")
-def circuit_run(circuit: str = typer.Argument(..., help="built-in name (examples/circuits/NAME) or circuit TOML"),
+def circuit_run(circuit: str = typer.Argument(..., help="built-in name (an example circuit or a parameter set), "
+                                                      "circuit TOML or parameter file"),
                 out: Path = typer.Option(..., "--out", callback=out_folder, help="folder for log.csv and plot.png"),
                 duration: Optional[float] = typer.Option(None, "--duration", help="[s] (default: the inputs' "
                                                          "last change + 2 s)"),
