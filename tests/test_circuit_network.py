@@ -122,6 +122,25 @@ def test_the_circuit_loses_delays_and_reorders_as_the_cores_rig(tmp_path):
     assert np.array_equal(core.column("watchdog")[1:] > 0, r.column("watchdog")[:-1] > 0)   # (the circuit's: k)
 
 
+def test_a_scenarios_log_says_which_faults_act_as_the_rigs_does(tmp_path):
+    """A circuit scenario's run (run_circuit_scenario) logs ``faults``: bit i at the rows its fault i acts on,
+    start <= k*h < end — here computed from the four windows — and the core's rig logs the same column for the
+    same scenario (Fig 11 with the four network faults), row for row."""
+    from hydrohil.circuits.scenario import run_circuit_scenario
+    from hydrohil.simulation.run import run_scenario
+    from hydrohil.simulation.scenario import load_scenario
+    r, _ = run_circuit_scenario(load_circuit_scenario(paper_scenario(tmp_path)))
+    k = np.arange(len(r.column("t")))
+    windows = [(0.6, 1.2), (1.3, 1.8), (2.0, 2.6), (3.1, 3.3)]
+    want = sum(((k >= np.ceil(a / H - 1e-9)) & (k < np.ceil(b / H - 1e-9))).astype(int) << i
+               for i, (a, b) in enumerate(windows))
+    assert np.array_equal(r.column("faults"), want) and r.units["faults"] == "-" and set(want) == {0, 1, 2, 4, 8}
+    core_toml = (EXAMPLES / "fig11_p_control.toml").read_text().replace("duration = 6.0", "duration = 3.5")
+    (tmp_path / "core.toml").write_text(core_toml + FAULTS.replace('"10 ms"', "0.01"))
+    core = run_scenario(load_scenario(tmp_path / "core.toml"), engine="core")
+    assert np.array_equal(core.column("faults"), r.column("faults"))
+
+
 def test_the_reference_takes_the_same_commands(tmp_path):
     """The continuous reference's loop sends its commands through the same path: under the same faults its
     piston stays within 2 µm RMS of RK3's (measured 0.64 µm), and what reached its valve follows the rules

@@ -101,6 +101,20 @@ def _window(f: dict, where: str, source: str) -> tuple[float, float | None]:
     return start, end
 
 
+def active_faults(faults: list, h: float, rows: int, every: int = 1, source: str = "scenario"):
+    """Per log row (every ``every`` steps) the scenario's faults active at its step, bit i for its fault i (the
+    paper's rig's log column ``faults``): a fault's steps start <= k*h < end (network.fault_steps, the rig's
+    rule)."""
+    import numpy as np
+    from hydrohil.circuits.network import fault_steps
+    k = np.arange(rows, dtype=np.int64) * every
+    mask = np.zeros(rows, dtype=np.int64)
+    for i, f in enumerate(faults):
+        k0, k1 = fault_steps(*_window(f, f"faults[{i}]", source), h)
+        mask |= ((k >= k0) & (k < k1)).astype(np.int64) << i
+    return mask.astype(float)
+
+
 def windowed_drive(base, value, start: float, end: float | None) -> dict:
     """A held drive: ``base`` (a number, "<number> <unit>", or a held table {t, value}) with ``value`` over
     [start, end). ValueError for a table interpolated linearly (a value held over a window is no straight line)."""

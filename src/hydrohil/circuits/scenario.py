@@ -605,10 +605,14 @@ def _ports(body: dict) -> set[str]:
 def run_circuit_scenario(cs: CircuitScenario, progress=None):
     """The scenario's run (:func:`hydrohil.circuits.run.simulate_circuit`) and its summary: steps, step, solver,
     wall time of the run (not the compile, not the rest march) and real-time factor, the final value of every
-    column, the reference's solver statistics."""
+    column, the reference's solver statistics; with faults, the log's ``faults``: bit i where its fault i acts."""
     from hydrohil.circuits.run import simulate_circuit
     res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, rest=cs.rest,
                            progress=progress, loop=cs.loop, commands=cs.commands, compiled=cs.compiled)
+    if cs.faults:                            # which of its faults act at each row (the paper's rig's column)
+        from hydrohil.circuits.faults import active_faults
+        res.columns["faults"] = active_faults(cs.faults, cs.step, len(res.columns["t"]), cs.every, cs.source)
+        res.units["faults"] = "-"
     wall = res.wall
     final = {k: (res.mode_names[k][int(v[-1])] if k in res.mode_names else float(v[-1]))
              for k, v in res.columns.items() if k != "t"}
