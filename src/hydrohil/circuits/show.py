@@ -20,6 +20,14 @@ def _bound(v: float) -> float | None:
     return float(v) if math.isfinite(v) else None
 
 
+def _range_text(r: list | None) -> str:
+    """A state's physical range as text (" in [lo, hi]"; an open side: -inf or inf; none: "")."""
+    if r is None:
+        return ""
+    lo, hi = r
+    return f" in [{'-inf' if lo is None else f'{lo:.4g}'}, {'inf' if hi is None else f'{hi:.4g}'}]"
+
+
 def default_duration(c: Circuit) -> float:
     """Long enough to see the default drive: its last change + 2 s (at least 2 s)."""
     last = max((float(d[0][-1]) for d in c.inputs.values() if isinstance(d, tuple)), default=0.0)
@@ -125,11 +133,7 @@ def text(d: dict) -> str:
             out.append(f"  {n['name']:<14} pressure state, volume {n['volume_m3'] * 1e3:.4g} l, initially "
                        f"{n['initial_pa'] / 1e5:g} bar; stiffness {n['stiffness_per_s']:.4g} 1/s: {n['treatment']}")
     out += ["", "states (a fixed-step run stops outside a physical range): " + ", ".join(
-                f"{s['name']} [{s['unit']}]" + (" in [" + ", ".join("-inf" if i == 0 and v is None else "inf"
-                                                                    if v is None else f"{v:.4g}"
-                                                                    for i, v in enumerate(s["range"])) + "]"
-                                                 if s["range"] else "")
-                for s in d["states"]),
+                f"{s['name']} [{s['unit']}]{_range_text(s['range'])}" for s in d["states"]),
             "modes: " + (", ".join(f"{m['name']} ({'|'.join(m['values'])})" for m in d["modes"]) or "none"),
             "events located inside the step (guards): " + (", ".join(d["guards"]) or "none"),
             "inputs seen late (delay lines): " + (", ".join(d["delayed_inputs"]) or "none"),
