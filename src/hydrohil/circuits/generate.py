@@ -859,22 +859,31 @@ void hc_pressures_rows(const double *v, int64_t rows, int64_t every, double *pre
  * (the core's log columns ud and events); watchdog_log (not NULL, with a path): per step (n + 1) 1 where the
  * command path's watchdog held the loop's command in its safe state (the last step: the step before's).
  * Returns 0, or 1 when the state went non-finite, 2 when h is not the step the state was made for (hc_init), 3
- * when the command callback failed, 4 when a state left its physical range (hc_unphysical) (rows so far
- * written, *rows set; *steps (not NULL): the steps taken, the failed one included: its end is where the run
- * stopped). */
+ * when the command callback failed, 4 when a state left its physical range (hc_unphysical), 5 when the progress
+ * callback (not NULL: called with progress_ctx before every 4096th step, from step 0) returned non-zero (rows
+ * so far written, *rows set; *steps (not NULL): the steps taken, the failed one included: its end is where the
+ * run stopped). */
 typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, double p2, double ps, double pt);
+typedef int (*hc_progress_fn)(void *ctx, int64_t k);
 
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
            double *u, double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref,
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
            double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
-           double *seen_log, double *events_log, double *watchdog_log, int64_t *steps)
+           double *seen_log, double *events_log, double *watchdog_log, int64_t *steps, void *progress,
+           void *progress_ctx)
 {{
     double seen[NLOG], held = 0.0, events = 0.0;
     int64_t step, row = 0;
     int ev = 0;
     for (step = 0; step <= n; step++) {{
         double *uk = u + step * NU;
+        if (progress && (step & 4095) == 0 && ((hc_progress_fn)progress)(progress_ctx, step)) {{
+            *rows = row;                  /* (stopped from outside: a Ctrl-C in the progress callback) */
+            if (steps)
+                *steps = step;
+            return 5;
+        }}
         if (ctl || command) {{   /* it measures under the command last applied (step 0: as set) */
             double c, sensed, pr[4] = {{0.0, 0.0, NAN, NAN}};
             if (step > 0)

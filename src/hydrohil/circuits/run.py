@@ -39,6 +39,7 @@ class CircuitResult:
     wall: float = 0.0                   # [s] of the run itself (not the compile, not the rest march)
     stats: dict = field(default_factory=dict)   # the reference's: intervals, radau_fallbacks
     states: list = field(default_factory=list)  # the components' state columns ("cyl.x", "cyl.v", "motor.w")
+    watchdog: np.ndarray | None = None  # per step (not per row): 1 where a command path's watchdog held its safe state
 
     def column(self, name: str) -> np.ndarray:
         try:
@@ -482,7 +483,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     :class:`Start`: from an input's value before t = 0 and node pressures of a scenario's [start]). ``method``
     "reference": the continuous reference generated from
     the same description (:mod:`hydrohil.circuits.reference`), from the same state at rest (settled by RK3 at
-    ``h``), its log on the same grid; ``progress(step)`` is called now and then. Raises SimulationDiverged with
+    ``h``), its log on the same grid. ``progress(step)`` is called now and then (a fixed-step run: before every
+    4096th step); what it raises (a Ctrl-C) stops the run and is raised. Raises SimulationDiverged with
     the time, the modes and the state when a state leaves its physical range or the finite (the fixed-step
     solvers: checked after every step, hc_unphysical; the reference: where it leaves the finite or its solvers
     fail).
@@ -529,19 +531,32 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     ctl = (_loop_args(cc, lay, loop, n, h, input_range(c, loop.command)) if loop is not None else
            (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, 0.0, ffi.NULL,
             ffi.NULL, ffi.NULL, ffi.NULL))
+    stop: list = []                       # (what the progress callback raised: a Ctrl-C, raised once stopped)
+
+    def tick(k):
+        try:
+            progress(k)
+            return 0
+        except BaseException as exc:      # noqa: BLE001 - raised again once hc_run has stopped
+            stop.append(exc)
+            return 1
+    handle = ffi.new_handle(tick) if progress is not None else None
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
                         ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows, *ctl,
                         ffi.from_buffer("double[]", seen), ffi.from_buffer("double[]", events),
                         ffi.from_buffer("double[]", loop.watchdog) if loop is not None and loop.watchdog is not None
-                        else ffi.NULL, steps)
+                        else ffi.NULL, steps, lib.hc_py_progress if handle is not None else ffi.NULL,
+                        handle if handle is not None else ffi.NULL)
     wall = time.perf_counter() - t0
     log = log[:rows[0]]
     res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method,
                         wall, states=lay.states[len(c.state_nodes):])
     if status == 3:                       # (a user's controller failed: its error, with the time)
         raise loop.error
+    if status == 5:                       # (stopped by the progress callback: what it raised)
+        raise stop[0]
     if status == 2:                       # (a state sized for another step: not from simulate_circuit)
         raise HydrohilError(f"circuit {c.name!r}: the step {h} s is not the one its state's delay lines were sized "
                             "for (hc_init)")
@@ -728,6 +743,7 @@ def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, 
         dog = loop.watchdog
     if dog is not None and len(dog):      # (a command path: 1 where its watchdog held the safe state)
         res.columns["watchdog"], res.units["watchdog"] = dog[np.minimum(idx, len(dog) - 1)].copy(), "-"
+        res.watchdog = dog
     if loop is not None:
         res.columns[f"{loop.measure}.reference"] = loop.at(res.columns["t"], res.h)
         res.units[f"{loop.measure}.reference"] = res.units.get(loop.measure, "-")

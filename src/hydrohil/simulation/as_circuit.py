@@ -188,9 +188,14 @@ def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
                          **({"repeat": s.reference.repeat} if s.reference.repeat else {})}
 
 
-def _faults(s, p, src: str, notes: list[str]) -> list[dict]:
+def _faults(s, p, src: str, notes: list[str], reads: tuple | None = None) -> list[dict]:
     """The faults in a circuit scenario's terms; a loop's fault keeps its random stream, the rig's (``stream``:
-    its place in the rig's table, where the circuit's has another)."""
+    its place in the rig's table, where the circuit's has another). ``reads``: the sensors a loop reads (the
+    rig's names: position, p1, p2, ps, pt), their faults carried; None: the scenario's controller's."""
+    if reads is None:
+        reads = (("position",) if s.controller is not None else ()) + {
+            "state_feedback": ("p1", "p2"), "python": ("p1", "p2", "ps", "pt")}.get(
+            s.controller.type if s.controller is not None else None, ())
     out = []
     for i, f in enumerate(s.faults):
         where = f"faults[{i}]"
@@ -200,13 +205,11 @@ def _faults(s, p, src: str, notes: list[str]) -> list[dict]:
             out.append({**f.model_dump(exclude_none=True), **stream})
         elif f.type in SENSOR_FAULTS:
             sensor = getattr(f, "sensor", "position")
-            reads = {"state_feedback": ("p1", "p2"), "python": ("p1", "p2", "ps", "pt")}.get(
-                s.controller.type if s.controller is not None else None, ())
             body = {k: v for k, v in f.model_dump(exclude_none=True).items() if k != "sensor"}
-            if sensor in reads:               # (what the rig's controller reads: the loop's transducer of it)
+            if sensor in reads and sensor != "position":   # (what the rig's controller reads: its transducer)
                 out.append({**body, "signal": TRANSDUCERS[sensor], **stream})
                 continue
-            if sensor != "position" or s.controller is None:     # (only what the rig's log reports of it)
+            if sensor not in reads:           # (only what the rig's log reports of it)
                 notes.append(f"{where} ({f.type} on the {sensor} sensor): not carried: "
                              f"{'no loop reads it' if s.controller is None else 'the loop does not read it'}, so "
                              "it changes nothing in the run (the rig's log shows it in its reading)")
@@ -251,12 +254,61 @@ def circuit_scenario_of(ls):
                               circuit=circuit)
 
 
+def rig_instruments(ls):
+    """The paper's rig's sensors as a circuit's loop (:class:`~hydrohil.circuits.run.Loop`) that reads them all,
+    whatever the scenario's loop reads: the encoder on ``cyl.x`` (its count), the four transducers (the chambers,
+    the supply's and the tank's nodes: sensors.pressure_*, the noise the rig's stream, [hil] seed) and every
+    sensor fault of the scenario on its sensor (its stream the rig's). What the rig's log reports through them
+    (:func:`rig_columns`); the loop's law is not run."""
+    from hydrohil.circuits.scenario import scenario_from_dict
+    from hydrohil.models.sensors import count_size
+    s, p, src = ls.scenario, ls.params, ls.source
+    circuit, scen, _ = circuit_tables(ls)
+    table = {"type": "state_feedback", "kp": 1.0, "measure": "cyl.x", "command": "valve.command",
+             "sensor_resolution": count_size(p.sensors.encoder_resolution), "load_pressure": "cyl",
+             "supply_node": "supply", "tank_node": "tank", "pressure_range": p.sensors.pressure_range,
+             "pressure_resolution": p.sensors.pressure_resolution}
+    if p.sensors.pressure_noise > 0:
+        table.update(pressure_noise=p.sensors.pressure_noise, pressure_seed=s.hil.seed)
+    keep = {k: scen[k] for k in ("circuit", "duration", "solver", "hil") if k in scen}
+    keep.update(controller=table, reference={"t": [0.0], "value": [0.0]})
+    faults = _faults(s, p, src, [], reads=("position", *TRANSDUCERS))
+    if faults:
+        keep["faults"] = faults
+    return scenario_from_dict(keep, Path(src).parent, f"{src} (the rig's sensors)", circuit=circuit).loop
+
+
+def rig_columns(ls, res, compiled) -> dict[str, np.ndarray]:
+    """The rig's extra log columns (:data:`hydrohil.simulation.rig.RIG_COLUMNS`) of the generated run ``res`` of
+    the paper scenario ``ls`` (``compiled``: its circuit's code): what the rig's sensors reported
+    (:func:`rig_instruments`, their noise drawn again from the seeds), the faults active (bit i: the scenario's
+    fault i, the rig's rule start <= k*h < end) and the watchdog (1: its safe state held: as the rig's sensor
+    packet reports it at step k, held over step k - 1)."""
+    from hydrohil.circuits.faults import active_faults
+    from hydrohil.circuits.run import pressures_sensed, sensed_column
+    s = ls.scenario
+    every, rows = s.solver.output_every, len(res.columns["t"])
+    sensors = rig_instruments(ls)
+    pressures = pressures_sensed(compiled, sensors, res, every)
+    cols = {"faults": active_faults([f.model_dump(exclude_none=True) for f in s.faults], s.solver.step, rows, every,
+                                    str(ls.source)),
+            "x_meas": sensed_column(compiled, sensors, res.columns["cyl.x"], every),
+            **{f"{rig}_meas": pressures[f"{TRANSDUCERS[rig]}.sensed"] for rig in ("p1", "p2", "ps")},
+            "watchdog": np.zeros(rows)}
+    if res.watchdog is not None:             # (the packet of step k reports the safe state of step k - 1)
+        k = np.arange(rows) * every
+        cols["watchdog"] = np.where(k > 0, res.watchdog[np.clip(k - 1, 0, len(res.watchdog) - 1)], 0.0)
+    return cols
+
+
 def run_generated(ls, *, progress=None):
-    """``run_scenario``'s fixed-step run of the paper scenario ``ls`` (a drive or a built-in law, no fault, no
-    Python controller) on the code generated from its circuit (:func:`circuit_scenario_of`), from the core's
-    state at rest (``hh_initial_state``, SPEC §12.5: circuits.paper.paper_start), as the core's log
-    (circuits.paper.paper_log; ``extra["engine"]`` "generated"): the core's run bit for bit (tests;
-    benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record). None when the run diverges
+    """``run_scenario``'s fixed-step run of the paper scenario ``ls`` (a drive or a built-in law, its faults)
+    on the code generated from its circuit (:func:`circuit_scenario_of`), from the core's state at rest
+    (``hh_initial_state``, SPEC §12.5: circuits.paper.paper_start), as the core's log (circuits.paper.paper_log;
+    ``extra["engine"]`` "generated"; with faults the rig's columns too, :func:`rig_columns`): the core's run bit
+    for bit (tests; benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record), but for a
+    hose burst (the burst's flow beside the valve's edge to tank, not added to it: within 1.2e-15 of the peaks)
+    and a stuck spool (the spool's clamp in another order: 1.8e-15 of the spool's peak speed). None when the run diverges
     (a state non-finite, or outside the physical range the paper's components declare, the core's hh_diverged:
     run_scenario then gives the core's run, its log up to the step and its message) or the scenario has what a
     circuit does not take."""
@@ -290,4 +342,6 @@ def run_generated(ls, *, progress=None):
     except SimulationDiverged:                   # (non-finite, or outside the core's physical range: the paper's
         return None                              # components declare hh_diverged's bounds; run_scenario: the core's
                                                  # run, the same steps, and its message)
-    return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, extra={"engine": "generated"})
+    columns = rig_columns(ls, res, cs.compiled) if s.faults else {}     # (the rig's run's: run_rig's columns)
+    return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, extra={"engine": "generated"},
+                            columns=columns)

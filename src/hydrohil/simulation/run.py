@@ -21,21 +21,23 @@ ENGINES = ("generated", "core")
 def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated") -> SimulationResult:
     """Simulate a loaded scenario; returns the log (also when the run diverged: see ``.diverged``).
 
-    ``engine = "generated"`` (the default): a fixed-step run of a drive or a built-in law runs on the code
-    generated from the scenario's circuit (:func:`hydrohil.simulation.as_circuit.run_generated`: the core's log
-    bit for bit); ``"core"`` on the hand-written core. Runs with faults or a Python controller (the virtual
-    rig's) and the continuous reference run on the core either way."""
+    ``engine = "generated"`` (the default): a fixed-step run of a drive or a built-in law, with its faults, runs
+    on the code generated from the scenario's circuit (:func:`hydrohil.simulation.as_circuit.run_generated`: the
+    core's log and the rig's columns bit for bit, or within 2e-15 of the peaks, the reason stated there);
+    ``"core"`` on the hand-written core (with faults, the virtual rig's). A Python controller (the rig's: it reads
+    the rig's status bits) and the continuous reference run on the core either way."""
     if engine not in ENGINES:
         raise ValueError(f"engine: one of {', '.join(ENGINES)}, got {engine!r}")
     s, params = sc.scenario, sc.params
-    if s.faults or s.python_controller:          # a Python loop: the virtual rig's
-        from hydrohil.simulation.rig import run_rig
-        return run_rig(sc, progress=progress)
-    if engine == "generated" and s.solver.method != "reference":
+    fixed = s.solver.method != "reference"
+    if engine == "generated" and fixed and not s.python_controller:
         from hydrohil.simulation.as_circuit import run_generated
         res = run_generated(sc, progress=progress)
         if res is not None:
             return res                           # (None: it diverged; the core's run says where, below)
+    if s.faults or s.python_controller:          # the virtual rig's loop (its faults, a controller in Python)
+        from hydrohil.simulation.rig import run_rig
+        return run_rig(sc, progress=progress)
     h, n = s.solver.step, s.n_steps()
     p = pack(params)
     y, m = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
