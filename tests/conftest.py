@@ -64,8 +64,8 @@ def lockstep_equals_offline(scen, out, *args, steps: int):
     r = hh("hil", scen, "--out", out, "--lockstep", *args, timeout=600)
     assert r.returncode == 0, r.stderr
     log = read_csv_columns(Path(out) / "plant_log.csv")
-    off = run_scenario(load_scenario(scen), engine="core")   # (the paper's plants run the core: its code, its order
-    assert len(log["t"]) == len(off.log) == steps + 1          # of sums; a hose burst's differs at 1e-15 generated)
+    off = run_scenario(load_scenario(scen))      # (the generated code: the core's plants' run bit for bit)
+    assert len(log["t"]) == len(off.log) == steps + 1
     for c in ("xp", "p1", "p2", "xs"):
         assert np.array_equal(log[c], off.column(c)), c
     return log, off

@@ -393,20 +393,22 @@ def _emit_servo_valve(c):
 
     wear = c.par("wear")
 
-    def section(sign, coeffs):                    # (eq 3's section, plus the worn lands' leakage section)
-        return f"(hc_section({sign}{xc}, {coeffs}) + {wear})"
+    def section(sign, coeffs, burst=None):        # (eq 3's section, plus the worn lands' leakage section; an edge
+        s = f"(hc_section({sign}{xc}, {coeffs}) + {wear})"      # to tank, plus its line's burst hose: the core's)
+        return f"({s} + {c.par(burst)})" if burst else s
 
-    def edge(sign, coeffs, a, b, s=None):
-        return f"hc_sqrt_law({s or section(sign, coeffs)} * HH_LPM_PER_SQRT_BAR, {a} - {b}, {dpt})"
+    def edge(sign, coeffs, a, b, s=None, burst=None):
+        return f"hc_sqrt_law({s or section(sign, coeffs, burst)} * HH_LPM_PER_SQRT_BAR, {a} - {b}, {dpt})"
 
     def edge_flow(name, sign, coeffs, a, b):      # (its ports, flow, conductance, rate with the pressures held)
         dp, s = f"{c.p(a)} - {c.p(b)}", c.v(name)     # (its section once per right-hand side: flow and conductance)
         return (a, b, edge(sign, coeffs, c.p(a), c.p(b), s), f"hc_sqrt_law_slope({s} * HH_LPM_PER_SQRT_BAR, {dp}, {dpt})",
                 (f"hc_servo_edge_slope({sign}1, {x}, {coeffs}, {dp}, {dpt})", c.dx("x")))
-    qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T), "PB": edge("", k, P, B), "BT": edge("-", kt, B, T)}
+    qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T, burst="burst_a"), "PB": edge("", k, P, B),
+          "BT": edge("-", kt, B, T, burst="burst_b")}
     u = c.par("command")
-    return Emit(pre=[("s_pa", section("-", k)), ("s_at", section("", kt)), ("s_pb", section("", k)),
-                     ("s_bt", section("-", kt))],
+    return Emit(pre=[("s_pa", section("-", k)), ("s_at", section("", kt, "burst_a")), ("s_pb", section("", k)),
+                     ("s_bt", section("-", kt, "burst_b"))],
                 flows=[edge_flow("s_pa", "-", k, "P", "A"), edge_flow("s_at", "", kt, "A", "T"),
                        edge_flow("s_pb", "", k, "P", "B"), edge_flow("s_bt", "-", kt, "B", "T")],
                 delays=[("command", "delay")],
@@ -700,6 +702,9 @@ TYPES["servo_valve"] = ComponentType(
      "lv": Param("1/s", 0.0, 1e6, "spool velocity limit (normalised stroke; 0: a spool that cannot move, stuck)",
                  125.56),
      "wear": Param("-", 0.0, 10.0, f"worn lands: a leakage section added to each edge's [{_SECTION}]", 0.0),
+     **{f"burst_{port.lower()}": Param("-", 0.0, 100.0, f"a burst hose on the {port} line (a fault): its section to "
+                                        f"tank, added to the {port}->T edge's (its flow in q_{port.lower()}t) "
+                                        f"[{_SECTION}]", 0.0) for port in ("A", "B")},
      "delay": Param("s", 0.0, 0.1, "pure delay of a driven command (the core's delay line, SPEC §3.1)", 7.625e-4)},
     modes=("linear", "acc_limited", "vel_limited", "at_end"), inputs=("command",), states=(("x", "-"), ("v", "1/s")))
 

@@ -42,7 +42,7 @@ faults: sensor (pressure)  the same fault on the loop's transducer of it (``sign
 command_inversion          the same fault on the loop's commands
 spool_stuck                ``parameter`` on valve.lv = 0 (the spool's clamp at the step's start: stopped at once)
 valve_leakage              ``parameter`` on valve.wear (the worn lands' section on each edge)
-hose_burst                 ``leak`` from the line's chamber to tank, the orifice of the section's flow (eq 3's law)
+hose_burst                 ``parameter`` on valve.burst_a or burst_b (the line's section to tank, added to the edge's)
 supply_pressure            ``parameter`` on supply.pressure (at least the tank's)
 seal_wear                  ``parameter`` on cyl.leakage
 valve_bandwidth            ``parameter`` on valve.wn (its value times the factor)
@@ -55,13 +55,11 @@ closed loop's measured signal; an open loop's commands take "centre").
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
 from hydrohil.circuits.faults import NETWORK_FAULTS, SENSOR_FAULTS
-from hydrohil.circuits.library import FLUID
 from hydrohil.control import anchor_controller
 from hydrohil.errors import InputError
 
@@ -78,9 +76,7 @@ PARAMETER = {
 }
 # the rig's pressure sensors as the paper circuit's nodes (the loop's transducers of a state feedback, a Python law)
 TRANSDUCERS = {"p1": "cap.p", "p2": "rod.p", "ps": "supply.p", "pt": "tank.p"}
-CD = 0.61                                   # the leak orifice's discharge coefficient (a hose_burst's section)
 HIL_DROPPED = ("command_scale",)          # the wire's unit of the paper's rig: a circuit's inputs are SI
-LPM_PER_SQRT_BAR = 1.0 / 60000.0 / math.sqrt(1e5)   # (l/min)/sqrt(bar) in (m3/s)/sqrt(Pa) (hh.h's)
 
 
 def circuit_tables(ls) -> tuple[dict, dict, list[str]]:
@@ -215,14 +211,11 @@ def _faults(s, p, src: str, notes: list[str], reads: tuple | None = None) -> lis
                              "it changes nothing in the run (the rig's log shows it in its reading)")
                 continue
             out.append({**body, **stream})
-        elif f.type == "hose_burst":          # the rig's burst: its section to tank by eq 3's law (cylinder.c)
-            k = f.section * LPM_PER_SQRT_BAR        # [m3/s/sqrt(Pa)] = Cd*A*sqrt(2/rho)
-            area = k / (CD * math.sqrt(2.0 / FLUID["density"].default))
-            node = ("cap", "rod")[f.line - 1]
-            out.append({"type": "leak", "orifice": "burst", "node": node, "area": area, "discharge_coefficient": CD,
-                        "transition_pressure": p.valve.dp_laminar, **window})
-            notes.append(f"{where} (hose_burst): a leak of {area * 1e6:.4g} mm2 from {node} to tank (the flow of "
-                         "its section; the rig adds it to the valve's edge to tank, a circuit beside it)")
+        elif f.type == "hose_burst":          # the rig's burst: its section added to its line's edge to tank
+            target = f"valve.burst_{'ab'[f.line - 1]}"             # (cylinder.c: the core's sum, bit for bit)
+            out.append({"type": "parameter", "target": target, "value": f.section, **window})
+            notes.append(f"{where} (hose_burst): a parameter fault on {target} (its section to tank beside the "
+                         f"valve's edge, as the rig's)")
         else:
             given = [(k, t, v) for k, t, v in PARAMETER[f.type] if k is None or getattr(f, k) is not None]
             for key, target, value in given:
@@ -301,14 +294,15 @@ def rig_columns(ls, res, compiled) -> dict[str, np.ndarray]:
     return cols
 
 
-def run_generated(ls, *, progress=None):
+def run_generated(ls, *, progress=None, rig: bool = False):
     """``run_scenario``'s fixed-step run of the paper scenario ``ls`` (a drive or a built-in law, its faults)
     on the code generated from its circuit (:func:`circuit_scenario_of`), from the core's state at rest
     (``hh_initial_state``, SPEC §12.5: circuits.paper.paper_start), as the core's log (circuits.paper.paper_log;
-    ``extra["engine"]`` "generated"; with faults the rig's columns too, :func:`rig_columns`): the core's run bit
-    for bit (tests; benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record), but for a
-    hose burst (the burst's flow beside the valve's edge to tank, not added to it: within 1.2e-15 of the peaks)
-    and a stuck spool (the spool's clamp in another order: 1.8e-15 of the spool's peak speed). None when the run diverges
+    ``extra["engine"]`` "generated"; with faults or ``rig`` the rig's columns too, :func:`rig_columns`): the
+    core's run bit for bit (tests: every example, the 17 fault examples but for one value of the stuck spool's,
+    its speed in the jam's first row, 2.3e-13 1/s where the core logs 0: the circuit clamps it at the step's
+    start, after the row; benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record). None
+    when the run diverges
     (a state non-finite, or outside the physical range the paper's components declare, the core's hh_diverged:
     run_scenario then gives the core's run, its log up to the step and its message) or the scenario has what a
     circuit does not take."""
@@ -342,6 +336,7 @@ def run_generated(ls, *, progress=None):
     except SimulationDiverged:                   # (non-finite, or outside the core's physical range: the paper's
         return None                              # components declare hh_diverged's bounds; run_scenario: the core's
                                                  # run, the same steps, and its message)
-    columns = rig_columns(ls, res, cs.compiled) if s.faults else {}     # (the rig's run's: run_rig's columns)
+    columns = rig_columns(ls, res, cs.compiled) if s.faults or rig else {}     # (run_rig's columns: ``rig``,
+    #                                                                                  or a run with faults)
     return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, extra={"engine": "generated"},
                             columns=columns)

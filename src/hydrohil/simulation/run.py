@@ -23,7 +23,7 @@ def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated"
 
     ``engine = "generated"`` (the default): a fixed-step run of a drive or a built-in law, with its faults, runs
     on the code generated from the scenario's circuit (:func:`hydrohil.simulation.as_circuit.run_generated`: the
-    core's log and the rig's columns bit for bit, or within 2e-15 of the peaks, the reason stated there);
+    core's log and the rig's columns bit for bit, but for a stuck spool's speed in its first row, said there);
     ``"core"`` on the hand-written core (with faults, the virtual rig's). A Python controller (the rig's: it reads
     the rig's status bits) and the continuous reference run on the core either way."""
     if engine not in ENGINES:
