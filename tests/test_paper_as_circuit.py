@@ -886,7 +886,7 @@ def test_the_panel_does_not_hold_an_open_loops_command(tmp_path):
     assert e.value.key == "valve.command"
 
 
-PLAIN = [p for p in PAPER_SCENARIOS if not p.startswith("faults/") and "python" not in p and "c_controller" not in p]
+PLAIN = [p for p in PAPER_SCENARIOS if not p.startswith("faults/") and "c_controller" not in p]
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=() if p in FAST else pytest.mark.slow) for p in PLAIN])
@@ -951,13 +951,53 @@ def test_the_rigs_watchdog_column_reports_the_safe_state_of_the_step_before(tmp_
     assert on[-1] < 1.5 + 8 * h and len(on) > 100
 
 
-def test_a_python_controller_runs_on_the_rig(tmp_path):
-    """A controller in Python reads the rig's status bits (watchdog, end stops, stick, faults): its run stays on
-    the core's rig (no ``engine`` said)."""
+RECORDER = '''
+RUNS = []
+
+
+class Recorder:
+    """A P law whose command carries its status bits (a wrong bit changes the run); it records them."""
+
+    def __init__(self, kp=50.0):
+        self.kp, self.seen = kp, []
+        RUNS.append(self.seen)
+
+    def __call__(self, m):
+        self.seen.append(m.status)
+        return max(-1.0, min(1.0, self.kp * (m.x_ref - m.x) + 1e-4 * (m.status % 2048)))
+'''
+
+
+def test_a_python_controller_reads_the_rigs_status_bits_on_the_generated_code(tmp_path):
+    """A Python controller of a paper scenario runs on the generated code (run_scenario's default) and reads,
+    at every step, the status bits the core's rig gives it: watchdog (a silent controller), at the retract and
+    extend stops (a reference beyond both), stick, saturated (transducers of 62 bar full scale on a 60 bar
+    supply) and fault injected; the same bits at all 8001 steps, each of them set somewhere, and the run the
+    core's bit for bit, its rig columns too."""
+    import sys
+    from hydrohil.core.shape import STATUS
+    (tmp_path / "rec.py").write_text(RECORDER)
+    f = tmp_path / "s.toml"
+    f.write_text('params = "ferreira2004"\nduration = 4.0\n[overrides]\n"supply.ps" = 6e6\n'
+                 '"sensors.pressure_range" = 6.2e6\n[solver]\nstep = 5e-4\n[initial]\nxp = 0.03\n[controller]\n'
+                 'type = "python"\ncallable = "rec.py:Recorder"\n[reference]\ntype = "table"\n'
+                 't = [0.0, 0.3, 1.2, 2.0, 2.6, 4.0]\nx = [0.03, 0.03, 0.19, 0.19, -0.01, -0.01]\n'
+                 '[[faults]]\ntype = "controller_silence"\nstart = 2.1\nend = 2.3\n'
+                 '[[faults]]\ntype = "sensor_offset"\nsensor = "p1"\noffset = 2e5\nstart = 3.0\nend = 3.5\n')
+    seen = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = run_scenario(load_scenario(EXAMPLES / "controllers" / "fig11_python_pi.toml"))
-    assert res.extra == {} and "x_meas" in res.columns
+        for engine in ("core", "generated"):
+            res = run_scenario(load_scenario(f), engine=engine)
+            seen[engine] = (res, np.array(sys.modules["hydrohil_user_rec"].RUNS[-1]))
+    (core, a), (gen, b) = seen["core"], seen["generated"]
+    assert gen.extra == {"engine": "generated"} and core.extra == {}
+    assert len(a) == len(b) == 8001 and np.array_equal(a, b)
+    for name in ("watchdog", "at_retract", "at_extend", "stick", "saturated", "fault_injected"):
+        bit = 1 << next(s.bit for s in STATUS if s.name == name)
+        assert 0 < np.count_nonzero(a & bit) < len(a), name
+    assert np.array_equal(gen.log, core.log)
+    assert all(np.array_equal(gen.columns[k], core.columns[k]) for k in core.columns)
 
 
 def test_a_diverging_run_on_the_generated_code_says_what_the_cores_says(tmp_path):

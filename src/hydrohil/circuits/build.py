@@ -38,10 +38,10 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
            double *seen_log, double *events_log, double *watchdog_log, int64_t *steps, void *progress,
            void *progress_ctx);
-extern "Python" double hc_py_command(void *ctx, int64_t k, double sensed, double p1, double p2, double ps,
-                                     double pt);
+extern "Python" double hc_py_command(void *ctx, int64_t k, const double *row, double sensed, double p1, double p2,
+                                     double ps, double pt, int saturated);
 extern "Python" int hc_py_progress(void *ctx, int64_t k);
-void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out);
+int hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out);
 void hc_pressures_rows(const double *v, int64_t rows, int64_t every, double *press, void *rng, double *out);
 double hc_sensed(double x, double *sensor, void *rng, int64_t k);
 void hc_sensed_rows(const double *x, int64_t rows, int64_t every, double *sensor, void *rng, double *out);
@@ -65,10 +65,11 @@ class CompiledCircuit:
 def _python_command(ffi) -> None:
     """hc_run's callbacks (a user's controller; the progress) compiled into the module (cffi's extern "Python": no code
     written at run time, so it works where memory is never both writable and executable): ``ctx`` the handle of
-    a Python callable (k, sensed, p1, p2, ps, pt) -> the command; what it raises is the callable's to keep (NaN)."""
+    a Python callable (k, the log row of step k (a C pointer), sensed, p1, p2, ps, pt, saturated) -> the
+    command; what it raises is the callable's to keep (NaN)."""
     @ffi.def_extern(name="hc_py_command")
-    def hc_py_command(ctx, k, sensed, p1, p2, ps, pt):
-        return ffi.from_handle(ctx)(int(k), sensed, p1, p2, ps, pt)
+    def hc_py_command(ctx, k, row, sensed, p1, p2, ps, pt, saturated):
+        return ffi.from_handle(ctx)(int(k), row, sensed, p1, p2, ps, pt, saturated)
 
     @ffi.def_extern(name="hc_py_progress")
     def hc_py_progress(ctx, k):               # (hc_run's progress: a callable (k) -> nonzero to stop)

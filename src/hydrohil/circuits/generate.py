@@ -793,14 +793,15 @@ HC_STEP_CODE static int method_step(int method, double h, double *y, int64_t *m,
  * (type as hc_sensed's, first step, step after the last, a, b, start [s], slot, its stream's place in rng,
  * memory) acts on the steps k_first <= k < k_end on the pressure of its slot before the transducer, the faults
  * of a slot in their order (the rig's, rig.c: sense): an offset a + drift b*(t - start), an added noise of
- * standard deviation a, stuck at its first step's value (memory; NaN until then and after), a dropout (0). */
+ * standard deviation a, stuck at its first step's value (memory; NaN until then and after), a dropout (0).
+ * Returns 1 when a transducer's reading was clipped to its range (the rig's SATURATED), else 0. */
 enum {{ HC_PRESS_HEAD = 7, HC_PRESS_FAULT = 9 }};
 
-void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out)
+int hc_pressures_read(const double *v, double *press, void *rng, int64_t k, double *out)
 {{
     hh_rng *r = (hh_rng *)rng;
     double z[4] = {{0.0, 0.0, 0.0, 0.0}}, t = (double)k * press[5], *faults;
-    int i, f, n = (int)press[0], nf = (int)press[6], saturated;
+    int i, f, n = (int)press[0], nf = (int)press[6], saturated = 0, any = 0;
     faults = press + HC_PRESS_HEAD + 2 * n;
     for (i = 0; i < 4; i++)
         out[i] = NAN;
@@ -819,7 +820,9 @@ void hc_pressures_read(const double *v, double *press, void *rng, int64_t k, dou
                 p = sensor_fault(p, F, t, &F[8], r ? &r[(int)F[7]] : 0);
         }}
         out[slot] = press[1] > 0.0 ? pressure_reading(p, press[1], press[2], press[3] * z[i], &saturated) : p;
+        any |= saturated;
     }}
+    return any;
 }}
 
 /* What the loop's transducers read of a run logged every `every` steps (rows v of NLOG columns): hc_pressures_read
@@ -852,8 +855,8 @@ void hc_pressures_rows(const double *v, int64_t rows, int64_t every, double *pre
  * NULL, n + 1 of them): what the controller sent for step k (sent[n]: the last row's, not sent). press (not NULL: a loop reading its load cylinder's chambers,
  * and the supply's and the tank's pressures when it names them; hc_pressures_read's table): the law reads the
  * chambers as read too. command (not NULL, ctl NULL: a user's controller, called back with command_ctx) gives
- * step k's command from the signal as sensed and the pressures as read (p1, p2, ps, pt; NaN: not read) in place
- * of the core's law; NaN: it failed (3 returned).
+ * step k's command from the log row of step k, the signal as sensed and the pressures as read (p1, p2, ps, pt;
+ * NaN: not read; saturated: one was clipped) in place of the core's law; NaN: it failed (3 returned).
  * seen_log (not NULL): per row the ND delayed inputs of its step as the components see them (the last row's as
  * its line would give it); events_log (not NULL): per row the events located in the steps since the last row
  * (the core's log columns ud and events); watchdog_log (not NULL, with a path): per step (n + 1) 1 where the
@@ -863,7 +866,8 @@ void hc_pressures_rows(const double *v, int64_t rows, int64_t every, double *pre
  * callback (not NULL: called with progress_ctx before every 4096th step, from step 0) returned non-zero (rows
  * so far written, *rows set; *steps (not NULL): the steps taken, the failed one included: its end is where the
  * run stopped). */
-typedef double (*hc_command_fn)(void *ctx, int64_t k, double sensed, double p1, double p2, double ps, double pt);
+typedef double (*hc_command_fn)(void *ctx, int64_t k, const double *row, double sensed, double p1, double p2,
+                                double ps, double pt, int saturated);
 typedef int (*hc_progress_fn)(void *ctx, int64_t k);
 
 int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t n, int64_t every,
@@ -886,6 +890,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
         }}
         if (ctl || command) {{   /* it measures under the command last applied (step 0: as set) */
             double c, sensed, pr[4] = {{0.0, 0.0, NAN, NAN}};
+            int saturated = 0;
             if (step > 0)
                 uk[cmd] = uk[cmd - NU];
             else
@@ -893,9 +898,9 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             log_row((double)step * h, y, m, uk, P, seen);
             sensed = hc_sensed(seen[meas], sensor, rng, step);
             if (press)
-                hc_pressures_read(seen, press, rng, step, pr);
+                saturated = hc_pressures_read(seen, press, rng, step, pr);
             if (command) {{
-                c = ((hc_command_fn)command)(command_ctx, step, sensed, pr[0], pr[1], pr[2], pr[3]);
+                c = ((hc_command_fn)command)(command_ctx, step, seen, sensed, pr[0], pr[1], pr[2], pr[3], saturated);
                 if (c != c) {{
                     *rows = row;
                     if (steps)

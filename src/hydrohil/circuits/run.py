@@ -231,6 +231,10 @@ class Loop:
     pressure_seed: int | None = None
     pressure_faults: list = field(default_factory=list)   # (type, start, end, a, b, slot, transducer slot): faults.py
     base: object = None                 # a user's controller (cfg.type "python"): the folder its module is in
+    # the status bits a user's controller reads (Measurement.status): a function (k, the log row of step k, 1 when
+    # a transducer's reading was clipped, the command path or None) -> int; None: 0 (a paper scenario's: the
+    # rig's bits, simulation/as_circuit.py)
+    status: object = None
     source: str | None = None           # (the scenario, named by its errors)
 
     @property
@@ -243,33 +247,35 @@ class Loop:
             self.sensor = (*self.sensor, 0.0)
 
     def update(self, ref: float, dref: float, sensed: float, p1: float = 0.0, p2: float = 0.0,
-               t: float = 0.0, ps: float = math.nan, pt: float = math.nan) -> float:
+               t: float = 0.0, ps: float = math.nan, pt: float = math.nan, status: int = 0) -> float:
         """The law's command for the reference (and slope) and the signal as sensed, as the generated loop
         computes it (hc_run: the law on sign·ref, sign·dref, sign·signal; a state feedback's chamber pressures
         p1, p2 as read, :meth:`read_pressures`). A user's controller is called with a
         :class:`hydrohil.control.Measurement` at the plant's time ``t`` (x: the signal as sensed; p1, p2: the
         chambers of ``load_pressure`` as read, else 0; ps, pt: the supply's and the tank's nodes as read where
-        the loop names them, else NaN), its command kept in the loop's limits; one that raises or returns no
-        finite number stops the run (ControllerError naming the time)."""
+        the loop names them, else NaN; status: its bits, :attr:`status`), its command kept in the loop's limits;
+        one that raises or returns no finite number stops the run (ControllerError naming the time)."""
         if self.python:
             u = call_controller(self.controller, Measurement(float(t), float(ref), float(dref), float(sensed),
-                                                             float(p1), float(p2), float(ps), float(pt), 0))
+                                                             float(p1), float(p2), float(ps), float(pt), int(status)))
             return min(max(u, self.limits[0]), self.limits[1])
         s = self.sign
         return self.controller.update(s * ref, s * dref, s * sensed, p1, p2)
 
-    def command_callback(self, cc, ref, dref, h: float):
+    def command_callback(self, cc, ref, dref, h: float, path=None):
         """hc_run's ``command`` and ``command_ctx`` for a user's controller (NULLs for the core's law): the
         module's compiled callback (build.py: hc_py_command) and the handle of the function that gives step k's
-        command from the signal as sensed and the chambers as read (:meth:`update`); what it raises is kept in
-        ``self.error`` and NaN returned (hc_run stops, 3). Keep the pair alive while hc_run runs."""
+        command from the signal as sensed and the chambers as read (:meth:`update`; its status bits
+        :attr:`status`'s, of the step's row and the command ``path``); what it raises is kept in ``self.error``
+        and NaN returned (hc_run stops, 3). Keep the pair alive while hc_run runs."""
         if not self.python:
             return cc.ffi.NULL, cc.ffi.NULL
         self.error = None
 
-        def command(k, sensed, p1, p2, ps, pt):
+        def command(k, row, sensed, p1, p2, ps, pt, saturated):
             try:
-                return self.update(ref[k], dref[k], sensed, p1, p2, t=k * h, ps=ps, pt=pt)
+                st = self.status(k, row, saturated, path) if self.status is not None else 0
+                return self.update(ref[k], dref[k], sensed, p1, p2, t=k * h, ps=ps, pt=pt, status=st)
             except BaseException as exc:     # noqa: BLE001 - raised again once hc_run has stopped
                 self.error = exc
                 return math.nan
@@ -318,13 +324,15 @@ class Loop:
         """(p1, p2, ps, pt) as the loop reads them from the log row ``row`` of step ``k`` (the generated C's
         hc_pressures_read, hc_run's rule; its noise from ``rng``, :meth:`sensor_args`' generators; ``press``: the
         run's :meth:`pressure_args`, whose memory its faults keep from step to step, default a fresh one): (0, 0,
-        NaN, NaN) when it reads no pressure, NaN for the supply or the tank it does not read."""
+        NaN, NaN) when it reads no pressure, NaN for the supply or the tank it does not read; ``self.saturated``: 1
+        when a reading was clipped to its range."""
+        self.saturated = 0
         if self.pressures is None:
             return 0.0, 0.0, math.nan, math.nan
         out = cc.ffi.new("double[4]")
-        cc.lib.hc_pressures_read(cc.ffi.from_buffer("double[]", np.ascontiguousarray(row, dtype=float)),
-                                 self.pressure_args(cc) if press is None else press,
-                                 cc.ffi.NULL if rng is None else rng, int(k), out)
+        self.saturated = cc.lib.hc_pressures_read(cc.ffi.from_buffer("double[]", np.ascontiguousarray(row, dtype=float)),
+                                                  self.pressure_args(cc) if press is None else press,
+                                                  cc.ffi.NULL if rng is None else rng, int(k), out)
         return tuple(out)
 
     def start(self, h: float) -> None:
@@ -714,7 +722,7 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
     loop.sent = np.zeros(n + 1) if path is not None else None    # what the controller sent (the path's input)
     loop.watchdog = np.zeros(n + 1) if path is not None else None
     press = loop.pressure_args(cc, h)                           # (a state feedback's load pressure)
-    command = loop.command_callback(cc, ref, dref, h)            # (a user's controller, called back)
+    command = loop.command_callback(cc, ref, dref, h, path)      # (a user's controller, called back)
     loop._keep = (ref, dref, sensor, path, press, command)       # alive while hc_run reads them
     law = (ffi.NULL, ffi.NULL) if loop.python else (addr(loop.controller.c), addr(loop.controller.state))
     return (*law, ffi.from_buffer("double[]", ref),
@@ -858,7 +866,8 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
         def control(k, row):                   # (k = n: the last row's command, the law's, not sent)
             sensed = cc.lib.hc_sensed(row[meas], sensor, rng, k)
             p1, p2, ps, pt = loop.read_pressures(cc, row, rng, k, press)
-            u[k, cmd] = loop.update(ref[k], dref[k], sensed, p1, p2, t=k * h, ps=ps, pt=pt)
+            st = loop.status(k, row, loop.saturated, path) if loop.status is not None else 0
+            u[k, cmd] = loop.update(ref[k], dref[k], sensed, p1, p2, t=k * h, ps=ps, pt=pt, status=st)
             if path is not None:
                 loop.sent[k] = u[k, cmd]
             if path is not None and k < n:

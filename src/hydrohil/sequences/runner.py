@@ -100,11 +100,11 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
     error = verdict = None
     cols = None
     try:
-        if mode == "offline":              # (a built-in law: the generated code; a Python one: the rig's)
+        if mode == "offline":              # (the generated code; a callable passed in: the rig's)
             from hydrohil.simulation.as_circuit import run_generated
             from hydrohil.simulation.rig import run_rig
             res = None
-            if controller is None and not s.python_controller and s.solver.method != "reference":
+            if controller is None and s.solver.method != "reference":
                 res = run_generated(sc, progress=progress, rig=True)
             if res is None:                 # (diverged: the rig's run says where)
                 res = run_rig(sc, controller=controller, progress=progress)

@@ -294,11 +294,39 @@ def rig_columns(ls, res, compiled) -> dict[str, np.ndarray]:
     return cols
 
 
+def rig_status(ls, compiled):
+    """The rig's status bits as its controller reads them at each step (rig.c: the sensor packet's; core/shape.py
+    STATUS), for a Python controller of the paper scenario ``ls`` on the generated code of its circuit
+    (``compiled``): a function (k, the log row of step k, 1 when a transducer's reading was clipped, the command
+    path or None) -> the bits at_retract, at_extend and stick of the cylinder's mode in the row (at a stop the
+    core's friction is stick: circuits.paper.CYL_MODE), saturated, watchdog (the path's safe state held), and
+    fault_injected (a fault of the scenario active at step k, the rig's rule start <= k*h < end)."""
+    from hydrohil.circuits.network import fault_steps
+    from hydrohil.circuits.paper import CYL_MODE
+    from hydrohil.core.shape import STATUS
+    bit = {b.name: 1 << b.bit for b in STATUS}
+    lay, h = compiled.layout, ls.scenario.solver.step
+    col = lay.log_columns.index("cyl.mode")
+    of_mode = [(bit["at_retract"] if travel == "at_retract_stop" else bit["at_extend"] if travel == "at_extend_stop"
+                else 0) | (bit["stick"] if friction == "stick" else 0)
+               for travel, friction in (CYL_MODE[name] for name in lay.mode_names["cyl.mode"])]
+    windows = [fault_steps(f.start, f.end, h) for f in ls.scenario.faults]
+
+    def status(k, row, saturated, path):
+        st = of_mode[int(row[col])] | (bit["saturated"] if saturated else 0)
+        if path is not None and path.link.active:
+            st |= bit["watchdog"]
+        if any(k0 <= k < k1 for k0, k1 in windows):
+            st |= bit["fault_injected"]
+        return st
+    return status
+
+
 def run_generated(ls, *, progress=None, rig: bool = False):
-    """``run_scenario``'s fixed-step run of the paper scenario ``ls`` (a drive or a built-in law, its faults)
-    on the code generated from its circuit (:func:`circuit_scenario_of`), from the core's state at rest
+    """``run_scenario``'s fixed-step run of the paper scenario ``ls`` (a drive, a built-in law or a Python
+    controller reading the rig's status bits, :func:`rig_status`; its faults) on the code generated from its circuit (:func:`circuit_scenario_of`), from the core's state at rest
     (``hh_initial_state``, SPEC §12.5: circuits.paper.paper_start), as the core's log (circuits.paper.paper_log;
-    ``extra["engine"]`` "generated"; with faults or ``rig`` the rig's columns too, :func:`rig_columns`): the
+    ``extra["engine"]`` "generated"; with faults, a Python controller or ``rig`` the rig's columns too, :func:`rig_columns`): the
     core's run bit for bit (tests: every example, the 17 fault examples but for one value of the stuck spool's,
     its speed in the jam's first row, 2.3e-13 1/s where the core logs 0: the circuit clamps it at the step's
     start, after the row; benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record). None
@@ -329,6 +357,8 @@ def run_generated(ls, *, progress=None, rig: bool = False):
             cs = circuit_scenario_of(ls)
         except InputError:                       # (what a circuit does not take: a table from before 0)
             return None
+    if s.python_controller:                      # (it reads the rig's status bits)
+        cs.loop.status = rig_status(ls, cs.compiled)
     try:
         res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, loop=cs.loop,
                                commands=cs.commands, start=paper_start(cs.circuit, row, cs.step, compiled=cs.compiled),
@@ -336,7 +366,7 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     except SimulationDiverged:                   # (non-finite, or outside the core's physical range: the paper's
         return None                              # components declare hh_diverged's bounds; run_scenario: the core's
                                                  # run, the same steps, and its message)
-    columns = rig_columns(ls, res, cs.compiled) if s.faults or rig else {}     # (run_rig's columns: ``rig``,
-    #                                                                                  or a run with faults)
+    columns = rig_columns(ls, res, cs.compiled) if s.faults or s.python_controller or rig else {}   # (run_rig's
+    #                                                          columns: ``rig``, or a run the core gives the rig)
     return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, extra={"engine": "generated"},
                             columns=columns)

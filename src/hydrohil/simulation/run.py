@@ -21,16 +21,17 @@ ENGINES = ("generated", "core")
 def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated") -> SimulationResult:
     """Simulate a loaded scenario; returns the log (also when the run diverged: see ``.diverged``).
 
-    ``engine = "generated"`` (the default): a fixed-step run of a drive or a built-in law, with its faults, runs
+    ``engine = "generated"`` (the default): a fixed-step run (a drive, a built-in law or a Python controller, its
+    faults) runs
     on the code generated from the scenario's circuit (:func:`hydrohil.simulation.as_circuit.run_generated`: the
     core's log and the rig's columns bit for bit, but for a stuck spool's speed in its first row, said there);
-    ``"core"`` on the hand-written core (with faults, the virtual rig's). A Python controller (the rig's: it reads
-    the rig's status bits) and the continuous reference run on the core either way."""
+    ``"core"`` on the hand-written core (with faults or a Python controller, the virtual rig's). The continuous
+    reference runs on the core either way."""
     if engine not in ENGINES:
         raise ValueError(f"engine: one of {', '.join(ENGINES)}, got {engine!r}")
     s, params = sc.scenario, sc.params
     fixed = s.solver.method != "reference"
-    if engine == "generated" and fixed and not s.python_controller:
+    if engine == "generated" and fixed:
         from hydrohil.simulation.as_circuit import run_generated
         res = run_generated(sc, progress=progress)
         if res is not None:
