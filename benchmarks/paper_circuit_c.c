@@ -34,7 +34,8 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            double *log, int64_t *rows, const void *ctl, void *ctl_state, const double *ref, const double *dref,
            int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path, double lo, double hi,
            double *sent, double *press, void *command, void *command_ctx, double *seen_log,
-           double *events_log, double *watchdog_log, int64_t *steps, void *progress, void *progress_ctx);
+           double *events_log, double *watchdog_log, int64_t *steps, void *progress, void *progress_ctx,
+           const int64_t *cols, int64_t ncols);
 
 int main(void)
 {
@@ -49,7 +50,7 @@ int main(void)
         memcpy(m, M0, sizeof m);
         t0 = now();
         if (hc_run(P0, y, m, 2, STEP, N, 1000, u, log, &rows, 0, 0, 0, 0, 0, 0, 0, 0, 1.0, 0, 0.0, 0.0, 0, 0, 0, 0, seen,
-                   events, 0, 0, 0, 0) != 0) {   /* (its spool's input and events logged, as the core's log has them) */
+                   events, 0, 0, 0, 0, 0, 0) != 0) {   /* (its spool's input and events logged, as the core's log has them) */
             fprintf(stderr, "the circuit's run stopped before its end\n");
             return 1;
         }

@@ -11,6 +11,7 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
+from conftest import EXAMPLES
 from hydrohil.circuits.circuit import CIRCUITS_DIR, circuit_from_dict, load_circuit
 from hydrohil.circuits.library import TYPES
 from hydrohil.circuits.run import node_stiffness, simulate_circuit
@@ -871,3 +872,24 @@ def test_a_port_plugged_on_purpose_is_a_node_declared_with_its_volume():
     plugged.setdefault("nodes", {})["plug"] = {"volume": "0.05 l"}
     c = circuit_from_dict(plugged, "my_rig.toml")
     assert c.node_volume("plug") >= 0.05e-3 and "plug" in c.state_nodes
+
+
+def test_a_run_computes_only_the_columns_asked_for_and_they_are_the_full_runs():
+    """``simulate_circuit(..., columns=[...])``: the log holds t, the columns asked for and what the run reads
+    itself (the loop's measured signal, its transducers' pressures), each the full run's bit for bit, the others
+    not computed (the valve's flows absent); a column the circuit does not log is named."""
+    from hydrohil.circuits.scenario import load_circuit_scenario
+    from hydrohil.errors import InputError
+    cs = load_circuit_scenario(EXAMPLES / "circuits" / "servo_supply" / "scenario.toml")
+
+    def run(columns=None):
+        return simulate_circuit(cs.circuit, 0.3, h=cs.step, method=cs.method, every=3, rest=cs.rest, loop=cs.loop,
+                                commands=cs.commands, compiled=cs.compiled, columns=columns)
+    full, some = run(), run(["valve.v", "cyl.mode"])
+    logged = {"t", "valve.v", "cyl.mode", cs.loop.measure}
+    assert logged <= set(some.columns) and not any(k.startswith("valve.q_") for k in some.columns)
+    assert not (set(full.columns) - set(some.columns)) <= {"t"}            # (some columns left out)
+    for name, column in some.columns.items():
+        assert np.array_equal(column, full.columns[name]), name
+    with pytest.raises(InputError, match="no column 'valve.flow'"):
+        run(["valve.flow"])

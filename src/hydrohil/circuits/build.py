@@ -37,7 +37,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
            double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
            double *seen_log, double *events_log, double *watchdog_log, int64_t *steps, void *progress,
-           void *progress_ctx);
+           void *progress_ctx, const int64_t *cols, int64_t ncols);
 extern "Python" double hc_py_command(void *ctx, int64_t k, const double *row, double sensed, double p1, double p2,
                                      double ps, double pt, int saturated);
 extern "Python" int hc_py_progress(void *ctx, int64_t k);

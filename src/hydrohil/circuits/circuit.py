@@ -440,16 +440,30 @@ def _drive(drive, prm, source: str, where: str):
     if interp not in ("hold", "linear"):
         raise _err(source, f"{where}.interpolation", f"\"hold\" (from each t) or \"linear\" (between the points), "
                                                      f"got {interp!r}")
-    if not isinstance(t, list) or not isinstance(v, list) or len(t) != len(v) or not t:
+    if not isinstance(t, (list, np.ndarray)) or not isinstance(v, (list, np.ndarray)) or len(t) != len(v) or not len(t):
         raise _err(source, where, "a table needs t = [...] and value = [...] of one length")
-    try:
-        ts = np.array([to_si(x, "s") for x in t])
-    except ValueError as exc:
-        raise _err(source, f"{where}.t", str(exc)) from None
+    ts = _plain(t)                     # (plain numbers, all finite: at once; else each, its error named)
+    if ts is None:
+        try:
+            ts = np.array([to_si(x, "s") for x in t])
+        except ValueError as exc:
+            raise _err(source, f"{where}.t", str(exc)) from None
     if not valid_table_times(ts, interp == "linear"):
         raise _err(source, f"{where}.t", TABLE_TIMES)
-    vs = np.array([_value({"value": x}, "value", prm, source, where) for x in v])
+    vs = _plain(v)
+    if vs is None or prm.check(float(vs.min())) or prm.check(float(vs.max())):   # (a range: its ends tell)
+        vs = np.array([_value({"value": x}, "value", prm, source, where) for x in v])
     return Drive(ts, vs, interp == "linear")
+
+
+def _plain(values) -> np.ndarray | None:
+    """A table's column as SI values at once when it is an array of finite numbers (a table made in memory: a
+    paper scenario's sine per step, as_circuit), else None (a file's list: each entry read by to_si, the first
+    bad one named)."""
+    if not (isinstance(values, np.ndarray) and values.ndim == 1 and values.dtype.kind in "fi"):
+        return None
+    a = values.astype(float)
+    return a if np.all(np.isfinite(a)) else None
 
 
 TABLE_TIMES = ("times start at 0 and increase (a linear table may give a time twice: a jump there, the value "

@@ -169,6 +169,10 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     init += [f"    y[{lay.states.index(f'{comp.name}.{st}')}] = {expr};   /* {comp.name}.{st} */"
              for comp, e in emits for st, expr in e.initial.items()]
     node_cols = [f"    row[LOG_NODES + {i}] = {_pressure(lay, n)};   /* {n} */" for i, n in enumerate(c.nodes)]
+    value_cases = [f"    case LOG_NODES + {i}: return {_pressure(lay, n)};   /* {n} */" for i, n in enumerate(c.nodes)]
+    value_cases += [f"    case LOG_OUTPUTS + {i}: return {line.split(' = ', 1)[1].rstrip(';')};"
+                    f"   /* {lay.outputs[i][0]} */" for i, line in enumerate(outs)]
+    value_cases += [f"    case LOG_MODES + {i}: return (double)m[{i}];   /* {name} */" for i, name in enumerate(lay.modes)]
     held = [f"    m[{lay.modes.index(comp.name + '.mode')}] = {e.mode_at_rest};   /* {comp.name} */"
             for comp, e in emits if e.mode_at_rest]
     held += [f"    y[{lay.states.index(f'{comp.name}.{st}')}] = {expr};   /* {comp.name}.{st} */"
@@ -477,6 +481,17 @@ static void log_row(double t, const double *y, const int64_t *m, const double *u
         row[LOG_OUTPUTS + i] = o[i];
     for (i = 0; i < {nm}; i++)
         row[LOG_MODES + i] = (double)m[i];
+}}
+
+/* log_row's column j alone (what a loop reads of step k: hc_run computes only those columns, not the row) */
+HH_INLINE double log_value(int64_t j, double t, const double *y, const int64_t *m, const double *u, const double *P)
+{{
+    (void)t; (void)y; (void)m; (void)u; (void)P;
+    switch (j) {{
+    case LOG_T: return t;
+{chr(10).join(value_cases)}
+    default: return NAN;
+    }}
 }}
 
 /* dy/dt of the continuous reference at y under inputs u; a node at the pressure floor does not fall further
@@ -863,7 +878,9 @@ void hc_pressures_rows(const double *v, int64_t rows, int64_t every, double *pre
  * command path's watchdog held the loop's command in its safe state (the last step: the step before's).
  * Returns 0, or 1 when the state went non-finite, 2 when h is not the step the state was made for (hc_init), 3
  * when the command callback failed, 4 when a state left its physical range (hc_unphysical), 5 when the progress
- * callback (not NULL: called with progress_ctx before every 4096th step, from step 0) returned non-zero (rows
+ * callback (not NULL: called with progress_ctx before every 4096th step, from step 0) returned non-zero. cols
+ * (not NULL): each row holds only the ncols log columns cols[], in that order (a run that reads a few: the rest
+ * not computed), else all NLOG (rows
  * so far written, *rows set; *steps (not NULL): the steps taken, the failed one included: its end is where the
  * run stopped). */
 typedef double (*hc_command_fn)(void *ctx, int64_t k, const double *row, double sensed, double p1, double p2,
@@ -875,10 +892,10 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            const double *dref, int64_t meas, int64_t cmd, double *sensor, void *rng, double sign, void *path,
            double lo, double hi, double *sent, double *press, void *command, void *command_ctx,
            double *seen_log, double *events_log, double *watchdog_log, int64_t *steps, void *progress,
-           void *progress_ctx)
+           void *progress_ctx, const int64_t *cols, int64_t ncols)
 {{
     double seen[NLOG], held = 0.0, events = 0.0;
-    int64_t step, row = 0;
+    int64_t step, row = 0, i;
     int ev = 0;
     for (step = 0; step <= n; step++) {{
         double *uk = u + step * NU;
@@ -895,7 +912,15 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                 uk[cmd] = uk[cmd - NU];
             else
                 held = uk[cmd];           /* (the command that holds the piston until one arrives) */
-            log_row((double)step * h, y, m, uk, P, seen);
+            if (command)                  /* (a user's controller is handed the whole row: its status bits) */
+                log_row((double)step * h, y, m, uk, P, seen);
+            else {{                        /* (the law reads its signal and its transducers' columns only) */
+                seen[meas] = log_value(meas, (double)step * h, y, m, uk, P);
+                for (i = 0; press && i < (int64_t)press[0]; i++) {{
+                    int64_t col = (int64_t)press[HC_PRESS_HEAD + 1 + 2 * i];
+                    seen[col] = log_value(col, (double)step * h, y, m, uk, P);
+                }}
+            }}
             sensed = hc_sensed(seen[meas], sensor, rng, step);
             if (press)
                 saturated = hc_pressures_read(seen, press, rng, step, pr);
@@ -928,7 +953,12 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             if (events_log)
                 events_log[row] = events;
             events = 0.0;
-            log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);
+            if (cols) {{                   /* (only the columns asked for, in their order) */
+                double *out = log + (row++) * ncols;
+                for (i = 0; i < ncols; i++)
+                    out[i] = log_value(cols[i], (double)step * h, y, m, uk, P);
+            }} else
+                log_row((double)step * h, y, m, uk, P, log + (row++) * NLOG);
         }}
         if (step == n)
             break;

@@ -176,6 +176,21 @@ def _warn_indeterminate(c: Circuit, y, nodes: list[int]) -> None:
                       stacklevel=4)
 
 
+def _logged(lay, columns: list[str] | None, loop) -> list[str]:
+    """The log columns a fixed-step run computes: every one (``columns`` None), else t, ``columns`` and what the
+    run reads itself (a loop's measured signal, its transducers' pressures), in the layout's order. InputError
+    naming a column the circuit does not log."""
+    if columns is None:
+        return list(lay.log_columns)
+    unknown = [name for name in columns if name not in lay.log_columns]
+    if unknown:
+        raise InputError(f"no column {unknown[0]!r} (columns: {', '.join(lay.log_columns)})", key="columns")
+    want = {"t", *columns}
+    if loop is not None:
+        want |= {loop.measure, *(loop.pressures or ()), *(col for _, col in loop.supply_tank)}
+    return [name for name in lay.log_columns if name in want]
+
+
 def _warn_unbalanced(c: Circuit, res) -> None:
     """A piston started at rest whose chambers' pressures do not balance its load moves at once (SPEC §12.5: a
     closed loop holds it with its spool offset; [initial] pressures can too)."""
@@ -484,7 +499,8 @@ class Commands:
 def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: str = "rk3", every: int = 1,
                      inputs: dict | None = None, rest: bool | Hold | Start = True, progress=None,
                      loop: Loop | None = None, warn_unheld: bool = True, start: tuple | None = None,
-                     commands: Commands | None = None, compiled=None) -> CircuitResult:
+                     commands: Commands | None = None, compiled=None,
+                     columns: list[str] | None = None) -> CircuitResult:
     """Run ``c`` for ``duration`` seconds at step ``h``; a log row every ``every`` steps. It starts at rest
     (``rest``, :func:`settle`: the node pressures settled with the components' states held; a node given in the
     circuit's ``[initial]`` keeps its value; a :class:`Hold`: with a piston held by an input's value; a
@@ -502,7 +518,10 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     memory), the modes and the inputs of step 0 (a loop's command: the one held until the controller's first
     arrives), e.g. :func:`hydrohil.circuits.paper.paper_start`. ``commands``: an open loop's inputs sent over
     the link (:class:`Commands`: the scenario's network faults act on them; their sent values as columns
-    ``<input>.sent``). ``compiled``: ``compile_circuit(c)`` when the caller has it (a scenario's ``compiled``)."""
+    ``<input>.sent``). ``compiled``: ``compile_circuit(c)`` when the caller has it (a scenario's ``compiled``).
+    ``columns``: the log columns a caller reads (a fixed-step run computes only those, with t, a loop's measured
+    signal and the pressures its transducers read; the step's columns, the inputs and the loop's columns besides;
+    None: every column)."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
@@ -533,7 +552,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     if method == "reference":
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
         return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)
-    log = np.zeros((n // every + 1, len(lay.log_columns)))
+    names = _logged(lay, columns, loop)
+    cols = np.array([lay.log_columns.index(name) for name in names], dtype=np.int64)
+    log = np.zeros((n // every + 1, len(names)))
     seen, events = np.zeros((len(log), max(len(lay.delayed), 1))), np.zeros(len(log))
     rows, steps = ffi.new("int64_t *"), ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h, input_range(c, loop.command)) if loop is not None else
@@ -556,10 +577,11 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                         ffi.from_buffer("double[]", seen), ffi.from_buffer("double[]", events),
                         ffi.from_buffer("double[]", loop.watchdog) if loop is not None and loop.watchdog is not None
                         else ffi.NULL, steps, lib.hc_py_progress if handle is not None else ffi.NULL,
-                        handle if handle is not None else ffi.NULL)
+                        handle if handle is not None else ffi.NULL,
+                        ffi.from_buffer("int64_t[]", cols) if columns is not None else ffi.NULL, len(cols))
     wall = time.perf_counter() - t0
     log = log[:rows[0]]
-    res = CircuitResult({name: log[:, i] for i, name in enumerate(lay.log_columns)}, {}, lay.mode_names, h, method,
+    res = CircuitResult({name: log[:, i] for i, name in enumerate(names)}, {}, lay.mode_names, h, method,
                         wall, states=lay.states[len(c.state_nodes):])
     if status == 3:                       # (a user's controller failed: its error, with the time)
         raise loop.error
@@ -574,7 +596,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                                  divergence_reason(cc, P, y, status))
     res.units = signal_units(c, lay)
     _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
-    if rest and warn_unheld and start is None and len(log) and not (isinstance(rest, Start) and (
+    if rest and warn_unheld and start is None and columns is None and len(log) and not (isinstance(rest, Start) and (
             rest.pressures or rest.inputs)):       # (a start of the user's own: not the rest's to balance)
         _warn_unbalanced(c, res)
     return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)
@@ -812,7 +834,9 @@ def pressures_sensed(cc, loop: Loop, res: CircuitResult, every: int = 1) -> dict
         return {}
     lay = cc.layout
     reads = [*loop.pressures, *(col for _, col in loop.supply_tank)]
-    rows = np.ascontiguousarray(np.column_stack([res.columns[col] for col in lay.log_columns]), dtype=float)
+    rows = np.zeros((len(res.columns["t"]), len(lay.log_columns)))   # (the rows as hc_pressures_read reads them:
+    for col in reads:                                                 # the columns it reads filled in)
+        rows[:, lay.log_columns.index(col)] = res.columns[col]
     out = np.empty((len(rows), 4))
     generator = loop.streams()                     # (alive while the C draws from it)
     _, rng = loop.sensor_args(cc, generator)

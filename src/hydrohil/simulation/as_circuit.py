@@ -142,7 +142,7 @@ def _open_loop(s, t: np.ndarray, scen: dict, src: str) -> None:
     from hydrohil.simulation.scenario import SineInput
     inp = s.input
     if isinstance(inp, SineInput):          # held over each step, as the core samples it (t_n: the last row's)
-        scen["inputs"] = {"valve.command": {"t": t.tolist(), "value": s.commands().tolist()}}
+        scen["inputs"] = {"valve.command": {"t": t, "value": s.commands()}}   # (arrays: lists in a file)
         return
     t, u = _linear_table(inp.t, inp.u, src, "input.t")
     scen["inputs"] = {"valve.command": {"t": t, "value": u, "interpolation": "linear"}}
@@ -235,8 +235,24 @@ def convert(ls, out: str | Path) -> tuple[Path, Path, list[str]]:
     head = f"# {Path(ls.source).name} as a circuit scenario (hydrohil circuit convert): the generated code runs it\n"
     cpath, spath = out / "circuit.toml", out / "scenario.toml"
     cpath.write_text(head + tomli_w.dumps(circuit))
-    spath.write_text(head + "".join(f"# {n}\n" for n in notes) + tomli_w.dumps(scen))
+    spath.write_text(head + "".join(f"# {n}\n" for n in notes) + tomli_w.dumps(_listed(scen)))
     return cpath, spath, notes
+
+
+# the paper circuit's log columns a paper scenario's run reads: the core's log (circuits.paper.paper_log) and the
+# rig's sensors (rig_columns: the piston, the four nodes' pressures); the others (the valve's four flows, the
+# cylinder's force) not computed
+PAPER_COLUMNS = ["cyl.mode", "valve.mode", "valve.x", "valve.v", "cyl.x", "cyl.v", "cyl.z", "cyl.friction", "cap.p",
+                 "rod.p", "supply.p", "tank.p"]
+
+
+def _listed(table):
+    """A table with its arrays as lists (what a TOML file holds)."""
+    if isinstance(table, dict):
+        return {k: _listed(v) for k, v in table.items()}
+    if isinstance(table, list):
+        return [_listed(v) for v in table]
+    return table.tolist() if isinstance(table, np.ndarray) else table
 
 
 def circuit_scenario_of(ls):
@@ -362,7 +378,7 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     try:
         res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, loop=cs.loop,
                                commands=cs.commands, start=paper_start(cs.circuit, row, cs.step, compiled=cs.compiled),
-                               progress=progress, compiled=cs.compiled)
+                               progress=progress, compiled=cs.compiled, columns=PAPER_COLUMNS)
     except SimulationDiverged:                   # (non-finite, or outside the core's physical range: the paper's
         return None                              # components declare hh_diverged's bounds; run_scenario: the core's
                                                  # run, the same steps, and its message)
