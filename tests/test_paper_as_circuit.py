@@ -927,6 +927,48 @@ def test_a_paper_scenario_with_faults_runs_on_the_generated_code_as_on_the_rig(p
     assert np.any(core.columns["faults"] != 0)
 
 
+def test_faults_that_add_to_a_section_add_up_where_they_overlap(tmp_path):
+    """The rig adds the sections of worn lands and of burst hoses (rig.c: +=): two valve_leakage windows and two
+    bursts on line 2 that overlap, one on line 1, become parameter faults on valve.wear, burst_b and burst_a
+    per stretch, their sum where both act (written out here), and the run is the core's bit for bit."""
+    from hydrohil.simulation.as_circuit import circuit_tables
+    text = (EXAMPLES / "faults" / "controller_silence.toml").read_text().split("[[faults]]")[0]
+    f = tmp_path / "added.toml"
+    f.write_text(text + '[[faults]]\ntype = "valve_leakage"\nsection = 0.3\nstart = 1.0\nend = 3.0\n'
+                 '[[faults]]\ntype = "hose_burst"\nline = 2\nsection = 0.5\nstart = 2.0\n'
+                 '[[faults]]\ntype = "valve_leakage"\nsection = 0.2\nstart = 2.5\nend = 4.0\n'
+                 '[[faults]]\ntype = "hose_burst"\nline = 2\nsection = 0.25\nstart = 1.5\nend = 2.2\n'
+                 '[[faults]]\ntype = "hose_burst"\nline = 1\nsection = 0.1\nstart = 4.5\nend = 5.0\n')
+    ls = load_scenario(f)
+    got = [(x["target"], x["start"], x.get("end"), x["value"]) for x in circuit_tables(ls)[1]["faults"]]
+    assert got == [("valve.wear", 1.0, 2.5, 0.3), ("valve.wear", 2.5, 3.0, 0.3 + 0.2), ("valve.wear", 3.0, 4.0, 0.2),
+                   ("valve.burst_b", 1.5, 2.0, 0.25), ("valve.burst_b", 2.0, 2.2, 0.5 + 0.25),
+                   ("valve.burst_b", 2.2, None, 0.5), ("valve.burst_a", 4.5, 5.0, 0.1)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gen, core = run_scenario(ls), run_scenario(ls, engine="core")
+    assert gen.extra == {"engine": "generated"} and np.array_equal(gen.log, core.log)
+    assert all(np.array_equal(gen.columns[k], core.columns[k]) for k in core.columns)
+
+
+def test_a_sensor_fault_with_a_memory_logged_every_few_steps_runs_on_the_core(tmp_path):
+    """A stuck sensor (its value at its first step) or an encoder losing counts (its last count) read again from
+    rows logged every 7 steps would not be the rig's readings between the rows: such a run is the core's (no
+    engine said), its readings the rig's; logged every step, the generated code's, the same."""
+    from hydrohil.simulation.as_circuit import run_generated
+    text = (EXAMPLES / "faults" / "sensor_stuck.toml").read_text()
+    f = tmp_path / "stuck.toml"
+    f.write_text(text.replace("[solver]\n", "[solver]\noutput_every = 7\n"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ls = load_scenario(f)
+        res, core = run_scenario(ls), run_scenario(ls, engine="core")
+        every_step = run_scenario(load_scenario(EXAMPLES / "faults" / "sensor_stuck.toml"))
+    assert run_generated(ls) is None and res.extra == {} and np.array_equal(res.columns["x_meas"],
+                                                                            core.columns["x_meas"])
+    assert every_step.extra == {"engine": "generated"}
+
+
 def test_the_rigs_watchdog_column_reports_the_safe_state_of_the_step_before(tmp_path):
     """The rig's ``watchdog`` column is its sensor packet's status bit: at step k the safe state held over step
     k - 1 (loop.c). A controller silent from 1 s to 1.5 s with a 50 ms watchdog, logged every 7 steps: the

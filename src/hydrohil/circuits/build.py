@@ -8,6 +8,7 @@ import functools
 import hashlib
 import importlib.machinery
 import importlib.util
+import math
 import os
 import shutil
 import sys
@@ -62,16 +63,35 @@ class CompiledCircuit:
         _python_command(module.ffi)
 
 
+_RAISED = threading.local()                # what a callback raised outside its callable (callback_raised)
+
+
+def _kept(fail):
+    """cffi's ``onerror`` of a callback: what was raised on the way into it or out of it (a Ctrl-C arrives at
+    the first Python line after C) kept for :func:`callback_raised`, and ``fail`` returned (hc_run stops)."""
+    def onerror(exc_type, exc_value, tb):
+        _RAISED.exc = exc_value
+        return fail
+    return onerror
+
+
+def callback_raised():
+    """What an hc_run callback raised outside its callable since the last call (a Ctrl-C), or None; cleared."""
+    exc, _RAISED.exc = getattr(_RAISED, "exc", None), None
+    return exc
+
+
 def _python_command(ffi) -> None:
     """hc_run's callbacks (a user's controller; the progress) compiled into the module (cffi's extern "Python": no code
     written at run time, so it works where memory is never both writable and executable): ``ctx`` the handle of
     a Python callable (k, the log row of step k (a C pointer), sensed, p1, p2, ps, pt, saturated) -> the
-    command; what it raises is the callable's to keep (NaN)."""
-    @ffi.def_extern(name="hc_py_command")
+    command; what it raises is the callable's to keep (NaN); what is raised around it, :func:`callback_raised`'s
+    (NaN: the run stops)."""
+    @ffi.def_extern(name="hc_py_command", onerror=_kept(math.nan))
     def hc_py_command(ctx, k, row, sensed, p1, p2, ps, pt, saturated):
         return ffi.from_handle(ctx)(int(k), row, sensed, p1, p2, ps, pt, saturated)
 
-    @ffi.def_extern(name="hc_py_progress")
+    @ffi.def_extern(name="hc_py_progress", onerror=_kept(1))
     def hc_py_progress(ctx, k):               # (hc_run's progress: a callable (k) -> nonzero to stop)
         return ffi.from_handle(ctx)(int(k))
 

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hydrohil.circuits.build import compile_circuit
+from hydrohil.circuits.build import callback_raised, compile_circuit
 from hydrohil.circuits.circuit import Circuit, Drive
 from hydrohil.circuits.generate import PRESSURE_FLOOR
 from hydrohil.control import BuiltinController, Measurement, call_controller, load_callable, user_controller
@@ -176,10 +176,10 @@ def _warn_indeterminate(c: Circuit, y, nodes: list[int]) -> None:
                       stacklevel=4)
 
 
-def _logged(lay, columns: list[str] | None, loop) -> list[str]:
+def _logged(c: Circuit, lay, columns: list[str] | None, loop, warn: bool = False) -> list[str]:
     """The log columns a fixed-step run computes: every one (``columns`` None), else t, ``columns`` and what the
-    run reads itself (a loop's measured signal, its transducers' pressures), in the layout's order. InputError
-    naming a column the circuit does not log."""
+    run reads itself (a loop's measured signal, its transducers' pressures; ``warn``: what _warn_unbalanced reads
+    of the first row), in the layout's order. InputError naming a column the circuit does not log."""
     if columns is None:
         return list(lay.log_columns)
     unknown = [name for name in columns if name not in lay.log_columns]
@@ -188,6 +188,11 @@ def _logged(lay, columns: list[str] | None, loop) -> list[str]:
     want = {"t", *columns}
     if loop is not None:
         want |= {loop.measure, *(loop.pressures or ()), *(col for _, col in loop.supply_tank)}
+    if warn:
+        for comp in c.components.values():
+            if comp.type.name in MOVING and not comp.coupled:
+                rods = [c.components[a] for a in comp.actuators] or [comp]
+                want |= {f"{comp.name}.mode", net_force_column(comp), *(f"{r.ports['a']}.p" for r in rods)}
     return [name for name in lay.log_columns if name in want]
 
 
@@ -521,7 +526,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     ``<input>.sent``). ``compiled``: ``compile_circuit(c)`` when the caller has it (a scenario's ``compiled``).
     ``columns``: the log columns a caller reads (a fixed-step run computes only those, with t, a loop's measured
     signal and the pressures its transducers read; the step's columns, the inputs and the loop's columns besides;
-    None: every column)."""
+    None: every column; the reference computes every column)."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
@@ -549,10 +554,12 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         u[0, lay.inputs.index(loop.command)] = u0[lay.inputs.index(loop.command)]   # measurement is made with
     sent, dog = (commands.apply(c, u, h, u0) if commands is not None and loop is None and commands.network
                  else (None, None))
+    warn = bool(rest and warn_unheld and start is None and not (isinstance(rest, Start) and (
+        rest.pressures or rest.inputs)))           # (a start of the user's own: not the rest's to balance)
+    names = _logged(c, lay, columns, loop, warn)  # (the reference computes them all)
     if method == "reference":
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
         return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)
-    names = _logged(lay, columns, loop)
     cols = np.array([lay.log_columns.index(name) for name in names], dtype=np.int64)
     log = np.zeros((n // every + 1, len(names)))
     seen, events = np.zeros((len(log), max(len(lay.delayed), 1))), np.zeros(len(log))
@@ -570,6 +577,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
             stop.append(exc)
             return 1
     handle = ffi.new_handle(tick) if progress is not None else None
+    callback_raised()                     # (nothing kept from another run)
     t0 = time.perf_counter()
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
@@ -583,10 +591,11 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     log = log[:rows[0]]
     res = CircuitResult({name: log[:, i] for i, name in enumerate(names)}, {}, lay.mode_names, h, method,
                         wall, states=lay.states[len(c.state_nodes):])
+    around = callback_raised()            # (raised outside a callback's callable: a Ctrl-C on the way in)
     if status == 3:                       # (a user's controller failed: its error, with the time)
-        raise loop.error
+        raise loop.error or around or HydrohilError("a user's controller gave no command")
     if status == 5:                       # (stopped by the progress callback: what it raised)
-        raise stop[0]
+        raise (stop or [around])[0] or HydrohilError("the run was stopped")
     if status == 2:                       # (a state sized for another step: not from simulate_circuit)
         raise HydrohilError(f"circuit {c.name!r}: the step {h} s is not the one its state's delay lines were sized "
                             "for (hc_init)")
@@ -596,8 +605,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                                  divergence_reason(cc, P, y, status))
     res.units = signal_units(c, lay)
     _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
-    if rest and warn_unheld and start is None and columns is None and len(log) and not (isinstance(rest, Start) and (
-            rest.pressures or rest.inputs)):       # (a start of the user's own: not the rest's to balance)
+    if warn and len(log):
         _warn_unbalanced(c, res)
     return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)
 

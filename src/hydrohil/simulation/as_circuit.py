@@ -19,8 +19,8 @@ python, [reference]        ``repeat`` period too; a state feedback's load pressu
                            transducers (the chambers, ``supply_node``, ``tank_node``; sensors.pressure_range,
                            _resolution, _noise, its stream the rig's: ``pressure_seed`` = [hil] seed); a Python
                            controller the same callable,
-                           called each step with the rig's measurement (``path``: its module's folder) but status 0
-                           (said in a note)
+                           called each step with the rig's measurement (``path``: its module's folder); in a file,
+                           status 0 (said in a note; run_generated gives it the rig's bits, rig_status)
 initial.xs                 omitted: in open loop ``rest = {hold = "cyl.x", by = "valve.command"}`` (the rig's
                            start: the piston held by the spool offset at rest), a closed loop's own start (the
                            same); given: ``[start] "valve.command"`` (the circuit at rest under it, the spool there,
@@ -41,8 +41,9 @@ faults: sensor (pressure)  the same fault on the loop's transducer of it (``sign
                            position sensor's too (no loop reads it)
 command_inversion          the same fault on the loop's commands
 spool_stuck                ``parameter`` on valve.lv = 0 (the spool's clamp at the step's start: stopped at once)
-valve_leakage              ``parameter`` on valve.wear (the worn lands' section on each edge)
-hose_burst                 ``parameter`` on valve.burst_a or burst_b (the line's section to tank, added to the edge's)
+valve_leakage              ``parameter`` on valve.wear (the worn lands' section on each edge; overlapping ones summed)
+hose_burst                 ``parameter`` on valve.burst_a or burst_b (the line's section to tank, added to the edge's;
+                           overlapping ones summed)
 supply_pressure            ``parameter`` on supply.pressure (at least the tank's)
 seal_wear                  ``parameter`` on cyl.leakage
 valve_bandwidth            ``parameter`` on valve.wn (its value times the factor)
@@ -55,6 +56,7 @@ closed loop's measured signal; an open loop's commands take "centre").
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -72,8 +74,10 @@ PARAMETER = {
     "valve_bandwidth": [("factor", "valve.wn", lambda v, p: p.spool.wn * v)],
     "load_change": [("mass", "cyl.mass", lambda v, p: v), ("force", "cyl.force", lambda v, p: v)],
     "spool_stuck": [(None, "valve.lv", lambda v, p: 0.0)],       # (its clamp at the step's start: velocity 0)
-    "valve_leakage": [("section", "valve.wear", lambda v, p: v)],
 }
+# sensor faults with a memory (the value stuck at, the count last read): rig_columns reads the sensors again from
+# the logged rows, exact when every step is logged only; a run logged every few steps with one runs on the core
+STATEFUL_SENSOR_FAULTS = ("sensor_stuck", "encoder_count_loss")
 # the rig's pressure sensors as the paper circuit's nodes (the loop's transducers of a state feedback, a Python law)
 TRANSDUCERS = {"p1": "cap.p", "p2": "rod.p", "ps": "supply.p", "pt": "tank.p"}
 HIL_DROPPED = ("command_scale",)          # the wire's unit of the paper's rig: a circuit's inputs are SI
@@ -171,7 +175,8 @@ def _loop(s, p, scen: dict, src: str, count: float, notes: list[str]) -> None:
         anchor_controller(table, Path(src).parent)
         notes.append(f"controller {ctl.callable}: called each step with the rig's t, x_ref, dx_ref, x (the "
                      "encoder's reading), p1, p2, ps and pt (the chambers, the supply's and the tank's nodes through "
-                     "the rig's transducers); not the rig's: status 0 (no rig's status bits)")
+                     "the rig's transducers); not the rig's: status 0 (no rig's status bits; simulate's own conversion "
+                     "gives them)")
     scen["controller"] = {**table, "measure": "cyl.x", "command": "valve.command", "sensor_resolution": count}
     if ctl.type in ("state_feedback", "python"):   # the rig's four transducers, their noise the rig's stream
         scen["controller"].update(load_pressure="cyl", supply_node="supply", tank_node="tank",
@@ -192,7 +197,7 @@ def _faults(s, p, src: str, notes: list[str], reads: tuple | None = None) -> lis
         reads = (("position",) if s.controller is not None else ()) + {
             "state_feedback": ("p1", "p2"), "python": ("p1", "p2", "ps", "pt")}.get(
             s.controller.type if s.controller is not None else None, ())
-    out = []
+    out, added = [], {}                 # (added: the faults that add to a parameter, by target)
     for i, f in enumerate(s.faults):
         where = f"faults[{i}]"
         window = {"start": f.start, **({"end": f.end} if f.end is not None else {})}
@@ -213,15 +218,38 @@ def _faults(s, p, src: str, notes: list[str], reads: tuple | None = None) -> lis
             out.append({**body, **stream})
         elif f.type == "hose_burst":          # the rig's burst: its section added to its line's edge to tank
             target = f"valve.burst_{'ab'[f.line - 1]}"             # (cylinder.c: the core's sum, bit for bit)
-            out.append({"type": "parameter", "target": target, "value": f.section, **window})
+            added.setdefault(target, []).append((f.start, f.end, f.section))
             notes.append(f"{where} (hose_burst): a parameter fault on {target} (its section to tank beside the "
                          f"valve's edge, as the rig's)")
+        elif f.type == "valve_leakage":       # (the rig adds each worn section to the lands': valve.wear)
+            added.setdefault("valve.wear", []).append((f.start, f.end, f.section))
+            notes.append(f"{where} (valve_leakage): a parameter fault on valve.wear")
         else:
             given = [(k, t, v) for k, t, v in PARAMETER[f.type] if k is None or getattr(f, k) is not None]
             for key, target, value in given:
                 out.append({"type": "parameter", "target": target,
                             "value": value(getattr(f, key) if key else None, p), **window})
             notes.append(f"{where} ({f.type}): a parameter fault on {', '.join(t for _, t, _ in given)}")
+    for target, windows in added.items():
+        out += _summed(target, windows)
+    return out
+
+
+def _summed(target: str, windows: list) -> list[dict]:
+    """Faults that add to a parameter (the rig's ``+=``: sections of worn lands, of burst hoses; from 0) as
+    parameter faults on ``target``, which set it: one per stretch between the windows' starts and ends where any
+    acts, its value their sum (in the scenario's order, as the rig adds them), so overlapping windows add up."""
+    inf = math.inf
+    cuts = sorted({t for start, end, _ in windows for t in (start, inf if end is None else end)})
+    out = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        acting = [v for start, end, v in windows if start <= a and (end is None or end >= b)]
+        if acting:
+            value = 0.0
+            for v in acting:
+                value += v
+            out.append({"type": "parameter", "target": target, "value": value, "start": a,
+                        **({"end": b} if b != inf else {})})
     return out
 
 
@@ -349,7 +377,8 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     when the run diverges
     (a state non-finite, or outside the physical range the paper's components declare, the core's hh_diverged:
     run_scenario then gives the core's run, its log up to the step and its message) or the scenario has what a
-    circuit does not take."""
+    circuit does not take, or a sensor fault with a memory in a run not logged every step (rig_columns). (A
+    diverging run with a Python controller is so run twice, its controller called again by the core's.)"""
     import warnings
 
     from hydrohil.circuits.paper import paper_log, paper_start
@@ -360,6 +389,8 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     from hydrohil.simulation.loop import initial_state
     from hydrohil.simulation.result import SimulationResult
     s = ls.scenario
+    if s.solver.output_every > 1 and any(f.type in STATEFUL_SENSOR_FAULTS for f in s.faults):
+        return None                              # (rig_columns' readings between rows would not be the rig's)
     ini = s.initial
     y, m = initial_state(ls.params, ini.xp, xs=ini.xs, p1=ini.p1, p2=ini.p2)   # (its warnings: the user's)
     row = np.zeros(len(LOG_COLUMNS))
