@@ -951,6 +951,24 @@ def test_faults_that_add_to_a_section_add_up_where_they_overlap(tmp_path):
     assert all(np.array_equal(gen.columns[k], core.columns[k]) for k in core.columns)
 
 
+@pytest.mark.parametrize("method", ["euler", "heun", "rk4"])
+def test_a_run_with_faults_takes_the_scenarios_solver(method, tmp_path):
+    """The core's rig stepped RK3 whatever the scenario's solver (its log said the scenario's): a run with faults
+    on the generated code takes the scenario's. Fig 11 with a fault that changes nothing (a position offset of
+    0 m) is the core's plain run of that solver bit for bit, where the core's rig run is not."""
+    text = (EXAMPLES / "fig11_p_control.toml").read_text()
+    f = tmp_path / "zero.toml"
+    f.write_text(text + '\n[[faults]]\ntype = "sensor_offset"\nsensor = "position"\noffset = 0.0\nstart = 1.0\n'
+                 'end = 2.0\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gen = run_scenario(load_scenario(f, solver=method))
+        plain = run_scenario(load_scenario(EXAMPLES / "fig11_p_control.toml", solver=method), engine="core")
+        rig = run_scenario(load_scenario(f, solver=method), engine="core")
+    assert gen.extra == {"engine": "generated"} and gen.solver == method
+    assert np.array_equal(gen.log, plain.log) and not np.array_equal(rig.log, plain.log)
+
+
 def test_a_sensor_fault_with_a_memory_logged_every_few_steps_runs_on_the_core(tmp_path):
     """A stuck sensor (its value at its first step) or an encoder losing counts (its last count) read again from
     rows logged every 7 steps would not be the rig's readings between the rows: such a run is the core's (no

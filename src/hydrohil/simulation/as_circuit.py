@@ -373,7 +373,9 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     ``extra["engine"]`` "generated"; with faults, a Python controller or ``rig`` the rig's columns too, :func:`rig_columns`): the
     core's run bit for bit (tests: every example, the 17 fault examples but for one value of the stuck spool's,
     its speed in the jam's first row, 2.3e-13 1/s where the core logs 0: the circuit clamps it at the step's
-    start, after the row; benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record). None
+    start, after the row; benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record); with
+    faults or a Python controller and another solver than RK3, the solver's run, where the core's rig stepped RK3
+    whatever the scenario said. None
     when the run diverges
     (a state non-finite, or outside the physical range the paper's components declare, the core's hh_diverged:
     run_scenario then gives the core's run, its log up to the step and its message) or the scenario has what a
