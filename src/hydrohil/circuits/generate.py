@@ -133,13 +133,14 @@ def generate(c: Circuit) -> tuple[str, Layout]:
               if f"{comp.name}.{key}" in lay.inputs]                   # (a constant needs no delay)
     lay.delayed = [f"{comp.name}.{key}" for _, _, comp, key, _ in delays]
     lay.delay_params = {f"{comp.name}.{key}": f"{comp.name}.{par}" for _, _, comp, key, par in delays}
-    outs = []
+    out_exprs = []                                 # (each output's C expression, in the log's order)
     for comp, e in emits:
         for st, unit in comp.states:               # every state of a component is logged
             e.outputs.setdefault(st, (f"y[{lay.states.index(f'{comp.name}.{st}')}]", unit))
         for name, (expr, unit) in e.outputs.items():
             lay.outputs.append((f"{comp.name}.{name}", unit))
-            outs.append(f"    o[{len(outs)}] = {expr};")
+            out_exprs.append(expr)
+    outs = [f"    o[{i}] = {expr};" for i, expr in enumerate(out_exprs)]
     delay_cases = [f"    case {d}: return {expr};   /* {comp.name}.{key} */" for d, (_, expr, comp, key, _) in
                    enumerate(delays)]
     if delays:
@@ -170,8 +171,8 @@ def generate(c: Circuit) -> tuple[str, Layout]:
              for comp, e in emits for st, expr in e.initial.items()]
     node_cols = [f"    row[LOG_NODES + {i}] = {_pressure(lay, n)};   /* {n} */" for i, n in enumerate(c.nodes)]
     value_cases = [f"    case LOG_NODES + {i}: return {_pressure(lay, n)};   /* {n} */" for i, n in enumerate(c.nodes)]
-    value_cases += [f"    case LOG_OUTPUTS + {i}: return {line.split(' = ', 1)[1].rstrip(';')};"
-                    f"   /* {lay.outputs[i][0]} */" for i, line in enumerate(outs)]
+    value_cases += [f"    case LOG_OUTPUTS + {i}: return {expr};   /* {lay.outputs[i][0]} */"
+                    for i, expr in enumerate(out_exprs)]
     value_cases += [f"    case LOG_MODES + {i}: return (double)m[{i}];   /* {name} */" for i, name in enumerate(lay.modes)]
     held = [f"    m[{lay.modes.index(comp.name + '.mode')}] = {e.mode_at_rest};   /* {comp.name} */"
             for comp, e in emits if e.mode_at_rest]

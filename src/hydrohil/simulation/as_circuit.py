@@ -244,11 +244,8 @@ def _summed(target: str, windows: list) -> list[dict]:
     out = []
     for a, b in zip(cuts[:-1], cuts[1:]):
         acting = [v for start, end, v in windows if start <= a and (end is None or end >= b)]
-        if acting:
-            value = 0.0
-            for v in acting:
-                value += v
-            out.append({"type": "parameter", "target": target, "value": value, "start": a,
+        if acting:                          # (summed left to right from 0: the rig's order)
+            out.append({"type": "parameter", "target": target, "value": float(sum(acting)), "start": a,
                         **({"end": b} if b != inf else {})})
     return out
 
@@ -283,24 +280,26 @@ def _listed(table):
     return table.tolist() if isinstance(table, np.ndarray) else table
 
 
-def circuit_scenario_of(ls):
-    """The paper scenario ``ls`` as a circuit scenario in memory (:func:`circuit_tables`; no file written)."""
+def circuit_scenario_of(ls, tables: tuple | None = None):
+    """The paper scenario ``ls`` as a circuit scenario in memory (:func:`circuit_tables`, or its ``tables`` when
+    the caller has them; no file written)."""
     from hydrohil.circuits.scenario import scenario_from_dict
-    circuit, scen, _ = circuit_tables(ls)
+    circuit, scen, _ = circuit_tables(ls) if tables is None else tables
     return scenario_from_dict(scen, Path(ls.source).parent, f"{ls.source} (as a circuit, in memory)",
                               circuit=circuit)
 
 
-def rig_instruments(ls):
+def rig_instruments(ls, tables: tuple | None = None):
     """The paper's rig's sensors as a circuit's loop (:class:`~hydrohil.circuits.run.Loop`) that reads them all,
     whatever the scenario's loop reads: the encoder on ``cyl.x`` (its count), the four transducers (the chambers,
     the supply's and the tank's nodes: sensors.pressure_*, the noise the rig's stream, [hil] seed) and every
     sensor fault of the scenario on its sensor (its stream the rig's). What the rig's log reports through them
-    (:func:`rig_columns`); the loop's law is not run."""
+    (:func:`rig_columns`); the loop's law is not run. ``tables``: :func:`circuit_tables`'s, when the caller has
+    them."""
     from hydrohil.circuits.scenario import scenario_from_dict
     from hydrohil.models.sensors import count_size
     s, p, src = ls.scenario, ls.params, ls.source
-    circuit, scen, _ = circuit_tables(ls)
+    circuit, scen, _ = circuit_tables(ls) if tables is None else tables
     table = {"type": "state_feedback", "kp": 1.0, "measure": "cyl.x", "command": "valve.command",
              "sensor_resolution": count_size(p.sensors.encoder_resolution), "load_pressure": "cyl",
              "supply_node": "supply", "tank_node": "tank", "pressure_range": p.sensors.pressure_range,
@@ -315,17 +314,18 @@ def rig_instruments(ls):
     return scenario_from_dict(keep, Path(src).parent, f"{src} (the rig's sensors)", circuit=circuit).loop
 
 
-def rig_columns(ls, res, compiled) -> dict[str, np.ndarray]:
+def rig_columns(ls, res, compiled, tables: tuple | None = None) -> dict[str, np.ndarray]:
     """The rig's extra log columns (:data:`hydrohil.simulation.rig.RIG_COLUMNS`) of the generated run ``res`` of
     the paper scenario ``ls`` (``compiled``: its circuit's code): what the rig's sensors reported
     (:func:`rig_instruments`, their noise drawn again from the seeds), the faults active (bit i: the scenario's
     fault i, the rig's rule start <= k*h < end) and the watchdog (1: its safe state held: as the rig's sensor
-    packet reports it at step k, held over step k - 1)."""
+    packet reports it at step k, held over step k - 1). ``tables``: :func:`circuit_tables`'s, when the caller has
+    them."""
     from hydrohil.circuits.faults import active_faults
     from hydrohil.circuits.run import pressures_sensed, sensed_column
     s = ls.scenario
     every, rows = s.solver.output_every, len(res.columns["t"])
-    sensors = rig_instruments(ls)
+    sensors = rig_instruments(ls, tables)
     pressures = pressures_sensed(compiled, sensors, res, every)
     cols = {"faults": active_faults([f.model_dump(exclude_none=True) for f in s.faults], s.solver.step, rows, every,
                                     str(ls.source)),
@@ -345,7 +345,7 @@ def rig_status(ls, compiled):
     path or None) -> the bits at_retract, at_extend and stick of the cylinder's mode in the row (at a stop the
     core's friction is stick: circuits.paper.CYL_MODE), saturated, watchdog (the path's safe state held), and
     fault_injected (a fault of the scenario active at step k, the rig's rule start <= k*h < end)."""
-    from hydrohil.circuits.network import fault_steps
+    from hydrohil.circuits.faults import active_faults
     from hydrohil.circuits.paper import CYL_MODE
     from hydrohil.core.shape import STATUS
     bit = {b.name: 1 << b.bit for b in STATUS}
@@ -354,13 +354,15 @@ def rig_status(ls, compiled):
     of_mode = [(bit["at_retract"] if travel == "at_retract_stop" else bit["at_extend"] if travel == "at_extend_stop"
                 else 0) | (bit["stick"] if friction == "stick" else 0)
                for travel, friction in (CYL_MODE[name] for name in lay.mode_names["cyl.mode"])]
-    windows = [fault_steps(f.start, f.end, h) for f in ls.scenario.faults]
+    s = ls.scenario
+    injected = active_faults([f.model_dump(exclude_none=True) for f in s.faults], h, s.n_steps() + 1, 1,
+                             str(ls.source)) != 0
 
     def status(k, row, saturated, path):
         st = of_mode[int(row[col])] | (bit["saturated"] if saturated else 0)
         if path is not None and path.link.active:
             st |= bit["watchdog"]
-        if any(k0 <= k < k1 for k0, k1 in windows):
+        if injected[k]:
             st |= bit["fault_injected"]
         return st
     return status
@@ -403,7 +405,8 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")          # (the conversion's own: said by the core's start above)
         try:
-            cs = circuit_scenario_of(ls)
+            tables = circuit_tables(ls)          # (once: the run's circuit scenario, the rig's sensors)
+            cs = circuit_scenario_of(ls, tables)
         except InputError:                       # (what a circuit does not take: a table from before 0)
             return None
     if s.python_controller:                      # (it reads the rig's status bits)
@@ -415,7 +418,7 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     except SimulationDiverged:                   # (non-finite, or outside the core's physical range: the paper's
         return None                              # components declare hh_diverged's bounds; run_scenario: the core's
                                                  # run, the same steps, and its message)
-    columns = rig_columns(ls, res, cs.compiled) if s.faults or s.python_controller or rig else {}   # (run_rig's
+    columns = rig_columns(ls, res, cs.compiled, tables) if s.faults or s.python_controller or rig else {}   # (run_rig's
     #                                                          columns: ``rig``, or a run the core gives the rig)
     return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, extra={"engine": "generated"},
                             columns=columns)
