@@ -893,3 +893,67 @@ def test_a_run_computes_only_the_columns_asked_for_and_they_are_the_full_runs():
         assert np.array_equal(column, full.columns[name]), name
     with pytest.raises(InputError, match="no column 'valve.flow'"):
         run(["valve.flow"])
+
+
+def _shuffled_values(c, rng):
+    """A copy of circuit ``c`` with every given value (parameters, derived values, tables' points, nodes' own
+    volumes, the fluid's) replaced at random, signs and zeros among them; what is not given stays NaN."""
+    import copy
+    d = copy.deepcopy(c)
+
+    def draw(v):
+        if v is None or v != v:
+            return v
+        return float(rng.choice([0.0, -1.0, 1.0]) * rng.uniform(0.1, 10.0) * (abs(v) or 1.0))
+    d.fluid = {k: draw(v) for k, v in d.fluid.items()}
+    d.node_volumes = {k: draw(v) for k, v in d.node_volumes.items()}
+    for comp in d.components.values():
+        comp.values = {k: draw(v) for k, v in comp.values.items()}
+        comp.tables = {k: (rng.uniform(-1, 1, len(xs)), rng.uniform(-1, 1, len(fs)))
+                       for k, (xs, fs) in comp.tables.items()}
+    return d
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in CIRCUITS_DIR.iterdir() if (p / "circuit.toml").exists()))
+def test_the_generated_text_depends_on_the_structure_only(name):
+    """generate()'s text reads no value but what structure() keys on: each example circuit with its values drawn
+    anew (of any sign, zeros too; the fixed pressures' order and the [initial] kept, as structure() keys them)
+    is the same C text, so one text per structure is made (generated) and compiled; its layout carries each
+    circuit's own values."""
+    from hydrohil.circuits.generate import Layout, generate, generated, structure
+    c = load_circuit(CIRCUITS_DIR / name / "circuit.toml")
+    text, lay = generate(c)
+    rng = np.random.default_rng(7)
+    tried = 0
+    for _ in range(40):
+        d = _shuffled_values(c, rng)
+        if structure(d) != structure(c):         # (the lowest fixed pressure moved to another node)
+            continue
+        tried += 1
+        assert generate(d)[0] == text
+        source, dlay = generated(d)
+        assert source == text and dlay.circuit is d
+        np.testing.assert_array_equal(dlay.values(), Layout(d).values())
+        assert dlay.log_columns == lay.log_columns and dlay.outputs == lay.outputs
+    assert tried >= 10
+
+
+def test_a_structure_changes_with_what_the_text_reads():
+    """What the text reads of the values is in the key: a bulk modulus given by eq 21 or as a constant, an
+    [initial] pressure, which fixed pressure is lowest."""
+    from hydrohil.circuits.generate import generate, structure
+    c = load_circuit(CIRCUITS_DIR / "ferreira2004" / "circuit.toml")
+    import copy
+    d = copy.deepcopy(c)
+    cyl = d.components["cyl"]
+    assert cyl.values["bulk_b"] == cyl.values["bulk_b"]
+    cyl.values["bulk_b"] = math.nan
+    cyl.values["beta_a"] = cyl.values["beta_b"] = 1.4e9
+    assert structure(d) != structure(c) and generate(d)[0] != generate(c)[0]
+    e = copy.deepcopy(c)
+    e.initial = {**e.initial, "cap": 3e6}
+    assert structure(e) != structure(c) and generate(e)[0] != generate(c)[0]
+    f = copy.deepcopy(c)
+    supply, tank = (f.components[comp] for comp, _ in (f.fixed["supply"], f.fixed["tank"]))
+    supply.values["pressure"], tank.values["pressure"] = -1e5, 0.0
+    assert structure(f) != structure(c) and generate(f)[0] != generate(c)[0]

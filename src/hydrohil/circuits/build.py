@@ -18,7 +18,7 @@ from pathlib import Path
 
 from hydrohil.circuits.circuit import Circuit
 from hydrohil.circuits.cache import cache_dir
-from hydrohil.circuits.generate import Layout, generate
+from hydrohil.circuits.generate import Layout, generated
 from hydrohil.errors import HydrohilError
 
 CORE = Path(__file__).resolve().parent.parent / "core"
@@ -117,7 +117,7 @@ def compile_circuit(c: Circuit) -> CompiledCircuit:
     """The circuit's extension, built into the cache unless it is there (loaded once per process)."""
     from cffi import FFI
     from hydrohil.core.build import CFLAGS
-    source, lay = generate(c)
+    source, lay = generated(c)
     name = f"_hc_{hashlib.sha256(source.encode() + _build_digest()).hexdigest()[:16]}"
     folder = cache_dir()
     path = folder / (name + importlib.machinery.EXTENSION_SUFFIXES[0])

@@ -14,6 +14,7 @@ its range, ``hc_sensed(x, sensor, rng, k)`` / ``hc_sensed_rows`` what a loop's s
 
 from __future__ import annotations
 
+import copy
 import math
 
 from hydrohil.circuits.circuit import Circuit
@@ -27,15 +28,7 @@ class Layout:
 
     def __init__(self, c: Circuit):
         self.circuit = c
-        self.params: list[tuple[str, float]] = [(f"fluid.{k}", v) for k, v in c.fluid.items()]
-        for comp in c.components.values():
-            for k, v in comp.values.items():
-                self.params.append((f"{comp.name}.{k}", math.nan if v is None else float(v)))
-            for name, (xs, fs) in comp.tables.items():       # a table's points: its x's, then its values
-                self.params += [(f"{comp.name}.{name}.x[{i}]", float(x)) for i, x in enumerate(xs)]
-                self.params += [(f"{comp.name}.{name}.f[{i}]", float(f)) for i, f in enumerate(fs)]
-        for node in c.nodes:
-            self.params.append((f"node.{node}.volume", c.node_volumes.get(node, 0.0)))   # its own; + components
+        self.params = _params(c)
         self.slot = {k: i for i, (k, _) in enumerate(self.params)}
         self.inputs = list(c.inputs)
         self.states = [f"{n}.p" for n in c.state_nodes] + [f"{comp.name}.{s}" for comp in c.components.values()
@@ -49,6 +42,61 @@ class Layout:
     def values(self):
         import numpy as np
         return np.array([v for _, v in self.params], dtype=np.float64)
+
+    def of(self, c: Circuit) -> "Layout":
+        """This layout (of a circuit of ``c``'s :func:`structure`) for ``c``: its values, the rest shared."""
+        lay = copy.copy(self)
+        lay.circuit, lay.params = c, _params(c)
+        return lay
+
+
+def _params(c: Circuit) -> list[tuple[str, float]]:
+    """The circuit's values in P[]'s order: the fluid's, each component's (its parameters and derived values,
+    then its tables' points), each node's own volume."""
+    params: list[tuple[str, float]] = [(f"fluid.{k}", v) for k, v in c.fluid.items()]
+    for comp in c.components.values():
+        for k, v in comp.values.items():
+            params.append((f"{comp.name}.{k}", math.nan if v is None else float(v)))
+        for name, (xs, fs) in comp.tables.items():       # a table's points: its x's, then its values
+            params += [(f"{comp.name}.{name}.x[{i}]", float(x)) for i, x in enumerate(xs)]
+            params += [(f"{comp.name}.{name}.f[{i}]", float(f)) for i, f in enumerate(fs)]
+    for node in c.nodes:
+        params.append((f"node.{node}.volume", c.node_volumes.get(node, 0.0)))   # its own; + components
+    return params
+
+
+def structure(c: Circuit) -> tuple:
+    """What of circuit ``c`` its generated C depends on: everything :func:`generate` reads but the parameters'
+    values, which are P[], not code. Two circuits of one structure have one C text (tests: every example
+    circuit's values changed at random, signs and zeros too, give its text), so :func:`generated` makes it once.
+    The values it does read: which are not given (NaN: a constant bulk modulus or eq 21, a driven fixed
+    pressure), the [initial] pressures (written as numbers) and the lowest fixed pressure's node (the others'
+    first guess)."""
+    def missing(v):
+        return v is None or v != v
+    fixed = [(c.components[comp].values[key], n) for n, (comp, key) in c.fixed.items()
+             if not missing(c.components[comp].values[key])]
+    return (tuple(c.fluid), tuple(c.nodes), tuple(c.fixed.items()), tuple(c.inputs), tuple(c.initial.items()),
+            min(fixed)[1] if fixed else None,
+            tuple((comp.name, comp.type.name, tuple(comp.ports.items()), comp.coupled, tuple(comp.actuators),
+                   tuple(comp.values), tuple(k for k, v in comp.values.items() if missing(v)),
+                   tuple((name, len(xs)) for name, (xs, _) in comp.tables.items()))
+                  for comp in c.components.values()))
+
+
+_GENERATED: dict[tuple, tuple[str, Layout]] = {}      # structure -> (C text, its layout), this process's
+
+
+def generated(c: Circuit) -> tuple[str, Layout]:
+    """:func:`generate`'s (C text, layout) of ``c``, the text made once per structure in a process (a study's
+    runs, a paper scenario converted run after run: one structure, many values)."""
+    key = structure(c)
+    if key not in _GENERATED:
+        if len(_GENERATED) >= 64:
+            _GENERATED.clear()
+        _GENERATED[key] = generate(c)
+    source, lay = _GENERATED[key]
+    return source, lay.of(c)
 
 
 class _View:

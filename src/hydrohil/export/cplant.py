@@ -212,7 +212,7 @@ def export_circuit_c(cs, out: str | Path) -> Path:
     ``out``: the circuit's generated C (``circuit.c``, the file ``simulate`` compiles), its export
     (``circuit_plant.h``: parameters, state at rest, drives, names, layout), ``rt_circuit.c`` behind the same
     plant loop as the paper's rig's; returns the folder."""
-    from hydrohil.circuits.generate import generate
+    from hydrohil.circuits.generate import generated
     from hydrohil.parameters import load_parameters
     from hydrohil.simulation.scenario import circuit_hil
     hil = circuit_hil(cs)
@@ -220,7 +220,7 @@ def export_circuit_c(cs, out: str | Path) -> Path:
     for name in CIRCUIT_SOURCES:
         _copy(RT / name, out / name)
     _write(out / "model.mk", "MODEL_CORE = circuit.c\nMODEL_SOURCES = rt_circuit.c rt_side.c\n")
-    source, _ = generate(cs.circuit)
+    source, _ = generated(cs.circuit)
     _write(out / "circuit.c", source)
     _write(out / "circuit_plant.h", circuit_plant_h(cs))
     config = plant_config_h(load_parameters("ferreira2004"), step=cs.step, duration=cs.duration, hil=hil,

@@ -379,11 +379,10 @@ def export_circuit_fmu(c, out: Path, *, fmi: int = 2, step: float = 5e-4, loop=N
     a closed loop's start, the command that holds its piston as the command input's start value; ``rest``: a
     scenario's, its Hold an open loop's held start)."""
     from hydrohil.circuits.build import compile_circuit
-    from hydrohil.circuits.generate import generate
     from hydrohil.circuits.run import start_state
     out = _checked(out, fmi, step)
-    source, lay = generate(c)
-    compile_circuit(c)
+    compiled = compile_circuit(c)
+    source, lay = compiled.source, compiled.layout
     y0, m0, u0 = start_state(c, h=step, loop=loop, rest=rest)
     token = "{" + str(uuid.UUID(hashlib.md5(f"{source}|{lay.values().tobytes().hex()}|{y0.tobytes().hex()}|"
                                             f"{u0.tobytes().hex()}|{fmi}|{step}".encode()).hexdigest())) + "}"
