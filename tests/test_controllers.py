@@ -241,6 +241,26 @@ def test_step_metrics_first_order_and_second_order_closed_forms():
     assert mv["via"] is None and m2["via"] is None          # (a plain step: no way beyond from..to)
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.sampled_from([0.0, -0.0, 0.01, 0.02, math.nan]), min_size=0, max_size=60),
+       st.floats(0.0, 0.01))
+def test_holds_are_the_runs_of_a_constant_reference(values, min_hold):
+    """holds() (vectorised) against the sample-by-sample walk it replaced: each run of equal reference samples
+    (a NaN a run of its own, -0.0 equal to 0.0) lasting at least min_hold."""
+    from hydrohil.metrics import holds
+    t = np.arange(len(values)) * 1e-3
+    x_ref = np.array(values)
+    walked, i = [], 0
+    while i < len(t):
+        j = i
+        while j + 1 < len(t) and x_ref[j + 1] == x_ref[i]:
+            j += 1
+        if t[j] - t[i] >= min_hold:
+            walked.append((i, j))
+        i = j + 1
+    assert holds(t, x_ref, min_hold) == walked
+
+
 def test_a_move_that_goes_the_other_way_first_says_via_where():
     """Fig 12's second move: from the 100 mm hold the reference steps back to 60 mm, then ramps to the 140 mm
     hold; the move is 100 -> 140 mm via 60 mm, and its line says so."""

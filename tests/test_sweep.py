@@ -305,3 +305,29 @@ def test_a_circuit_study_varies_component_values_and_its_rows_are_the_runs(tmp_p
     with pytest.raises(InputError, match="no such value .*'cyl.masss'") as e:
         load_study(bad)
     assert e.value.key == "vary[3]"
+
+
+def test_a_paper_study_runs_on_the_generated_code_with_the_cores_rows(mc60, monkeypatch):
+    """A study of a paper scenario runs each run on the code generated from its circuit (runs.ENGINE): its rows
+    (every metric, the status) are the core's, run by run (12 runs of the Fig 11 Monte Carlo: mass, supply,
+    friction and valve leakage drawn; executed in this process, as a worker does)."""
+    import hydrohil.studies.runs as runs
+    study = load_study(mc60)
+    base = {"study": str(study.source.resolve()), "digest": study.digest(), "logs": None}
+    assert runs.ENGINE == "generated"
+    generated = [runs.execute({**r, **base}) for r in study.runs()[:12]]
+    monkeypatch.setattr(runs, "ENGINE", "core")
+    core = [runs.execute({**r, **base}) for r in study.runs()[:12]]
+    skip = ("wall_s", "worker")
+    assert all(g["status"] == "ok" for g in generated)
+    assert [{k: v for k, v in g.items() if k not in skip} for g in generated] == \
+        [{k: v for k, v in c.items() if k not in skip} for c in core]
+    assert len({g["max_hold_error"] for g in generated}) == 12          # (12 different rigs)
+    assert runs.keep_freed_memory() is True                             # (glibc: this machine's C library)
+
+
+def test_runs_go_to_the_workers_in_small_batches():
+    from hydrohil.studies.engine import BATCH_MAX, batch_size
+    assert batch_size(1000, 2) == BATCH_MAX == 8             # (a big study: 8 runs a task)
+    assert batch_size(60, 2) == 7                            # (every worker gets about four tasks)
+    assert batch_size(3, 4) == 1 and batch_size(0, 1) == 1

@@ -25,16 +25,15 @@ MIN_MOVE = 1e-5     # m: a change of the reference smaller than this is not a mo
 
 
 def holds(t: np.ndarray, x_ref: np.ndarray, min_hold: float = 0.05) -> list[tuple[int, int]]:
-    """(first, last) sample indices of each run of a constant reference lasting at least ``min_hold`` s."""
-    out, i, n = [], 0, len(t)
-    while i < n:
-        j = i
-        while j + 1 < n and x_ref[j + 1] == x_ref[i]:
-            j += 1
-        if t[j] - t[i] >= min_hold:
-            out.append((i, j))
-        i = j + 1
-    return out
+    """(first, last) sample indices of each run of a constant reference lasting at least ``min_hold`` s (a NaN
+    sample a run of its own)."""
+    t, x_ref = np.asarray(t), np.asarray(x_ref)
+    if len(t) == 0:
+        return []
+    change = np.flatnonzero(x_ref[1:] != x_ref[:-1])          # the last sample of each run but the last run's
+    first, last = np.concatenate(([0], change + 1)), np.append(change, len(t) - 1)
+    kept = t[last] - t[first] >= min_hold
+    return list(zip(first[kept].tolist(), last[kept].tolist()))
 
 
 def _first_crossing(t, x, level, rising):

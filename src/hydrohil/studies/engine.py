@@ -3,10 +3,11 @@ cluster by its scheduler's address (``dask scheduler`` / ``dask worker``, SLURM,
 
 Results stream into one Parquet table: rows are written as part files (``results/part-*.parquet``, each
 written to a temporary name and renamed, so a killed client leaves whole parts) every ``FLUSH_ROWS`` rows or
-``FLUSH_S`` seconds, and merged into ``results.parquet`` at the end. At most ``window`` runs are in flight, so
-memory stays bounded however many runs. A rerun of the same study into the same folder skips the runs
-already there; a worker that dies mid-run has its runs retried by the scheduler (each run's row is written
-once, keyed by its id).
+``FLUSH_S`` seconds, and merged into ``results.parquet`` at the end. Runs go to the workers in batches of a few
+(:func:`batch_size`: a Fig 11 run takes a few ms, about what Dask spends on a task, so one task per run left the
+second core to the scheduler and the client), at most ``window`` batches in flight, so memory stays bounded
+however many runs. A rerun of the same study into the same folder skips the runs already there; a worker that
+dies mid-run has its batch retried by the scheduler (each run's row is written once, keyed by its id).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from hydrohil.errors import InputError
-from hydrohil.studies.runs import execute
+from hydrohil.studies.runs import execute, execute_batch
 from hydrohil.studies.study import METRICS
 from hydrohil.studies.study import LoadedStudy, load_study
 
@@ -174,23 +175,28 @@ def run_study(path: str | Path, out: str | Path, *, scheduler: str | None = None
             window = window or max(4 * n_workers, 16)
             logs = str((out / "runs").resolve()) if study.study.logs else None
             base = {"study": str(study.source.resolve()), "digest": digest, "logs": logs}
-            tasks = iter(todo)
+            size = batch_size(len(todo), n_workers)
+            batches = iter([todo[i:i + size] for i in range(0, len(todo), size)])
             ac = as_completed()
 
-            def submit(run):
-                ac.add(client.submit(execute, {**run, **base}, key=f"hydrohil-{digest}-{run['run_id']}", pure=False))
-            for r in [next(tasks) for _ in range(min(window, len(todo)))]:
-                submit(r)
+            def submit(batch):
+                ac.add(client.submit(execute_batch, [{**run, **base} for run in batch], pure=False,
+                                     key=f"hydrohil-{digest}-{batch[0]['run_id']}-{batch[-1]['run_id']}"))
+            for _ in range(window):
+                batch = next(batches, None)
+                if batch is not None:
+                    submit(batch)
             bar = _progress(progress, len(todo), study.name)
             with bar:
                 task_id = bar.add_task("runs", total=len(todo))
                 for fut in ac:
-                    row = fut.result()
+                    rows = fut.result()
                     fut.release()
-                    if table.add(row) and on_row is not None:
-                        on_row(row)
-                    bar.advance(task_id)
-                    nxt = next(tasks, None)
+                    for row in rows:
+                        if table.add(row) and on_row is not None:
+                            on_row(row)
+                    bar.advance(task_id, len(rows))
+                    nxt = next(batches, None)
                     if nxt is not None:
                         submit(nxt)
         finally:
@@ -204,6 +210,15 @@ def run_study(path: str | Path, out: str | Path, *, scheduler: str | None = None
     from hydrohil.studies.report import write_study_report
     summary = write_study_report(study, merged, out, wall_s=wall, ran=len(todo), workers=n_workers)
     return StudyResult(out, merged, len(runs), len(todo), skipped, wall, n_workers, summary)
+
+
+BATCH_MAX = 8          # runs per task at most (a Fig 11 run: ~5 ms; Dask's own cost per task: a few ms)
+
+
+def batch_size(runs: int, workers: int) -> int:
+    """Runs per task: up to BATCH_MAX, and small enough that every worker gets about four tasks (a short study
+    still spreads over the cluster, a killed worker's retry is small)."""
+    return max(1, min(BATCH_MAX, runs // (4 * max(workers, 1))))
 
 
 def _progress(show: bool, total: int, name: str):

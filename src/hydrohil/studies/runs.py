@@ -28,6 +28,25 @@ def _study(path: str, digest: str):
     return load_study(path)
 
 
+ENGINE = "generated"    # a paper scenario's runs: the code generated from its circuit (run_scenario's; "core" the same rows)
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3     # glibc's mallopt parameters (malloc.h)
+
+
+@functools.cache
+def keep_freed_memory() -> bool:
+    """Let this process keep the memory a run frees for the next run (glibc: blocks up to 64 MB from the heap,
+    the heap not trimmed below 256 MB of free space), instead of returning it to the system and taking every
+    page again, zeroed, on the next run: a run's logs are a few MB, allocated and freed per run, so a worker
+    spent about a third of a 12 000-step run in page faults (benchmarks/sweep.py). False where the C library
+    is not glibc (nothing changed)."""
+    import ctypes
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        return bool(libc.mallopt(M_MMAP_THRESHOLD, 64 << 20) and libc.mallopt(M_TRIM_THRESHOLD, 256 << 20))
+    except (OSError, AttributeError):
+        return False
+
+
 def run_data(study, inputs: dict) -> tuple[dict, str]:
     """(the run's table, "scenario" | "sequence"): the base file's table with the run's inputs applied."""
     from hydrohil.parameters import read_toml
@@ -111,6 +130,7 @@ def metrics_of(t, xp, x_ref, p1, p2, sliding=None) -> dict:
 def execute(task: dict) -> dict:
     """Run one task (``run_id``, ``index``, ``inputs``, ``study``, ``digest``, ``logs``) -> its row."""
     import tomli_w
+    keep_freed_memory()
     t0 = time.perf_counter()
     row = {"run_id": task["run_id"], "index": task["index"], "status": "ok", "error": None}
     row.update({f"in.{k}": v for k, v in task["inputs"].items()})
@@ -146,14 +166,19 @@ def execute(task: dict) -> dict:
     return row
 
 
+def execute_batch(tasks: list[dict]) -> list[dict]:
+    """Run the tasks of one batch (:func:`execute` each, in order) -> their rows."""
+    return [execute(task) for task in tasks]
+
+
 def _run_scenario(path: Path):
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import load_scenario
     sc = load_scenario(path)
     if not sc.scenario.closed_loop:
         raise InputError("a study's scenario must be closed loop ([controller] + [reference])", source=str(path))
-    res = run_scenario(sc, engine="core")   # (the same log; on the generated engine a study runs 25 % slower,
-    t = res.column("t")                      # README: issue #29's to remove)
+    res = run_scenario(sc, engine=ENGINE)
+    t = res.column("t")
     cols = {c: res.column(c) for c in ("t", "xp", "p1", "p2", "u", "xs", "friction_mode")}
     cols["x_ref"] = sc.scenario.reference.sample(t)[0]
     return cols, (str(res.diverged) if res.diverged else None)
