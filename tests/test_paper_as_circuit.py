@@ -1302,3 +1302,74 @@ def test_a_stiff_chamber_steps_as_the_cores_on_the_generated_engine(tmp_path):
             warnings.simplefilter("ignore")
             gen, core = run_scenario(ls, engine="generated"), run_scenario(ls, engine="core")
         assert gen.extra == {"engine": "generated"} and np.array_equal(gen.log, core.log), path.name
+
+
+@pytest.mark.parametrize("bulk", ["pressure", "constant"])
+def test_the_circuits_continuous_reference_is_the_cores_bit_for_bit(bulk):
+    """The continuous reference generated from the paper's circuit (hc_reference_rhs) is the core's reference
+    model (reference.c, SPEC §6): its derivatives at 3 000 random states, the spool past its ends, the piston past
+    both stops, the chambers near each other (the narrow laminar region) and below the floor, are the core's bit
+    for bit (before: the circuit's stops were critically damped at 1e4 rad/s, its laminar region the hybrid's
+    1 bar, against SPEC §6's k = c = 1e10 and 1e3 Pa)."""
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.paper import PAPER_VIEW, paper_circuit
+    from hydrohil.core import dptr, lib
+    from hydrohil.models.layout import NY, STATE_NAMES, pack
+    from hydrohil.parameters import load_parameters, replace_values
+    params = load_parameters("ferreira2004")
+    if bulk == "constant":
+        params = replace_values(params, {"cylinder.bulk_modulus": "constant"})
+    p = pack(params)
+    cc = compile_circuit(paper_circuit(params))
+    lay, ffi = cc.layout, cc.ffi
+    P = np.ascontiguousarray(lay.values())
+    stroke = params.cylinder.stroke
+    rng = np.random.default_rng(11)
+    differ = []
+    for trial in range(3000):
+        st = {"xs": rng.uniform(-1.2, 1.2), "vs": rng.uniform(-300, 300), "p1": rng.uniform(-1.5e5, 2e7),
+              "p2": rng.uniform(-1.5e5, 2e7), "xp": rng.uniform(-0.01, stroke + 0.01), "vp": rng.uniform(-0.5, 0.5),
+              "z": rng.uniform(-2e-5, 2e-5)}
+        if trial % 3 == 0:
+            st["p1"] = st["p2"] + rng.uniform(-2e3, 2e3)
+        ud = rng.uniform(-1.0, 1.0)
+        y, dy = np.array([st[n] for n in STATE_NAMES]), np.zeros(NY)
+        lib.hh_reference_rhs(dptr(y), ud, dptr(p), dptr(dy))
+        yc, dyc = np.zeros(len(lay.states)), np.zeros(len(lay.states))
+        for core, name in PAPER_VIEW.items():
+            if name in lay.states:
+                yc[lay.states.index(name)] = st[core]
+        cc.lib.hc_reference_rhs(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", yc),
+                                ffi.from_buffer("double[]", np.array([ud])), ffi.from_buffer("double[]", dyc))
+        for core, name in PAPER_VIEW.items():
+            if name in lay.states and dy[STATE_NAMES.index(core)] != dyc[lay.states.index(name)]:
+                differ.append((core, st, ud))
+    assert differ == []
+
+
+@pytest.mark.parametrize("name, duration", [("fig11_p_control.toml", 1.5), ("fig10_open_loop_sine.toml", 1.0),
+                                            ("end_stops_p_control.toml", 1.0)])
+def test_a_paper_scenarios_reference_runs_the_generated_equations_bit_for_bit(name, duration, tmp_path, monkeypatch):
+    """``--solver reference`` of a paper scenario runs the right-hand side generated from its circuit in the core's
+    sampled loop (as_circuit.generated_reference_rhs): the core's reference run bit for bit, closed loop, open
+    loop and against the stops, its solver's statistics too."""
+    text = re.sub(r"duration = [0-9.]+", f"duration = {duration}", (EXAMPLES / name).read_text())
+    text = re.sub(r'method = "[a-z0-9]+"', 'method = "reference"', text) if "[solver]" in text else \
+        text + '\n[solver]\nmethod = "reference"\n'
+    f = tmp_path / name
+    f.write_text(text)
+    ls = load_scenario(f)
+    from hydrohil.simulation.as_circuit import generated_reference_rhs
+    assert generated_reference_rhs(ls) is not None
+    import hydrohil.simulation.reference as reference
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        core = run_scenario(ls, engine="core")
+
+        def not_the_cores(p):
+            raise AssertionError("the core's reference.c called")
+        monkeypatch.setattr(reference, "reference_rhs", not_the_cores)
+        generated = run_scenario(ls)
+    assert core.solver == generated.solver == "reference" and len(core.log) == int(duration / 5e-4) + 1
+    np.testing.assert_array_equal(generated.log, core.log)
+    assert generated.extra == core.extra and generated.extra["reference_intervals"] > 0

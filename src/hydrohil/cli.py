@@ -170,10 +170,10 @@ def simulate_cmd(scenario: Path = typer.Argument(..., help="scenario TOML"),
                                                    "the scenario's"),
                  sets: list[str] = typer.Option([], "--set", help="parameter value key=value (repeatable), on top of "
                                                 "the scenario's [overrides], e.g. --set load.mass=120"),
-                 engine: str = typer.Option("generated", help="a paper scenario's fixed-step run (its faults, "
-                                            "a Python controller too): generated (the code generated from its "
-                                            "circuit, the core's log bit for bit) or core (the hand-written "
-                                            "model)")):
+                 engine: str = typer.Option("generated", help="a paper scenario's run (fixed step, its faults, "
+                                            "a Python controller too; the continuous reference): generated (the "
+                                            "code generated from its circuit, the core's log bit for bit) or core "
+                                            "(the hand-written model)")):
     """Simulate a scenario with the hybrid model (or the continuous reference)."""
     try:
         s = simulate(scenario, out, solver, step, plot, params=params, sets=_parse_sets(sets), engine=engine)

@@ -1056,7 +1056,7 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
     rhs = []
     assigned = set(range(len(c.state_nodes)))
     for comp, e in emits:
-        rhs += _flow_lines(comp, e)
+        rhs += _flow_lines(comp, e, reference)
     for comp, e in emits:
         derivatives = {**e.derivatives, **e.reference} if reference else e.derivatives
         for state, expr in derivatives.items():
@@ -1092,10 +1092,12 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
     return rhs
 
 
-def _flow_lines(comp, e) -> list[str]:
-    """A component's locals and flows as C constants (q_<component>_<j>)."""
+def _flow_lines(comp, e, reference: bool = False) -> list[str]:
+    """A component's locals and flows as C constants (q_<component>_<j>; ``reference``: the continuous
+    reference's, Emit.reference_flows where it has them)."""
     lines = [f"    const double v_{_ident(comp.name)}_{name} = {expr};" for name, expr in e.pre]
-    for j, (a, b, expr, _, _) in enumerate(map(_flow, e.flows)):
+    flows = e.reference_flows if reference and e.reference_flows is not None else e.flows
+    for j, (a, b, expr, _, _) in enumerate(map(_flow, flows)):
         lines.append(f"    const double q_{_ident(comp.name)}_{j} = {expr};   /* {comp.name}: {a or 'out'} -> {b or 'out'} */")
         lines.append(f"    (void)q_{_ident(comp.name)}_{j};")
     lines += [f"    (void)v_{_ident(comp.name)}_{name};" for name, _ in e.pre]

@@ -87,6 +87,9 @@ class Emit:
     # step's start too, so a clamp tightened between steps holds from then (a spool's speed limit set to 0: stuck
     # at once; a live panel's `set` changes the parameter itself: its clamp acts from the step's end)
     clamps: tuple = ()
+    # its flows in the continuous reference where they differ (the same flows, in order, as (from, to, C flow)):
+    # the paper's valve's narrow laminar region there (SPEC §6); None: ``flows``
+    reference_flows: list | None = None
 
 
 @dataclass(frozen=True)
@@ -386,7 +389,7 @@ def _emit_servo_valve(c):
     x, v = c.x("x"), c.x("v")
     k = ", ".join(c.par(f"k{i}") for i in range(1, 6))
     kt = ", ".join(c.par(f"kt{i}") for i in range(1, 6))
-    dpt = c.par("dp_laminar")
+    dpt, dpr = c.par("dp_laminar"), c.par("reference_dp_laminar")
     xc = f"hh_clamp({x}, -1.0, 1.0)"
     spool = f"{c.par('wn')}, {c.par('xi')}, {c.par('la')}, {c.par('lv')}"
     P, T, A, B = (c.p(n) for n in ("P", "T", "A", "B"))
@@ -397,8 +400,8 @@ def _emit_servo_valve(c):
         s = f"(hc_section({sign}{xc}, {coeffs}) + {wear})"      # to tank, plus its line's burst hose: the core's)
         return f"({s} + {c.par(burst)})" if burst else s
 
-    def edge(sign, coeffs, a, b, s=None, burst=None):
-        return f"hc_sqrt_law({s or section(sign, coeffs, burst)} * HH_LPM_PER_SQRT_BAR, {a} - {b}, {dpt})"
+    def edge(sign, coeffs, a, b, s=None, burst=None, laminar=dpt):
+        return f"hc_sqrt_law({s or section(sign, coeffs, burst)} * HH_LPM_PER_SQRT_BAR, {a} - {b}, {laminar})"
 
     def edge_flow(name, sign, coeffs, a, b):      # (its ports, flow, conductance, rate with the pressures held)
         dp, s = f"{c.p(a)} - {c.p(b)}", c.v(name)     # (its section once per right-hand side: flow and conductance)
@@ -407,10 +410,13 @@ def _emit_servo_valve(c):
     qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T, burst="burst_a"), "PB": edge("", k, P, B),
           "BT": edge("-", kt, B, T, burst="burst_b")}
     u = c.par("command")
+    edges = (("s_pa", "-", k, "P", "A"), ("s_at", "", kt, "A", "T"), ("s_pb", "", k, "P", "B"),
+             ("s_bt", "-", kt, "B", "T"))
     return Emit(pre=[("s_pa", section("-", k)), ("s_at", section("", kt, "burst_a")), ("s_pb", section("", k)),
                      ("s_bt", section("-", kt, "burst_b"))],
-                flows=[edge_flow("s_pa", "-", k, "P", "A"), edge_flow("s_at", "", kt, "A", "T"),
-                       edge_flow("s_pb", "", k, "P", "B"), edge_flow("s_bt", "-", kt, "B", "T")],
+                flows=[edge_flow(*e) for e in edges],
+                reference_flows=[(a, b, edge(sign, co, c.p(a), c.p(b), c.v(name), laminar=dpr))
+                                 for name, sign, co, a, b in edges],
                 delays=[("command", "delay")],
                 derivatives={"x": f"hc_servo_spool_speed({x}, {v})",
                              "v": f"hc_servo_spool_accel({x}, {v}, {u}, {spool})"},
@@ -457,7 +463,8 @@ def _emit_lugre_cylinder(c):
              reference={"x": v, "z": f"{v} - {c.par('sigma0')} * fabs({v}) * {z} / {g}",
                         "v": f"({c.v('f')} - ({c.par('sigma0')} * {z} + {c.par('sigma1')} * ({v} - "
                              f"{c.par('sigma0')} * fabs({v}) * {z} / {g}) + {kv} * {v}) + "
-                             f"hc_stop_penalty({x}, {v}, {stroke}, {c.par('mass')})) / {c.par('mass')}"},
+                             f"hc_stop_force({x}, {v}, {stroke}, {c.par('stop_stiffness')}, "
+                             f"{c.par('stop_damping')})) / {c.par('mass')}"},
              outputs={"x": (x, "m"), "v": (v, "m/s"), "applied_force": (f_ext, "N"), "friction": (ff, "N")},
              bounds=_travel_bounds(c.nominal("stroke")))
     val = c.comp.values
@@ -696,6 +703,8 @@ TYPES["servo_valve"] = ComponentType(
      **{f"kt{i}": Param("-", -1e3, 1e3, f"eq 3 coefficient k{i}t of A->T, B->T [{_SECTION}]", k)
         for i, k in enumerate(_FERREIRA_KT, 1)},
      "dp_laminar": Param("Pa", 0.0, 1e7, "laminar transition of the orifice law", 1e5, lo_strict=True),
+     "reference_dp_laminar": Param("Pa", 0.0, 1e7, "the continuous reference's laminar transition (SPEC §6: "
+                                   "narrow, the Jacobian finite; the core's dp_lam_ref)", 1e3, lo_strict=True),
      "wn": Param("rad/s", 0.0, 1e5, "spool natural frequency", 1007.01, lo_strict=True),
      "xi": Param("-", 0.0, 10.0, "spool damping ratio", 0.48, lo_strict=True),
      "la": Param("1/s2", 0.0, 1e9, "spool acceleration limit (normalised stroke)", 81184.24, lo_strict=True),
@@ -740,7 +749,10 @@ TYPES["lugre_cylinder"] = ComponentType(
      "fs_neg": Param("N", 0.0, 1e7, "breakaway force, retracting (magnitude)", 249.56, lo_strict=True),
      "vs_neg": Param("m/s", 0.0, 10.0, "Stribeck velocity, retracting", 0.0251, lo_strict=True),
      "kv_neg": Param("N.s/m", 0.0, 1e8, "viscous friction, retracting", 1387.0),
-     "x0": Param("m", 0.0, 20.0, "initial position", 0.0)},
+     "x0": Param("m", 0.0, 20.0, "initial position", 0.0),
+     "stop_stiffness": Param("N/m", 0.0, 1e14, "the continuous reference's end stops (SPEC §6): a unilateral "
+                             "spring-damper past an end, its stiffness", 1e10, lo_strict=True),
+     "stop_damping": Param("N.s/m", 0.0, 1e14, "... and its damping (it pushes, never pulls)", 1e10)},
     modes=("stick", "slip_pos", "slip_neg", "at_retract", "at_extend"), inputs=("force",),
     states=(("x", "m"), ("v", "m/s"), ("z", "m")), derived=(*_CYLINDER_DERIVED,))
 

@@ -58,13 +58,12 @@ HH_INLINE int hc_stop_reset(int g, double *x, double *v, double stroke)
     return g == HC_STOP_G_RETRACT ? HC_AT_RETRACT : HC_AT_EXTEND;
 }
 
-/* The continuous reference's end stops (SPEC §6, for any linear actuator): no modes; past an end a stiff
- * unilateral spring-damper of natural frequency HC_REF_STOP_WN per unit mass, critically damped, pushes the
- * piston back (it pushes, never pulls). Returns the force [N] along +x on a mass m at (x, v). */
-#define HC_REF_STOP_WN 1e4          /* rad/s: 50 kN on 200 kg penetrates 2.5 um */
-HH_INLINE double hc_stop_penalty(double x, double v, double stroke, double m)
+/* The continuous reference's end stops (SPEC §6): no modes; past an end a unilateral spring-damper of
+ * stiffness k and damping c on the penetration pushes the piston back (F = max(0, k*d + c*dd/dt): it pushes,
+ * never pulls; the paper's cylinder: k = c = 1e10, the core's reference.c). Returns the force [N] along +x at
+ * (x, v). */
+HH_INLINE double hc_stop_force(double x, double v, double stroke, double k, double c)
 {
-    const double k = m * HC_REF_STOP_WN * HC_REF_STOP_WN, c = 2.0 * m * HC_REF_STOP_WN;
     double f;
     if (x < 0.0) {
         f = k * (-x) - c * v;
@@ -75,6 +74,13 @@ HH_INLINE double hc_stop_penalty(double x, double v, double stroke, double m)
         return f > 0.0 ? -f : 0.0;
     }
     return 0.0;
+}
+
+/* ... of any linear actuator of moved mass m: natural frequency HC_REF_STOP_WN, critically damped */
+#define HC_REF_STOP_WN 1e4          /* rad/s: 50 kN on 200 kg penetrates 2.5 um */
+HH_INLINE double hc_stop_penalty(double x, double v, double stroke, double m)
+{
+    return hc_stop_force(x, v, stroke, m * HC_REF_STOP_WN * HC_REF_STOP_WN, 2.0 * m * HC_REF_STOP_WN);
 }
 
 #endif

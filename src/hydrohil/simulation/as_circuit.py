@@ -368,6 +368,44 @@ def rig_status(ls, compiled):
     return status
 
 
+def generated_reference_rhs(ls):
+    """The continuous reference's right-hand side ``f(y, t, ud) -> dy/dt`` of the paper scenario ``ls`` generated
+    from its circuit (``hc_reference_rhs`` of :func:`circuit_scenario_of`'s code, its parameters), in the core's
+    state order (models.layout.STATE_NAMES) with the valve's input ``ud``: for the core's sampled loop of the
+    reference (:func:`hydrohil.simulation.reference.solve_reference`: the delayed command switching at alpha*h
+    within the step, LSODA per interval), which so runs the circuit's equations (the core's reference.c's bit
+    for bit: tests, 3 000 random states). None when the circuit has other inputs than the valve's command
+    (a scenario the reference does not take: faults)."""
+    import warnings
+
+    from hydrohil.models.layout import NY, STATE_NAMES
+    from hydrohil.circuits.paper import PAPER_VIEW
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # (the conversion's own: said by the core's start)
+        try:
+            cs = circuit_scenario_of(ls)
+        except InputError:                       # (what a circuit does not take: run_generated's rule)
+            return None
+    cc = cs.compiled
+    lay, ffi, lib = cc.layout, cc.ffi, cc.lib
+    if lay.inputs != ["valve.command"]:
+        return None
+    at = np.array([lay.states.index(PAPER_VIEW[name]) for name in STATE_NAMES])   # core state i: circuit's at[i]
+    P = np.ascontiguousarray(lay.values())
+    yc, dyc, u, dy = np.zeros(NY), np.zeros(NY), np.zeros(1), np.empty(NY)
+    Pb, ycb, dycb, ub = (ffi.from_buffer("double[]", a) for a in (P, yc, dyc, u))
+    rhs = lib.hc_reference_rhs
+
+    def f(y, t, ud):
+        yc[at] = y
+        u[0] = ud
+        rhs(Pb, ycb, ub, dycb)
+        dy[:] = dyc[at]
+        return dy
+    f.keep = (cc, P)                             # (alive while the solver calls f)
+    return f
+
+
 def run_generated(ls, *, progress=None, rig: bool = False):
     """``run_scenario``'s fixed-step run of the paper scenario ``ls`` (a drive, a built-in law or a Python
     controller reading the rig's status bits, :func:`rig_status`; its faults) on the code generated from its circuit (:func:`circuit_scenario_of`), from the core's state at rest

@@ -73,7 +73,7 @@ def hh_py_advance(ctx, t, h, alpha, u_old, u_new, y):
 
 def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, values: np.ndarray, *,
                     controller=None, slopes=None, seed: int = 0, every: int = 1, rtol: float = DEFAULT_RTOL, atol=DEFAULT_ATOL,
-                    progress=None, stats: dict | None = None):
+                    progress=None, stats: dict | None = None, rhs=None):
     """Integrate the reference model over n_steps samples of h; returns (status, steps done, log, final y).
 
     ``values``: n_steps + 1 commands (open loop), or positions for the sampled built-in ``controller``
@@ -81,13 +81,15 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, value
     where LSODA gives up) on the core's right-hand side. ``progress(k)`` is called now and then. Log columns
     as the hybrid loop's (modes read off the state: penetration -> stop, |vp| < 1 mm/s -> stick). ``stats``
     (optional dict) receives ``intervals``, ``radau_fallbacks`` and, on a solver failure, ``failure``
-    (the run then ends with the divergence status).
+    (the run then ends with the divergence status). ``rhs``: ``f(y, t, ud) -> dy/dt`` in the core's state order
+    in place of the core's (:func:`reference_rhs`): the one generated from the scenario's circuit
+    (:func:`hydrohil.simulation.as_circuit.generated_reference_rhs`).
     """
     stats = {} if stats is None else stats
     stats.update(intervals=0, radau_fallbacks=0)
     sim = Sim(p, h, model="external")
     sim.set_state(np.asarray(y0, dtype=float))
-    stepper = _Stepper(reference_rhs(sim.p), rtol, atol, stats)
+    stepper = _Stepper(reference_rhs(sim.p) if rhs is None else rhs, rtol, atol, stats)
     handle = ffi.new_handle(stepper)
     sim._sim.advance = lib.hh_py_advance
     sim._sim.ctx = handle

@@ -26,7 +26,9 @@ def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated"
     on the code generated from the scenario's circuit (:func:`hydrohil.simulation.as_circuit.run_generated`: the
     core's log and the rig's columns bit for bit, but for a stuck spool's speed in its first row, said there);
     ``"core"`` on the hand-written core (with faults or a Python controller, the virtual rig's). The continuous
-    reference runs on the core either way."""
+    reference runs the core's sampled loop either way, on the right-hand side generated from the circuit
+    (:func:`hydrohil.simulation.as_circuit.generated_reference_rhs`: the core's reference.c's bit for bit) or,
+    ``"core"``, reference.c's."""
     if engine not in ENGINES:
         raise ValueError(f"engine: one of {', '.join(ENGINES)}, got {engine!r}")
     s, params = sc.scenario, sc.params
@@ -47,10 +49,15 @@ def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated"
     ctl = sc.make_controller() if closed else None
     every = s.solver.output_every
     if s.solver.method == "reference":
+        rhs = None
+        if engine == "generated":                # the circuit's equations in the core's sampled loop
+            from hydrohil.simulation.as_circuit import generated_reference_rhs
+            rhs = generated_reference_rhs(sc)
         t0 = time.perf_counter()
         stats: dict = {}
         status, done, log, yend = solve_reference(p, y, h, n, drive, controller=ctl, slopes=slopes, seed=s.hil.seed,
-                                                  every=every, rtol=s.solver.rtol, progress=progress, stats=stats)
+                                                  every=every, rtol=s.solver.rtol, progress=progress, stats=stats,
+                                                  rhs=rhs)
         wall = time.perf_counter() - t0
         div = None
         if status != STATUS_OK:
