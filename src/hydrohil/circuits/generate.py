@@ -1047,8 +1047,10 @@ void hc_row(const double *P, const double *y, const int64_t *m, const double *u,
 
 def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
                start: list | None = None) -> list[str]:
-    """The body of a right-hand side: the components' locals and flows, the components' states' derivatives (the
-    reference's where it has its own), then each state node's sum, volume and capacitance, in netlist order.
+    """The body of a right-hand side: the components' locals, the components' states' derivatives (the
+    reference's where it has its own), their flows, then each state node's sum, volume and capacitance, in netlist
+    order. (The derivatives before the flows, as the core's hybrid_rhs: a friction's exp starts first and the
+    flows run while it completes; flows first left each stage waiting on it, the paper's step 3 % slower.)
     The hybrid model's node rate is the stiff-node form of hc_node.h with the step's constants sc (c = 1: the
     plain rate, bit for bit): its flows' rates with the pressures held use the derivatives above. ``nodes``:
     :func:`_node_terms`; ``start`` (:func:`_coupled_pairs`): the constants sc computed first, from the same flows'
@@ -1056,13 +1058,15 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
     rhs = []
     assigned = set(range(len(c.state_nodes)))
     for comp, e in emits:
-        rhs += _flow_lines(comp, e, reference)
+        rhs += _pre_lines(comp, e)
     for comp, e in emits:
         derivatives = {**e.derivatives, **e.reference} if reference else e.derivatives
         for state, expr in derivatives.items():
             j = lay.states.index(f"{comp.name}.{state}")
             assigned.add(j)
             rhs.append(f"    dy[{j}] = {expr};   /* {comp.name}.{state} */")
+    for comp, e in emits:
+        rhs += _flow_lines(comp, e, reference)
     # a state without a derivative is constant (a circuit without states has one): each written once, no loop
     rhs += [f"    dy[{j}] = 0.0;" for j in range(max(len(lay.states), 1)) if j not in assigned]
     for i, node in enumerate(c.state_nodes):            # each node's volume, bulk modulus, capacitance: once
@@ -1092,15 +1096,20 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
     return rhs
 
 
+def _pre_lines(comp, e) -> list[str]:
+    """A component's locals as C constants (v_<component>_<name>)."""
+    return [f"    const double v_{_ident(comp.name)}_{name} = {expr};\n    (void)v_{_ident(comp.name)}_{name};"
+            for name, expr in e.pre]
+
+
 def _flow_lines(comp, e, reference: bool = False) -> list[str]:
-    """A component's locals and flows as C constants (q_<component>_<j>; ``reference``: the continuous
-    reference's, Emit.reference_flows where it has them)."""
-    lines = [f"    const double v_{_ident(comp.name)}_{name} = {expr};" for name, expr in e.pre]
+    """A component's flows as C constants (q_<component>_<j>; ``reference``: the continuous reference's,
+    Emit.reference_flows where it has them)."""
+    lines = []
     flows = e.reference_flows if reference and e.reference_flows is not None else e.flows
     for j, (a, b, expr, _, _) in enumerate(map(_flow, flows)):
         lines.append(f"    const double q_{_ident(comp.name)}_{j} = {expr};   /* {comp.name}: {a or 'out'} -> {b or 'out'} */")
         lines.append(f"    (void)q_{_ident(comp.name)}_{j};")
-    lines += [f"    (void)v_{_ident(comp.name)}_{name};" for name, _ in e.pre]
     return lines
 
 
