@@ -1062,24 +1062,21 @@ def test_a_python_controller_reads_the_rigs_status_bits_on_the_generated_code(tm
 
 def test_a_diverging_run_on_the_generated_code_says_what_the_cores_says(tmp_path):
     """A 5 kg load driven open loop at 77 % with explicit Euler at 1 ms diverges (a case of the parity record):
-    the generated run stops (at the step its state leaves the physical range the paper's components declare,
-    the core's: run_generated says None) and run_scenario gives the core's run, its log up to there and its
-    message (time, modes, state)."""
-    from hydrohil.simulation.as_circuit import run_generated
+    the generated run stops at the step its state leaves the physical range the paper's components declare (the
+    core's) and gives the core's run, its log up to there, and the core's stop: time, modes, state (its reason
+    naming the state that left its range and the range)."""
     f = tmp_path / "big.toml"
-    f.write_text('params = "ferreira2004"\nduration = 0.2\n[overrides]\n"load.mass" = 5.0\n'
-                 '"load.gravity_direction" = 1\n"friction.asymmetric" = true\n[solver]\nmethod = "euler"\n'
-                 'step = 0.001\n[initial]\nxp = 0.0\nxs = 0.0\n[input]\ntype = "sine"\namplitude = 0.09\n'
-                 'offset = 0.7669404385199566\nfrequency = 0.5\n')
+    f.write_text(DIVERGING)
     ls = load_scenario(f)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         gen, core = run_scenario(ls, engine="generated"), run_scenario(ls, engine="core")
-    assert core.diverged is not None and str(gen.diverged) == str(core.diverged)
-    assert np.array_equal(gen.log, core.log) and gen.extra == {}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        assert run_generated(ls) is None
+    assert core.diverged is not None and gen.extra == {"engine": "generated"}
+    assert (gen.diverged.t, gen.diverged.modes, gen.diverged.state) == (core.diverged.t, core.diverged.modes,
+                                                                         core.diverged.state)
+    assert str(gen.diverged) == str(core.diverged).replace("non-finite or unphysical state",
+                                                           "vp = 161.828 outside its physical range [-100, 100]")
+    np.testing.assert_array_equal(gen.log, core.log)
 
 
 def test_a_paper_scenario_under_any_file_name_runs_the_same_compiled_module(tmp_path):
@@ -1373,3 +1370,42 @@ def test_a_paper_scenarios_reference_runs_the_generated_equations_bit_for_bit(na
     assert core.solver == generated.solver == "reference" and len(core.log) == int(duration / 5e-4) + 1
     np.testing.assert_array_equal(generated.log, core.log)
     assert generated.extra == core.extra and generated.extra["reference_intervals"] > 0
+
+
+COUNTING_LAW = '''
+import math
+class Law:
+    def __call__(self, m):
+        with open({calls!r}, "a") as f:          # (a side effect: one line a call)
+            f.write(f"{{m.t!r}}\\n")
+        return 0.09 * math.sin(math.pi * m.t) + 0.7669404385199566
+'''
+
+
+def test_a_diverging_run_on_the_generated_code_is_the_cores_and_calls_a_controller_once_a_step(tmp_path):
+    """A run with a Python controller that diverges on the generated code gives its log up to the stop and the
+    core's stop (time, modes, state; the state that left its range named the paper's way), its controller called
+    once a step, as the core's rig calls it (before, the core ran it again after the generated run: called twice
+    a step, its side effects doubled). Its log is the core's rig's and the row of the step that failed (the
+    state at its start), which the core's rig loop drops and its plain loop keeps."""
+    calls = tmp_path / "calls.txt"
+    (tmp_path / "law.py").write_text(COUNTING_LAW.format(calls=str(calls)))
+    f = tmp_path / "big.toml"
+    f.write_text(DIVERGING.split("[solver]")[0] + '[solver]\nmethod = "rk3"\nstep = 0.003\n[initial]\nxp = 0.0\n'
+                 'xs = 0.0\n[controller]\ntype = "python"\ncallable = "law.py:Law"\n'
+                 '[reference]\ntype = "table"\nt = [0.0]\nx = [0.05]\n')      # (RK3: the core's rig's solver)
+    ls = load_scenario(f)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        core = run_scenario(ls, engine="core")
+        by_core = calls.read_text().split()
+        calls.unlink()
+        generated = run_scenario(ls)
+    assert core.diverged is not None and generated.extra["engine"] == "generated"
+    assert calls.read_text().split() == by_core and len(by_core) == round(core.diverged.t / 3e-3)   # (once a step)
+    # the core's rig loop drops the row of the step that failed (its plain loop keeps it: the open loop, above)
+    np.testing.assert_array_equal(generated.log[:-1], core.log)
+    assert len(generated.log) == len(by_core) and generated.log[-1, 0] == core.diverged.t - 3e-3
+    g, c = generated.diverged, core.diverged
+    assert (g.t, g.modes, g.state) == (c.t, c.modes, c.state)
+    assert re.search(r"vp = -364.968 outside its physical range \[-100, 100\]", g.reason), g.reason

@@ -35,8 +35,9 @@ class SimulationDiverged(HydrohilError):
 
     exit_code = 1
 
-    def __init__(self, t: float, modes: dict[str, str], state: dict[str, float], reason: str):
+    def __init__(self, t: float, modes: dict[str, str], state: dict[str, float], reason: str, partial=None):
         self.t, self.modes, self.state, self.reason = t, modes, state, reason
+        self.partial = partial          # the run's result up to the stop, where the runner gives it
         st = ", ".join(f"{k}={v:.6g}" for k, v in state.items())
         md = ", ".join(f"{k}={v}" for k, v in modes.items())
         super().__init__(f"simulation diverged at t = {t:.6f} s ({reason}); modes: {md}; state: {st}")

@@ -515,8 +515,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     ``h``), its log on the same grid. ``progress(step)`` is called now and then (a fixed-step run: before every
     4096th step); what it raises (a Ctrl-C) stops the run and is raised. Raises SimulationDiverged with
     the time, the modes and the state when a state leaves its physical range or the finite (the fixed-step
-    solvers: checked after every step, hc_unphysical; the reference: where it leaves the finite or its solvers
-    fail).
+    solvers: checked after every step, hc_unphysical, the rows logged before the stop its ``partial`` result;
+    the reference: where it leaves the finite or its solvers fail).
     ``loop``: closed loop (:class:`Loop`); the log gets the controller's reference as a column. ``warn_unheld``:
     warn when a piston started at rest is not held there (InputWarning: it moves at once). ``start``: (y, m, u0)
     in place of the start at rest: the state (hc_state_size values: the layout's states, then the delay lines'
@@ -599,12 +599,13 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     if status == 2:                       # (a state sized for another step: not from simulate_circuit)
         raise HydrohilError(f"circuit {c.name!r}: the step {h} s is not the one its state's delay lines were sized "
                             "for (hc_init)")
-    if status != 0:                       # (the end of the failed step, whichever rows were logged)
-        modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
-        raise SimulationDiverged(int(steps[0]) * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
-                                 divergence_reason(cc, P, y, status))
     res.units = signal_units(c, lay)
     _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
+    if status != 0:                       # (the end of the failed step; the rows logged before it: ``partial``)
+        modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
+        raise SimulationDiverged(int(steps[0]) * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
+                                 divergence_reason(cc, P, y, status),
+                                 partial=_with_drives(c, cc, res, u, every, loop, commands, sent, dog))
     if warn and len(log):
         _warn_unbalanced(c, res)
     return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)

@@ -106,7 +106,7 @@ def run_sequence(sequence: str | Path | LoadedSequence, out: str | Path, *, mode
             res = None
             if controller is None and s.solver.method != "reference":
                 res = run_generated(sc, progress=progress, rig=True)
-            if res is None:                 # (diverged, or not for the generated code: the rig's run)
+            if res is None:                 # (not for the generated code: the rig's run)
                 res = run_rig(sc, controller=controller, progress=progress)
             from hydrohil.simulation.outputs import write_log_csv
             write_log_csv(out / "log.csv", res.log, res.columns)

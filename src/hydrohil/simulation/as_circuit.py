@@ -415,12 +415,11 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     its speed in the jam's first row, 2.3e-13 1/s where the core logs 0: the circuit clamps it at the step's
     start, after the row; benchmarks/parity.py --engine generated: all 320 fixed-step runs of its record); with
     faults or a Python controller and another solver than RK3, the solver's run, where the core's rig stepped RK3
-    whatever the scenario said. None
-    when the run diverges
-    (a state non-finite, or outside the physical range the paper's components declare, the core's hh_diverged:
-    run_scenario then gives the core's run, its log up to the step and its message) or the scenario has what a
-    circuit does not take, or a sensor fault with a memory in a run not logged every step (rig_columns). (A
-    diverging run with a Python controller is so run twice, its controller called again by the core's.)"""
+    whatever the scenario said. A run that diverges (a state non-finite, or outside the physical range the
+    paper's components declare, the core's hh_diverged) gives its log up to the step and the core's message
+    (:func:`paper_divergence`: the same time, modes and state; the state that left its range named). None when
+    the scenario has what a circuit does not take, or a sensor fault with a memory in a run not logged every
+    step (rig_columns): run_scenario then runs the core."""
     import warnings
 
     from hydrohil.circuits.paper import paper_log, paper_start
@@ -449,14 +448,33 @@ def run_generated(ls, *, progress=None, rig: bool = False):
             return None
     if s.python_controller:                      # (it reads the rig's status bits)
         cs.loop.status = rig_status(ls, cs.compiled)
+    diverged = None
     try:
         res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, loop=cs.loop,
                                commands=cs.commands, start=paper_start(cs.circuit, row, cs.step, compiled=cs.compiled),
                                progress=progress, compiled=cs.compiled, columns=PAPER_COLUMNS)
-    except SimulationDiverged:                   # (non-finite, or outside the core's physical range: the paper's
-        return None                              # components declare hh_diverged's bounds; run_scenario: the core's
-                                                 # run, the same steps, and its message)
+    except SimulationDiverged as exc:            # (non-finite, or outside the core's physical range: the paper's
+        res, diverged = exc.partial, paper_divergence(exc)   # components declare hh_diverged's bounds: the core's
     columns = rig_columns(ls, res, cs.compiled, tables) if s.faults or s.python_controller or rig else {}   # (run_rig's
     #                                                          columns: ``rig``, or a run the core gives the rig)
-    return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, extra={"engine": "generated"},
-                            columns=columns)
+    return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, diverged,
+                            extra={"engine": "generated"}, columns=columns)
+
+
+def paper_divergence(exc):
+    """The divergence ``exc`` of a paper circuit's run (its circuit's states and modes) in the paper's names, as
+    the core says it (models.layout.STATE_NAMES, the travel, friction and spool modes; its reason's state named
+    the paper's way: "vp = 161.828 outside its physical range [-100, 100]")."""
+    from hydrohil.circuits.paper import CYL_MODE, PAPER_VIEW
+    from hydrohil.core.shape import MODE_NAMES
+    from hydrohil.models.layout import STATE_NAMES
+    from hydrohil.simulation.diagnostics import divergence_error
+    y = [exc.state[PAPER_VIEW[name]] for name in STATE_NAMES]
+    travel, friction = CYL_MODE[exc.modes["cyl.mode"]]
+    m = [MODE_NAMES["travel"].index(travel), MODE_NAMES["friction"].index(friction),
+         MODE_NAMES["spool"].index(exc.modes["valve.mode"])]
+    reason = exc.reason
+    for name in STATE_NAMES:
+        if reason.startswith(PAPER_VIEW[name] + " = "):
+            reason = name + reason[len(PAPER_VIEW[name]):]
+    return divergence_error(exc.t, y, m, reason)

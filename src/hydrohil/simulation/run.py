@@ -37,7 +37,7 @@ def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated"
         from hydrohil.simulation.as_circuit import run_generated
         res = run_generated(sc, progress=progress)
         if res is not None:
-            return res                           # (None: it diverged; the core's run says where, below)
+            return res                           # (None: what a circuit does not take; the core's run, below)
     if s.faults or s.python_controller:          # the virtual rig's loop (its faults, a controller in Python)
         from hydrohil.simulation.rig import run_rig
         return run_rig(sc, progress=progress)
