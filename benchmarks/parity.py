@@ -121,8 +121,8 @@ def cases(randoms: list[dict], engine: str = "core"):
         from hydrohil.maxstep import check_step
         sc = load_scenario(ROOT / "src/hydrohil/experiments/endstop_step_size.toml", duration=0.01)
         ref = run_scenario(load_scenario(ROOT / "src/hydrohil/experiments/endstop_step_size.toml", duration=0.01,
-                                         solver="reference")).log
-        r = check_step(sc, "continuous", "rk3", 4e-8, ref)
+                                         solver="reference"), engine=engine).log
+        r = check_step(sc, "continuous", "rk3", 4e-8, ref, engine=engine)
         return {"rms": np.array([r.get("rms_x", np.nan), r.get("rms_p", np.nan), float(r["stable"])])}
     yield "maxstep_continuous", continuous
 

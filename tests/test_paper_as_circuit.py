@@ -1409,3 +1409,35 @@ def test_a_diverging_run_on_the_generated_code_is_the_cores_and_calls_a_controll
     g, c = generated.diverged, core.diverged
     assert (g.t, g.modes, g.state) == (c.t, c.modes, c.state)
     assert re.search(r"vp = -364.968 outside its physical range \[-100, 100\]", g.reason), g.reason
+
+
+def test_maxsteps_continuous_model_runs_the_generated_equations_bit_for_bit(tmp_path, monkeypatch):
+    """maxstep's explicit runs of a paper scenario's continuous model step the code generated from its circuit
+    (hc_core_continuous_advance in the core's loop: an explicit step of the generated reference's right-hand
+    side) and its reference runs the generated right-hand side: the core's runs bit for bit (RK3, Euler and Heun,
+    a stable and an unstable step), and the same search, trial by trial."""
+    import hydrohil.simulation.reference as reference
+    from hydrohil.maxstep import continuous_run, max_stable_step
+    f = tmp_path / "slam.toml"
+    f.write_text((EXAMPLES / "maxstep_endstop.toml").read_text().replace("duration = 0.25", "duration = 0.03"))
+    ls = load_scenario(f)
+    from hydrohil.models.layout import pack
+    from hydrohil.simulation.as_circuit import generated_continuous_model
+    from hydrohil.simulation.loop import Sim
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert generated_continuous_model(ls, Sim(pack(ls.params), 1e-5, model="external"), "rk3") is not None
+        for solver, h, stable in (("rk3", 3e-8, True), ("rk3", 1e-4, False), ("euler", 2e-8, True),
+                                  ("heun", 4e-8, True)):
+            (ok_core, core), (ok, generated) = continuous_run(ls, solver, h, "core"), continuous_run(ls, solver, h)
+            assert ok_core == ok == stable
+            np.testing.assert_array_equal(generated, core)
+        core = max_stable_step(ls, "continuous", "rk3", engine="core", rel_tol=0.2)
+
+        def not_the_cores(p):
+            raise AssertionError("the core's reference.c called")
+        monkeypatch.setattr(reference, "reference_rhs", not_the_cores)
+        generated = max_stable_step(ls, "continuous", "rk3", rel_tol=0.2)
+    trials = lambda r: [{k: v for k, v in t.items() if k != "wall_s"} for t in r["trials"]]   # noqa: E731
+    assert trials(generated) == trials(core) and len(trials(core)) >= 5
+    assert generated["max_stable_step"] == core["max_stable_step"] == pytest.approx(5.26e-5, rel=0.01)

@@ -25,15 +25,23 @@ from hydrohil.simulation.scenario import LoadedScenario
 from hydrohil.simulation.reference import solve_reference
 
 
-def continuous_run(sc: LoadedScenario, solver: str, h: float):
+def continuous_run(sc: LoadedScenario, solver: str, h: float, engine: str = "generated"):
     """The continuous (stiff end-stop) model at the fixed explicit step h, driven like the scenario (its
     commands or references sampled by zero-order hold at each step); the core's loop with maxstep's bounds
-    (|p| <= 1.5 Ps, |xs| <= 2). Returns (ok, log)."""
+    (|p| <= 1.5 Ps, |xs| <= 2), its steps the code generated from the scenario's circuit
+    (:func:`hydrohil.simulation.as_circuit.generated_continuous_model`) or, ``engine = "core"``, reference.c's.
+    Returns (ok, log)."""
     s, params = sc.scenario, sc.params
     p = pack(params)
     h_out = s.solver.step
     y, m = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
-    sim = Sim(p, h, model="continuous", solver=solver, bounded=True)
+    keep = None
+    if engine == "generated":
+        from hydrohil.simulation.as_circuit import generated_continuous_model
+        sim = Sim(p, h, model="external", bounded=True)
+        keep = generated_continuous_model(sc, sim, solver)
+    if keep is None:
+        sim = Sim(p, h, model="continuous", solver=solver, bounded=True)
     sim.set_state(y, m)
     t_in = np.arange(s.n_steps() + 1) * h_out
     every = max(1, int(round(h_out / h)))
@@ -53,8 +61,8 @@ def _errors(t, xp, p1, p2, ref_log):
 
 
 def check_step(sc: LoadedScenario, model: str, solver: str, h: float, ref_log: np.ndarray,
-               tol_x: float = 2e-3, tol_p: float = 10e5) -> dict:
-    """Run one candidate step; returns {stable, reason, rms_x, rms_p, wall_s}."""
+               tol_x: float = 2e-3, tol_p: float = 10e5, engine: str = "generated") -> dict:
+    """Run one candidate step (on ``engine``, run_scenario's); returns {stable, reason, rms_x, rms_p, wall_s}."""
     s, params = sc.scenario, sc.params
     h_out = s.solver.step
     t0 = time.perf_counter()
@@ -62,7 +70,7 @@ def check_step(sc: LoadedScenario, model: str, solver: str, h: float, ref_log: n
         scn = sc.model_copy(update={"scenario": s.model_copy(update={
             "solver": s.solver.model_copy(update={"method": solver, "step": h,
                                                   "output_every": max(1, int(round(h_out / h)))})})})
-        res = run_scenario(scn)
+        res = run_scenario(scn, engine=engine)
         if res.diverged:
             return {"stable": False, "reason": "diverged", "wall_s": time.perf_counter() - t0}
         t, xp, p1, p2 = (res.column(c) for c in ("t", "xp", "p1", "p2"))
@@ -70,7 +78,7 @@ def check_step(sc: LoadedScenario, model: str, solver: str, h: float, ref_log: n
         if not ok_bounds:
             return {"stable": False, "reason": "unbounded pressure", "wall_s": time.perf_counter() - t0}
     else:
-        ok, log = continuous_run(sc, solver, h)
+        ok, log = continuous_run(sc, solver, h, engine)
         if not ok:
             return {"stable": False, "reason": "diverged or unbounded", "wall_s": time.perf_counter() - t0}
         t, xp, p1, p2 = log[:, 0], log[:, 7], log[:, 5], log[:, 6]
@@ -118,8 +126,10 @@ def largest_stable(test, *, h0: float = 5e-4, rel_tol: float = 0.05, h_min: floa
 
 def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk3", *, tol_x: float = 2e-3,
                     tol_p: float = 10e5, rel_tol: float = 0.05, h_min: float = 1e-10, h_max: float = 2e-2,
-                    progress=None) -> dict:
-    """Bisect for the largest stable fixed step (definition in the module docstring)."""
+                    progress=None, engine: str = "generated") -> dict:
+    """Bisect for the largest stable fixed step (definition in the module docstring). ``engine``: the runs, the
+    continuous model's and the reference's right-hand side on the code generated from the scenario's circuit, or
+    on the hand-written core ("core"): the same results."""
     if model not in ("hybrid", "continuous"):
         raise ValueError("model must be 'hybrid' or 'continuous'")
     s, params = sc.scenario, sc.params
@@ -131,9 +141,13 @@ def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk
     y0, _ = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
     stats: dict = {}
     values, slopes = s.drive()
+    rhs = None
+    if engine == "generated":
+        from hydrohil.simulation.as_circuit import generated_reference_rhs
+        rhs = generated_reference_rhs(sc)
     status, done, ref_log, y_end = solve_reference(p, y0, s.solver.step, s.n_steps(), values, slopes=slopes,
                                                    controller=sc.make_controller() if s.closed_loop else None,
-                                                   seed=s.hil.seed, stats=stats)
+                                                   seed=s.hil.seed, stats=stats, rhs=rhs)
     if status != STATUS_OK:      # no trustworthy reference: no step can be judged against it
         from hydrohil.simulation.diagnostics import divergence_error
         raise divergence_error(done * s.solver.step, y_end, np.zeros(3, dtype=np.int64),
@@ -141,7 +155,7 @@ def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk
     trials = []
 
     def test(h):
-        r = check_step(sc, model, solver, h, ref_log, tol_x, tol_p)
+        r = check_step(sc, model, solver, h, ref_log, tol_x, tol_p, engine)
         r["step"] = h
         trials.append(r)
         if progress:

@@ -52,6 +52,9 @@ void hc_state_bounds(const double *P, double *lo, double *hi);
 int64_t hc_unphysical(const double *P, const double *y);
 void hc_reference_rhs(const double *P, const double *y, const double *u, double *dy);
 void hc_reference_row(const double *P, const double *y, const double *u, double t, double *row);
+typedef struct { const double *P; const int64_t *at; int64_t n; int64_t command; int method; double *yc; double *u; }
+    hc_core_ctx;
+int hc_core_continuous_advance(void *ctx, double t, double h, double alpha, double u_old, double u_new, double *y);
 """
 
 

@@ -556,6 +556,58 @@ void hc_reference_rhs(const double *P, const double *y, const double *u, double 
             dy[i] = 0.0;
 }}
 
+/* One explicit step of h of the continuous reference (maxstep's explicit runs of the continuous model) from y0
+ * into yout under inputs u, with the core's tableau tab: rk.c's rk_step over NY states, its sums in its order */
+HH_INLINE void continuous_step(const hh_tableau *tab, const double *P, const double *y0, const double *u, double h,
+                               double *yout)
+{{
+    double k[HH_MAX_STAGES][NY], ytmp[NY];
+    int s, j, i;
+    for (s = 0; s < tab->stages; s++) {{
+        for (i = 0; i < NY; i++) {{
+            double acc = y0[i];
+            for (j = 0; j < s; j++)
+                if (tab->a[s][j] != 0.0)
+                    acc += h * tab->a[s][j] * k[j][i];
+            ytmp[i] = acc;
+        }}
+        hc_reference_rhs(P, ytmp, u, k[s]);
+    }}
+    for (i = 0; i < NY; i++) {{
+        double acc = y0[i];
+        for (s = 0; s < tab->stages; s++)
+            acc += h * tab->b[s] * k[s][i];
+        yout[i] = acc;
+    }}
+}}
+
+/* The continuous model's step in a sampled loop whose state is in another order (the core's loop, loop.c's
+ * external model: maxstep's explicit runs of a paper scenario's continuous model): hh_advance_fn's arguments,
+ * its context an hc_core_ctx (state i of the loop's y is the circuit's at[i]; the input `command` takes the
+ * delay line's step average (1 - alpha)*u_new + alpha*u_old, delay.c's); always 0 (the loop checks the state). */
+typedef struct {{ const double *P; const int64_t *at; int64_t n; int64_t command; int method; double *yc; double *u; }}
+    hc_core_ctx;
+
+int hc_core_continuous_advance(void *ctx, double t, double h, double alpha, double u_old, double u_new, double *y)
+{{
+    hc_core_ctx *c = (hc_core_ctx *)ctx;
+    double y1[NY];
+    int64_t i;
+    (void)t;
+    for (i = 0; i < c->n; i++)
+        c->yc[c->at[i]] = y[i];
+    c->u[c->command] = (1.0 - alpha) * u_new + alpha * u_old;
+    switch (c->method) {{
+    case HH_EULER: continuous_step(&HH_TABLEAUS[HH_EULER], c->P, c->yc, c->u, h, y1); break;
+    case HH_HEUN: continuous_step(&HH_TABLEAUS[HH_HEUN], c->P, c->yc, c->u, h, y1); break;
+    case HH_RK4: continuous_step(&HH_TABLEAUS[HH_RK4], c->P, c->yc, c->u, h, y1); break;
+    default: continuous_step(&HH_TABLEAUS[HH_RK3], c->P, c->yc, c->u, h, y1); break;
+    }}
+    for (i = 0; i < c->n; i++)
+        y[i] = y1[c->at[i]];
+    return 0;
+}}
+
 /* a log row of the continuous reference at (t, y) under inputs u (its modes read off the state) */
 void hc_reference_row(const double *P, const double *y, const double *u, double t, double *row)
 {{

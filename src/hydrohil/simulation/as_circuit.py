@@ -406,6 +406,39 @@ def generated_reference_rhs(ls):
     return f
 
 
+def generated_continuous_model(ls, sim, solver: str):
+    """Make the core's loop ``sim`` (:class:`~hydrohil.simulation.loop.Sim`, model "external") step the paper
+    scenario ``ls``'s continuous model by the code generated from its circuit (``hc_core_continuous_advance``: an
+    explicit step of ``solver`` of the generated reference's right-hand side, the core's state order): maxstep's
+    explicit runs of the continuous model, the core's (reference.c's continuous_step) bit for bit. Returns what
+    must stay alive while ``sim`` runs, or None (the core's then: :func:`generated_reference_rhs`'s rule)."""
+    import warnings
+
+    from hydrohil.circuits.paper import PAPER_VIEW
+    from hydrohil.core import ffi as core_ffi, method_code
+    from hydrohil.models.layout import STATE_NAMES
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # (the conversion's own: said by the core's start)
+        try:
+            cs = circuit_scenario_of(ls)
+        except InputError:
+            return None
+    cc = cs.compiled
+    lay, ffi = cc.layout, cc.ffi
+    if lay.inputs != ["valve.command"]:
+        return None
+    at = np.array([lay.states.index(PAPER_VIEW[name]) for name in STATE_NAMES], dtype=np.int64)
+    P, yc, u = np.ascontiguousarray(lay.values()), np.zeros(len(lay.states)), np.zeros(1)
+    ctx = ffi.new("hc_core_ctx *")
+    ctx.P, ctx.at, ctx.yc, ctx.u = (ffi.from_buffer(t, a) for t, a in (("double[]", P), ("int64_t[]", at),
+                                                                        ("double[]", yc), ("double[]", u)))
+    ctx.n, ctx.command, ctx.method = len(at), 0, method_code(solver)
+    address = lambda c: int(ffi.cast("uintptr_t", c))     # noqa: E731 - (the core's ffi is another module's)
+    sim._sim.advance = core_ffi.cast("hh_advance_fn", address(ffi.addressof(cc.lib, "hc_core_continuous_advance")))
+    sim._sim.ctx = core_ffi.cast("void *", address(ctx))
+    return cc, ctx, P, at, yc, u
+
+
 def run_generated(ls, *, progress=None, rig: bool = False):
     """``run_scenario``'s fixed-step run of the paper scenario ``ls`` (a drive, a built-in law or a Python
     controller reading the rig's status bits, :func:`rig_status`; its faults) on the code generated from its circuit (:func:`circuit_scenario_of`), from the core's state at rest
