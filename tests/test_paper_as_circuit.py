@@ -1441,3 +1441,59 @@ def test_maxsteps_continuous_model_runs_the_generated_equations_bit_for_bit(tmp_
     trials = lambda r: [{k: v for k, v in t.items() if k != "wall_s"} for t in r["trials"]]   # noqa: E731
     assert trials(generated) == trials(core) and len(trials(core)) >= 5
     assert generated["max_stable_step"] == core["max_stable_step"] == pytest.approx(5.26e-5, rel=0.01)
+
+
+RIG_CASES = sorted(p.replace(str(EXAMPLES) + "/", "") for p in glob.glob(str(EXAMPLES / "faults" / "*.toml"))) + \
+    ["fig11_p_control.toml", "controllers/fig12_pressure_feedback.toml", "end_stops_p_control.toml"]
+
+
+def test_the_rig_steps_the_generated_hybrid_model_bit_for_bit():
+    """The core's rig (rig.c: faults, sensors, command path, watchdog; the HIL plants' step) and its per-step
+    API run the hybrid model generated from the parameter set's circuit (loop.c's HH_MODEL_GENERATED:
+    hc_core_hybrid_step in the core's state, modes and parameters): every fault example, Fig 11, Fig 12's
+    pressure feedback and the end stops are the core's runs bit for bit, log and rig columns (the stuck spool's
+    first row too: the rig clamps it as the core does), and so is a 3 Hz sine through the per-step API."""
+    from hydrohil.parameters import load_parameters
+    from hydrohil.simulation.loop import HybridPlant
+    from hydrohil.simulation.rig import run_rig
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for path in RIG_CASES:
+            ls = load_scenario(EXAMPLES / path)
+            core, generated = run_rig(ls, engine="core"), run_rig(ls)
+            np.testing.assert_array_equal(generated.log, core.log, err_msg=path)
+            assert generated.columns.keys() == core.columns.keys()
+            for k in core.columns:
+                np.testing.assert_array_equal(generated.columns[k], core.columns[k], err_msg=f"{path}: {k}")
+    params = load_parameters("ferreira2004")
+    plants = HybridPlant(params, xp=0.09, engine="core"), HybridPlant(params, xp=0.09)
+    assert plants[1].sim._model is not None and plants[0].sim._model is None
+    u = 0.6 * np.sin(2 * np.pi * 3.0 * np.arange(4000) * 5e-4)
+    core, generated = (np.array([plant.step(v).copy() for v in u]) for plant in plants)
+    np.testing.assert_array_equal(generated, core)
+
+
+def test_the_panels_steering_acts_on_the_generated_model_as_on_the_cores(tmp_path):
+    """The live panel's plant events (a tunable's new value: mass, supply pressure, friction scale; a fault
+    switched on and off; a reset) change the loop's parameters, which the generated model reads at every step:
+    a steered Fig 11 replayed through the rig is the core's run bit for bit (and another run than the unsteered
+    one)."""
+    from hydrohil.simulation.rig import run_rig
+    from hydrohil.simulation.steering import parse_event
+    steer = {300: [{"op": "set", "name": "mass", "value": 150.0}],
+             900: [{"op": "fault_on", "fault": {"type": "hose_burst", "line": 2, "section": 0.5}}],
+             1500: [{"op": "set", "name": "supply_pressure", "value": 5e6}],
+             2100: [{"op": "fault_off", "slot": 0}, {"op": "set", "name": "friction_scale", "value": 2.0}],
+             2600: [{"op": "fault_on", "fault": {"type": "valve_leakage", "section": 0.02}}],
+             3300: [{"op": "reset"}]}
+    events = {k: [parse_event(e, "plant", source="test") for e in evs] for k, evs in steer.items()}
+    ls = load_scenario(EXAMPLES / "fig11_p_control.toml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        core = run_rig(ls, events=events, steps=4000, engine="core")
+        generated = run_rig(ls, events=events, steps=4000)
+        plain = run_rig(ls, steps=4000)
+    np.testing.assert_array_equal(generated.log, core.log)
+    for k in core.columns:
+        np.testing.assert_array_equal(generated.columns[k], core.columns[k], err_msg=k)
+    assert not np.array_equal(generated.log, plain.log)

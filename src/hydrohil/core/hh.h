@@ -32,10 +32,16 @@ enum { HH_G_NONE = -1, HH_G_RETRACT, HH_G_EXTEND, HH_G_BREAK_POS, HH_G_BREAK_NEG
 
 /* ---- fixed-step methods (rk.c) and models --------------------------------------------------- */
 enum { HH_EULER, HH_HEUN, HH_RK3, HH_RK4, HH_NMETHODS };
-enum { HH_MODEL_HYBRID, HH_MODEL_CONTINUOUS, HH_MODEL_EXTERNAL };
+enum { HH_MODEL_HYBRID, HH_MODEL_CONTINUOUS, HH_MODEL_EXTERNAL, HH_MODEL_GENERATED };
 /* HH_MODEL_EXTERNAL: the loop's step is a callback that advances y over [t, t + h] with the spool input
  * u_old over the first alpha*h and u_new after it (the SciPy LSODA/Radau reference); nonzero: failed. */
 typedef int (*hh_advance_fn)(void *ctx, double t, double h, double alpha, double u_old, double u_new, double *y);
+/* HH_MODEL_GENERATED: the hybrid model of another module (the code generated from the paper's circuit,
+ * circuits/generate.py: hc_core_hybrid_step, hc_core_friction) behind the loop's state, modes and parameters:
+ * `step` takes one step of h with the spool input ud (the loop's delay line) and returns the events located
+ * (< 0: failed); `friction` gives the friction force of a state and its modes (the log's ff). */
+typedef int (*hh_model_step_fn)(void *ctx, double *y, int64_t *m, const double *p, double ud, double h);
+typedef double (*hh_model_friction_fn)(void *ctx, const double *y, const int64_t *m, const double *p);
 typedef int (*hh_progress_fn)(void *ctx, int64_t k);   /* nonzero: stop the run (HH_STOPPED) */
 
 /* ---- constants ------------------------------------------------------------------------------ */
@@ -131,14 +137,16 @@ typedef struct {
     double y[HH_NY];
     int64_t m[HH_NM];
     double out[HH_NOUT];        /* the last step's outputs (hh_sim_step) */
-    int model;                  /* HH_MODEL_HYBRID | HH_MODEL_CONTINUOUS */
+    int model;                  /* HH_MODEL_HYBRID | HH_MODEL_CONTINUOUS | HH_MODEL_EXTERNAL | HH_MODEL_GENERATED */
     int method;                 /* HH_EULER .. HH_RK4 */
     double h;                   /* fixed step [s] */
     int64_t k;                  /* steps done */
     hh_delay delay;
     int bounded;                /* also stop when a pressure > 1.5 Ps or |xs| > 2 (maxstep's bounds) */
     hh_advance_fn advance;      /* HH_MODEL_EXTERNAL */
-    void *ctx;                  /* passed to advance */
+    void *ctx;                  /* passed to advance, model_step and model_friction */
+    hh_model_step_fn model_step;            /* HH_MODEL_GENERATED */
+    hh_model_friction_fn model_friction;
     hh_progress_fn progress;    /* called every 500 steps of hh_sim_run when set */
     void *progress_ctx;         /* passed to progress */
 } hh_sim;

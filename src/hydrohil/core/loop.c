@@ -64,6 +64,14 @@ HH_INLINE int sim_diverged(const hh_sim *sim)
                             || fabs(y[HH_XS]) > 2.0);
 }
 
+/* The hybrid model's friction force at (y, m): the core's, or the generated model's. */
+HH_INLINE double sim_friction(const hh_sim *sim, const double *y, const int64_t *m)
+{
+    if (sim->model == HH_MODEL_GENERATED)
+        return sim->model_friction(sim->ctx, y, m, sim->p);
+    return friction_force(y, m, sim->p);
+}
+
 /* One log row of the state (y, m) at time t with command u and spool input ud. */
 static void log_row(const hh_sim *sim, double t, double u, double ud, const double *y, const int64_t *m,
                     double events, double *row)
@@ -75,8 +83,8 @@ static void log_row(const hh_sim *sim, double t, double u, double ud, const doub
     row[HH_LOG_UD] = ud;
     for (i = 0; i < HH_NY; i++)
         row[HH_LOG_XS + i] = y[i];
-    if (sim->model == HH_MODEL_HYBRID) {
-        row[HH_LOG_FF] = friction_force(y, m, p);
+    if (sim->model == HH_MODEL_HYBRID || sim->model == HH_MODEL_GENERATED) {
+        row[HH_LOG_FF] = sim_friction(sim, y, m);
         row[HH_LOG_TRAVEL] = (double)m[HH_M_TRAVEL];
         row[HH_LOG_FRICTION] = (double)m[HH_M_FRICTION];
         row[HH_LOG_SPOOL] = (double)m[HH_M_SPOOL];
@@ -103,6 +111,8 @@ void hh_sim_init(hh_sim *sim, const double *p, int model, int method, double h, 
     sim->bounded = 0;
     sim->advance = 0;
     sim->ctx = 0;
+    sim->model_step = 0;
+    sim->model_friction = 0;
     sim->progress = 0;
     sim->progress_ctx = 0;
     sim->delay.buf = delay_buf;
@@ -137,6 +147,8 @@ HH_INLINE int sim_advance(hh_sim *sim, double t, double u_new, double u_old, dou
     case HH_MODEL_CONTINUOUS:
         continuous_step(sim->method, sim->y, sim->p, ud, sim->h);
         return 0;
+    case HH_MODEL_GENERATED:
+        return sim->model_step(sim->ctx, sim->y, sim->m, sim->p, ud, sim->h);
     default:
         return sim->advance(sim->ctx, t, sim->h, sim->delay.alpha, u_old, u_new, sim->y) ? -1 : 0;
     }
@@ -152,7 +164,8 @@ int hh_sim_step(hh_sim *sim, double u)
     sim->out[HH_OUT_T] = (double)sim->k * sim->h;   /* t = k*h exactly as the loop (no sum drift) */
     for (i = 0; i < HH_NY; i++)
         sim->out[HH_OUT_Y + i] = sim->y[i];
-    sim->out[HH_OUT_FF] = sim->model == HH_MODEL_HYBRID ? friction_force(sim->y, sim->m, sim->p) : 0.0;
+    sim->out[HH_OUT_FF] = sim->model == HH_MODEL_HYBRID || sim->model == HH_MODEL_GENERATED
+                          ? sim_friction(sim, sim->y, sim->m) : 0.0;
     sim->out[HH_OUT_TRAVEL] = (double)sim->m[HH_M_TRAVEL];
     sim->out[HH_OUT_FRICTION] = (double)sim->m[HH_M_FRICTION];
     sim->out[HH_OUT_SPOOL] = (double)sim->m[HH_M_SPOOL];

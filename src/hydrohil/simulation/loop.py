@@ -24,7 +24,8 @@ from hydrohil.parameters import Parameters
 LOG_COLUMNS = shape.LOG_COLUMNS          # the log's columns (core/shape.py; hh_shape.h's HH_LOG_* from the same)
 NLOG = lib.HH_NLOG
 STATUS_OK, STATUS_DIVERGED = lib.HH_OK, lib.HH_DIVERGED
-MODELS = {"hybrid": lib.HH_MODEL_HYBRID, "continuous": lib.HH_MODEL_CONTINUOUS, "external": lib.HH_MODEL_EXTERNAL}
+MODELS = {"hybrid": lib.HH_MODEL_HYBRID, "continuous": lib.HH_MODEL_CONTINUOUS, "external": lib.HH_MODEL_EXTERNAL,
+          "generated": lib.HH_MODEL_GENERATED}
 
 
 def split_delay(delay: float, h: float) -> tuple[int, float]:
@@ -61,10 +62,12 @@ class Sim:
     last step's outputs ``out`` are NumPy views of the C struct (edit ``p`` in place, e.g. fault injection).
 
     ``model``: "hybrid" (fixed-step hybrid model), "continuous" (the reference model at a fixed explicit
-    step, maxstep) or "external" (a Python step behind a callback, the SciPy reference)."""
+    step, maxstep), "external" (a Python step behind a callback, the SciPy reference) or "generated" (the hybrid
+    model generated from the circuit of ``params``, the parameter set ``p`` was packed from:
+    :func:`hydrohil.simulation.generated_model.generated_hybrid_model`)."""
 
     def __init__(self, p: np.ndarray, h: float, *, model: str = "hybrid", solver: str = "rk3",
-                 bounded: bool = False):
+                 bounded: bool = False, params: Parameters | None = None):
         if not h > 0:
             raise ValueError(f"step h must be > 0 s, got {h}")
         self.h = float(h)
@@ -75,6 +78,10 @@ class Sim:
                         method_code(solver) if model != "external" else lib.HH_RK3, self.h, dptr(self._buf),
                         self.dl_n, self.dl_alpha)
         self._sim.bounded = int(bounded)
+        self._model = None
+        if model == "generated":             # the paper's circuit's generated hybrid model behind this loop
+            from hydrohil.simulation.generated_model import generated_hybrid_model
+            self._model = generated_hybrid_model(params, self, solver)
         self._rng = ffi.new("hh_rng *")           # the sensors' noise of closed-loop runs (Sim.run)
         self.p = view(self._sim.p, np.float64, lib.HH_NP)
         self.y = view(self._sim.y, np.float64, NY)
@@ -236,13 +243,17 @@ class HybridPlant:
     """Per-step API of the hybrid model: ``plant.step(u)`` advances one fixed step h with command u.
 
     ``step`` returns a reused float64 array ``out``: [t, xs, vs, p1, p2, xp, vp, z, ff, travel, friction,
-    spool, events, ud] (SI; mode codes of :mod:`hydrohil.models.layout`). Copy it to keep it.
+    spool, events, ud] (SI; mode codes of :mod:`hydrohil.models.layout`). Copy it to keep it. ``engine``: the
+    hybrid model generated from the parameter set's circuit ("generated", in the core's loop) or the
+    hand-written core's ("core"): the same bits.
     """
 
     OUT_COLUMNS = shape.OUTPUT_NAMES
 
-    def __init__(self, params: Parameters, h: float = 5e-4, solver: str = "rk3", **initial):
-        self.sim = Sim(pack(params), h, solver=solver)          # checks h > 0
+    def __init__(self, params: Parameters, h: float = 5e-4, solver: str = "rk3", engine: str = "generated",
+                 **initial):
+        self.sim = Sim(pack(params), h, solver=solver, model="generated" if engine == "generated" else "hybrid",
+                       params=params)                            # checks h > 0
         self.params, self.h = params, self.sim.h
         self.p, self.y, self.m, self.out = self.sim.p, self.sim.y, self.sim.m, self.sim.out
         self._step = lib.hh_sim_step

@@ -52,14 +52,16 @@ class Reading:
 
 class VirtualRig(WatchdogCounters):
     """The hybrid plant behind the rig step of the C core (``hh_rig``, core/rig.c: command path, watchdog,
-    the fault table, sensing): the same step the standalone C plant takes."""
+    the fault table, sensing): the same step the standalone C plant takes. ``engine``: its hybrid model the code
+    generated from the parameter set's circuit ("generated", :func:`~hydrohil.simulation.generated_model.
+    generated_hybrid_model`: the core's runs bit for bit, tests) or the hand-written core's ("core")."""
 
     def __init__(self, params: Parameters, h: float, hil: HilCfg | None = None, faults: list | None = None,
-                 initial: dict | None = None):
+                 initial: dict | None = None, engine: str = "generated"):
         self.params, self.h = params, float(h)
         self.hil = hil or HilCfg()
         self.initial = dict(initial or {})
-        self.plant = HybridPlant(params, h=self.h, **self.initial)
+        self.plant = HybridPlant(params, h=self.h, engine=engine, **self.initial)
         self.res = count_size(params.sensors.encoder_resolution)   # m per encoder count
         self.c = ffi.new("hh_rig *")
         self._fifo = None                                   # network_delay's commands in flight (on demand)
@@ -161,7 +163,8 @@ class VirtualRig(WatchdogCounters):
 RIG_COLUMNS = shape.RIG_LOG_COLUMNS      # beside the log's: what the sensors reported, faults, watchdog
 
 
-def run_rig(sc, *, controller=None, progress=None, events=None, controller_events=None, steps: int | None = None):
+def run_rig(sc, *, controller=None, progress=None, events=None, controller_events=None, steps: int | None = None,
+            engine: str = "generated"):
     """Offline run of a scenario through the virtual rig (the path of scenarios with ``[[faults]]`` or a
     Python controller): closed loop = the scenario's controller (or ``controller``, a callable taking a
     :class:`~hydrohil.control.Measurement`) on what the rig's sensors report, exactly as the HIL controller
@@ -175,7 +178,7 @@ def run_rig(sc, *, controller=None, progress=None, events=None, controller_event
     from hydrohil.simulation.steering import SteerableController, apply_plant_event
     s = sc.scenario
     h, n = s.solver.step, s.n_steps() if steps is None else int(steps)
-    rig = VirtualRig(sc.params, h, s.hil, s.faults, s.initial.model_dump())
+    rig = VirtualRig(sc.params, h, s.hil, s.faults, s.initial.model_dump(), engine=engine)
     closed = s.closed_loop
     events, controller_events = events or {}, controller_events or {}
     builtin = command = None

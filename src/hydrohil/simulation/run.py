@@ -40,7 +40,7 @@ def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated"
             return res                           # (None: what a circuit does not take; the core's run, below)
     if s.faults or s.python_controller:          # the virtual rig's loop (its faults, a controller in Python)
         from hydrohil.simulation.rig import run_rig
-        return run_rig(sc, progress=progress)
+        return run_rig(sc, progress=progress, engine=engine)
     h, n = s.solver.step, s.n_steps()
     p = pack(params)
     y, m = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
