@@ -1497,3 +1497,55 @@ def test_the_panels_steering_acts_on_the_generated_model_as_on_the_cores(tmp_pat
     for k in core.columns:
         np.testing.assert_array_equal(generated.columns[k], core.columns[k], err_msg=k)
     assert not np.array_equal(generated.log, plain.log)
+
+
+def test_the_references_log_shows_the_flows_it_integrates():
+    """The servo valve's flows logged by the continuous reference (hc_reference_row) are those of its own
+    laminar region (reference_dp_laminar, 1000 Pa): 0.5 and 0.2 bar across the open P->A edge are turbulent
+    there, the flows in the ratio sqrt(2.5) (the hybrid model's row, 1 bar laminar region: nearly linear, 2.39;
+    before, the reference logged those)."""
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.paper import paper_circuit
+    from hydrohil.parameters import load_parameters
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cc = compile_circuit(paper_circuit(load_parameters("ferreira2004")))
+    lay, ffi = cc.layout, cc.ffi
+    P = np.ascontiguousarray(lay.values())
+    ps = P[lay.slot["supply.pressure"]]
+    col = lay.log_columns.index("valve.q_pa")
+    q = {}
+    for drop in (5e4, 2e4):
+        y = np.zeros(len(lay.states))
+        y[lay.states.index("valve.x")], y[lay.states.index("cap.p")], y[lay.states.index("rod.p")] = 0.5, ps - drop, 1e5
+        y[lay.states.index("cyl.x")] = 0.09
+        for kind, fn in (("reference", cc.lib.hc_reference_row), ("hybrid", None)):
+            row, u = np.zeros(len(lay.log_columns)), np.array([0.5])
+            args = [ffi.from_buffer("double[]", a) for a in (P, y, u)]
+            if fn is None:
+                m = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
+                cc.lib.hc_row(args[0], args[1], ffi.from_buffer("int64_t[]", m), args[2], 0.0,
+                              ffi.from_buffer("double[]", row))
+            else:
+                fn(*args, 0.0, ffi.from_buffer("double[]", row))
+            q[kind, drop] = row[col]
+    assert q["reference", 5e4] / q["reference", 2e4] == pytest.approx(math.sqrt(2.5), rel=1e-12)
+    assert q["hybrid", 5e4] / q["hybrid", 2e4] == pytest.approx(2.394, abs=1e-3)     # (near linear: laminar)
+
+
+def test_a_parameter_set_the_component_library_refuses_keeps_the_cores_model():
+    """A value the parameter schema takes beyond a component's range (a valve coefficient of 2000: the servo
+    valve's k1 within ±1000) keeps the per-step API and the rig on the core's model, which runs it, instead of
+    failing where it used to run."""
+    from hydrohil.parameters import load_parameters, replace_values
+    from hydrohil.simulation.loop import HybridPlant
+    p = load_parameters("ferreira2004")
+    params = replace_values(p, {"valve.k": [2000.0, *p.valve.k[1:]]})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plant, core = HybridPlant(params, xp=0.09), HybridPlant(params, xp=0.09, engine="core")
+    assert plant.sim._model is None
+    np.testing.assert_array_equal(np.array([plant.step(0.1).copy() for _ in range(50)]),
+                                  np.array([core.step(0.1).copy() for _ in range(50)]))
+    with pytest.raises(ValueError, match="engine: generated or core"):
+        HybridPlant(p, engine="numba")

@@ -91,12 +91,15 @@ def generated(c: Circuit) -> tuple[str, Layout]:
     """:func:`generate`'s (C text, layout) of ``c``, the text made once per structure in a process (a study's
     runs, a paper scenario converted run after run: one structure, many values)."""
     key = structure(c)
-    if key not in _GENERATED:
+    entry = _GENERATED.get(key)
+    if entry is None:
+        source, lay = generate(c)
+        template = copy.copy(lay)
+        template.circuit, template.params = None, []     # (no circuit kept alive by the cache)
         if len(_GENERATED) >= 64:
             _GENERATED.clear()
-        _GENERATED[key] = generate(c)
-    source, lay = _GENERATED[key]
-    return source, lay.of(c)
+        entry = _GENERATED[key] = (source, template)
+    return entry[0], entry[1].of(c)
 
 
 class _View:
@@ -181,14 +184,16 @@ def generate(c: Circuit) -> tuple[str, Layout]:
               if f"{comp.name}.{key}" in lay.inputs]                   # (a constant needs no delay)
     lay.delayed = [f"{comp.name}.{key}" for _, _, comp, key, _ in delays]
     lay.delay_params = {f"{comp.name}.{key}": f"{comp.name}.{par}" for _, _, comp, key, par in delays}
-    out_exprs = []                                 # (each output's C expression, in the log's order)
+    out_exprs, ref_exprs = [], []                  # (each output's C expression, in the log's order; the reference's)
     for comp, e in emits:
         for st, unit in comp.states:               # every state of a component is logged
             e.outputs.setdefault(st, (f"y[{lay.states.index(f'{comp.name}.{st}')}]", unit))
         for name, (expr, unit) in e.outputs.items():
             lay.outputs.append((f"{comp.name}.{name}", unit))
             out_exprs.append(expr)
+            ref_exprs.append(e.reference_outputs.get(name, expr))
     outs = [f"    o[{i}] = {expr};" for i, expr in enumerate(out_exprs)]
+    ref_outs = [f"    o[{i}] = {expr};" for i, expr in enumerate(ref_exprs) if expr != out_exprs[i]]
     delay_cases = [f"    case {d}: return {expr};   /* {comp.name}.{key} */" for d, (_, expr, comp, key, _) in
                    enumerate(delays)]
     if delays:
@@ -612,12 +617,19 @@ int hc_core_continuous_advance(void *ctx, double t, double h, double alpha, doub
     return 0;
 }}
 
-/* a log row of the continuous reference at (t, y) under inputs u (its modes read off the state) */
+/* a log row of the continuous reference at (t, y) under inputs u (its modes read off the state; the outputs
+ * that differ there, Emit.reference_outputs: the flows of its own laws) */
 void hc_reference_row(const double *P, const double *y, const double *u, double t, double *row)
 {{
     int64_t m[NM];
+    double o[NOUT];
+    int i;
     reference_modes(y, m, u, P);
     log_row(t, y, m, u, P, row);
+    outputs(y, m, u, P, o);
+{chr(10).join(ref_outs)}
+    for (i = 0; i < {nout}; i++)
+        row[LOG_OUTPUTS + i] = o[i];
 }}
 
 /* The stage derivatives k of an explicit step of h from y with tableau tab; held (NULL: none): the node

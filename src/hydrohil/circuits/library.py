@@ -88,8 +88,10 @@ class Emit:
     # at once; a live panel's `set` changes the parameter itself: its clamp acts from the step's end)
     clamps: tuple = ()
     # its flows in the continuous reference where they differ (the same flows, in order, as (from, to, C flow)):
-    # the paper's valve's narrow laminar region there (SPEC §6); None: ``flows``
+    # the paper's valve's narrow laminar region there (SPEC §6); None: ``flows``; and the outputs that log them
+    # there (name -> C expression)
     reference_flows: list | None = None
+    reference_outputs: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -417,6 +419,9 @@ def _emit_servo_valve(c):
                 flows=[edge_flow(*e) for e in edges],
                 reference_flows=[(a, b, edge(sign, co, c.p(a), c.p(b), c.v(name), laminar=dpr))
                                  for name, sign, co, a, b in edges],
+                reference_outputs={f"q_{a.lower()}{b.lower()}": edge(sign, co, c.p(a), c.p(b), burst=burst,
+                                                                     laminar=dpr)
+                                   for (_, sign, co, a, b), burst in zip(edges, (None, "burst_a", None, "burst_b"))},
                 delays=[("command", "delay")],
                 derivatives={"x": f"hc_servo_spool_speed({x}, {v})",
                              "v": f"hc_servo_spool_accel({x}, {v}, {u}, {spool})"},

@@ -34,7 +34,11 @@ def generated_hybrid_model(params, sim, solver: str):
     the loop's state, modes and parameters, which it reads at every call (:data:`CORE_VALUES`, and the cylinder's
     weight = mass * gravity * sin(incline), so a fault or a tunable that changes the loop's parameters changes
     the circuit's), so the core's rig (rig.c: its faults, sensors, command path, watchdog; the HIL plants, the
-    panel) runs the generated equations. Returns what must stay alive while ``sim`` runs."""
+    panel) runs the generated equations. Returns what must stay alive while ``sim`` runs, or None where the
+    component library refuses the parameter set (a value the schema takes beyond a component's range): ``sim``
+    keeps the core's model then (the same bits). A step that leaves the finite keeps the state before it, where
+    the core's model stores the non-finite one (the run stops there either way: only the divergence message's
+    state differs)."""
     import warnings
 
     from hydrohil.circuits.build import compile_circuit
@@ -43,11 +47,15 @@ def generated_hybrid_model(params, sim, solver: str):
     from hydrohil.core import ffi as core_ffi, method_code
     from hydrohil.core.shape import MODE_NAMES
     from hydrohil.models.layout import INDEX, STATE_NAMES
+    from hydrohil.errors import InputError
     if params is None:
         raise ValueError("a generated model needs the parameter set its parameters were packed from")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")          # (the parameter set's own: said where it was loaded)
-        c = paper_circuit(params)
+        try:
+            c = paper_circuit(params)
+        except InputError:                       # (a value the schema takes and the component library's ranges
+            return None                          # do not, e.g. a valve coefficient beyond ±1000: the core's model)
     cc = compile_circuit(c)
     lay, ffi, lib = cc.layout, cc.ffi, cc.lib
     P = np.ascontiguousarray(lay.values())

@@ -82,6 +82,8 @@ class Sim:
         if model == "generated":             # the paper's circuit's generated hybrid model behind this loop
             from hydrohil.simulation.generated_model import generated_hybrid_model
             self._model = generated_hybrid_model(params, self, solver)
+            if self._model is None:          # (a parameter set the component library refuses: the core's model)
+                self._sim.model = lib.HH_MODEL_HYBRID
         self._rng = ffi.new("hh_rng *")           # the sensors' noise of closed-loop runs (Sim.run)
         self.p = view(self._sim.p, np.float64, lib.HH_NP)
         self.y = view(self._sim.y, np.float64, NY)
@@ -252,6 +254,8 @@ class HybridPlant:
 
     def __init__(self, params: Parameters, h: float = 5e-4, solver: str = "rk3", engine: str = "generated",
                  **initial):
+        if engine not in ("generated", "core"):
+            raise ValueError(f"engine: generated or core, got {engine!r}")
         self.sim = Sim(pack(params), h, solver=solver, model="generated" if engine == "generated" else "hybrid",
                        params=params)                            # checks h > 0
         self.params, self.h = params, self.sim.h

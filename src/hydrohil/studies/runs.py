@@ -34,7 +34,7 @@ M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3     # glibc's mallopt parameters (ma
 
 @functools.cache
 def keep_freed_memory() -> bool:
-    """Let this process keep the memory a run frees for the next run (glibc: blocks up to 64 MB from the heap,
+    """Let this process keep the memory a run frees for the next run (glibc: blocks up to 32 MB from the heap,
     the heap not trimmed below 256 MB of free space), instead of returning it to the system and taking every
     page again, zeroed, on the next run: a run's logs are a few MB, allocated and freed per run, so a worker
     spent about a third of a 12 000-step run in page faults (benchmarks/sweep.py). False where the C library
@@ -42,7 +42,9 @@ def keep_freed_memory() -> bool:
     import ctypes
     try:
         libc = ctypes.CDLL("libc.so.6")
-        return bool(libc.mallopt(M_MMAP_THRESHOLD, 64 << 20) and libc.mallopt(M_TRIM_THRESHOLD, 256 << 20))
+        mmap = libc.mallopt(M_MMAP_THRESHOLD, 32 << 20)         # (glibc's largest: 32 MB on 64-bit)
+        trim = libc.mallopt(M_TRIM_THRESHOLD, 256 << 20)
+        return bool(mmap and trim)
     except (OSError, AttributeError):
         return False
 
