@@ -197,3 +197,27 @@ def test_derived_pressure_gains_are_the_closed_port_slopes(tmp_path, paper):
     assert lin.kp1 == pytest.approx(ratio_slope(as1, das1, a1t, da1t), rel=1e-6)
     assert lin.kp2 == pytest.approx(ratio_slope(as2, das2, a2t, da2t), rel=1e-6)
     assert lin.kq == pytest.approx((das1 - da1t) * np.sqrt(35.0) / 60000.0, rel=1e-6)
+
+
+def test_read_toml_parses_a_file_once_and_sees_every_change(tmp_path):
+    """A TOML file read again unchanged is not parsed again (a study reads its parameter file every run), each
+    read its own copy; a change of its content or of its modification time is read anew; an error still names
+    the file."""
+    import os
+    from hydrohil.parameters import _parsed, read_toml
+    f = tmp_path / "a.toml"
+    f.write_text('x = 1\n[t]\nv = [1, 2]\n')
+    first = read_toml(f)
+    first["t"]["v"].append(3)
+    hits = _parsed.cache_info().hits
+    assert read_toml(f) == {"x": 1, "t": {"v": [1, 2]}} and _parsed.cache_info().hits == hits + 1
+    f.write_text('x = 2\n[t]\nv = [1, 2]\n')                      # (the same size: its time differs)
+    st = f.stat()
+    os.utime(f, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
+    assert read_toml(f)["x"] == 2
+    f.write_text('x = 30\n')
+    assert read_toml(f) == {"x": 30}
+    f.write_text('x = \n')
+    with pytest.raises(InputError, match="invalid TOML") as e:
+        read_toml(f)
+    assert str(f) in str(e.value)

@@ -6,6 +6,7 @@ Built-in sets live beside this file as ``NAME.toml`` (``ferreira2004`` is the pa
 from __future__ import annotations
 
 import copy
+import functools
 import re
 import tomllib
 import types
@@ -25,16 +26,24 @@ __all__ = ["Parameters", "load_parameters", "builtin_names", "read_toml", "apply
            "validate_parameters", "save_parameters", "format_validation_error", "replace_values"]
 
 
+@functools.lru_cache(maxsize=32)
+def _parsed(path: str, mtime_ns: int, size: int) -> dict[str, Any]:
+    with open(path, "rb") as fh:
+        return tomllib.load(fh)
+
+
 def builtin_names() -> list[str]:
     return sorted(p.stem for p in BUILTIN_DIR.glob("*.toml"))
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
-    """Read a TOML file, turning I/O and syntax errors into :class:`InputError` naming the file."""
+    """Read a TOML file, turning I/O and syntax errors into :class:`InputError` naming the file. A file read
+    before and not changed since (the same modification time to the nanosecond and size) is not parsed again:
+    its tables are copied (a study reads its parameter file for every run)."""
     path = Path(path)
     try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
+        st = path.stat()
+        return copy.deepcopy(_parsed(str(path), st.st_mtime_ns, st.st_size))
     except FileNotFoundError:
         raise InputError("file not found", source=str(path)) from None
     except tomllib.TOMLDecodeError as exc:
