@@ -394,8 +394,6 @@ def _emit_servo_valve(c):
     dpt, dpr = c.par("dp_laminar"), c.par("reference_dp_laminar")
     xc = f"hh_clamp({x}, -1.0, 1.0)"
     spool = f"{c.par('wn')}, {c.par('xi')}, {c.par('la')}, {c.par('lv')}"
-    P, T, A, B = (c.p(n) for n in ("P", "T", "A", "B"))
-
     wear = c.par("wear")
 
     def section(sign, coeffs, burst=None):        # (eq 3's section, plus the worn lands' leakage section; an edge
@@ -409,19 +407,17 @@ def _emit_servo_valve(c):
         dp, s = f"{c.p(a)} - {c.p(b)}", c.v(name)     # (its section once per right-hand side: flow and conductance)
         return (a, b, edge(sign, coeffs, c.p(a), c.p(b), s), f"hc_sqrt_law_slope({s} * HH_LPM_PER_SQRT_BAR, {dp}, {dpt})",
                 (f"hc_servo_edge_slope({sign}1, {x}, {coeffs}, {dp}, {dpt})", c.dx("x")))
-    qs = {"PA": edge("-", k, P, A), "AT": edge("", kt, A, T, burst="burst_a"), "PB": edge("", k, P, B),
-          "BT": edge("-", kt, B, T, burst="burst_b")}
     u = c.par("command")
-    edges = (("s_pa", "-", k, "P", "A"), ("s_at", "", kt, "A", "T"), ("s_pb", "", k, "P", "B"),
-             ("s_bt", "-", kt, "B", "T"))
-    return Emit(pre=[("s_pa", section("-", k)), ("s_at", section("", kt, "burst_a")), ("s_pb", section("", k)),
-                     ("s_bt", section("-", kt, "burst_b"))],
-                flows=[edge_flow(*e) for e in edges],
+    # its four edges: (section's local, the section's sign, coefficients, from port, to port, a burst line's key)
+    edges = (("s_pa", "-", k, "P", "A", None), ("s_at", "", kt, "A", "T", "burst_a"), ("s_pb", "", k, "P", "B", None),
+             ("s_bt", "-", kt, "B", "T", "burst_b"))
+    qs = {a + b: edge(sign, co, c.p(a), c.p(b), burst=burst) for _, sign, co, a, b, burst in edges}
+    return Emit(pre=[(name, section(sign, co, burst)) for name, sign, co, _, _, burst in edges],
+                flows=[edge_flow(*e[:5]) for e in edges],
                 reference_flows=[(a, b, edge(sign, co, c.p(a), c.p(b), c.v(name), laminar=dpr))
-                                 for name, sign, co, a, b in edges],
-                reference_outputs={f"q_{a.lower()}{b.lower()}": edge(sign, co, c.p(a), c.p(b), burst=burst,
-                                                                     laminar=dpr)
-                                   for (_, sign, co, a, b), burst in zip(edges, (None, "burst_a", None, "burst_b"))},
+                                 for name, sign, co, a, b, _ in edges],
+                reference_outputs={f"q_{(a + b).lower()}": edge(sign, co, c.p(a), c.p(b), burst=burst, laminar=dpr)
+                                   for _, sign, co, a, b, burst in edges},
                 delays=[("command", "delay")],
                 derivatives={"x": f"hc_servo_spool_speed({x}, {v})",
                              "v": f"hc_servo_spool_accel({x}, {v}, {u}, {spool})"},
