@@ -1348,7 +1348,7 @@ def test_the_circuits_continuous_reference_is_the_cores_bit_for_bit(bulk):
                                             ("end_stops_p_control.toml", 1.0)])
 def test_a_paper_scenarios_reference_runs_the_generated_equations_bit_for_bit(name, duration, tmp_path, monkeypatch):
     """``--solver reference`` of a paper scenario runs the right-hand side generated from its circuit in the core's
-    sampled loop (as_circuit.generated_reference_rhs): the core's reference run bit for bit, closed loop, open
+    sampled loop (generated_model.generated_reference_rhs): the core's reference run bit for bit, closed loop, open
     loop and against the stops, its solver's statistics too."""
     text = re.sub(r"duration = [0-9.]+", f"duration = {duration}", (EXAMPLES / name).read_text())
     text = re.sub(r'method = "[a-z0-9]+"', 'method = "reference"', text) if "[solver]" in text else \
@@ -1356,8 +1356,8 @@ def test_a_paper_scenarios_reference_runs_the_generated_equations_bit_for_bit(na
     f = tmp_path / name
     f.write_text(text)
     ls = load_scenario(f)
-    from hydrohil.simulation.as_circuit import generated_reference_rhs
-    assert generated_reference_rhs(ls) is not None
+    from hydrohil.simulation.generated_model import generated_reference_rhs
+    assert generated_reference_rhs(ls.params) is not None
     import hydrohil.simulation.reference as reference
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -1422,11 +1422,11 @@ def test_maxsteps_continuous_model_runs_the_generated_equations_bit_for_bit(tmp_
     f.write_text((EXAMPLES / "maxstep_endstop.toml").read_text().replace("duration = 0.25", "duration = 0.03"))
     ls = load_scenario(f)
     from hydrohil.models.layout import pack
-    from hydrohil.simulation.as_circuit import generated_continuous_model
+    from hydrohil.simulation.generated_model import generated_continuous_model
     from hydrohil.simulation.loop import Sim
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        assert generated_continuous_model(ls, Sim(pack(ls.params), 1e-5, model="external"), "rk3") is not None
+        assert generated_continuous_model(ls.params, Sim(pack(ls.params), 1e-5, model="external"), "rk3") is not None
         for solver, h, stable in (("rk3", 3e-8, True), ("rk3", 1e-4, False), ("euler", 2e-8, True),
                                   ("heun", 4e-8, True)):
             (ok_core, core), (ok, generated) = continuous_run(ls, solver, h, "core"), continuous_run(ls, solver, h)

@@ -29,7 +29,7 @@ def continuous_run(sc: LoadedScenario, solver: str, h: float, engine: str = "gen
     """The continuous (stiff end-stop) model at the fixed explicit step h, driven like the scenario (its
     commands or references sampled by zero-order hold at each step); the core's loop with maxstep's bounds
     (|p| <= 1.5 Ps, |xs| <= 2), its steps the code generated from the scenario's circuit
-    (:func:`hydrohil.simulation.as_circuit.generated_continuous_model`) or, ``engine = "core"``, reference.c's.
+    (:func:`hydrohil.simulation.generated_model.generated_continuous_model`) or, ``engine = "core"``, reference.c's.
     Returns (ok, log)."""
     s, params = sc.scenario, sc.params
     p = pack(params)
@@ -37,9 +37,9 @@ def continuous_run(sc: LoadedScenario, solver: str, h: float, engine: str = "gen
     y, m = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
     keep = None
     if engine == "generated":
-        from hydrohil.simulation.as_circuit import generated_continuous_model
+        from hydrohil.simulation.generated_model import generated_continuous_model
         sim = Sim(p, h, model="external", bounded=True)
-        keep = generated_continuous_model(sc, sim, solver)
+        keep = generated_continuous_model(params, sim, solver)
     if keep is None:
         sim = Sim(p, h, model="continuous", solver=solver, bounded=True)
     sim.set_state(y, m)
@@ -143,8 +143,8 @@ def max_stable_step(sc: LoadedScenario, model: str = "hybrid", solver: str = "rk
     values, slopes = s.drive()
     rhs = None
     if engine == "generated":
-        from hydrohil.simulation.as_circuit import generated_reference_rhs
-        rhs = generated_reference_rhs(sc)
+        from hydrohil.simulation.generated_model import generated_reference_rhs
+        rhs = generated_reference_rhs(params)
     status, done, ref_log, y_end = solve_reference(p, y0, s.solver.step, s.n_steps(), values, slopes=slopes,
                                                    controller=sc.make_controller() if s.closed_loop else None,
                                                    seed=s.hil.seed, stats=stats, rhs=rhs)

@@ -1,7 +1,9 @@
-"""The hybrid model generated from a parameter set's circuit (:func:`hydrohil.circuits.paper.paper_circuit`) behind
-the core's loop and rig (core/loop.c's ``HH_MODEL_GENERATED``): :class:`~hydrohil.simulation.loop.Sim`'s model
-"generated", so the virtual rig (its faults, sensors, command path and watchdog), the HIL plant, the panel and the
-per-step API run the generated equations; the core's runs bit for bit (tests)."""
+"""The code generated from a parameter set's circuit (:func:`hydrohil.circuits.paper.paper_circuit`) behind the
+core's loop, in the core's state order: its hybrid model (core/loop.c's ``HH_MODEL_GENERATED``,
+:class:`~hydrohil.simulation.loop.Sim`'s model "generated": the virtual rig with its faults, sensors, command path
+and watchdog, the HIL plant, the panel, the per-step API), its continuous reference's right-hand side (the
+reference's LSODA steps) and an explicit step of it (maxstep's continuous model); the core's runs bit for bit
+(tests)."""
 
 from __future__ import annotations
 
@@ -27,6 +29,52 @@ CORE_BULK = {"pressure": {"cylinder.b": "cyl.bulk_b", "cylinder.c": "cyl.bulk_c"
              "constant": {"cylinder.beta1": "cyl.beta_a", "cylinder.beta2": "cyl.beta_b"}}
 
 
+def _paper_code(params):
+    """(the circuit of parameter set ``params``, its compiled code), or None where the component library refuses
+    the set (a value the schema takes beyond a component's range, e.g. a valve coefficient beyond ±1000): the
+    caller keeps the core's model then (the same bits)."""
+    import warnings
+
+    from hydrohil.circuits.build import compile_circuit
+    from hydrohil.circuits.paper import paper_circuit
+    from hydrohil.errors import InputError
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # (the parameter set's own: said where it was loaded)
+        try:
+            c = paper_circuit(params)
+        except InputError:
+            return None
+    return c, compile_circuit(c)
+
+
+def _core_order(lay) -> np.ndarray:
+    """at[i]: the circuit's state that is the core's state i (models.layout.STATE_NAMES)."""
+    from hydrohil.circuits.paper import PAPER_VIEW
+    from hydrohil.models.layout import STATE_NAMES
+    return np.array([lay.states.index(PAPER_VIEW[name]) for name in STATE_NAMES], dtype=np.int64)
+
+
+def _to_core(ffi, ctype: str, pointer):
+    """A pointer of the circuit's module (``ffi``) as the core module's ``ctype`` (the two are separate cffi
+    modules: the address itself)."""
+    from hydrohil.core import ffi as core_ffi
+    return core_ffi.cast(ctype, int(ffi.cast("uintptr_t", pointer)))
+
+
+def _core_ctx(cc, P: np.ndarray, yc: np.ndarray, solver: str, arrays: dict):
+    """An hc_core_ctx of the compiled circuit ``cc`` (its values P, its state yc, the valve's command its input,
+    the core's state order) and the arrays it points into (``arrays`` updated: kept alive by the caller)."""
+    from hydrohil.core import method_code
+    lay, ffi = cc.layout, cc.ffi
+    arrays.update(P=("double[]", P), at=("int64_t[]", _core_order(lay)), yc=("double[]", yc),
+                  u=("double[]", np.zeros(max(len(lay.inputs), 1))))
+    ctx = ffi.new("hc_core_ctx *")
+    for field, (kind, a) in arrays.items():
+        setattr(ctx, field, ffi.from_buffer(kind, a))
+    ctx.n, ctx.command, ctx.method = len(arrays["at"][1]), lay.inputs.index("valve.command"), method_code(solver)
+    return ctx
+
+
 def generated_hybrid_model(params, sim, solver: str):
     """Make the core's loop ``sim`` (:class:`~hydrohil.simulation.loop.Sim`, model "generated") step the hybrid
     model generated from the circuit of parameter set ``params`` (circuits.paper.paper_circuit, its valve's delay
@@ -35,36 +83,24 @@ def generated_hybrid_model(params, sim, solver: str):
     weight = mass * gravity * sin(incline), so a fault or a tunable that changes the loop's parameters changes
     the circuit's), so the core's rig (rig.c: its faults, sensors, command path, watchdog; the HIL plants, the
     panel) runs the generated equations. Returns what must stay alive while ``sim`` runs, or None where the
-    component library refuses the parameter set (a value the schema takes beyond a component's range): ``sim``
-    keeps the core's model then (the same bits). A step that leaves the finite keeps the state before it, where
-    the core's model stores the non-finite one (the run stops there either way: only the divergence message's
-    state differs)."""
-    import warnings
-
-    from hydrohil.circuits.build import compile_circuit
-    from hydrohil.circuits.paper import CYL_MODE, PAPER_VIEW, paper_circuit
+    component library refuses the parameter set (:func:`_paper_code`): ``sim`` keeps the core's model then. A
+    step that leaves the finite keeps the state before it, where the core's model stores the non-finite one (the
+    run stops there either way: only the divergence message's state differs)."""
+    from hydrohil.circuits.paper import CYL_MODE
     from hydrohil.circuits.run import new_state
-    from hydrohil.core import ffi as core_ffi, method_code
     from hydrohil.core.shape import MODE_NAMES
-    from hydrohil.models.layout import INDEX, STATE_NAMES
-    from hydrohil.errors import InputError
+    from hydrohil.models.layout import INDEX
     if params is None:
         raise ValueError("a generated model needs the parameter set its parameters were packed from")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")          # (the parameter set's own: said where it was loaded)
-        try:
-            c = paper_circuit(params)
-        except InputError:                       # (a value the schema takes and the component library's ranges
-            return None                          # do not, e.g. a valve coefficient beyond ±1000: the core's model)
-    cc = compile_circuit(c)
+    code = _paper_code(params)
+    if code is None:
+        return None
+    c, cc = code
     lay, ffi, lib = cc.layout, cc.ffi, cc.lib
     P = np.ascontiguousarray(lay.values())
     P[lay.slot["valve.delay"]] = 0.0             # (the loop's delay line delays the command)
-    u = np.zeros(max(len(lay.inputs), 1))
     yc = new_state(cc, P, sim.h)
     mc = np.zeros(max(len(lay.modes), 1), dtype=np.int64)
-    lib.hc_init(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", u), sim.h,
-                ffi.from_buffer("double[]", yc), ffi.from_buffer("int64_t[]", mc))
     values = {**CORE_VALUES, **CORE_BULK[params.cylinder.bulk_modulus]}
     pmap = np.array([(INDEX[k], lay.slot[v]) for k, v in values.items()], dtype=np.int64).ravel()
     cyl = c.components["cyl"].values
@@ -76,20 +112,63 @@ def generated_hybrid_model(params, sim, solver: str):
                        for t in travel for f in friction], dtype=np.int64)
     travel_of = np.array([travel.index(CYL_MODE[n][0]) for n in names], dtype=np.int64)
     friction_of = np.array([friction.index(CYL_MODE[n][1]) for n in names], dtype=np.int64)
-    at = np.array([lay.states.index(PAPER_VIEW[name]) for name in STATE_NAMES], dtype=np.int64)
-    ctx = ffi.new("hc_core_ctx *")
-    arrays = {"P": ("double[]", P), "at": ("int64_t[]", at), "yc": ("double[]", yc), "u": ("double[]", u),
-              "mc": ("int64_t[]", mc), "cyl_of": ("int64_t[]", cyl_of), "travel_of": ("int64_t[]", travel_of),
+    arrays = {"mc": ("int64_t[]", mc), "cyl_of": ("int64_t[]", cyl_of), "travel_of": ("int64_t[]", travel_of),
               "friction_of": ("int64_t[]", friction_of), "pmap": ("int64_t[]", pmap), "wmap": ("int64_t[]", wmap),
               "wc": ("double[]", wc)}
-    for field, (kind, a) in arrays.items():
-        setattr(ctx, field, ffi.from_buffer(kind, a))
-    ctx.n, ctx.command, ctx.method = len(at), lay.inputs.index("valve.command"), method_code(solver)
+    ctx = _core_ctx(cc, P, yc, solver, arrays)
+    lib.hc_init(ctx.P, ctx.u, sim.h, ctx.yc, ctx.mc)
     ctx.cyl_mode, ctx.valve_mode = lay.modes.index("cyl.mode"), lay.modes.index("valve.mode")
     ctx.nfriction, ctx.friction_column = len(friction), lay.log_columns.index("cyl.friction")
     ctx.npmap, ctx.nwmap = len(pmap) // 2, 1
-    address = lambda x: int(ffi.cast("uintptr_t", x))     # noqa: E731 - (the core's ffi is another module's)
-    sim._sim.model_step = core_ffi.cast("hh_model_step_fn", address(ffi.addressof(lib, "hc_core_hybrid_step")))
-    sim._sim.model_friction = core_ffi.cast("hh_model_friction_fn", address(ffi.addressof(lib, "hc_core_friction")))
-    sim._sim.ctx = core_ffi.cast("void *", address(ctx))
+    sim._sim.model_step = _to_core(ffi, "hh_model_step_fn", ffi.addressof(lib, "hc_core_hybrid_step"))
+    sim._sim.model_friction = _to_core(ffi, "hh_model_friction_fn", ffi.addressof(lib, "hc_core_friction"))
+    sim._sim.ctx = _to_core(ffi, "void *", ctx)
+    return cc, ctx, arrays
+
+
+def generated_reference_rhs(params):
+    """The continuous reference's right-hand side ``f(y, t, ud) -> dy/dt`` generated from the circuit of parameter
+    set ``params`` (``hc_reference_rhs``), in the core's state order with the valve's input ``ud``: for the core's
+    sampled loop of the reference (:func:`hydrohil.simulation.reference.solve_reference`: the delayed command
+    switching at alpha*h within the step, LSODA per interval), which so runs the circuit's equations (the core's
+    reference.c's bit for bit: tests, 3 000 random states). None (the core's then) where the component library
+    refuses the set (:func:`_paper_code`)."""
+    code = _paper_code(params)
+    if code is None:
+        return None
+    cc = code[1]
+    lay, ffi = cc.layout, cc.ffi
+    at = _core_order(lay)
+    P = np.ascontiguousarray(lay.values())
+    yc, dyc, u, dy = (np.zeros(len(lay.states)), np.zeros(len(lay.states)), np.zeros(max(len(lay.inputs), 1)),
+                      np.empty(len(at)))
+    command = lay.inputs.index("valve.command")
+    Pb, ycb, dycb, ub = (ffi.from_buffer("double[]", a) for a in (P, yc, dyc, u))
+    rhs = cc.lib.hc_reference_rhs
+
+    def f(y, t, ud):
+        yc[at] = y
+        u[command] = ud
+        rhs(Pb, ycb, ub, dycb)
+        dy[:] = dyc[at]
+        return dy
+    f.keep = (cc, P)                             # (alive while the solver calls f)
+    return f
+
+
+def generated_continuous_model(params, sim, solver: str):
+    """Make the core's loop ``sim`` (:class:`~hydrohil.simulation.loop.Sim`, model "external") step the continuous
+    model of parameter set ``params`` by the code generated from its circuit (``hc_core_continuous_advance``: an
+    explicit step of ``solver`` of the generated reference's right-hand side, the core's state order): maxstep's
+    explicit runs of the continuous model, the core's (reference.c's continuous_step) bit for bit. Returns what
+    must stay alive while ``sim`` runs, or None (the core's then: :func:`_paper_code`)."""
+    code = _paper_code(params)
+    if code is None:
+        return None
+    cc = code[1]
+    lay, ffi = cc.layout, cc.ffi
+    arrays: dict = {}
+    ctx = _core_ctx(cc, np.ascontiguousarray(lay.values()), np.zeros(len(lay.states)), solver, arrays)
+    sim._sim.advance = _to_core(ffi, "hh_advance_fn", ffi.addressof(cc.lib, "hc_core_continuous_advance"))
+    sim._sim.ctx = _to_core(ffi, "void *", ctx)
     return cc, ctx, arrays

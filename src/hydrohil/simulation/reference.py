@@ -83,7 +83,7 @@ def solve_reference(p: np.ndarray, y0: np.ndarray, h: float, n_steps: int, value
     (optional dict) receives ``intervals``, ``radau_fallbacks`` and, on a solver failure, ``failure``
     (the run then ends with the divergence status). ``rhs``: ``f(y, t, ud) -> dy/dt`` in the core's state order
     in place of the core's (:func:`reference_rhs`): the one generated from the scenario's circuit
-    (:func:`hydrohil.simulation.as_circuit.generated_reference_rhs`).
+    (:func:`hydrohil.simulation.generated_model.generated_reference_rhs`).
     """
     stats = {} if stats is None else stats
     stats.update(intervals=0, radau_fallbacks=0)

@@ -27,7 +27,7 @@ def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated"
     core's log and the rig's columns bit for bit, but for a stuck spool's speed in its first row, said there);
     ``"core"`` on the hand-written core (with faults or a Python controller, the virtual rig's). The continuous
     reference runs the core's sampled loop either way, on the right-hand side generated from the circuit
-    (:func:`hydrohil.simulation.as_circuit.generated_reference_rhs`: the core's reference.c's bit for bit) or,
+    (:func:`hydrohil.simulation.generated_model.generated_reference_rhs`: the core's reference.c's bit for bit) or,
     ``"core"``, reference.c's."""
     if engine not in ENGINES:
         raise ValueError(f"engine: one of {', '.join(ENGINES)}, got {engine!r}")
@@ -51,8 +51,8 @@ def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated"
     if s.solver.method == "reference":
         rhs = None
         if engine == "generated":                # the circuit's equations in the core's sampled loop
-            from hydrohil.simulation.as_circuit import generated_reference_rhs
-            rhs = generated_reference_rhs(sc)
+            from hydrohil.simulation.generated_model import generated_reference_rhs
+            rhs = generated_reference_rhs(params)
         t0 = time.perf_counter()
         stats: dict = {}
         status, done, log, yend = solve_reference(p, y, h, n, drive, controller=ctl, slopes=slopes, seed=s.hil.seed,
