@@ -44,12 +44,14 @@ def test_the_reference_of_a_cylinder_against_its_end_stop_and_relief_closed_form
     ref = simulate_circuit(c, 3.0, rest=False, method="reference")
     a1 = math.pi * bore ** 2 / 4
     t, x, v = ref.column("t"), ref.column("cyl.x"), ref.column("cyl.v")
-    assert v[np.searchsorted(t, 1.0)] == pytest.approx(q / a1, rel=2e-12)         # (measured: 4e-13)
+    # (LSODA at rtol 1e-8: its figures depend on the BLAS kernels of the CPU's SciPy wheel picks; measured
+    # 6e-14 (OpenBLAS's Haswell kernels, AMD EPYC) and 1.4e-10 (its SkylakeX kernels, an Intel Xeon))
+    assert v[np.searchsorted(t, 1.0)] == pytest.approx(q / a1, rel=5e-10)
     p_end = 100e5 + q / ((20e-3 / 60) / 10e5)
     assert ref.column("a.p")[-1] == pytest.approx(p_end, rel=5e-14)               # (measured: 1.6e-14)
     assert ref.column("relief.q")[-1] == pytest.approx(q, rel=1e-14)              # (measured: 4e-15)
     penetration = p_end * a1 / (m * STOP_WN ** 2)                                  # 4.1 um
-    assert x[-1] - stroke == pytest.approx(penetration, rel=2e-11)                # (measured: 4e-12)
+    assert x[-1] - stroke == pytest.approx(penetration, rel=2e-10)                # (measured: 6.5e-11, 7.8e-11)
     hybrid = simulate_circuit(c, 3.0, rest=False)
     assert hybrid.column("cyl.x")[-1] == stroke
     assert compare_to_reference(hybrid, ref).worst_position < 3 * penetration    # (measured: 4.9 um)
