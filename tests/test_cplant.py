@@ -34,7 +34,8 @@ def test_export_and_make_with_the_users_compiler(tmp_path):
     r = hh("export", "c", "--out", out, "--no-make", "--params", "ferreira2004")
     assert r.returncode == 0, r.stderr
     for f in ("Makefile", "model.mk", "rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report.c", "rt_rig.c",
-              "rt_side.c", "protocol.c", "latency.c", "hh_core.c", "rig.c", "hh_params.h", "plant_config.h"):
+              "rt_side.c", "protocol.c", "latency.c", "hh_core.c", "rig.c", "hh_params.h", "plant_config.h",
+              "circuit.c", "paper_model.c", "paper_tables.h"):
         assert (out / f).is_file(), f
     assert not (out / "hydrohil_plant").exists()
     # make honours CC (what `make CC=aarch64-linux-gnu-gcc` relies on): a wrapper records its calls
@@ -52,12 +53,14 @@ def test_export_and_make_with_the_users_compiler(tmp_path):
     cc1, calls1 = compiler("my-cc")
     make(cc1)
     lines = calls1.read_text().splitlines()
-    assert len(lines) == 10 and any("-ffp-contract=off" in c and "hh_core.c" in c for c in lines)   # 9 objects + link
+    assert len(lines) == 12 and any("-ffp-contract=off" in c and "hh_core.c" in c for c in lines)   # 11 objects + link
+    # the rig's model, generated from its circuit, beside the core (which defines the parts both include)
+    assert any("-ffp-contract=off" in c and "paper_circuit.c" in c for c in lines)
     make(cc1)
-    assert len(calls1.read_text().splitlines()) == 10                # up to date: nothing rebuilt
+    assert len(calls1.read_text().splitlines()) == 12                # up to date: nothing rebuilt
     cc2, calls2 = compiler("cross-cc")
     make(cc2)                                                        # another compiler: everything rebuilt with it
-    assert len(calls2.read_text().splitlines()) == 10
+    assert len(calls2.read_text().splitlines()) == 12
     exe = out / "hydrohil_plant"
     lst = subprocess.run([exe, "--list"], capture_output=True, text=True)
     assert lst.returncode == 0 and "load.mass" in lst.stdout and "watchdog_timeout" in lst.stdout
@@ -92,6 +95,8 @@ def test_c_plant_builds_without_a_warning(tmp_path, cc, opt):
     (["--set", "load.mass=-3"], "parameter load.mass = -3 [kg]: must be > 0"),
     (["--set", "load.masss=3"], "no parameter 'load.masss'"),
     (["--set", "cylinder.bulk_modulus=soft"], "expects a number [-] or one of pressure|constant"),
+    (["--set", "cylinder.bulk_modulus=constant"],          # (its generated model has the export's structure)
+     'cylinder.bulk_modulus = constant: this plant was exported with "pressure"'),
     (["--hil", "watchdog_timeout=0"], "watchdog_timeout must be > 0 and <= 10 [s]"),
     (["--hil", "safe_state=brake"], "safe_state is one of centre|hold"),
     (["--step", "0.05"], "--step 0.05: the plant step must be > 1e-06 and <= 0.01 [s]"),
@@ -193,6 +198,55 @@ def test_lockstep_c_plant_equals_python_plant_bit_for_bit(tmp_path):
     for t in (tp, tc):      # + the HELLO, + the controller's BYE when it arrives before the plant has ended, + a
         # HELLO repeated every 0.2 s until the plant answers (hil/controller.py: on a loaded machine, a few)
         assert 1 <= t["packets_rx"] - t["commands_delivered"] <= 5, t
+
+
+def test_export_c_takes_the_paper_rigs_values_with_set(tmp_path):
+    """`hydrohil export c --set group.key=value` exports the paper's rig with those values (its generated model's
+    structure too: constant chambers' bulk moduli); a bad one exits 2 naming --set and the key, writing nothing."""
+    out = tmp_path / "plant"
+    r = hh("export", "c", "--out", out, "--no-make", "--set", 'cylinder.bulk_modulus="constant"', "--set",
+           "load.mass=300")
+    assert r.returncode == 0, r.stderr
+    assert "#define PM_BULK_CONSTANT 1" in (out / "paper_tables.h").read_text()
+    assert "300.0,   /* load.mass [kg] */" in (out / "plant_config.h").read_text()
+    bad = hh("export", "c", "--out", tmp_path / "bad", "--no-make", "--set", "load.mass=-3")
+    assert bad.returncode == 2 and "--set: load.mass: must be > 0" in bad.stderr and not (tmp_path / "bad").exists()
+
+
+def _lockstep_run(exe, log_dir, *args, steps=600):
+    """The C plant ``exe`` in lock-step for ``steps`` steps driven by a command sine (0.4 at 4 Hz) from a client:
+    its plant_log.csv's columns."""
+    from hydrohil.hil.controller import PlantClient
+    from hydrohil.hil.processes import Child
+    p = Child([exe, "--bind", "127.0.0.1:0", "--log", log_dir, "--lockstep", "--duration", str(steps * 5e-4), *args],
+              "c plant")
+    host, port = p.wait_line("READY ", 120).split(":")
+    with PlantClient((host, int(port)), timeout=30.0) as client:
+        for s in client.sensors():
+            client.send(0.4 * math.sin(2 * math.pi * 4.0 * s.t_sim), answer=s)
+    p.wait(60)
+    assert p.returncode == 0, p.stderr()
+    return read_csv_columns(log_dir / "plant_log.csv")
+
+
+@pytest.mark.slow
+def test_the_c_plant_steps_its_generated_model_with_the_parameters_set_at_its_start(tmp_path, c_plant):
+    """The C plant steps the model generated from the paper's circuit (its circuit.c beside the core), which reads
+    the loop's parameters at every step: the export of the paper's set started with ``--set`` (the gravity
+    turned to aid extension, another mass and supply) runs as the plant exported from the set with those
+    values, bit for bit, and unlike the export's own values."""
+    from hydrohil.export.cplant import cached_plant
+    from hydrohil.parameters import load_parameters
+    sets = {"load.gravity_direction": 1, "load.mass": 300.0, "supply.ps": 1.2e7}
+    other = cached_plant(load_parameters("ferreira2004", sets), step=5e-4, duration=10.0, label="other")
+    nm = subprocess.run(["nm", str(other)], capture_output=True, text=True).stdout
+    assert " T hc_core_hybrid_step" in nm and " T hh_sim_step" in nm         # both parts in the one program
+    run_set = _lockstep_run(c_plant, tmp_path / "set", *[a for k, v in sets.items() for a in ("--set", f"{k}={v}")])
+    run_other = _lockstep_run(other, tmp_path / "other")
+    run_base = _lockstep_run(c_plant, tmp_path / "base")
+    for col in ("xs", "p1", "p2", "xp", "vp", "ff", "travel_mode", "friction_mode", "encoder", "p1_meas"):
+        assert np.array_equal(run_set[col], run_other[col]), col
+    assert np.max(np.abs(run_set["xp"] - run_base["xp"])) > 1e-3          # (the values set act: > 1 mm apart)
 
 
 FAULT_EXAMPLES = sorted((EXAMPLES / "faults").glob("*.toml"))

@@ -2,6 +2,8 @@
 when stepped from Python with the paper's P controller, runs as independent instances, round-trips its
 state and refuses bad parameters with a status and a message."""
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +13,7 @@ from fmpy import extract, read_model_description  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
 from hydrohil.control import p_control  # noqa: E402
-from hydrohil.export.fmu import export_fmu  # noqa: E402
+from hydrohil.export.fmu import RIG_UNITS, export_fmu  # noqa: E402
 from hydrohil.models.layout import SLOTS, pack  # noqa: E402
 from hydrohil.parameters import load_parameters  # noqa: E402
 from hydrohil.simulation.run import run_scenario  # noqa: E402
@@ -111,7 +113,24 @@ def test_reproduces_simulate(fmu, name, tmp_path):
     offline = run_scenario(sc).column("xp")
     xp = _closed_loop(Fmu(*fmu), sc)
     every = sc.scenario.solver.output_every
-    assert np.max(np.abs(xp[::every] - offline)) <= 1e-9        # measured: 0 (the same C, the same flags)
+    assert np.array_equal(xp[::every], offline)        # bit for bit: the same generated C, the same flags
+
+
+@pytest.mark.slow
+def test_an_export_of_the_other_bulk_modulus_law_reproduces_simulate(tmp_path):
+    """The paper's rig exported with constant chambers' bulk moduli (`hydrohil export fmu --set`, the other
+    structure of its circuit's generated model) steps as `hydrohil simulate` with the same values, bit for bit."""
+    sets = {"cylinder.bulk_modulus": "constant", "cylinder.beta1": 9e8, "cylinder.beta2": 1.1e9}
+    r = subprocess.run([sys.executable, "-m", "hydrohil.cli", "export", "fmu", "--out", tmp_path / "c.fmu", "--fmi",
+                        "3", *[a for k, v in sets.items() for a in ("--set", f"{k}={v!r}".replace("'", '"'))]],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    sc = load_scenario(EXAMPLES / "fig11_p_control.toml", duration=2.0, sets=sets)
+    offline = run_scenario(sc).column("xp")
+    xp = _closed_loop(Fmu(tmp_path / "c.fmu", extract(tmp_path / "c.fmu", unzipdir=tmp_path / "u")), sc)
+    assert np.array_equal(xp[::sc.scenario.solver.output_every], offline)
+    assert np.max(np.abs(offline - run_scenario(load_scenario(EXAMPLES / "fig11_p_control.toml", duration=2.0))
+                         .column("xp"))) > 1e-7                                  # (the law changes the run)
 
 
 def test_two_instances_are_independent(fmu):
@@ -165,6 +184,12 @@ def test_bad_parameters_are_refused_with_a_message(fmu):
     with pytest.raises(FMICallException):
         f.s.exitInitializationMode()
     assert any("load.mass = -3" in m and "must be > 0" in m for m in messages), messages
+    f1 = Fmu(*fmu, log=log)                 # the structure of its generated model is the export's
+    f1.s.enterInitializationMode()
+    f1.set(**{"cylinder.bulk_modulus": 1.0})
+    with pytest.raises(FMICallException):
+        f1.s.exitInitializationMode()
+    assert any('cylinder.bulk_modulus = constant: this plant was exported with "pressure"' in m for m in messages)
     f2 = Fmu(*fmu, log=log)
     f2.init()
     with pytest.raises(FMICallException):
@@ -250,8 +275,8 @@ def test_edge_calls_under_sanitizers(tmp_path, version):
     from conftest import sanitized_harness
     path = export_fmu(load_parameters("ferreira2004"), tmp_path / "plant.fmu", fmi=version)
     src = f"{extract(path, unzipdir=tmp_path / 'u')}/sources"
-    out = sanitized_harness(tmp_path, "fmu_edges.c", src, ["hh_core.c", "plant_fmu.c", "fmu_instance.c",
-                                                           f"fmi{version}Functions.c"], version)
+    out = sanitized_harness(tmp_path, "fmu_edges.c", src, [*RIG_UNITS, "fmu_instance.c", f"fmi{version}Functions.c"],
+                            version)
     for message in ("too short for a hydrohil FMU state", "not a hydrohil FMU state", "this FMU reads format 3",
                     "FMU state of another export", "only in step mode", "only in initialisation mode",
                     "outputs and calculated parameters exist from initialisation mode on",

@@ -1533,19 +1533,67 @@ def test_the_references_log_shows_the_flows_it_integrates():
     assert q["hybrid", 5e4] / q["hybrid", 2e4] == pytest.approx(2.394, abs=1e-3)     # (near linear: laminar)
 
 
-def test_a_parameter_set_the_component_library_refuses_keeps_the_cores_model():
-    """A value the parameter schema takes beyond a component's range (a valve coefficient of 2000: the servo
-    valve's k1 within ±1000) keeps the per-step API and the rig on the core's model, which runs it, instead of
-    failing where it used to run."""
-    from hydrohil.parameters import load_parameters, replace_values
+def _schema_values(draw):
+    """A parameter set's values drawn over the schema's ranges (core.layout's slots: each range's ends among them),
+    as overrides of ferreira2004: the model groups (not linear, sensors), the tuples as lists."""
+    from hypothesis import strategies as st
+    from hydrohil.models.layout import SLOTS
+    over, tuples = {}, {}
+    for s in SLOTS:
+        if not s.schema or s.key.split(".")[0] in ("linear", "sensors") or not draw(st.booleans()):
+            continue
+        if s.options:
+            v = draw(st.sampled_from(s.options))
+        elif s.kind == "boolean":
+            v = draw(st.booleans())
+        else:
+            lo, hi = (-1e6 if s.lo is None else s.lo), (1e6 if s.hi is None else s.hi)
+            v = draw(st.floats(lo, hi, exclude_min=s.lo_strict, exclude_max=s.hi_strict, allow_subnormal=False))
+        if "[" in s.key:
+            name, i = s.key[:-1].split("[")
+            tuples.setdefault(name, {})[int(i) - 1] = v
+        else:
+            over[s.key] = v
+    return over, tuples
+
+
+def test_every_parameter_set_the_schema_takes_is_a_circuit_of_the_component_library():
+    """The component library takes every value the parameter schema takes (its servo valve's eq 3 coefficients
+    within ±1000, the schema's too; a cylinder's annulus smaller than its bore and a breakaway force above 0, in
+    both): every layer runs a parameter set on its circuit's generated model, none keeps a model of its own for
+    it. Drawn over the schema's ranges, ends included: a set the schema takes is a circuit; one it refuses is
+    named with its key."""
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+    from hydrohil.circuits.paper import paper_circuit
+    from hydrohil.parameters import load_parameters
     from hydrohil.simulation.loop import HybridPlant
-    p = load_parameters("ferreira2004")
-    params = replace_values(p, {"valve.k": [2000.0, *p.valve.k[1:]]})
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        plant, core = HybridPlant(params, xp=0.09), HybridPlant(params, xp=0.09, engine="core")
-    assert plant.sim._model is None
-    np.testing.assert_array_equal(np.array([plant.step(0.1).copy() for _ in range(50)]),
-                                  np.array([core.step(0.1).copy() for _ in range(50)]))
+    base = load_parameters("ferreira2004")
+    taken = []
+
+    @settings(max_examples=300, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+    @given(st.data())
+    def check(data):
+        over, tuples = _schema_values(data.draw)
+        for name, items in tuples.items():
+            group, key = name.split(".")
+            values = list(getattr(getattr(base, group), key))
+            for i, v in items.items():
+                values[i] = v
+            over[name] = values
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                p = load_parameters("ferreira2004", over)
+            except InputError:
+                return                        # (the schema's own cross-checks: fs >= fc, a2 < a1, ps > pt)
+            paper_circuit(p)                  # raises InputError naming a key the library refuses
+        taken.append(p)
+    check()
+    assert len(taken) >= 50                   # (the draws the schema takes: 70 of the 300)
+    with pytest.raises(InputError, match=r"valve\.k\[1\]: must be <= 1000"):
+        load_parameters("ferreira2004", {"valve.k": [2000.0, *base.valve.k[1:]]})
+    with pytest.raises(InputError, match="a2 .* must be smaller than a1"):
+        load_parameters("ferreira2004", {"cylinder.a2": 2e-3})
     with pytest.raises(ValueError, match="engine: generated or core"):
-        HybridPlant(p, engine="numba")
+        HybridPlant(base, engine="numba")

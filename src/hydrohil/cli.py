@@ -648,17 +648,26 @@ def export_fmu(out: Path, params: str = "ferreira2004", fmi: int = 2, step: Opti
                circuit: Optional[str] = None, scenario: Optional[Path] = None, sets: Optional[dict] = None) -> Path:
     """Write a Co-Simulation FMU (FMI 2.0 or 3.0) of the plant with the parameter set ``params``; or of a circuit
     (``circuit``: a built-in name or a circuit file; ``scenario``: a scenario naming its circuit, whose [set] and
-    closed loop's start it takes), ``sets`` ("component.key" -> value) on top."""
+    closed loop's start it takes), ``sets`` on top (a circuit's "component.key", the paper's rig's "group.key" ->
+    value)."""
     from hydrohil.export.fmu import export_circuit_fmu, export_fmu as build
     if circuit is not None or scenario is not None:
         from hydrohil.circuits.scenario import circuit_scenario
         cs = circuit_scenario(circuit=circuit, scenario=scenario, sets=sets, step=step)
         return export_circuit_fmu(cs.circuit, out, fmi=fmi, step=cs.step, loop=cs.loop, rest=cs.rest)
-    if sets:
-        raise InputError("--set applies to a circuit's FMU (--circuit or --scenario); a parameter set's values: "
-                         "--params FILE", source="--set", key=next(iter(sets)))
+    return build(_set_values(params, sets), out, fmi=fmi, step=5e-4 if step is None else step)
+
+
+def _set_values(params: str, sets: Optional[dict]):
+    """The parameter set ``params`` with ``--set`` values (group.key=value, as a scenario's [overrides]) on top,
+    the error naming --set."""
     from hydrohil.parameters import load_parameters
-    return build(load_parameters(params), out, fmi=fmi, step=5e-4 if step is None else step)
+    if not sets:
+        return load_parameters(params)
+    try:
+        return load_parameters(params, sets)
+    except InputError as exc:
+        raise InputError(exc.message, source="--set", key=exc.key) from None
 
 
 @export_app.command("fmu")
@@ -671,8 +680,9 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", callback=out_file, hel
                                                          "circuit TOML) in place of the paper's rig"),
                    scenario: Optional[Path] = typer.Option(None, "--scenario", help="a scenario naming its circuit: "
                                                            "its circuit, [set], step and closed loop's start"),
-                   sets: list[str] = typer.Option([], "--set", help="a circuit's parameter component.key=value "
-                                                  "(repeatable), e.g. --set 'cyl1.mass=300 kg'")):
+                   sets: list[str] = typer.Option([], "--set", help="a parameter on top (repeatable): the paper's "
+                                                  "rig's group.key=value (--set 'cylinder.bulk_modulus=\"constant\"'), "
+                                                  "a circuit's component.key=value (--set 'cyl1.mass=300 kg')")):
     """Co-Simulation FMU of the plant, or of a circuit (C sources + a binary built here); see the README."""
     try:
         path = export_fmu(out, params, fmi, step, circuit, scenario, _parse_sets(sets))
@@ -691,22 +701,20 @@ def export_c(out: Path, params: str = "ferreira2004", step: float = 5e-4, durati
     """Write the standalone real-time C plant (sources + Makefile) into the folder ``out`` and, with
     ``make``, build it there; returns the folder. ``scenario``: take the parameters, step, duration,
     initial state and [hil] settings from it; a scenario naming its circuit, or ``circuit`` (a built-in name
-    or file, its default drive): that circuit's plant (``sets``: component.key=value on top)."""
+    or file, its default drive): that circuit's plant. ``sets`` on top: a circuit's component.key=value, the paper's
+    rig's group.key=value (as a scenario's [overrides])."""
     from hydrohil.export.cplant import build, export_c as write, export_circuit_c, scenario_options
     from hydrohil.parameters import load_parameters
     from hydrohil.circuits.scenario import circuit_scenario, is_circuit_scenario
     if circuit is not None or (scenario is not None and is_circuit_scenario(scenario)):
         cs = circuit_scenario(circuit=circuit, scenario=scenario, sets=sets)
         folder = export_circuit_c(cs, out)
-    elif sets:
-        raise InputError("--set is a circuit's (component.key=value): the paper's rig takes --params or a scenario's "
-                         "[overrides]", key="--set")
     elif scenario is not None:
         from hydrohil.simulation.scenario import load_scenario
-        sc = load_scenario(scenario)
+        sc = load_scenario(scenario, sets=sets)
         folder = write(sc.params, out, **scenario_options(sc.scenario), label=scenario.name)
     else:
-        folder = write(load_parameters(params), out, step=step, duration=duration, label=str(params))
+        folder = write(_set_values(params, sets), out, step=step, duration=duration, label=str(params))
     if make:
         build(folder)
     return folder
@@ -722,7 +730,8 @@ def export_c_cmd(out: Path = typer.Option(..., "--out", help="folder to write th
                  make: bool = typer.Option(True, "--make/--no-make", help="build it here with make (CC honoured)"),
                  circuit: Optional[str] = typer.Option(None, "--circuit", help="a circuit (built-in name or TOML): "
                                                        "its plant, with its default drive"),
-                 sets: list[str] = typer.Option([], "--set", help="a circuit's component.key=value (repeatable)")):
+                 sets: list[str] = typer.Option([], "--set", help="a parameter on top (repeatable): the paper's "
+                                                "rig's group.key=value, a circuit's component.key=value")):
     """Standalone real-time C plant (no Python on the target): sources + Makefile; see the README. A circuit
     (--circuit, or a scenario naming one): its generated C behind the same plant (protocol: SIGNALS/INPUTS)."""
     try:

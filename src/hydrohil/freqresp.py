@@ -82,7 +82,7 @@ def point(sc, f: float, *, loop: str, amplitude: float, u0: float = 0.0, tol: fl
             return Point(f, complex("nan"), periods // 2, float("nan"), False, "did not converge")
         t = np.arange(n + 1) * h
         y, m = initial_state(params, x0, xs=0.0 if loop == "closed" else u0, p=p)
-        sim = Sim(p, h, solver=s.solver.method)
+        sim = Sim(p, h, solver=s.solver.method, model="generated", params=params)   # (its circuit's model)
         sim.set_state(y, m)
         if loop == "closed":
             status, _, log = sim.run(n, 1, x0 + amplitude * np.sin(w * t), slopes=amplitude * w * np.cos(w * t),

@@ -35,12 +35,11 @@ def continuous_run(sc: LoadedScenario, solver: str, h: float, engine: str = "gen
     p = pack(params)
     h_out = s.solver.step
     y, m = initial_state(params, s.initial.xp, xs=s.initial.xs, p1=s.initial.p1, p2=s.initial.p2, p=p)
-    keep = None
     if engine == "generated":
         from hydrohil.simulation.generated_model import generated_continuous_model
         sim = Sim(p, h, model="external", bounded=True)
-        keep = generated_continuous_model(params, sim, solver)
-    if keep is None:
+        generated_continuous_model(params, sim, solver)
+    else:
         sim = Sim(p, h, model="continuous", solver=solver, bounded=True)
     sim.set_state(y, m)
     t_in = np.arange(s.n_steps() + 1) * h_out

@@ -52,14 +52,7 @@ void hc_state_bounds(const double *P, double *lo, double *hi);
 int64_t hc_unphysical(const double *P, const double *y);
 void hc_reference_rhs(const double *P, const double *y, const double *u, double *dy);
 void hc_reference_row(const double *P, const double *y, const double *u, double t, double *row);
-typedef struct { double *P; const int64_t *at; int64_t n; int64_t command; int method; double *yc; double *u;
-                 int64_t *mc; int64_t cyl_mode, valve_mode, nfriction, friction_column; const int64_t *cyl_of;
-                 const int64_t *travel_of; const int64_t *friction_of; const int64_t *pmap; int64_t npmap;
-                 const int64_t *wmap; const double *wc; int64_t nwmap; } hc_core_ctx;
-int hc_core_continuous_advance(void *ctx, double t, double h, double alpha, double u_old, double u_new, double *y);
-int hc_core_hybrid_step(void *ctx, double *y, int64_t *m, const double *p, double ud, double h);
-double hc_core_friction(void *ctx, const double *y, const int64_t *m, const double *p);
-"""
+""" + (CORE / "hc_core.h").read_text().split("/* cdef: begin */")[1].split("/* cdef: end */")[0]
 
 
 class CompiledCircuit:

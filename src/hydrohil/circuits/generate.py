@@ -235,6 +235,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
  * are values P[], not code: every circuit of this structure shares this file and its compiled module). */
 #include "core.h"
 #include "components.h"
+#include "hc_core.h"
 #include "rk.c"
 #include "control.c"
 #include "watchdog.c"
@@ -586,13 +587,6 @@ HH_INLINE void continuous_step(const hh_tableau *tab, const double *P, const dou
     }}
 }}
 
-/* A circuit in the core's layout (its loop's state order, parameters, modes): the context of
- * hc_core_continuous_advance and hc_core_hybrid_step (below) */
-typedef struct {{ double *P; const int64_t *at; int64_t n; int64_t command; int method; double *yc; double *u;
-                 int64_t *mc; int64_t cyl_mode, valve_mode, nfriction, friction_column; const int64_t *cyl_of;
-                 const int64_t *travel_of; const int64_t *friction_of; const int64_t *pmap; int64_t npmap;
-                 const int64_t *wmap; const double *wc; int64_t nwmap; }} hc_core_ctx;
-
 /* The continuous model's step in a sampled loop whose state is in another order (the core's loop, loop.c's
  * external model: maxstep's explicit runs of a paper scenario's continuous model): hh_advance_fn's arguments,
  * its context an hc_core_ctx (state i of the loop's y is the circuit's at[i]; the input `command` takes the
@@ -919,7 +913,7 @@ HC_STEP_CODE static int method_step(int method, double h, double *y, int64_t *m,
 /* The hybrid model behind the core's loop and rig (loop.c's HH_MODEL_GENERATED: hh_model_step_fn,
  * hh_model_friction_fn; the paper's circuit in the core's layout, generated_model.generated_hybrid_model): its
  * context an hc_core_ctx. Each call takes the loop's parameters (pairs (the loop's p slot, the circuit's P slot);
- * a derived value the product of two of them and a constant: a weight), its state (the loop's state i is the
+ * a derived value the product of three of them and a constant: a weight), its state (the loop's state i is the
  * circuit's at[i]; the circuit's delay line, of no delay, keeps its own memory) and its three modes (travel and
  * friction: the cylinder's one mode, cyl_of; the spool: the valve's); a step takes the loop's spool input ud
  * (its delay line's) as the input `command`, and gives back the state, the modes and the events (< 0: a state
@@ -930,7 +924,7 @@ static void core_in(hc_core_ctx *c, const double *y, const int64_t *m, const dou
     for (i = 0; i < c->npmap; i++)
         c->P[c->pmap[2 * i + 1]] = p[c->pmap[2 * i]];
     for (i = 0; i < c->nwmap; i++)
-        c->P[c->wmap[3 * i]] = p[c->wmap[3 * i + 1]] * p[c->wmap[3 * i + 2]] * c->wc[i];
+        c->P[c->wmap[4 * i]] = p[c->wmap[4 * i + 1]] * p[c->wmap[4 * i + 2]] * p[c->wmap[4 * i + 3]] * c->wc[i];
     for (i = 0; i < c->n; i++)
         c->yc[c->at[i]] = y[i];
     c->mc[c->cyl_mode] = c->cyl_of[m[HH_M_TRAVEL] * c->nfriction + m[HH_M_FRICTION]];

@@ -8,6 +8,8 @@ HH_INLINE double p_control(double kp, double x_ref, double x_meas)
     return hh_min(hh_max(u, -1.0), 1.0);
 }
 
+#ifndef HH_CORE_LINKED   /* (hh.h's functions of this part; a translation unit linked with hh_core.c, which defines
+                           them, leaves them out: core.h) */
 void hh_controller_reset(hh_controller_state *s)
 {
     s->integral = 0.0;
@@ -45,3 +47,4 @@ double hh_controller_update(const hh_controller *c, hh_controller_state *s, doub
     }
     return u;
 }
+#endif

@@ -3,6 +3,11 @@
  * The core is compiled as one translation unit (hh_core.c includes every part in dependency order), so
  * the small per-equation functions below are `static` and the compiler inlines them into the step: no
  * link-time optimisation needed, the same code in the Python extension, the FMU and the standalone plant.
+ *
+ * HH_CORE_LINKED: a translation unit compiled to be linked beside hh_core.c (a circuit's generated C in the
+ * paper's rig's standalone plant and FMU, which step the generated model behind the core's loop) includes the
+ * shared parts (control.c, watchdog.c, rng.c, link.c, delay.c) for their static helpers and leaves out hh.h's
+ * functions, which hh_core.c defines: one definition of each in the program.
  */
 #ifndef HH_CORE_H
 #define HH_CORE_H

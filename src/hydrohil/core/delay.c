@@ -1,6 +1,8 @@
 /* delay.c: fractional input delay (see delay.h). */
 #include "delay.h"
 
+#ifndef HH_CORE_LINKED   /* (hh.h's functions of this part; a translation unit linked with hh_core.c, which defines
+                           them, leaves them out: core.h) */
 int hh_delay_steps(double delay, double h, double *alpha)
 {
     double r = delay / h;
@@ -20,6 +22,7 @@ void hh_delay_init(hh_delay *d, double *buf, int n, double alpha, double u0)
     for (i = 0; i < d->size; i++)
         buf[i] = u0;
 }
+#endif
 
 /* Push the command u of this step; returns the delayed spool input of the step (the step average of the
  * two held commands it straddles, u_{k-n} and u_{k-n-1}, also returned). */

@@ -196,6 +196,8 @@ void hh_sim_init(hh_sim *sim, const double *p, int model, int method, double h, 
 void hh_sim_reset(hh_sim *sim);   /* k = 0, delay line filled with y[XS], out from the state */
 /* One step of the per-step API with command u: fills sim->out; returns HH_OK or HH_DIVERGED. */
 int hh_sim_step(hh_sim *sim, double u);
+/* The hybrid model's friction force [N] at the loop's state: the core's, or the generated model's. */
+double hh_sim_friction(const hh_sim *sim);
 /* THE sampled loop: n_steps steps from the current state (of the plant alone, or through drive->rig); a log
  * row (HH_NLOG columns) every `every` steps, the first at the start. Returns HH_OK / HH_DIVERGED, HH_STOPPED
  * (a callback of the drive failed), or HH_BAD_ARGUMENT (nothing done) for every < 1 or n_steps < 0;

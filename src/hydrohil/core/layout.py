@@ -80,6 +80,16 @@ def _bounds(field):
     return lo, hi, lo_s, hi_s
 
 
+@dataclass(frozen=True)
+class _Item:
+    """A tuple item's constraints (``Annotated[float, Field(...)]``'s metadata) as a field's, for :func:`_bounds`."""
+    extra: tuple
+
+    @property
+    def metadata(self):
+        return [m for f in self.extra for m in getattr(f, "metadata", [f])]
+
+
 def _c_name(key: str) -> str:
     return "HH_" + key.replace("[", "").replace("]", "").replace(".", "_").upper()
 
@@ -96,9 +106,10 @@ def _walk(model, prefix: str) -> list[Slot]:
         unit, text = _unit_and_text(field)
         if origin is tuple:
             args = typing.get_args(ann)
-            for i in range(len(args)):
+            for i, arg in enumerate(args):
                 k = f"{key}[{i + 1}]"
-                out.append(Slot(k, _c_name(k), "real", unit, f"{text} ({name}{i + 1})", None, None))
+                lo, hi, lo_s, hi_s = _bounds(_Item(typing.get_args(arg)[1:]))   # (an Annotated item's range)
+                out.append(Slot(k, _c_name(k), "real", unit, f"{text} ({name}{i + 1})", lo, hi, lo_s, hi_s))
         elif origin is typing.Literal:
             opts = typing.get_args(ann)
             if all(isinstance(o, str) for o in opts):

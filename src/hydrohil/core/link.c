@@ -6,6 +6,8 @@
  * includes this file; its Python and standalone plants and its offline loop call hh_path_step) the values of
  * its inputs. Needs rng.c and watchdog.c before it in the translation unit. */
 
+#ifndef HH_CORE_LINKED   /* (hh.h's functions of this part; a translation unit linked with hh_core.c, which defines
+                           them, leaves them out: core.h) */
 void hh_wire_init(hh_wire *w, int stride, double *fifo, int64_t cap)
 {
     w->stride = stride;
@@ -140,3 +142,4 @@ double hh_path_apply_held(const hh_path *p, double held, double lo, double hi, d
                                                                                    input's range its clamp) */
     return path_value(p, p->link.active ? safe : held, lo, hi, saturated);
 }
+#endif

@@ -72,6 +72,8 @@ HH_INLINE double sim_friction(const hh_sim *sim, const double *y, const int64_t 
     return friction_force(y, m, sim->p);
 }
 
+double hh_sim_friction(const hh_sim *sim) { return sim_friction(sim, sim->y, sim->m); }
+
 /* One log row of the state (y, m) at time t with command u and spool input ud. */
 static void log_row(const hh_sim *sim, double t, double u, double ud, const double *y, const int64_t *m,
                     double events, double *row)

@@ -1,6 +1,8 @@
 /* rng.c: the noise source of the rig's transducers (rig.c) and of a circuit loop's sensor (the generated C
  * includes it): one generator, so a seed gives the same samples offline, in either plant and in the reference. */
 
+#ifndef HH_CORE_LINKED   /* (hh.h's functions of this part; a translation unit linked with hh_core.c, which defines
+                           them, leaves them out: core.h) */
 /* xoshiro256** seeded by splitmix64 (Blackman & Vigna), normals by Box-Muller */
 static uint64_t splitmix64(uint64_t *x)
 {
@@ -43,3 +45,4 @@ void hh_rng_normals(hh_rng *r, int n, double *out)
             out[i + 1] = radius * sin(angle);
     }
 }
+#endif

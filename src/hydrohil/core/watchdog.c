@@ -2,6 +2,8 @@
  * the paper's rig (rig.c) and every circuit's plant (the generated C includes it) trip and recover by the same
  * rule. Needs control.c (p_control) before it in the translation unit. */
 
+#ifndef HH_CORE_LINKED   /* (hh.h's functions of this part; a translation unit linked with hh_core.c, which defines
+                           them, leaves them out: core.h) */
 void hh_watchdog_init(hh_watchdog *w)
 {
     w->u_held = 0.0;
@@ -44,3 +46,4 @@ double hh_watchdog_command(hh_watchdog *w, int64_t k, int arrived, double u, dou
         return hold ? p_control(hold_kp, w->hold_x, xp) : 0.0;
     return w->u_held;
 }
+#endif

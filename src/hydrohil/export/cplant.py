@@ -26,6 +26,7 @@ from pathlib import Path
 from hydrohil import __version__
 from hydrohil.core import shape
 from hydrohil.errors import HydrohilError, InputError
+from hydrohil.export.ctext import c_double as _c, c_string as _str
 from hydrohil.parameters import Parameters
 
 HERE = Path(__file__).resolve().parent
@@ -34,24 +35,11 @@ RT_SOURCES = ("rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report
               "latency.c", "latency.h", "rt_side.c", "rt_side.h", "Makefile")
 RIG_SOURCES = ("rt_rig.c",)                     # what the plant serves: the paper's rig ...
 CIRCUIT_SOURCES = ("rt_circuit.c",)             # ... or a circuit (with its generated circuit.c)
-RIG_MODEL_MK = "MODEL_CORE = hh_core.c\nMODEL_SOURCES = rt_rig.c rt_side.c\n"
+RIG_MODEL_MK = "MODEL_CORE = hh_core.c\nMODEL_SOURCES = rt_rig.c rt_side.c paper_model.c\nMODEL_LINKED = paper_circuit.c\n"
 EXECUTABLE = "hydrohil_plant"
 # [hil] settings the plant reads (the others are the controller's, or the plant's own options: step, cpu)
 PLANT_HIL_KEYS = ("command_scale", "watchdog_timeout", "safe_state", "hold_kp", "wait", "seed", "connect_timeout",
                   "link_timeout", "max_late_commands", "max_overruns", "max_stall", "max_watchdog_trips")
-
-
-def _c(v: float) -> str:
-    v = float(v)
-    if math.isnan(v):
-        return "NAN"
-    if math.isinf(v):
-        return "HUGE_VAL" if v > 0 else "-HUGE_VAL"
-    return repr(v)
-
-
-def _str(s: str) -> str:
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 def _hil_table(hil) -> tuple[list[str], list[str]]:
@@ -198,9 +186,12 @@ def _prepare(out: str | Path, step: float, duration: float) -> Path:
 def export_c(params: Parameters, out: str | Path, *, step: float = 5e-4, duration: float = 10.0, hil=None,
              initial: dict | None = None, label: str = "custom") -> Path:
     """Write the standalone plant's sources and Makefile into the folder ``out``; returns it."""
+    from hydrohil.export.paper_model import paper_model_files
     out = _prepare(out, step, duration)
     for name in RIG_SOURCES:
         _copy(RT / name, out / name)
+    for name, text in paper_model_files(params, step).items():   # (its model: the circuit's generated C)
+        _write(out / name, text)
     _write(out / "model.mk", RIG_MODEL_MK)
     _write(out / "plant_config.h", plant_config_h(params, step=step, duration=duration, hil=hil, initial=initial,
                                                            label=label))

@@ -27,6 +27,7 @@ from xml.sax.saxutils import escape, quoteattr
 from hydrohil import __version__
 from hydrohil.core import shape
 from hydrohil.errors import InputError
+from hydrohil.export.ctext import c_array, c_double
 from hydrohil.models.layout import SLOTS, pack
 from hydrohil.parameters import Parameters
 
@@ -37,6 +38,9 @@ PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
 METHOD_RK3 = 2
+# the C files of the paper's rig's FMU (the shared FMI layer's besides): the core, the model generated from its
+# circuit and what attaches it to the core's loop (export/paper_model.py), the instance
+RIG_UNITS = ("hh_core.c", "paper_circuit.c", "paper_model.c", "plant_fmu.c")
 
 # value references beyond the schema's parameters (those are 0 .. n-1, in schema order)
 EXTRA_PARAMETERS = (   # name, unit, description, min, max (start values: _extra_starts)
@@ -241,11 +245,13 @@ def _checked(out, fmi: int, step: float) -> Path:
 def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-4, cc: str | None = None) -> Path:
     """Write the FMU ``out`` (FMI ``fmi`` = 2 or 3, internal step ``step`` [s]); returns its path."""
     out = _checked(out, fmi, step)
+    from hydrohil.export.paper_model import paper_model_files
     token = "{" + str(uuid.UUID(hashlib.md5(f"{params.model_dump_json()}|{fmi}|{step}".encode()).hexdigest())) + "}"
     return package_fmu(out, fmi, {"plant_fmu.h": HERE / "c" / "fmu" / "plant_fmu.h",
                                   "plant_fmu.c": HERE / "c" / "fmu" / "plant_fmu.c",
-                                  "config.h": config_h(params, step, token)},
-                       ["hh_core.c", "plant_fmu.c"], model_description(params, fmi, step, token), cc)
+                                  "config.h": config_h(params, step, token),
+                                  **paper_model_files(params, step)},     # (its model: the circuit's generated C)
+                       list(RIG_UNITS), model_description(params, fmi, step, token), cc)
 
 
 def package_fmu(out: Path, fmi: int, files: dict, units: list[str], description: str, cc: str | None = None) -> Path:
@@ -297,16 +303,6 @@ def package_fmu(out: Path, fmi: int, files: dict, units: list[str], description:
 VR_INPUT0, VR_OUTPUT0, VR_MODE0 = 1000, 2000, 3000
 
 
-def _c_double(v: float) -> str:
-    v = float(v)
-    return "NAN" if v != v else ("INFINITY" if v > 0 else "-INFINITY") if abs(v) == float("inf") else repr(v)
-
-
-def _c_array(ctype: str, name: str, values, fmt=repr, empty="0") -> list[str]:
-    items = [fmt(v) for v in values] or [empty]        # (C has no empty arrays)
-    return [f"static const {ctype} {name}[{len(items)}] = {{", *[f"    {x}," for x in items], "};"]
-
-
 def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
     """``config.h`` of a circuit's FMU: sizes, value references, the exported parameters and initial state."""
     outputs = [i for i, col in enumerate(lay.log_columns) if col != "t" and col not in lay.modes]
@@ -322,14 +318,14 @@ def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
              f"#define CIRCUIT_NOUTPUTS {len(outputs)}", f"#define CIRCUIT_NMODES {len(lay.modes)}",
              f"#define CIRCUIT_NSTATES {len(lay.states)}",
              f"#define VR_INPUT0 {VR_INPUT0}", f"#define VR_OUTPUT0 {VR_OUTPUT0}", f"#define VR_MODE0 {VR_MODE0}", ""]
-    lines += _c_array("double", "CIRCUIT_P", lay.values(), _c_double)
-    lines += _c_array("double", "CIRCUIT_U0", u0[:max(len(lay.inputs), 1)], _c_double)
-    lines += _c_array("double", "CIRCUIT_Y0", y0, _c_double)
-    lines += _c_array("int64_t", "CIRCUIT_M0", m0, lambda v: str(int(v)))
-    lines += _c_array("int", "CIRCUIT_OUTPUT_COLUMN", outputs, str)
-    lines += _c_array("char *const", "CIRCUIT_INPUT_NAMES", lay.inputs, q, empty='""')
-    lines += _c_array("char *const", "CIRCUIT_STATE_NAMES", lay.states, q, empty='""')
-    lines += _c_array("int64_t", "CIRCUIT_HELD", held or [0], str)          # nodes given in [initial]
+    lines += c_array("double", "CIRCUIT_P", lay.values(), c_double)
+    lines += c_array("double", "CIRCUIT_U0", u0[:max(len(lay.inputs), 1)], c_double)
+    lines += c_array("double", "CIRCUIT_Y0", y0, c_double)
+    lines += c_array("int64_t", "CIRCUIT_M0", m0, lambda v: str(int(v)))
+    lines += c_array("int", "CIRCUIT_OUTPUT_COLUMN", outputs, str)
+    lines += c_array("char *const", "CIRCUIT_INPUT_NAMES", lay.inputs, q, empty='""')
+    lines += c_array("char *const", "CIRCUIT_STATE_NAMES", lay.states, q, empty='""')
+    lines += c_array("int64_t", "CIRCUIT_HELD", held or [0], str)          # nodes given in [initial]
     lines += ["", "#endif", ""]
     return "\n".join(lines)
 

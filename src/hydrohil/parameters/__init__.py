@@ -153,6 +153,10 @@ def _walk(schema, loc) -> tuple[list, list[str], object]:
         if owner is not None:
             field = owner.model_fields[part]
             candidates = [field.annotation]
+        elif isinstance(part, int) and parts and any(typing.get_origin(t) is tuple for t in flat):
+            parts[-1] += f"[{part + 1}]"              # (a tuple's item as its slot names it: valve.k[1])
+            candidates = [typing.get_args(t)[part] for t in flat if typing.get_origin(t) is tuple]
+            continue
         elif isinstance(part, int):
             candidates = [typing.get_args(t)[0] for t in flat if typing.get_origin(t) is list]
             field = None

@@ -7,7 +7,7 @@ Each field carries its unit and admissible range; loading a file that breaks one
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
@@ -38,9 +38,13 @@ class Spool(StrictModel):
     delay: float = _f(0, 0.1, unit="s", doc="pure delay")
 
 
+# a coefficient of eq 3's pseudo-sections: the component library's servo valve takes the same range
+_K = Annotated[float, Field(ge=-1e3, le=1e3)]
+
+
 class Valve(StrictModel):
-    k: tuple[float, float, float, float, float] = Field(description="k1..k5 of eq 3 (l/min, bar)")
-    kt: tuple[float, float, float, float, float] = Field(description="k1t..k5t of eq 3 (l/min, bar)")
+    k: tuple[_K, _K, _K, _K, _K] = Field(description="k1..k5 of eq 3 (l/min, bar), each within ±1000")
+    kt: tuple[_K, _K, _K, _K, _K] = Field(description="k1t..k5t of eq 3 (l/min, bar), each within ±1000")
     dp_laminar: float = _f(gt=0, hi=5e6, unit="Pa", doc="laminar transition pressure drop")
 
 
@@ -68,10 +72,16 @@ class Cylinder(StrictModel):
     beta1: float = _f(gt=1e6, hi=1e11, unit="Pa", doc="constant bulk modulus, chamber 1")
     beta2: float = _f(gt=1e6, hi=1e11, unit="Pa", doc="constant bulk modulus, chamber 2")
 
+    @model_validator(mode="after")
+    def _annulus(self):
+        if not self.a2 < self.a1:     # (a differential cylinder: the rod takes part of the bore)
+            raise ValueError(f"a2 (the rod-side annulus, {self.a2} m^2) must be smaller than a1 ({self.a1} m^2)")
+        return self
+
 
 class StaticFriction(StrictModel):
     fc: float = _f(0, 1e6, unit="N", doc="Coulomb force")
-    fs: float = _f(0, 1e6, unit="N", doc="breakaway (static) force Fs: the Stribeck curve at v = 0")
+    fs: float = _f(gt=0, hi=1e6, unit="N", doc="breakaway (static) force Fs: the Stribeck curve at v = 0")
     vs: float = _f(gt=0, hi=10, unit="m/s", doc="Stribeck velocity")
     kv: float = _f(0, 1e7, unit="N.s/m", doc="viscous coefficient")
 

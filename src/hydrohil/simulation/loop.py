@@ -82,8 +82,6 @@ class Sim:
         if model == "generated":             # the paper's circuit's generated hybrid model behind this loop
             from hydrohil.simulation.generated_model import generated_hybrid_model
             self._model = generated_hybrid_model(params, self, solver)
-            if self._model is None:          # (a parameter set the component library refuses: the core's model)
-                self._sim.model = lib.HH_MODEL_HYBRID
         self._rng = ffi.new("hh_rng *")           # the sensors' noise of closed-loop runs (Sim.run)
         self.p = view(self._sim.p, np.float64, lib.HH_NP)
         self.y = view(self._sim.y, np.float64, NY)
@@ -227,13 +225,21 @@ def hh_py_event(ctx, k):
         return 1
 
 
+def _engine_model(engine: str, params: Parameters) -> dict:
+    """Sim's model of an ``engine``: "generated" (from the circuit of ``params``) or "core" (hybrid.c)."""
+    if engine not in ("generated", "core"):
+        raise ValueError(f"engine: generated or core, got {engine!r}")
+    return {"model": "generated", "params": params} if engine == "generated" else {"model": "hybrid"}
+
+
 def run_loop(params: Parameters, p: np.ndarray, y: np.ndarray, m: np.ndarray, h: float, n: int, every: int,
              values: np.ndarray, *, controller=None, slopes: np.ndarray | None = None, seed: int = 0,
-             solver: str = "rk3"):
+             solver: str = "rk3", engine: str = "generated"):
     """Run the hybrid model n steps from (y, m), both updated in place; open loop with commands ``values``
     (n + 1), or the built-in ``controller`` on the positions ``values`` (slopes ``slopes``; pressure noise
-    seeded by ``seed``). Returns (status, steps done, log)."""
-    sim = Sim(p, h, solver=solver)
+    seeded by ``seed``). ``engine``: the model generated from the circuit of ``params`` (the parameter set ``p``
+    was packed from) or the hand-written core's ("core"). Returns (status, steps done, log)."""
+    sim = Sim(p, h, solver=solver, **_engine_model(engine, params))
     sim.set_state(y, m)
     status, done, log = sim.run(n, every, values, controller=controller, slopes=slopes, seed=seed)
     y[:] = sim.y
@@ -254,10 +260,7 @@ class HybridPlant:
 
     def __init__(self, params: Parameters, h: float = 5e-4, solver: str = "rk3", engine: str = "generated",
                  **initial):
-        if engine not in ("generated", "core"):
-            raise ValueError(f"engine: generated or core, got {engine!r}")
-        self.sim = Sim(pack(params), h, solver=solver, model="generated" if engine == "generated" else "hybrid",
-                       params=params)                            # checks h > 0
+        self.sim = Sim(pack(params), h, solver=solver, **_engine_model(engine, params))   # checks h > 0
         self.params, self.h = params, self.sim.h
         self.p, self.y, self.m, self.out = self.sim.p, self.sim.y, self.sim.m, self.sim.out
         self._step = lib.hh_sim_step

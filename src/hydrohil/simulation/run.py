@@ -66,20 +66,21 @@ def run_scenario(sc: LoadedScenario, *, progress=None, engine: str = "generated"
         extra = {"reference_intervals": stats["intervals"], "reference_radau_fallbacks": stats["radau_fallbacks"]}
         return SimulationResult(log, "reference", h, wall, div, extra=extra)
     status, done, log, wall = run_hybrid(params, p, y, m, h, n, every, drive, controller=ctl, slopes=slopes,
-                                         seed=s.hil.seed, solver=s.solver.method)
+                                         seed=s.hil.seed, solver=s.solver.method, engine=engine)
     div = None if status == STATUS_OK else divergence_error(done * h, y, m)
     return SimulationResult(log, s.solver.method, h, wall, div)
 
 
 def run_hybrid(params: Parameters, p: np.ndarray, y: np.ndarray, m: np.ndarray, h: float, n: int, every: int,
                values: np.ndarray, *, controller=None, slopes: np.ndarray | None = None, seed: int = 0,
-               solver: str = "rk3"):
-    """Run the core's loop with the hybrid model for n steps from (y, m), both updated in place.
+               solver: str = "rk3", engine: str = "generated"):
+    """Run the core's loop with the hybrid model (``engine``: generated from the circuit of ``params``, or the
+    core's) for n steps from (y, m), both updated in place.
 
     Open loop: ``values[k]`` is the command held over step k (n + 1 values). Closed loop: the built-in
     ``controller`` on the references ``values`` (slopes ``slopes``). Returns (status, steps done, log rows,
     wall time of the loop [s])."""
     t0 = time.perf_counter()
     status, done, log = run_loop(params, p, y, m, h, n, every, values, controller=controller, slopes=slopes,
-                                 seed=seed, solver=solver)
+                                 seed=seed, solver=solver, engine=engine)
     return status, done, log, time.perf_counter() - t0

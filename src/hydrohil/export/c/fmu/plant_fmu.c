@@ -128,6 +128,18 @@ static int model_params(plant *pl, double *p)
     return PLANT_OK;
 }
 
+/* sim steps the generated model (paper_model.h); PLANT_ERROR with the reason when the parameters ask for another
+ * structure than the export's. */
+static int attach_model(plant *pl)
+{
+    char why[400];
+    if (paper_model_attach(&pl->model, &pl->sim, PLANT_METHOD, why, sizeof why) != 0) {
+        plant_logf(pl, PLANT_ERROR, "%s", why);
+        return PLANT_ERROR;
+    }
+    return PLANT_OK;
+}
+
 /* The initial state of the parameters as set (SPEC §12.5): at rest (at_rest = 1: the spool offset that holds
  * the piston, the pressures balancing the chambers' flows) or with the spool at xs0; sim and its delay line
  * set up, xs_rest computed. */
@@ -153,6 +165,8 @@ int plant_prepare(plant *pl)
         pl->dbuf_size = n + 2;
     }
     hh_sim_init(&pl->sim, p, HH_MODEL_HYBRID, PLANT_METHOD, h, pl->dbuf, n, alpha);
+    if (attach_model(pl) != PLANT_OK)
+        return PLANT_ERROR;
     held = hh_rest_state(pl->sim.p, &pl->xs_rest, &p1, &p2) == 0;
     hh_initial_state(pl->sim.p, pl->par[VR_XP0], pl->par[VR_AT_REST] == 1.0 ? pl->xs_rest : pl->par[VR_XS0], 0.0,
                      NAN, NAN, 0.0, pl->sim.y, pl->sim.m);
@@ -195,7 +209,7 @@ int plant_get_real(plant *pl, unsigned vr, double *v)
     case VR_P1: *v = y[HH_P1]; return PLANT_OK;
     case VR_P2: *v = y[HH_P2]; return PLANT_OK;
     case VR_XS: *v = y[HH_XS]; return PLANT_OK;
-    case VR_FF: *v = hh_friction_force(y, pl->sim.m, pl->sim.p); return PLANT_OK;
+    case VR_FF: *v = hh_sim_friction(&pl->sim); return PLANT_OK;
     default:
         plant_logf(pl, PLANT_ERROR, "value reference %u is not a Real", vr);
         return PLANT_ERROR;
@@ -348,7 +362,7 @@ static int state_values_valid(const state_values *v, uint64_t dbuf_size)
     if (dbuf_size == 0)
         return v->mode <= PLANT_INITIALIZING && v->delay_n == 0;
     return v->delay_n + 2 == (int64_t)dbuf_size && v->delay_pos >= 0 && v->delay_pos < (int64_t)dbuf_size
-           && v->model == HH_MODEL_HYBRID && v->method == PLANT_METHOD && isfinite(v->h) && v->h > 0.0
+           && v->model == HH_MODEL_GENERATED && v->method == PLANT_METHOD && isfinite(v->h) && v->h > 0.0
            && v->h == v->par[VR_STEP] && v->k >= 0 && v->m[HH_M_TRAVEL] >= HH_FREE
            && v->m[HH_M_TRAVEL] <= HH_AT_EXTEND && v->m[HH_M_FRICTION] >= HH_STICK
            && v->m[HH_M_FRICTION] <= HH_SLIP_NEG && v->m[HH_M_SPOOL] >= HH_SPOOL_LINEAR
@@ -413,6 +427,8 @@ int plant_state_set(plant *pl, const void *state)
     s->delay.pos = (int)v.delay_pos;
     s->delay.n = (int)v.delay_n;
     s->delay.alpha = v.delay_alpha;
+    if (pl->dbuf_size > 0 && attach_model(pl) != PLANT_OK)   /* (a state after initialisation: its model) */
+        return PLANT_ERROR;
     rig_init(pl);
     pl->rig.link.u_held = v.link_u_held;
     pl->rig.link.hold_x = v.link_hold_x;

@@ -1,13 +1,17 @@
-/* rt_rig.c: the paper's rig behind the standalone plant (rt_plant.h, "what the plant serves"): the core's
- * hybrid model and rig step (command path, watchdog, faults, the encoder and pressure transducers), the SENSOR /
- * COMMAND packets of protocol v1, its plant_log.csv row. The same C as the Python plant's VirtualRig. */
+/* rt_rig.c: the paper's rig behind the standalone plant (rt_plant.h, "what the plant serves"): the hybrid model
+ * generated from its circuit (paper_model.h: circuit.c behind the core's loop) in the core's rig step (command
+ * path, watchdog, faults, the encoder and pressure transducers), the SENSOR / COMMAND packets of protocol v1, its
+ * plant_log.csv row. The same C as the Python plant's VirtualRig. */
 #define _GNU_SOURCE
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "paper_model.h"
 #include "rt_side.h"
+
+static paper_model generated;     /* the rig's model (one plant a process) */
 
 /* The sensors' readings (the core's rig step, as the Python plant's) and the status bits of the wire. */
 static void read_sensors(plant *pl, reading *r)
@@ -57,6 +61,11 @@ int model_init(plant *pl)
         return -1;
     }
     hh_sim_init(&pl->sim, o->p, HH_MODEL_HYBRID, HH_RK3, o->step, pl->delay_buf, n, alpha);
+    {
+        char why[400];
+        if (paper_model_attach(&generated, &pl->sim, HH_RK3, why, sizeof why) != 0)
+            die_usage("%s", why);
+    }
     {   /* the rig: its watchdog counts from step 0, the faults of step 0 apply (as the Python plant's) */
         int64_t cap = 0;
         int i;
