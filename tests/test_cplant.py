@@ -66,6 +66,8 @@ def test_export_and_make_with_the_users_compiler(tmp_path):
     assert lst.returncode == 0 and "load.mass" in lst.stdout and "watchdog_timeout" in lst.stdout
     row = next(line for line in lst.stdout.splitlines() if line.split()[:1] == ["load.mass"])
     assert row.split()[1] == "80" and "[kg]" in row
+    fixed = next(line for line in lst.stdout.splitlines() if line.split()[:1] == ["cylinder.bulk_modulus"])
+    assert fixed.split()[1] == "pressure" and "fixed by this export" in fixed
     # exported and built (make's own compiler, cc): a plain `make` afterwards finds it up to date
     built = tmp_path / "built"
     assert hh("export", "c", "--out", built, "--params", "ferreira2004").returncode == 0
@@ -96,7 +98,8 @@ def test_c_plant_builds_without_a_warning(tmp_path, cc, opt):
     (["--set", "load.masss=3"], "no parameter 'load.masss'"),
     (["--set", "cylinder.bulk_modulus=soft"], "expects a number [-] or one of pressure|constant"),
     (["--set", "cylinder.bulk_modulus=constant"],          # (its generated model has the export's structure)
-     'cylinder.bulk_modulus = constant: this plant was exported with "pressure"'),
+     'cylinder.bulk_modulus is fixed by this export ("pressure": its generated model has that structure)'),
+    (["--set", "cylinder.a2=2e-3"], "parameter cylinder.a2 = 0.002 [m^2]: the rod-side annulus must be smaller than"),
     (["--hil", "watchdog_timeout=0"], "watchdog_timeout must be > 0 and <= 10 [s]"),
     (["--hil", "safe_state=brake"], "safe_state is one of centre|hold"),
     (["--step", "0.05"], "--step 0.05: the plant step must be > 1e-06 and <= 0.01 [s]"),
@@ -204,7 +207,7 @@ def test_export_c_takes_the_paper_rigs_values_with_set(tmp_path):
     """`hydrohil export c --set group.key=value` exports the paper's rig with those values (its generated model's
     structure too: constant chambers' bulk moduli); a bad one exits 2 naming --set and the key, writing nothing."""
     out = tmp_path / "plant"
-    r = hh("export", "c", "--out", out, "--no-make", "--set", 'cylinder.bulk_modulus="constant"', "--set",
+    r = hh("export", "c", "--out", out, "--no-make", "--set", "cylinder.bulk_modulus=constant", "--set",
            "load.mass=300")
     assert r.returncode == 0, r.stderr
     assert "#define PM_BULK_CONSTANT 1" in (out / "paper_tables.h").read_text()

@@ -681,7 +681,7 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", callback=out_file, hel
                    scenario: Optional[Path] = typer.Option(None, "--scenario", help="a scenario naming its circuit: "
                                                            "its circuit, [set], step and closed loop's start"),
                    sets: list[str] = typer.Option([], "--set", help="a parameter on top (repeatable): the paper's "
-                                                  "rig's group.key=value (--set 'cylinder.bulk_modulus=\"constant\"'), "
+                                                  "rig's group.key=value (--set cylinder.bulk_modulus=constant), "
                                                   "a circuit's component.key=value (--set 'cyl1.mass=300 kg')")):
     """Co-Simulation FMU of the plant, or of a circuit (C sources + a binary built here); see the README."""
     try:
@@ -744,8 +744,8 @@ def export_c_cmd(out: Path = typer.Option(..., "--out", help="folder to write th
 
 def _parse_sets(items: list[str]) -> dict:
     """``key=value`` pairs from repeated ``--set`` options; values are TOML literals (``0`` is an
-    integer, ``7e6`` a float, ``true`` a boolean), exactly as in a scenario's ``[overrides]``, or a number with
-    its unit (``300 kg``: a circuit's parameter)."""
+    integer, ``7e6`` a float, ``true`` a boolean), exactly as in a scenario's ``[overrides]``, a word (``constant``:
+    an option, as the TOML string "constant") or a number with its unit (``300 kg``: a circuit's parameter)."""
     import re
     import tomllib
     from hydrohil.errors import InputError
@@ -757,6 +757,9 @@ def _parse_sets(items: list[str]) -> dict:
         try:
             out[key.strip()] = tomllib.loads(f"v = {val.strip()}")["v"]
         except tomllib.TOMLDecodeError:
+            if re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", val.strip()):   # a word: an option (bulk_modulus=constant)
+                out[key.strip()] = val.strip()
+                continue
             if not re.match(r"^[-+]?[0-9.]+([eE][-+]?[0-9]+)?\s*[A-Za-z%°(][\w/.^%°()³²]*$", val.strip()):
                 raise InputError(f"not a TOML value nor a number with its unit: {val!r}", source="--set",
                                  key=key) from None

@@ -3,6 +3,8 @@
  * states. Built by tests/test_fmu.py with the FMU's own sources under AddressSanitizer and UBSan
  * (-DFMI=2 or -DFMI=3); prints the FMU's messages, "FAIL ..." for a check that did not hold, and exits 1 then. */
 #include "fmi_shim.h"
+#include "fmu_instance.h"     /* (plant_state_header: where a state's values begin) */
+#include "hh_params.h"
 
 int main(void)
 {
@@ -75,6 +77,23 @@ int main(void)
     copy[33] = copy[33] == 'a' ? 'b' : 'a';  /* the export's token */
     EXPECT(deserialize(b, copy, n, &bad) == ERR, "a state of another export");
     EXPECT(bad == NULL, "no state made of a refused one");
+    {   /* a state of this export whose values ask for another structure of its generated model (the cylinder's
+         * bulk modulus law): refused whole, the instance stepping on as before. The value's place: the header,
+         * then plant_fmu.c's state_values (par[PLANT_NPAR], six doubles, three int64s, p[HH_NP], ...) */
+        size_t at = sizeof(plant_state_header) + sizeof(double) * (PLANT_NPAR + 6) + sizeof(int64_t) * 3
+                    + sizeof(double) * HH_CYLINDER_BULK_MODULUS;
+        double other;
+        fstate s_other = NULL;
+        memcpy(copy, bytes, n);
+        memcpy(&other, copy + at, sizeof other);
+        EXPECT(other == 0.0, "the exported law in the state (eq 21: 0)");
+        other = 1.0;
+        memcpy(copy + at, &other, sizeof other);
+        EXPECT(deserialize(b, copy, n, &s_other) == OK, "a state of this export's format deserialised");
+        EXPECT(set_state(b, s_other) == ERR, "a state asking for another structure refused");
+        EXPECT(set_real(b, VR_U, 0.1) == OK && do_step(b, 300 * 5e-4, 5e-4) == OK, "b steps on after the refusal");
+        free_state(b, &s_other);
+    }
 
     /* 5. states taken before initialisation (no delay line yet) set back into a stepping instance; and a
      * doStep that goes back in time */

@@ -59,6 +59,10 @@ int hh_params_check(const double *p, char *msg, size_t msg_size)
         snprintf(t, sizeof t, "must exceed supply.pt (%g Pa)", p[HH_SUPPLY_PT]);
         return bad(msg, msg_size, HH_SUPPLY_PS, p[HH_SUPPLY_PS], t);
     }
+    if (!(p[HH_CYLINDER_A2] < p[HH_CYLINDER_A1])) {     /* (the schema's Cylinder._annulus) */
+        snprintf(t, sizeof t, "the rod-side annulus must be smaller than cylinder.a1 (%g m^2)", p[HH_CYLINDER_A1]);
+        return bad(msg, msg_size, HH_CYLINDER_A2, p[HH_CYLINDER_A2], t);
+    }
     for (i = 0; i < 3; i++)
         if (p[sets[i] + 1] < p[sets[i]]) {
             snprintf(t, sizeof t, "the breakaway force must be >= the Coulomb force fc (%g N)", p[sets[i]]);

@@ -27,6 +27,7 @@ from hydrohil import __version__
 from hydrohil.core import shape
 from hydrohil.errors import HydrohilError, InputError
 from hydrohil.export.ctext import c_double as _c, c_string as _str
+from hydrohil.export.paper_model import STRUCTURE_KEYS
 from hydrohil.parameters import Parameters
 
 HERE = Path(__file__).resolve().parent
@@ -35,7 +36,7 @@ RT_SOURCES = ("rt_plant.c", "rt_plant.h", "rt_options.c", "rt_log.c", "rt_report
               "latency.c", "latency.h", "rt_side.c", "rt_side.h", "Makefile")
 RIG_SOURCES = ("rt_rig.c",)                     # what the plant serves: the paper's rig ...
 CIRCUIT_SOURCES = ("rt_circuit.c",)             # ... or a circuit (with its generated circuit.c)
-RIG_MODEL_MK = "MODEL_CORE = hh_core.c\nMODEL_SOURCES = rt_rig.c rt_side.c paper_model.c\nMODEL_LINKED = paper_circuit.c\n"
+RIG_MODEL_MK = "MODEL_CORE = hh_core.c\nMODEL_SOURCES = rt_rig.c rt_side.c paper_model.c\nMODEL_LINKED = paper_circuit.c\nMODEL_LINKED_INCLUDES = circuit.c\n"
 EXECUTABLE = "hydrohil_plant"
 # [hil] settings the plant reads (the others are the controller's, or the plant's own options: step, cpu)
 PLANT_HIL_KEYS = ("command_scale", "watchdog_timeout", "safe_state", "hold_kp", "wait", "seed", "connect_timeout",
@@ -138,6 +139,9 @@ def plant_config_h(params: Parameters, *, step: float = 5e-4, duration: float = 
     lines += ["};", "/* enum parameters: their words (value = index); NULL for numbers */",
               "static const char *const PLANT_OPTIONS[HH_NP_SCHEMA] = {"]
     lines += [f"    {_str('|'.join(s.options)) if s.kind == 'enum' else 'NULL'},   /* {s.key} */" for s in schema]
+    lines += ["};", "/* 1: fixed by this export (its generated model's structure: export/paper_model.py STRUCTURE_KEYS) */",
+              "static const int PLANT_FIXED[HH_NP_SCHEMA] = {"]
+    lines += [f"    {int(s.key in STRUCTURE_KEYS)},   /* {s.key} */" for s in schema]
     lines += ["};", "/* initial state: xp [m], xs [-], p1, p2 [Pa gauge] (NAN: at rest, SPEC §12.5) */",
               "static const double PLANT_INITIAL[4] = {" + ", ".join(
                   _c(math.nan if initial[k] is None else initial[k]) for k in ("xp", "xs", "p1", "p2")) + "};", "",

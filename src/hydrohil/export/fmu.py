@@ -28,6 +28,7 @@ from hydrohil import __version__
 from hydrohil.core import shape
 from hydrohil.errors import InputError
 from hydrohil.export.ctext import c_array, c_double
+from hydrohil.export.paper_model import STRUCTURE_KEYS
 from hydrohil.models.layout import SLOTS, pack
 from hydrohil.parameters import Parameters
 
@@ -128,8 +129,10 @@ def model_description(params: Parameters, fmi: int, step: float, token: str) -> 
         desc = s.description + (f" (one of: {', '.join(f'{k} = {o}' for k, o in enumerate(s.options))})"
                                 if s.kind == "enum" else " (0 = false, 1 = true)" if s.kind == "boolean"
                                 else f" (one of {', '.join(str(o) for o in s.options)})" if s.kind == "integer" else "")
+        lo, hi = (p[i], p[i]) if s.key in STRUCTURE_KEYS else (s.lo, s.hi)   # (the export's structure: fixed)
+        desc += " (fixed by this export: its generated model's structure)" if s.key in STRUCTURE_KEYS else ""
         vars_.append(dict(name=s.key, vr=i, causality="parameter", variability="fixed", initial="exact",
-                          desc=desc, unit=s.unit, start=p[i], lo=s.lo, hi=s.hi, kind="real"))
+                          desc=desc, unit=s.unit, start=p[i], lo=lo, hi=hi, kind="real"))
     n = len(slots)
     extras = _extra_starts(params, step)
     for k, (name, unit, desc, lo, hi) in enumerate(EXTRA_PARAMETERS):

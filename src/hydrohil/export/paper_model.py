@@ -13,6 +13,9 @@ from hydrohil import __version__
 from hydrohil.export.ctext import c_array
 
 PAPER = Path(__file__).resolve().parent / "c" / "paper"
+# the parameters that choose the generated model's structure (the cylinder's bulk modulus law: eq 21 or constant
+# chambers): fixed by an export (the C plant refuses --set of another value, the FMU's min = max = its value)
+STRUCTURE_KEYS = ("cylinder.bulk_modulus",)
 PAPER_SOURCES = ("paper_model.c", "paper_model.h",    # (c/paper: what attaches the tables to the core's loop,
                  "paper_circuit.c")                     # and circuit.c as a unit beside hh_core.c)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
 
 try:
     from hydrohil.parameters.characteristics import derived_linear
@@ -43,8 +43,8 @@ _K = Annotated[float, Field(ge=-1e3, le=1e3)]
 
 
 class Valve(StrictModel):
-    k: tuple[_K, _K, _K, _K, _K] = Field(description="k1..k5 of eq 3 (l/min, bar), each within ±1000")
-    kt: tuple[_K, _K, _K, _K, _K] = Field(description="k1t..k5t of eq 3 (l/min, bar), each within ±1000")
+    k: tuple[_K, _K, _K, _K, _K] = Field(description="k1..k5 of eq 3 (l/min, bar)")
+    kt: tuple[_K, _K, _K, _K, _K] = Field(description="k1t..k5t of eq 3 (l/min, bar)")
     dp_laminar: float = _f(gt=0, hi=5e6, unit="Pa", doc="laminar transition pressure drop")
 
 
@@ -72,11 +72,13 @@ class Cylinder(StrictModel):
     beta1: float = _f(gt=1e6, hi=1e11, unit="Pa", doc="constant bulk modulus, chamber 1")
     beta2: float = _f(gt=1e6, hi=1e11, unit="Pa", doc="constant bulk modulus, chamber 2")
 
-    @model_validator(mode="after")
-    def _annulus(self):
-        if not self.a2 < self.a1:     # (a differential cylinder: the rod takes part of the bore)
-            raise ValueError(f"a2 (the rod-side annulus, {self.a2} m^2) must be smaller than a1 ({self.a1} m^2)")
-        return self
+    @field_validator("a2")
+    @classmethod
+    def _annulus(cls, a2, info):          # (a differential cylinder: the rod takes part of the bore; core/params.c)
+        a1 = info.data.get("a1")
+        if a1 is not None and not a2 < a1:
+            raise ValueError(f"the rod-side annulus must be smaller than a1 ({a1} m^2)")
+        return a2
 
 
 class StaticFriction(StrictModel):

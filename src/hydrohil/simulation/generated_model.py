@@ -7,6 +7,8 @@ reference's LSODA steps) and an explicit step of it (maxstep's continuous model)
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -70,8 +72,9 @@ class CoreTables:
         self.circuit, self.compiled = c, cc
         self.P = np.ascontiguousarray(lay.values())
         self.P[lay.slot["valve.delay"]] = 0.0
-        bulk = "pressure" if c.components["cyl"].values["bulk_b"] == c.components["cyl"].values["bulk_b"] else "constant"
-        self.bulk_modulus = bulk                     # (the circuit's structure: eq 21 or constant chambers)
+        # (the circuit's structure: eq 21's coefficients given, or constant chambers: circuits.library's rule)
+        bulk = "constant" if math.isnan(c.components["cyl"].values["bulk_b"]) else "pressure"
+        self.bulk_modulus = bulk
         values = {**CORE_VALUES, **CORE_BULK[bulk]}
         pmap = np.array([(INDEX[k], lay.slot[v]) for k, v in values.items()], dtype=np.int64).ravel()
         # the weight the core adds, gravity_direction * mass * gravity, is the circuit's cyl.weight subtracted

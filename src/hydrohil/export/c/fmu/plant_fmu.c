@@ -147,8 +147,13 @@ int plant_prepare(plant *pl)
 {
     double p[HH_NP], h = pl->par[VR_STEP], alpha, p1, p2;
     int n, held;
+    char why[400];
     if (model_params(pl, p) != PLANT_OK)
         return PLANT_ERROR;
+    if (paper_model_structure_check(p, why, sizeof why) != 0) {    /* (before anything of the instance changes) */
+        plant_logf(pl, PLANT_ERROR, "%s", why);
+        return PLANT_ERROR;
+    }
     if (!pl->f_load_set)
         pl->f_load = p[HH_LOAD_FORCE];
     if (!pl->ps_set)
@@ -375,6 +380,7 @@ int plant_state_set(plant *pl, const void *state)
     plant_state_header hd;
     state_values v;
     hh_sim *s = &pl->sim;
+    char why[400];
     int i;
     if (!state) {
         plant_logf(pl, PLANT_ERROR, "no FMU state given");
@@ -384,6 +390,10 @@ int plant_state_set(plant *pl, const void *state)
         return PLANT_ERROR;
     memcpy(&hd, bytes, sizeof hd);
     memcpy(&v, bytes + sizeof hd, sizeof v);
+    if (hd.extra > 0 && paper_model_structure_check(v.p, why, sizeof why) != 0) {   /* (its generated model's) */
+        plant_logf(pl, PLANT_ERROR, "FMU state refused: %s", why);
+        return PLANT_ERROR;
+    }
     if (!state_values_valid(&v, hd.extra)) {
         plant_logf(pl, PLANT_ERROR, "FMU state with inconsistent values (mode %lld, model %lld, method %lld, step %g s, "
                    "k %lld, delay line %lld of %llu)", (long long)v.mode, (long long)v.model, (long long)v.method,
@@ -427,8 +437,11 @@ int plant_state_set(plant *pl, const void *state)
     s->delay.pos = (int)v.delay_pos;
     s->delay.n = (int)v.delay_n;
     s->delay.alpha = v.delay_alpha;
-    if (pl->dbuf_size > 0 && attach_model(pl) != PLANT_OK)   /* (a state after initialisation: its model) */
+    if (pl->dbuf_size > 0 && attach_model(pl) != PLANT_OK) {   /* (a state after initialisation: its model; its
+                                                                 * structure was checked with its values) */
+        pl->mode = PLANT_FAILED;
         return PLANT_ERROR;
+    }
     rig_init(pl);
     pl->rig.link.u_held = v.link_u_held;
     pl->rig.link.hold_x = v.link_hold_x;

@@ -4,22 +4,24 @@
 #define PAPER_TABLES
 #include "paper_model.h"
 
+int paper_model_structure_check(const double *p, char *why, size_t size)
+{
+    int constant = p[HH_CYLINDER_BULK_MODULUS] > 0.5;
+    if (constant == PM_BULK_CONSTANT)
+        return 0;
+    snprintf(why, size, "cylinder.bulk_modulus = %s: this plant was exported with \"%s\" (its generated model has "
+             "that structure); export it again with the other one (hydrohil export ... --set "
+             "cylinder.bulk_modulus=%s, or in the parameter file)", constant ? "constant" : "pressure",
+             PM_BULK_CONSTANT ? "constant" : "pressure", constant ? "constant" : "pressure");
+    return -1;
+}
+
 int paper_model_attach(paper_model *pm, hh_sim *sim, int method, char *why, size_t size)
 {
     hc_core_ctx *c = &pm->ctx;
-    int constant = sim->p[HH_CYLINDER_BULK_MODULUS] > 0.5;
-    if (constant != PM_BULK_CONSTANT) {
-        snprintf(why, size, "cylinder.bulk_modulus = %s: this plant was exported with \"%s\" (its generated model "
-                 "has that structure); export it again with the other one (hydrohil export ... --set "
-                 "cylinder.bulk_modulus=%s, or in the parameter file)", constant ? "constant" : "pressure",
-                 PM_BULK_CONSTANT ? "constant" : "pressure", constant ? "constant" : "pressure");
+    if (paper_model_structure_check(sim->p, why, size) != 0)
         return -1;
-    }
-    memcpy(pm->P, PM_P0, sizeof pm->P);
-    if (hc_state_size(pm->P, sim->h) > PM_NSTATE) {
-        snprintf(why, size, "a step of %g s: the generated model's state was sized for another", sim->h);
-        return -1;
-    }
+    memcpy(pm->P, PM_P0, sizeof pm->P);      /* (its state's size: hc_state_size(P, h) = PM_NSTATE, no delay line) */
     memset(pm->yc, 0, sizeof pm->yc);
     memset(pm->u, 0, sizeof pm->u);
     memset(pm->mc, 0, sizeof pm->mc);

@@ -16,10 +16,12 @@ typedef struct {
     hc_core_ctx ctx;                            /* pointing into the above: a paper_model is not copied */
 } paper_model;
 
+/* 0 when the core's parameters p ask for the export's structure (the cylinder's bulk modulus law), else -1 with
+ * the reason in why (size bytes), naming the key. */
+int paper_model_structure_check(const double *p, char *why, size_t size);
 /* Make sim (hh_sim_init'ed: its parameters, step and delay line) step the generated model with the tableau
  * `method` (hh.h's HH_EULER ...), its context pm; again after sim was restored from an FMU state. Returns 0, or
- * -1 with the reason in why (size bytes): the parameters ask for another structure than the export's (the
- * cylinder's bulk modulus law) or a step the circuit's state was not sized for. */
+ * -1 with paper_model_structure_check's reason. */
 int paper_model_attach(paper_model *pm, hh_sim *sim, int method, char *why, size_t size);
 
 #endif

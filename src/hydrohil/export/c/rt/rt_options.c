@@ -136,6 +136,12 @@ static void set_parameter(options *o, const char *assignment)
     else if (!parse_number(eq + 1, &v))
         die_usage("--set %s: %s expects a number [%s]%s%s", assignment, key, HH_PARAM_INFO[i].unit,
                   PLANT_OPTIONS[i] ? " or one of " : "", PLANT_OPTIONS[i] ? PLANT_OPTIONS[i] : "");
+    if (PLANT_FIXED[i] && v != PLANT_PARAMS[i]) {
+        char word[40];
+        option_word(PLANT_OPTIONS[i], (int)PLANT_PARAMS[i], word, sizeof word);
+        die_usage("--set %s: %s is fixed by this export (\"%s\": its generated model has that structure); export "
+                  "the plant again with it (hydrohil export c --set %s=...)", assignment, key, word, key);
+    }
     o->p[i] = v;
 }
 
@@ -366,7 +372,9 @@ static void list_parameters(const options *o)
         else
             fmt_double(v, sizeof v, o->p[i]);
         printf("  %-34s %-22s [%s]", s->key, v, s->unit);
-        if (PLANT_OPTIONS[i])
+        if (PLANT_FIXED[i])
+            printf("  fixed by this export (its generated model's structure)");
+        else if (PLANT_OPTIONS[i])
             printf("  one of %s (by name or index)", PLANT_OPTIONS[i]);
         else if (s->kind == HH_KIND_BOOLEAN)
             printf("  true | false");
