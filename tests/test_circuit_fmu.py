@@ -50,7 +50,7 @@ def drive(f, c, u, n, h, on_step=None):
 @pytest.mark.parametrize("name", ["two_cylinders", "pump_relief_accumulator", "lift_platform"])
 def test_a_circuit_fmu_validates_and_gives_simulates_run_bit_for_bit(tmp_path, fmi, name):
     c = load_circuit(name)
-    path = export_circuit_fmu(c, tmp_path / f"{name}.fmu", fmi=fmi)
+    path = export_circuit_fmu(c, tmp_path / f"{name}.fmu", fmi=fmi, platforms=["host"])
     assert validate_fmu(str(path)) == []
     f = Fmu(str(path), extract(str(path), unzipdir=tmp_path / "u"))
     f.s.enterInitializationMode()
@@ -70,7 +70,7 @@ def test_a_closed_loop_plant_starts_where_the_loop_starts_and_its_state_round_tr
     law, from the core); an FMU state taken at 1 s and set back replays the same second."""
     from hydrohil.control import p_control
     cs = load_circuit_scenario(CIRCUITS_DIR / "ferreira2004" / "scenario.toml")
-    path = export_circuit_fmu(cs.circuit, tmp_path / "fe.fmu", fmi=2, loop=cs.loop)
+    path = export_circuit_fmu(cs.circuit, tmp_path / "fe.fmu", fmi=2, loop=cs.loop, platforms=["host"])
     f = Fmu(str(path), extract(str(path), unzipdir=tmp_path / "u"))
     f.s.enterInitializationMode()
     f.s.exitInitializationMode()
@@ -124,7 +124,8 @@ def test_a_circuit_fmu_under_address_and_undefined_behaviour_sanitizers(tmp_path
     calls, inputs set before initialisation, unknown references, a state into a fresh instance, truncated and
     foreign states: each answered with a status and a message, nothing read past the bytes given."""
     from conftest import sanitized_harness
-    path = export_circuit_fmu(load_circuit("counterbalance_hose_burst"), tmp_path / "c.fmu", fmi=fmi)
+    path = export_circuit_fmu(load_circuit("counterbalance_hose_burst"), tmp_path / "c.fmu", fmi=fmi,
+                              platforms=["host"])
     src = f"{extract(str(path), unzipdir=tmp_path / 'u')}/sources"
     out = sanitized_harness(tmp_path, "circuit_fmu_edges.c", src, ["circuit.c", "plant_fmu.c", "fmu_instance.c",
                                                                    f"fmi{fmi}Functions.c"], fmi)
@@ -144,7 +145,7 @@ def test_a_circuit_without_inputs_exports_and_exports_differing_in_values_differ
         "o": {"type": "orifice", "a": "s", "b": "n", "area": "1 mm2"},
         "o2": {"type": "orifice", "a": "n", "b": "t", "area": "1 mm2"},
         "v": {"type": "volume", "p": "n", "volume": "1 l"}}}, "test.toml")
-    path = export_circuit_fmu(c, tmp_path / "none.fmu", fmi=2)
+    path = export_circuit_fmu(c, tmp_path / "none.fmu", fmi=2, platforms=["host"])
     assert validate_fmu(str(path)) == []
     f = Fmu(str(path), extract(str(path), unzipdir=tmp_path / "u"))
     f.s.enterInitializationMode()
@@ -161,6 +162,6 @@ def test_a_circuit_without_inputs_exports_and_exports_differing_in_values_differ
         "o": {"type": "orifice", "a": "s", "b": "n", "area": "1 mm2"},
         "o2": {"type": "orifice", "a": "n", "b": "t", "area": "1 mm2"},
         "v": {"type": "volume", "p": "n", "volume": "1 l"}}.items()}}}, "test.toml")
-    g1 = read_model_description(str(export_circuit_fmu(c1, tmp_path / "a.fmu"))).guid
-    g2 = read_model_description(str(export_circuit_fmu(c2, tmp_path / "b.fmu"))).guid
+    g1 = read_model_description(str(export_circuit_fmu(c1, tmp_path / "a.fmu", platforms=["host"]))).guid
+    g2 = read_model_description(str(export_circuit_fmu(c2, tmp_path / "b.fmu", platforms=["host"]))).guid
     assert g1 != g2

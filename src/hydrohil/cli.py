@@ -645,17 +645,19 @@ app.add_typer(export_app, name="export")
 
 
 def export_fmu(out: Path, params: str = "ferreira2004", fmi: int = 2, step: Optional[float] = None,
-               circuit: Optional[str] = None, scenario: Optional[Path] = None, sets: Optional[dict] = None) -> Path:
+               circuit: Optional[str] = None, scenario: Optional[Path] = None, sets: Optional[dict] = None,
+               platforms: Optional[list[str]] = None) -> Path:
     """Write a Co-Simulation FMU (FMI 2.0 or 3.0) of the plant with the parameter set ``params``; or of a circuit
     (``circuit``: a built-in name or a circuit file; ``scenario``: a scenario naming its circuit, whose [set] and
     closed loop's start it takes), ``sets`` on top (a circuit's "component.key", the paper's rig's "group.key" ->
-    value)."""
+    value). Its binaries: this machine's and every platform whose cross compiler is here, or ``platforms``."""
     from hydrohil.export.fmu import export_circuit_fmu, export_fmu as build
     if circuit is not None or scenario is not None:
         from hydrohil.circuits.scenario import circuit_scenario
         cs = circuit_scenario(circuit=circuit, scenario=scenario, sets=sets, step=step)
-        return export_circuit_fmu(cs.circuit, out, fmi=fmi, step=cs.step, loop=cs.loop, rest=cs.rest)
-    return build(_set_values(params, sets), out, fmi=fmi, step=5e-4 if step is None else step)
+        return export_circuit_fmu(cs.circuit, out, fmi=fmi, step=cs.step, loop=cs.loop, rest=cs.rest,
+                                  platforms=platforms)
+    return build(_set_values(params, sets), out, fmi=fmi, step=5e-4 if step is None else step, platforms=platforms)
 
 
 def _set_values(params: str, sets: Optional[dict]):
@@ -682,17 +684,25 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", callback=out_file, hel
                                                            "its circuit, [set], step and closed loop's start"),
                    sets: list[str] = typer.Option([], "--set", help="a parameter on top (repeatable): the paper's "
                                                   "rig's group.key=value (--set cylinder.bulk_modulus=constant), "
-                                                  "a circuit's component.key=value (--set 'cyl1.mass=300 kg')")):
-    """Co-Simulation FMU of the plant, or of a circuit (C sources + a binary built here); see the README."""
+                                                  "a circuit's component.key=value (--set 'cyl1.mass=300 kg')"),
+                   platforms: list[str] = typer.Option([], "--platform", help="a platform to build a binary for "
+                                                       "(repeatable): host, x86_64-linux, aarch64-linux, "
+                                                       "x86_64-windows (default: this machine's and every one whose "
+                                                       "cross compiler is installed)")):
+    """Co-Simulation FMU of the plant, or of a circuit: its C sources (declared: any importer may rebuild it for
+    its target) and binaries built here; see the README."""
     try:
-        path = export_fmu(out, params, fmi, step, circuit, scenario, _parse_sets(sets))
+        path = export_fmu(out, params, fmi, step, circuit, scenario, _parse_sets(sets), platforms or None)
     except HydrohilError as exc:
         fail(exc)
     from fmpy import read_model_description
     md = read_model_description(str(path))
     what = (f"circuit {md.description.split(chr(39))[1]}" if circuit or scenario else f"parameter set {params}")
+    import zipfile
+    with zipfile.ZipFile(path) as z:
+        bins = sorted({n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") >= 2})
     typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation of {what}, internal step "
-               f"{md.defaultExperiment.stepSize} s)")
+               f"{md.defaultExperiment.stepSize} s; binaries: {', '.join(bins)}; sources)")
 
 
 def export_c(out: Path, params: str = "ferreira2004", step: float = 5e-4, duration: float = 10.0,

@@ -15,6 +15,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "hh_compat.h"           /* the same numbers from every build: no fused multiply-add (and old glibc symbols) */
 #include "hh_params.h"
 #include "hh_shape.h"            /* the plant's shape (state, modes, outputs, logs, sensors, status bits) */
 

@@ -35,13 +35,19 @@ from hydrohil.parameters import Parameters
 MODEL_IDENTIFIER = "hydrohil_plant"
 HERE = Path(__file__).resolve().parent
 CORE = HERE.parent / "core"
-PLATFORM = {2: "linux64", 3: "x86_64-linux"}
+# the platforms an FMU carries a binary for: (FMI 2's folder, FMI 3's folder, the library's suffix, the compiler
+# that builds it on a machine of another kind and its Debian package: .ci/run installs them). FMI 2 names no
+# folder for aarch64: its binary is in FMI 3's, which an FMI 2 importer on such a machine must be pointed to.
+TARGETS = {"x86_64-linux": ("linux64", "x86_64-linux", ".so", "x86_64-linux-gnu-gcc", "gcc-x86-64-linux-gnu"),
+           "aarch64-linux": ("aarch64-linux", "aarch64-linux", ".so", "aarch64-linux-gnu-gcc", "gcc-aarch64-linux-gnu"),
+           "x86_64-windows": ("win64", "x86_64-windows", ".dll", "x86_64-w64-mingw32-gcc", "gcc-mingw-w64-x86-64")}
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
 METHOD_RK3 = 2
 # the C files of the paper's rig's FMU (the shared FMI layer's besides): the core, the model generated from its
 # circuit and what attaches it to the core's loop (export/paper_model.py), the instance
 RIG_UNITS = ("hh_core.c", "paper_circuit.c", "paper_model.c", "plant_fmu.c")
+CIRCUIT_UNITS = ("circuit.c", "plant_fmu.c")     # a circuit's: its generated C (with the core's parts it uses)
 
 # value references beyond the schema's parameters (those are 0 .. n-1, in schema order)
 EXTRA_PARAMETERS = (   # name, unit, description, min, max (start values: _extra_starts)
@@ -120,6 +126,55 @@ def _bound(v: float | None) -> float | None:
     return None if v is None else float(v)
 
 
+def fmu_sources(units, fmi: int) -> list[str]:
+    """The C files an FMU's binary is built from, in sources/: its model's ``units`` and the shared FMI layer. Each
+    compiles on its own with no flag or file beyond sources/ (core/hh_compat.h: the same numbers from any build)."""
+    return [*units, "fmu_instance.c", f"fmi{fmi}Functions.c"]
+
+
+def build_description_xml(sources: list[str]) -> str:
+    """FMI 3's sources/buildDescription.xml: one build configuration of the C99 ``sources``, no definitions."""
+    files = "\n".join(f"      <SourceFile name={quoteattr(name)}/>" for name in sources)
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n<fmiBuildDescription fmiVersion="3.0">\n'
+            f'  <BuildConfiguration modelIdentifier="{MODEL_IDENTIFIER}">\n    <SourceFileSet language="C99">\n'
+            f"{files}\n    </SourceFileSet>\n  </BuildConfiguration>\n</fmiBuildDescription>\n")
+
+
+def host_target(cc: str) -> str:
+    """The platform (a key of :data:`TARGETS`) compiler ``cc`` builds for (its -dumpmachine)."""
+    machine = subprocess.run([cc, "-dumpmachine"], capture_output=True, text=True).stdout.strip()
+    arch, _, rest = machine.partition("-")
+    system = "windows" if "mingw" in rest or "windows" in rest else "linux" if "linux" in rest else rest
+    target = f"{arch}-{system}"
+    if target not in TARGETS:
+        raise InputError(f"the C compiler '{cc}' builds for {machine}: an FMU's binaries are for "
+                         f"{', '.join(TARGETS)}", key="CC")
+    return target
+
+
+def fmu_compilers(cc: str | None = None, platforms=None) -> dict[str, str]:
+    """Target -> compiler of an FMU's binaries: this machine's (``cc``, default this Python's), and each other
+    platform of :data:`TARGETS` whose cross compiler is on the PATH; ``platforms`` (names of TARGETS, or "host":
+    this machine's) asks for those (a missing compiler named)."""
+    from hydrohil.core.build import c_compiler
+    cc = cc or c_compiler()
+    if shutil.which(cc) is None:
+        raise InputError(f"no C compiler '{cc}' found: the FMU's binary is built on the spot")
+    host = host_target(cc)
+    found = {host: cc, **{t: spec[3] for t, spec in TARGETS.items() if t != host and shutil.which(spec[3])}}
+    if platforms is None:
+        return found
+    platforms = [host if p == "host" else p for p in platforms]
+    unknown = [p for p in platforms if p not in TARGETS]
+    if unknown:
+        raise InputError(f"no platform {unknown[0]!r}: one of {', '.join(TARGETS)}", key="platforms")
+    missing = [p for p in platforms if p not in found]
+    if missing:
+        raise InputError(f"no compiler for {missing[0]}: {TARGETS[missing[0]][3]} (Debian: apt-get install "
+                         f"{TARGETS[missing[0]][4]})", key="platforms")
+    return {p: found[p] for p in platforms}
+
+
 def model_description(params: Parameters, fmi: int, step: float, token: str) -> str:
     """modelDescription.xml of FMI ``fmi`` (2 or 3)."""
     slots = _schema_slots()
@@ -158,14 +213,16 @@ def model_description(params: Parameters, fmi: int, step: float, token: str) -> 
                           desc=desc, unit="", start=None, lo=None, hi=None, kind="int"))
     return _description_xml(vars_, outputs, calculated, fmi, step, token, _units(slots),
                             "hydrohil: servo-solenoid valve + differential cylinder, hybrid model (Ferreira et al., "
-                            "Part 2), parameter set exported with its values")
+                            "Part 2), parameter set exported with its values", fmu_sources(RIG_UNITS, fmi))
 
 
 def _description_xml(vars_: list[dict], outputs: list[int], calculated: list[int], fmi: int, step: float, token: str,
-                     units: list[str], description: str, feedthrough: bool = False) -> str:
+                     units: list[str], description: str, sources: list[str], feedthrough: bool = False) -> str:
     """modelDescription.xml of FMI ``fmi`` from the variables (dicts: name, vr, causality, variability, initial,
-    desc, unit, start, lo, hi, kind "real"/"int"), the indices of the outputs and calculated parameters;
-    ``feedthrough``: the outputs may depend on the inputs directly (their dependencies not declared)."""
+    desc, unit, start, lo, hi, kind "real"/"int"), the indices of the outputs and calculated parameters, the C
+    files the binary is built from (``sources``: FMI 2's <SourceFiles>; FMI 3 declares them in
+    sources/buildDescription.xml, :func:`build_description_xml`); ``feedthrough``: the outputs may depend on the
+    inputs directly (their dependencies not declared)."""
     deps = "" if feedthrough else ' dependencies=""'
     def attrs(d: dict) -> str:
         return " ".join(f'{k}={quoteattr(str(v))}' for k, v in d.items() if v is not None)
@@ -175,7 +232,11 @@ def _description_xml(vars_: list[dict], outputs: list[int], calculated: list[int
     if fmi == 2:
         out.append(f'<fmiModelDescription fmiVersion="2.0" guid="{token}" numberOfEventIndicators="0" {attrs(head)}>')
         out.append(f'  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" '
-                   'canGetAndSetFMUstate="true" canSerializeFMUstate="true" canNotUseMemoryManagementFunctions="true"/>')
+                   'canGetAndSetFMUstate="true" canSerializeFMUstate="true" canNotUseMemoryManagementFunctions="true">')
+        out.append("    <SourceFiles>")
+        out += [f"      <File name={quoteattr(name)}/>" for name in sources]
+        out.append("    </SourceFiles>")
+        out.append("  </CoSimulation>")
     else:
         out.append(f'<fmiModelDescription fmiVersion="3.0" instantiationToken="{token}" {attrs(head)}>')
         out.append(f'  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" '
@@ -245,27 +306,30 @@ def _checked(out, fmi: int, step: float) -> Path:
     return out
 
 
-def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-4, cc: str | None = None) -> Path:
-    """Write the FMU ``out`` (FMI ``fmi`` = 2 or 3, internal step ``step`` [s]); returns its path."""
-    out = _checked(out, fmi, step)
+def export_fmu(params: Parameters, out: Path, *, fmi: int = 2, step: float = 5e-4, cc: str | None = None,
+               platforms=None) -> Path:
+    """Write the FMU ``out`` (FMI ``fmi`` = 2 or 3, internal step ``step`` [s]) with a binary for this machine and
+    each platform a cross compiler is present for (``platforms``: those; :func:`fmu_compilers`); returns its
+    path."""
     from hydrohil.export.paper_model import paper_model_files
+    out = _checked(out, fmi, step)
     token = "{" + str(uuid.UUID(hashlib.md5(f"{params.model_dump_json()}|{fmi}|{step}".encode()).hexdigest())) + "}"
     return package_fmu(out, fmi, {"plant_fmu.h": HERE / "c" / "fmu" / "plant_fmu.h",
                                   "plant_fmu.c": HERE / "c" / "fmu" / "plant_fmu.c",
                                   "config.h": config_h(params, step, token),
                                   **paper_model_files(params, step)},     # (its model: the circuit's generated C)
-                       list(RIG_UNITS), model_description(params, fmi, step, token), cc)
+                       fmu_sources(RIG_UNITS, fmi), model_description(params, fmi, step, token),
+                       fmu_compilers(cc, platforms))
 
 
-def package_fmu(out: Path, fmi: int, files: dict, units: list[str], description: str, cc: str | None = None) -> Path:
+def package_fmu(out: Path, fmi: int, files: dict, sources: list[str], description: str,
+                compilers: dict[str, str]) -> Path:
     """Build and zip an FMU: the core's sources, the shared FMI layer (fmu_instance.[ch], fmi<N>Functions.c),
-    the FMI headers and the model's ``files`` (name -> a Path to copy or the text to write) into sources/, the
-    binary compiled from ``units`` (+ the shared layer) with the core's flags, ``description`` as
-    modelDescription.xml; written to ``out`` (whole or not at all)."""
-    from hydrohil.core.build import CFLAGS, c_compiler, core_sources, write_headers
-    cc = cc or c_compiler()
-    if shutil.which(cc) is None:
-        raise InputError(f"no C compiler '{cc}' found: the FMU's binary is built on the spot")
+    the FMI headers and the model's ``files`` (name -> a Path to copy or the text to write) into sources/ (FMI 3:
+    with its buildDescription.xml), a binary of ``sources`` for each platform of ``compilers`` (target ->
+    compiler: :func:`fmu_compilers`) with the core's flags, ``description`` as modelDescription.xml; written to
+    ``out`` (whole or not at all)."""
+    from hydrohil.core.build import CFLAGS, core_sources, write_headers
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp) / "fmu"
         src = root / "sources"
@@ -282,15 +346,24 @@ def package_fmu(out: Path, fmi: int, files: dict, units: list[str], description:
                 shutil.copy2(body, src / name)
             else:
                 (src / name).write_text(body)
+        if fmi == 3:
+            (src / "buildDescription.xml").write_text(build_description_xml(sources))
         (root / "modelDescription.xml").write_text(description)
-        binary = root / "binaries" / PLATFORM[fmi] / f"{MODEL_IDENTIFIER}.so"
-        binary.parent.mkdir(parents=True)
-        compiled = [*units, "fmu_instance.c", f"fmi{fmi}Functions.c"]
-        cmd = [cc, *CFLAGS, "-shared", "-fPIC", "-fvisibility=hidden", "-I", str(src),
-               *[str(src / u) for u in compiled], "-lm", "-o", str(binary)]
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        if r.returncode != 0:
-            raise RuntimeError(f"building the FMU's binary failed:\n{' '.join(cmd)}\n{r.stderr}")
+        builds = []                                      # (the platforms' compilers run side by side)
+        for target, cc in compilers.items():
+            folder, folder3, suffix = TARGETS[target][:3]
+            binary = root / "binaries" / (folder if fmi == 2 else folder3) / f"{MODEL_IDENTIFIER}{suffix}"
+            binary.parent.mkdir(parents=True)
+            elf = suffix == ".so"                        # (a Windows DLL exports what FMIN_Export marks)
+            cmd = [cc, *CFLAGS, "-DHH_GLIBC_COMPAT", "-shared", *(("-fPIC", "-fvisibility=hidden") if elf else ()),
+                   "-I", str(src), *[str(src / u) for u in sources], "-lm", "-o", str(binary)]
+            builds.append((target, cmd, subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                                          text=True)))
+        done = [(target, cmd, *proc.communicate()[:1], proc.returncode) for target, cmd, proc in builds]
+        failed = [d for d in done if d[3] != 0]
+        if failed:
+            target, cmd, output, _ = failed[0]
+            raise RuntimeError(f"building the FMU's {target} binary failed:\n{' '.join(cmd)}\n{output}")
         out.parent.mkdir(parents=True, exist_ok=True)
         part = out.with_suffix(".fmu.part")
         with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
@@ -368,11 +441,12 @@ def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str) -> 
     units_used = sorted({v["unit"] for v in vars_ if v["unit"] not in ("", "-")} | {"s"})   # (s: FMI 3 time)
     return _description_xml(vars_, outputs, [], fmi, step, token, units_used,
                              f"hydrohil circuit {c.name!r} ({c.source}): generated from its description, RK3 at a "
-                             f"fixed {step * 1e3:g} ms step, parameters as exported", feedthrough=True)
+                             f"fixed {step * 1e3:g} ms step, parameters as exported",
+                             fmu_sources(CIRCUIT_UNITS, fmi), feedthrough=True)
 
 
 def export_circuit_fmu(c, out: Path, *, fmi: int = 2, step: float = 5e-4, loop=None, rest=True,
-                       cc: str | None = None) -> Path:
+                       cc: str | None = None, platforms=None) -> Path:
     """Write circuit ``c`` as an FMU (FMI ``fmi`` = 2 or 3) to ``out``: its generated C (the same file
     ``simulate`` compiles) behind the shared FMI layer, starting at rest as a run of the circuit does (``loop``:
     a closed loop's start, the command that holds its piston as the command input's start value; ``rest``: a
@@ -388,4 +462,5 @@ def export_circuit_fmu(c, out: Path, *, fmi: int = 2, step: float = 5e-4, loop=N
     model = HERE / "c" / "circuit_fmu"
     return package_fmu(out, fmi, {"plant_fmu.h": model / "plant_fmu.h", "plant_fmu.c": model / "plant_fmu.c",
                                   "circuit.c": source, "config.h": circuit_config_h(c, lay, y0, m0, u0, step, token)},
-                       ["circuit.c", "plant_fmu.c"], circuit_model_description(c, lay, u0, fmi, step, token), cc)
+                       fmu_sources(CIRCUIT_UNITS, fmi), circuit_model_description(c, lay, u0, fmi, step, token),
+                       fmu_compilers(cc, platforms))

@@ -7,6 +7,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "hh_compat.h"           /* (the core's: no fused multiply-add; old glibc symbols in the exports' binaries) */
 
 enum { PLANT_OK = 0, PLANT_WARNING = 1, PLANT_ERROR = 3 };
 enum { PLANT_INSTANTIATED, PLANT_INITIALIZING, PLANT_STEPPING, PLANT_TERMINATED, PLANT_FAILED };
