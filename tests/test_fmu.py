@@ -2,6 +2,7 @@
 when stepped from Python with the paper's P controller, runs as independent instances, round-trips its
 state and refuses bad parameters with a status and a message."""
 
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -30,6 +31,7 @@ class Fmu:
         md = read_model_description(path)
         self.fmi = 3 if md.fmiVersion.startswith("3") else 2
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.type = {v.name: v.type for v in md.modelVariables}       # (Real / Float64, Integer, Boolean, ...)
         if self.fmi == 2:
             from fmpy.fmi2 import FMU2Slave
             self.s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier="hydrohil_plant",
@@ -58,13 +60,24 @@ class Fmu:
                 self.s.instantiate()
 
     def set(self, **values):
-        vrs, vals = [self.vr[k] for k in values], [float(v) for v in values.values()]
-        (self.s.setReal if self.fmi == 2 else self.s.setFloat64)(vrs, vals)
+        """Each value by its variable's own setter (a Real's, an Integer's or Enumeration's, a Boolean's)."""
+        for name, v in values.items():
+            kind = self.type[name]
+            if kind in ("Real", "Float64"):
+                (self.s.setReal if self.fmi == 2 else self.s.setFloat64)([self.vr[name]], [float(v)])
+            elif kind == "Boolean":
+                self.s.setBoolean([self.vr[name]], [bool(v)])
+            elif self.fmi == 2:
+                self.s.setInteger([self.vr[name]], [int(v)])
+            else:
+                (self.s.setInt64 if kind == "Enumeration" else self.s.setInt32)([self.vr[name]], [int(v)])
 
     def real(self, *names):
         return (self.s.getReal if self.fmi == 2 else self.s.getFloat64)([self.vr[n] for n in names])
 
     def integer(self, *names):
+        if self.fmi == 3 and all(self.type[n] == "Enumeration" for n in names):
+            return self.s.getInt64([self.vr[n] for n in names])
         return (self.s.getInteger if self.fmi == 2 else self.s.getInt32)([self.vr[n] for n in names])
 
     def init(self, **values):
@@ -88,6 +101,81 @@ def test_validates_with_fmpy(fmu):
     assert validate_fmu(str(fmu[0])) == []
 
 
+def test_units_and_types_as_an_importer_reads_them(fmu):
+    """Issue #28 §4: every Real has a unit, each defined with its base units (SI exponents; the valve's eq 3
+    coefficients, in (l/min)/sqrt(bar) and its square, without: not whole exponents) and the display units an
+    engineer reads (bar for Pa, mm for m, l/min for m3/s, rpm for rad/s: a pressure shows in bar); the modes are
+    Enumerations of the core's names, the switches a Boolean (friction.asymmetric, initial.at_rest) and an
+    Integer (load.gravity_direction in -1..1), the options an Enumeration (cylinder.bulk_modulus, fixed by the
+    export); the initial state is initial.xp / initial.xs, not to be taken for linear.xp0. A parameter is set by
+    its own type's setter only (a Real setter refuses a Boolean, naming it); set so, it acts."""
+    from fmpy import read_model_description
+    from fmpy.fmi1 import FMICallException
+    md = read_model_description(str(fmu[0]))
+    var = {v.name: v for v in md.modelVariables}
+    units = {u.name: u for u in md.unitDefinitions}
+    reals = [v for v in md.modelVariables if v.type in ("Real", "Float64")]
+    assert all(v.unit in units for v in reals), [v.name for v in reals if v.unit not in units]
+    assert (units["Pa"].baseUnit.kg, units["Pa"].baseUnit.m, units["Pa"].baseUnit.s) == (1, -1, -2)
+    assert {d.name: d.factor for d in units["Pa"].displayUnits}["bar"] == 1e-5
+    assert {d.name: d.factor for d in units["m^3/s"].displayUnits}["l/min"] == 6e4
+    assert var["p1"].displayUnit == "bar" and var["xp"].displayUnit == "mm" and var["spool.wn"].displayUnit == "Hz"
+    assert var["valve.k[1]"].unit == "(l/min)/sqrt(bar)" and units["(l/min)/sqrt(bar)"].baseUnit is None
+    assert var["valve.k[3]"].unit == "(l/min)^2/bar"
+    assert var["travel_mode"].type == "Enumeration" and var["travel_mode"].declaredType.name == "TravelMode"
+    assert [i.name for i in var["friction_mode"].declaredType.items] == ["stick", "slip_pos", "slip_neg"]
+    assert var["friction.asymmetric"].type == var["initial.at_rest"].type == "Boolean"
+    assert var["load.gravity_direction"].type in ("Integer", "Int32")
+    assert (var["load.gravity_direction"].min, var["load.gravity_direction"].max) in ((-1, 1), ("-1", "1"))
+    assert var["cylinder.bulk_modulus"].type == "Enumeration"
+    assert {"initial.xp", "initial.xs", "initial.at_rest", "linear.xp0"} <= set(var) and "xp0" not in var
+    messages = []
+    f = Fmu(*fmu, log=lambda m: messages.append(m.decode() if isinstance(m, bytes) else str(m)))
+    f.s.enterInitializationMode()
+    with pytest.raises(FMICallException):
+        (f.s.setReal if f.fmi == 2 else f.s.setFloat64)([f.vr["friction.asymmetric"]], [0.0])
+    assert any("friction.asymmetric is a Boolean: set it as one" in m for m in messages), messages
+    f.set(**{"friction.asymmetric": False, "initial.xp": 0.09})
+    f.s.exitInitializationMode()
+    g = Fmu(*fmu)
+    g.init(**{"initial.xp": 0.09})
+    for k in range(400):                       # (a sine through the valve: the friction sets act)
+        for h in (f, g):
+            h.set(u=0.3 * math.sin(2 * math.pi * 2.0 * k * 5e-4))
+            h.step(k * 5e-4, 5e-4)
+    assert f.real("ff")[0] != g.real("ff")[0]
+    assert (f.s.getBoolean([f.vr["friction.asymmetric"]])[0], g.s.getBoolean([g.vr["friction.asymmetric"]])[0]) \
+        == (False, True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_the_xml_is_valid_against_the_fmi_standards_schemas(fmi, tmp_path):
+    """The modelDescription.xml of the paper's rig's FMU and of a circuit's, and FMI 3's buildDescription.xml,
+    against the standard's XSDs (FMPy's copy) with xmllint, as the FMI Compliance Checker reads them."""
+    import shutil
+    import zipfile
+    import fmpy
+    from hydrohil.circuits.circuit import load_circuit
+    from hydrohil.export.fmu import export_circuit_fmu
+    xmllint = shutil.which("xmllint")
+    if xmllint is None:
+        pytest.fail("xmllint is not installed: .ci/run installs it (apt-get install libxml2-utils)")
+    schema = Path(fmpy.__file__).parent / "schema" / f"fmi{fmi}"
+    for path in (export_fmu(load_parameters("ferreira2004"), tmp_path / "p.fmu", fmi=fmi, platforms=["host"]),
+                 export_circuit_fmu(load_circuit("two_cylinders"), tmp_path / "c.fmu", fmi=fmi, platforms=["host"])):
+        folder = tmp_path / path.stem
+        with zipfile.ZipFile(path) as z:
+            z.extractall(folder)
+        files = [("modelDescription.xml", f"fmi{fmi}ModelDescription.xsd")]
+        if fmi == 3:
+            files.append(("sources/buildDescription.xml", "fmi3BuildDescription.xsd"))
+        for xml, xsd in files:
+            r = subprocess.run([xmllint, "--noout", "--schema", str(schema / xsd), str(folder / xml)],
+                               capture_output=True, text=True)
+            assert r.returncode == 0 and "validates" in r.stderr, r.stderr
+
+
 def _closed_loop(f: Fmu, sc, n=None):
     """The paper's P controller stepping the FMU at the scenario's step, as `hydrohil simulate` samples it."""
     s = sc.scenario
@@ -95,7 +183,8 @@ def _closed_loop(f: Fmu, sc, n=None):
     res = sc.params.sensors.encoder_resolution
     ref = s.references()[0]
     values = pack(sc.params)          # the scenario's parameter set, set through the FMU's parameters
-    f.init(xp0=s.initial.xp, step=h, **{slot.key: values[i] for i, slot in enumerate(SLOTS) if slot.schema})
+    f.init(**{"initial.xp": s.initial.xp}, step=h, **{slot.key: values[i] for i, slot in enumerate(SLOTS)
+                                                      if slot.schema})
     xp = np.empty(n + 1)
     for k in range(n + 1):
         xp[k] = f.real("xp")[0]
@@ -135,8 +224,8 @@ def test_an_export_of_the_other_bulk_modulus_law_reproduces_simulate(tmp_path):
 
 def test_two_instances_are_independent(fmu):
     a, b = Fmu(*fmu, name="a"), Fmu(*fmu, name="b")
-    a.init(xp0=0.03)
-    b.init(xp0=0.03)
+    a.init(**{"initial.xp": 0.03})
+    b.init(**{"initial.xp": 0.03})
     xa, xb = [], []
     for k in range(2000):        # interleaved: a's steps must not disturb b
         a.set(u=0.3)
@@ -152,7 +241,7 @@ def test_two_instances_are_independent(fmu):
 
 def test_state_round_trip(fmu):
     f = Fmu(*fmu)
-    f.init(xp0=0.05)
+    f.init(**{"initial.xp": 0.05})
     for k in range(400):
         f.set(u=0.5 if k < 200 else -0.4)
         f.step(k * 5e-4, 5e-4)
@@ -204,12 +293,13 @@ def test_starts_at_rest(fmu):
     """Issue #25 §2: by default the FMU starts at rest (the spool offset that holds the piston, the pressures
     that balance the chambers' flows and the load): holding u at the calculated parameter xs_rest keeps p1
     and xp where they are. The old start (closed-port pressures, spool centred) crept 1.2 mm in 0.3 s at
-    u = 0; at_rest = 0 with xs0 = 0 starts there (pressures balanced at the centre) and still does."""
+    u = 0; initial.at_rest = false with initial.xs = 0 starts there (pressures balanced at the centre) and still
+    does."""
     from hydrohil.linear import equilibrium
     params = load_parameters("ferreira2004")
     rest = equilibrium(params, 0.09)
     f = Fmu(*fmu)
-    f.init(xp0=0.09)
+    f.init(**{"initial.xp": 0.09})
     xs_rest, = f.real("xs_rest")
     assert xs_rest == rest.xs and f.real("xs", "p1", "p2") == [rest.xs, rest.p1, rest.p2]
     f.set(u=xs_rest)
@@ -218,7 +308,7 @@ def test_starts_at_rest(fmu):
     xp, p1, p2 = f.real("xp", "p1", "p2")
     assert abs(p1 - rest.p1) < 1e-6 and abs(p2 - rest.p2) < 1e-6 and xp == 0.09   # measured 9e-8 Pa, 0 m
     g = Fmu(*fmu)
-    g.init(xp0=0.09, at_rest=0.0, xs0=0.0)
+    g.init(**{"initial.xp": 0.09, "initial.at_rest": False, "initial.xs": 0.0})
     assert g.real("xs")[0] == 0.0
     g.set(u=0.0)
     for k in range(600):
@@ -230,8 +320,8 @@ def test_command_saturated_as_the_rig_does(fmu):
     """u outside [-1, 1] drives the valve as u = ±1 (the rig's command path saturates; an importer's
     controller without its own saturation must not stop the run); getting u returns what was set."""
     a, b = Fmu(*fmu), Fmu(*fmu)
-    a.init(xp0=0.05)
-    b.init(xp0=0.05)
+    a.init(**{"initial.xp": 0.05})
+    b.init(**{"initial.xp": 0.05})
     for k in range(300):
         a.set(u=3.0 if k < 150 else -7.5)
         b.set(u=1.0 if k < 150 else -1.0)
@@ -247,8 +337,8 @@ def test_any_communication_step(fmu):
     state equals that of 0.5 ms steps with the same command (here the command changes on common points
     only: 1.5 ms and 3.5 ms)."""
     a, b = Fmu(*fmu), Fmu(*fmu)
-    a.init(xp0=0.05)
-    b.init(xp0=0.05)
+    a.init(**{"initial.xp": 0.05})
+    b.init(**{"initial.xp": 0.05})
     t = 0.0
     for k in range(60):                        # 60 x 0.3 ms = 18 ms: on the grid every 1.5 ms
         a.set(u=0.4 if t < 9e-3 - 1e-12 else -0.3)
@@ -286,10 +376,10 @@ def test_edge_calls_under_sanitizers(tmp_path, version):
         assert message in out, (message, out)
 
 
-def test_xs0_without_at_rest_0_is_said(fmu):
-    """An importer that sets xs0 as it did before (at_rest = 1 by default) is told that it is not used."""
+def test_initial_xs_without_at_rest_false_is_said(fmu):
+    """An importer that sets initial.xs while initial.at_rest is true (the default) is told that it is not used."""
     messages = []
     f = Fmu(*fmu, log=lambda m: messages.append(m.decode() if isinstance(m, bytes) else str(m)))
-    f.init(xp0=0.09, xs0=0.1)
-    assert any("xs0 = 0.1 is not used" in m and "at_rest = 0" in m for m in messages), messages
+    f.init(**{"initial.xp": 0.09, "initial.xs": 0.1})
+    assert any("initial.xs = 0.1 is not used" in m and "initial.at_rest = false" in m for m in messages), messages
     assert f.real("xs")[0] == f.real("xs_rest")[0]

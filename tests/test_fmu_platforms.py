@@ -72,7 +72,7 @@ def _cosim(cmd: list, binary: Path, md, sc, ref: Path, env=None) -> np.ndarray:
     s = sc.scenario
     r = subprocess.run([*cmd, str(binary), md.guid, str(ref), repr(s.solver.step), repr(s.controller.kp),
                         repr(sc.params.sensors.encoder_resolution), str(vr["u"]), str(vr["xp"]), str(vr["encoder"]),
-                        str(vr["xp0"]), repr(s.initial.xp)],
+                        str(vr["initial.xp"]), repr(s.initial.xp)],
                        capture_output=True, text=True, timeout=600, env=env)
     assert r.returncode == 0, r.stderr[-2000:]
     return np.array([struct.unpack(">d", bytes.fromhex(line))[0] for line in r.stdout.split()])

@@ -75,3 +75,40 @@ DISPLAY: dict[str, tuple[float, str]] = {"Pa": (1e-5, "bar"), "m": (1e3, "mm"), 
 def display(unit: str) -> tuple[float, str]:
     """(factor, unit) to show a value in ``unit`` (SI) as an engineer reads it; the unit itself when unlisted."""
     return DISPLAY.get(unit, (1.0, unit))
+
+
+# ---- an SI unit's dimensions (an FMU's UnitDefinitions: its base units' exponents and factor) ---------------
+# symbol -> (the base units' exponents, factor to them): kg, m, s, A, K, mol, cd and rad, as FMI counts them
+_BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
+_SYMBOLS: dict[str, tuple[dict, float]] = {
+    **{b: ({b: 1}, 1.0) for b in _BASE}, "Pa": ({"kg": 1, "m": -1, "s": -2}, 1.0), "N": ({"kg": 1, "m": 1, "s": -2}, 1.0),
+    "J": ({"kg": 1, "m": 2, "s": -2}, 1.0), "W": ({"kg": 1, "m": 2, "s": -3}, 1.0), "Hz": ({"s": -1}, 1.0),
+    "rev": ({"rad": 1}, 2.0 * math.pi), "deg": ({"rad": 1}, math.pi / 180.0), "1": ({}, 1.0), "-": ({}, 1.0)}
+_TERM = re.compile(r"^([A-Za-z]+|1|-)\^?(-?\d+)?$")
+
+
+def dimensions(unit: str) -> tuple[dict, float] | None:
+    """The base units' exponents (kg, m, s, A, K, mol, cd, rad: nonzero ones) and the factor of an SI unit as
+    hydrohil writes them ("m^3/(s.Pa)", "N.m.s/rad", "kg.m2", "1/s^2", "-": {}, 1), or None where the exponents are
+    not whole (a valve's (l/min)/sqrt(bar))."""
+    def product(text: str, sign: int, out: dict) -> float:
+        factor = 1.0
+        for part in text.split("."):
+            m = _TERM.match(part)
+            if not m or m.group(1) not in _SYMBOLS:
+                raise KeyError(part)
+            exps, f = _SYMBOLS[m.group(1)]
+            power = int(m.group(2) or 1) * sign
+            for base, e in exps.items():
+                out[base] = out.get(base, 0) + e * power
+            factor *= f ** power
+        return factor
+    num, _, den = unit.partition("/")
+    out: dict = {}
+    try:
+        factor = product(num, 1, out)
+        if den:
+            factor *= product(den.strip("()"), -1, out)
+    except KeyError:
+        return None
+    return {b: out[b] for b in _BASE if out.get(b)}, factor

@@ -49,36 +49,60 @@ METHOD_RK3 = 2
 RIG_UNITS = ("hh_core.c", "paper_circuit.c", "paper_model.c", "plant_fmu.c")
 CIRCUIT_UNITS = ("circuit.c", "plant_fmu.c")     # a circuit's: its generated C (with the core's parts it uses)
 
-# value references beyond the schema's parameters (those are 0 .. n-1, in schema order)
-EXTRA_PARAMETERS = (   # name, unit, description, min, max (start values: _extra_starts)
-    ("step", "s", "internal fixed step of the hybrid model (RK3); a communication step of any size takes the "
-     "internal steps that end by its communication point", 1e-7, 0.01),
-    ("xp0", "m", "initial piston position", 0.0, None),
-    ("xs0", "", "initial spool position (normalised) when at_rest = 0; the chamber pressures then balance the "
-     "chambers' flows at it", -1.0, 1.0),
-    ("at_rest", "", "1: start at rest (SPEC 12.5): the spool at the offset that holds the piston (xs_rest), the "
-     "chamber pressures balancing the flows and the load; 0: start with the spool at xs0 (0 = false, 1 = true)",
-     0.0, 1.0),
+# value references beyond the schema's parameters (those are 0 .. n-1, in schema order): name, config.h's macro
+# of it (VR_...), unit, description, min, max, type (start values: _extra_starts)
+EXTRA_PARAMETERS = (
+    ("step", "STEP", "s", "internal fixed step of the hybrid model (RK3); a communication step of any size takes the "
+     "internal steps that end by its communication point", 1e-7, 0.01, "real"),
+    ("initial.xp", "XP0", "m", "the piston's initial position (linear.xp0 is its default, and the linearisation's "
+     "point)", 0.0, None, "real"),
+    ("initial.xs", "XS0", "1", "the spool's initial position (normalised) when initial.at_rest is false; the chamber "
+     "pressures then balance the chambers' flows at it", -1.0, 1.0, "real"),
+    ("initial.at_rest", "AT_REST", "", "true: start at rest (SPEC 12.5): the spool at the offset that holds the "
+     "piston (xs_rest), the chamber pressures balancing the flows and the load; false: with the spool at "
+     "initial.xs", None, None, "bool"),
 )
-CALCULATED = (("xs_rest", "", "the spool offset that holds the piston at rest: an open-loop u held here keeps it "
+CALCULATED = (("xs_rest", "1", "the spool offset that holds the piston at rest: an open-loop u held here keeps it "
                "there", 250),)
-INPUTS = (("u", "", "normalised valve command; saturated to [-1, 1] as the rig's command path does", 200, None,
+INPUTS = (("u", "1", "normalised valve command; saturated to [-1, 1] as the rig's command path does", 200, None,
            None),
           ("F_load", "N", "external load force on the piston, positive opposes extension (replaces load.force)",
            201, None, None),
           ("ps", "Pa", "supply pressure, gauge (replaces supply.ps)", 202, None, 1e8))
 # outputs: the plant's quantities and modes as core/shape.py describes them, with the FMU's value references
-REAL_OUTPUTS = tuple((name, "" if shape.QUANTITIES[name].unit == "-" else shape.QUANTITIES[name].unit,
+REAL_OUTPUTS = tuple((name, "1" if shape.QUANTITIES[name].unit == "-" else shape.QUANTITIES[name].unit,
                       shape.QUANTITIES[name].description, vr)
                      for name, vr in (("xp", 300), ("vp", 301), ("p1", 302), ("p2", 303), ("xs", 304), ("ff", 305)))
-INT_OUTPUTS = (*((f"{m.name}_mode", ", ".join(f"{i} {v.description}" for i, v in enumerate(m.values)), vr)
-                 for m, vr in zip(shape.MODES, (310, 311, 312))),
-               ("encoder", "encoder reading [counts] (sensors.encoder_resolution; 0: ideal, 1 nm counts)", 313))
+# the modes as Enumerations of their names (their type: <Mode>Mode, its items the core's values in order)
+MODE_OUTPUTS = tuple((f"{m.name}_mode", f"{m.name.capitalize()}Mode", vr) for m, vr in zip(shape.MODES, (310, 311, 312)))
+MODE_TYPES = {f"{m.name.capitalize()}Mode": [(v.name, v.description) for v in m.values] for m in shape.MODES}
+INT_OUTPUTS = (("encoder", "encoder reading [counts] (sensors.encoder_resolution; 0: ideal, 1 nm counts)", 313),)
+# eq 3's coefficients: k1, k2 of a pseudo-section in (l/min)/sqrt(bar), k3..k5 under its square root
+K_UNITS = ("(l/min)/sqrt(bar)", "(l/min)/sqrt(bar)", "(l/min)^2/bar", "(l/min)^2/bar", "(l/min)^2/bar")
+# C's kinds of a parameter (config.h's PLANT_KIND): what its getters and setters are
+KIND_CODES = {"real": 0, "int": 1, "bool": 2, "enum": 3}
+
+
+def _slot_type(s) -> str:
+    """An FMU variable's type of schema slot ``s``: real, int (a whole number of a set: load.gravity_direction),
+    bool, or enum (words: an Enumeration named after its key)."""
+    return {"enum": "enum", "integer": "int", "boolean": "bool"}.get(s.kind, "real")
+
+
+def _enum_type(key: str) -> str:
+    """The Enumeration type of an option parameter: "cylinder.bulk_modulus" -> "BulkModulus"."""
+    return "".join(w.capitalize() for w in key.rsplit(".", 1)[-1].split("_"))
+
+
+def _slot_unit(s) -> str:
+    if s.key.startswith(("valve.k[", "valve.kt[")):
+        return K_UNITS[int(s.key.split("[")[1].rstrip("]")) - 1]
+    return "1" if s.unit in ("-", "") else s.unit
 
 
 def _extra_starts(params: Parameters, step: float) -> dict[str, float]:
     """Start values of EXTRA_PARAMETERS for this export."""
-    return {"step": step, "xp0": params.linear.xp0, "xs0": 0.0, "at_rest": 1.0}
+    return {"step": step, "initial.xp": params.linear.xp0, "initial.xs": 0.0, "initial.at_rest": 1.0}
 
 
 def _schema_slots():
@@ -97,29 +121,27 @@ def config_h(params: Parameters, step: float, token: str) -> str:
     extras = _extra_starts(params, step)
     starts += [extras[name] for name, *_ in EXTRA_PARAMETERS]
     names = [s.key for s in slots] + [name for name, *_ in EXTRA_PARAMETERS]
+    kinds = [_slot_type(s) for s in slots] + [e[6] for e in EXTRA_PARAMETERS]
     n = len(slots)
     lines = ["/* config.h: GENERATED by `hydrohil export fmu` (hydrohil " + __version__ + "): do not edit. */",
              "#ifndef PLANT_CONFIG_H", "#define PLANT_CONFIG_H", "",
              f'#define PLANT_TOKEN "{token}"', f"#define PLANT_METHOD {METHOD_RK3}   /* HH_RK3 */",
              f"#define PLANT_NPAR {len(names)}"]
-    lines += [f"#define VR_{name.upper()} {n + k}" for k, (name, *_) in enumerate(EXTRA_PARAMETERS)]
+    lines += [f"#define VR_{macro} {n + k}" for k, (_, macro, *_) in enumerate(EXTRA_PARAMETERS)]
     lines += [f"#define VR_{name.upper()} {vr}" for name, _, _, vr in CALCULATED]
     lines += [f"#define VR_{name.upper()} {vr}" for name, _, _, vr, *_ in INPUTS]
     lines += [f"#define VR_{name.upper()} {vr}" for name, _, _, vr in REAL_OUTPUTS]
-    lines += [f"#define VR_{name.upper().replace('_MODE', '')} {vr}" for name, _, vr in INT_OUTPUTS]
-    lines += ["", "static const double PLANT_START[PLANT_NPAR] = {"]
+    lines += [f"#define VR_{name.upper().replace('_MODE', '')} {vr}" for name, _, vr in MODE_OUTPUTS + INT_OUTPUTS]
+    lines += ["/* a parameter's kind: its getters and setters (Real, Integer, Boolean, Enumeration) */",
+              "enum { " + ", ".join(f"PLANT_KIND_{k.upper()} = {v}" for k, v in KIND_CODES.items()) + " };",
+              "", "static const double PLANT_START[PLANT_NPAR] = {"]
     lines += [f"    {_fmt(v)},   /* {k} */" for k, v in zip(names, starts)]
     lines += ["};", "static const char *const PLANT_NAMES[PLANT_NPAR] = {"]
     lines += [f'    "{k}",' for k in names]
+    lines += ["};", "static const int PLANT_KIND[PLANT_NPAR] = {"]
+    lines += [f"    PLANT_KIND_{k.upper()},   /* {name} */" for name, k in zip(names, kinds)]
     lines += ["};", "", "#endif", ""]
     return "\n".join(lines)
-
-
-def _units(slots) -> list[str]:
-    units = {s.unit for s in slots if s.unit not in ("-", "")}
-    units |= {u for _, u, *_ in EXTRA_PARAMETERS + INPUTS if u}
-    units |= {u for _, u, *_ in REAL_OUTPUTS if u}
-    return sorted(units)
 
 
 def _bound(v: float | None) -> float | None:
@@ -180,20 +202,25 @@ def model_description(params: Parameters, fmi: int, step: float, token: str) -> 
     slots = _schema_slots()
     p = pack(params)
     vars_: list[dict] = []
+    enums: dict[str, list] = dict(MODE_TYPES)
     for i, s in enumerate(slots):
-        desc = s.description + (f" (one of: {', '.join(f'{k} = {o}' for k, o in enumerate(s.options))})"
-                                if s.kind == "enum" else " (0 = false, 1 = true)" if s.kind == "boolean"
-                                else f" (one of {', '.join(str(o) for o in s.options)})" if s.kind == "integer" else "")
+        kind = _slot_type(s)
         lo, hi = (p[i], p[i]) if s.key in STRUCTURE_KEYS else (s.lo, s.hi)   # (the export's structure: fixed)
-        desc += " (fixed by this export: its generated model's structure)" if s.key in STRUCTURE_KEYS else ""
-        vars_.append(dict(name=s.key, vr=i, causality="parameter", variability="fixed", initial="exact",
-                          desc=desc, unit=s.unit, start=p[i], lo=lo, hi=hi, kind="real"))
+        desc = s.description + (" (fixed by this export: its generated model's structure)"
+                                if s.key in STRUCTURE_KEYS else "")
+        var = dict(name=s.key, vr=i, causality="parameter", variability="fixed", initial="exact", desc=desc,
+                   unit=_slot_unit(s), start=p[i], lo=lo, hi=hi, kind=kind,
+                   display="Hz" if s.key.endswith(".wn") else None)        # (a natural frequency in Hz)
+        if kind == "enum":
+            var["type"] = _enum_type(s.key)
+            enums[var["type"]] = [(o, "") for o in s.options]
+        vars_.append(var)
     n = len(slots)
     extras = _extra_starts(params, step)
-    for k, (name, unit, desc, lo, hi) in enumerate(EXTRA_PARAMETERS):
-        hi = params.cylinder.stroke if name == "xp0" else hi
+    for k, (name, _, unit, desc, lo, hi, kind) in enumerate(EXTRA_PARAMETERS):
+        hi = params.cylinder.stroke if name == "initial.xp" else hi
         vars_.append(dict(name=name, vr=n + k, causality="parameter", variability="fixed", initial="exact",
-                          desc=desc, unit=unit, start=extras[name], lo=lo, hi=hi, kind="real"))
+                          desc=desc, unit=unit, start=extras[name], lo=lo, hi=hi, kind=kind))
     for name, unit, desc, vr in CALCULATED:
         vars_.append(dict(name=name, vr=vr, causality="calculatedParameter", variability="fixed",
                           initial="calculated", desc=desc, unit=unit, start=None, lo=None, hi=None, kind="real"))
@@ -207,22 +234,87 @@ def model_description(params: Parameters, fmi: int, step: float, token: str) -> 
         outputs.append(len(vars_))
         vars_.append(dict(name=name, vr=vr, causality="output", variability="continuous", initial=None,
                           desc=desc, unit=unit, start=None, lo=None, hi=None, kind="real"))
+    for (name, enum, vr), mode in zip(MODE_OUTPUTS, shape.MODES):
+        outputs.append(len(vars_))
+        vars_.append(dict(name=name, vr=vr, causality="output", variability="discrete", initial=None,
+                          desc=f"the {mode.name} mode", unit="", start=None, lo=None, hi=None, kind="enum",
+                          type=enum))
     for name, desc, vr in INT_OUTPUTS:
         outputs.append(len(vars_))
         vars_.append(dict(name=name, vr=vr, causality="output", variability="discrete", initial=None,
                           desc=desc, unit="", start=None, lo=None, hi=None, kind="int"))
-    return _description_xml(vars_, outputs, calculated, fmi, step, token, _units(slots),
+    return _description_xml(vars_, outputs, calculated, fmi, step, token, enums,
                             "hydrohil: servo-solenoid valve + differential cylinder, hybrid model (Ferreira et al., "
                             "Part 2), parameter set exported with its values", fmu_sources(RIG_UNITS, fmi))
 
 
+def _real_unit(unit: str) -> str:
+    """A Real's unit in the FMU: hydrohil's SI name, "1" for a dimensionless one ("-")."""
+    return "1" if unit in ("-", "") else unit
+
+
+def _unit_definitions(units) -> list[str]:
+    """<UnitDefinitions>' lines of the ``units`` (their SI names as hydrohil writes them): each with its base units'
+    exponents (none where they are not whole, a valve's (l/min)/sqrt(bar)) and the display units an engineer
+    reads (circuits.units' catalogue units of that SI unit: bar, l/min, mm, rpm, ...)."""
+    from hydrohil.circuits.units import ALIASES, DISPLAY, UNITS, dimensions
+    out = ["  <UnitDefinitions>"]
+    for u in sorted(set(units)):
+        dims = dimensions(u)
+        si = u.replace("^", "")
+        inverse = lambda f: float(f"{1.0 / f:.15g}")                      # noqa: E731  (1/1e-9: 1e9)
+        shown = [(name, inverse(f)) for name, (f, s) in UNITS.items() if s == si and name != si and name.isascii()
+                 and name not in ("-",)]
+        shown += [(name, inverse(f)) for (name, s), f in ALIASES.items() if s == si]
+        factor, name = DISPLAY.get(si, (1.0, si))
+        if name != si and name not in dict(shown):          # (the displayUnit a variable names)
+            shown.append((name, factor))
+        if u in ("1", "-"):
+            shown = [("%", 100.0)]
+        rows = []
+        if dims is not None:
+            exps, factor = dims
+            base = {**exps, **({"factor": _fmt(factor)} if factor != 1.0 else {})}
+            rows.append("      <BaseUnit" + "".join(f' {k}="{v}"' for k, v in base.items()) + "/>")
+        rows += [f"      <DisplayUnit name={quoteattr(name)} factor=\"{_fmt(f)}\"/>" for name, f in shown]
+        out += ([f"    <Unit name={quoteattr(u)}>", *rows, "    </Unit>"] if rows else [f"    <Unit name={quoteattr(u)}/>"])
+    out.append("  </UnitDefinitions>")
+    return out
+
+
+def _type_definitions(enums: dict, fmi: int) -> list[str]:
+    """<TypeDefinitions>' lines: an Enumeration type per name of ``enums`` (name -> [(item, description)]), its
+    items valued 0, 1, ... (the C core's codes)."""
+    if not enums:
+        return []
+    out = ["  <TypeDefinitions>"]
+    for name, items in enums.items():
+        rows = [f"      <Item name={quoteattr(item)} value=\"{k}\"" + (f" description={quoteattr(d)}" if d else "")
+                + "/>" for k, (item, d) in enumerate(items)]
+        if fmi == 2:
+            out += [f"    <SimpleType name={quoteattr(name)}>", "      <Enumeration>",
+                    *("  " + r for r in rows), "      </Enumeration>", "    </SimpleType>"]
+        else:
+            out += [f"    <EnumerationType name={quoteattr(name)}>", *rows, "    </EnumerationType>"]
+    out.append("  </TypeDefinitions>")
+    return out
+
+
+# the unit a person reads a value of an SI unit in (a Real's displayUnit: circuits.units.DISPLAY's)
+def _display_unit(unit: str) -> str | None:
+    from hydrohil.circuits.units import display
+    return display(unit.replace("^", ""))[1] if display(unit.replace("^", ""))[1] != unit.replace("^", "") else None
+
+
 def _description_xml(vars_: list[dict], outputs: list[int], calculated: list[int], fmi: int, step: float, token: str,
-                     units: list[str], description: str, sources: list[str], feedthrough: bool = False) -> str:
+                     enums: dict, description: str, sources: list[str], feedthrough: bool = False) -> str:
     """modelDescription.xml of FMI ``fmi`` from the variables (dicts: name, vr, causality, variability, initial,
-    desc, unit, start, lo, hi, kind "real"/"int"), the indices of the outputs and calculated parameters, the C
-    files the binary is built from (``sources``: FMI 2's <SourceFiles>; FMI 3 declares them in
-    sources/buildDescription.xml, :func:`build_description_xml`); ``feedthrough``: the outputs may depend on the
-    inputs directly (their dependencies not declared)."""
+    desc, unit, start, lo, hi, kind "real"/"int"/"bool"/"enum" (with its "type", one of ``enums``: name ->
+    [(item, description)])), the indices of the outputs and calculated parameters, the C files the binary is
+    built from (``sources``: FMI 2's <SourceFiles>; FMI 3 declares them in sources/buildDescription.xml,
+    :func:`build_description_xml`); ``feedthrough``: the outputs may depend on the inputs directly (their
+    dependencies not declared). Every Real has a unit (its UnitDefinition: base units, display units; "1":
+    dimensionless) and, where an engineer reads another, a displayUnit (bar, mm, l/min, rpm)."""
     deps = "" if feedthrough else ' dependencies=""'
     def attrs(d: dict) -> str:
         return " ".join(f'{k}={quoteattr(str(v))}' for k, v in d.items() if v is not None)
@@ -241,25 +333,32 @@ def _description_xml(vars_: list[dict], outputs: list[int], calculated: list[int
         out.append(f'<fmiModelDescription fmiVersion="3.0" instantiationToken="{token}" {attrs(head)}>')
         out.append(f'  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" '
                    f'canGetAndSetFMUState="true" canSerializeFMUState="true" fixedInternalStepSize="{_fmt(step)}"/>')
-    out.append("  <UnitDefinitions>")
-    out += [f'    <Unit name="{escape(u)}"/>' for u in units]
-    out.append("  </UnitDefinitions>")
+    out += _unit_definitions([_real_unit(v["unit"]) for v in vars_ if v["kind"] == "real"] + ["s"])   # (s: time's)
+    out += _type_definitions(enums, fmi)
     out.append(f'  <DefaultExperiment startTime="0" stepSize="{_fmt(step)}"/>')
     out.append("  <ModelVariables>")
     for v in vars_:
         common = dict(name=v["name"], valueReference=v["vr"], description=v["desc"], causality=v["causality"],
                       variability=v["variability"], initial=v["initial"])
-        unit = v["unit"] if v["unit"] not in ("-", "") else None
-        start = None if v["start"] is None else (_fmt(v["start"]) if v["kind"] == "real" else int(v["start"]))
-        typed = dict(unit=unit if v["kind"] == "real" else None, min=_bound(v["lo"]), max=_bound(v["hi"]),
-                     start=start)
+        kind = v["kind"]
+        start = (None if v["start"] is None else _fmt(v["start"]) if kind == "real"
+                 else ("true" if v["start"] else "false") if kind == "bool" else int(v["start"]))
+        if kind == "real":
+            unit = _real_unit(v["unit"])
+            typed = dict(unit=unit, displayUnit=v.get("display") or _display_unit(unit), min=_bound(v["lo"]),
+                         max=_bound(v["hi"]), start=start)
+        elif kind == "bool":
+            typed = dict(start=start)
+        else:                                     # (an Integer's, an Enumeration's bounds: whole numbers)
+            typed = dict(declaredType=v.get("type"), min=None if v["lo"] is None else int(v["lo"]),
+                         max=None if v["hi"] is None else int(v["hi"]), start=start)
         if fmi == 2:
-            tag = "Real" if v["kind"] == "real" else "Integer"
+            tag = {"real": "Real", "int": "Integer", "bool": "Boolean", "enum": "Enumeration"}[kind]
             out.append(f"    <ScalarVariable {attrs(common)}>")
-            out.append(f"      <{tag} {attrs(typed)}/>")
+            out.append(f"      <{tag} {attrs(typed)}/>".replace(" />", "/>"))
             out.append("    </ScalarVariable>")
         else:
-            tag = "Float64" if v["kind"] == "real" else "Int32"
+            tag = {"real": "Float64", "int": "Int32", "bool": "Boolean", "enum": "Enumeration"}[kind]
             out.append(f"    <{tag} {attrs(common)} {attrs(typed)}/>")
     if fmi == 3:
         out.append('    <Float64 name="time" valueReference="999" causality="independent" variability="continuous" '
@@ -413,7 +512,7 @@ def _finite(v: float) -> float | None:
 
 def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str) -> str:
     """modelDescription.xml of a circuit's FMU: its input signals (start: the exported drive at t = 0), every
-    signal as an output with its SI unit, the modes as Integer outputs naming their values."""
+    signal as an output with its SI unit, the modes as Enumeration outputs of their names."""
     from hydrohil.circuits.run import input_unit
     vars_: list[dict] = []
     for j, sig in enumerate(lay.inputs):
@@ -433,13 +532,16 @@ def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str) -> 
         vars_.append(dict(name=col, vr=VR_OUTPUT0 + k, causality="output", variability="continuous", initial=None,
                           desc=desc, unit=unit, start=None, lo=None, hi=None, kind="real"))
         k += 1
-    for j, md in enumerate(lay.modes):
+    enums = {}
+    for j, md in enumerate(lay.modes):             # (an Enumeration of its names each: cyl.mode -> CylMode)
         outputs.append(len(vars_))
+        component = md.removesuffix(".mode")
+        enum = "".join(w.capitalize() for w in component.split("_")) + "Mode"
+        enums[enum] = [(n, "") for n in lay.mode_names[md]]
         vars_.append(dict(name=md, vr=VR_MODE0 + j, causality="output", variability="discrete", initial=None,
-                          desc=", ".join(f"{i} {n}" for i, n in enumerate(lay.mode_names[md])), unit="", start=None,
-                          lo=None, hi=None, kind="int"))
-    units_used = sorted({v["unit"] for v in vars_ if v["unit"] not in ("", "-")} | {"s"})   # (s: FMI 3 time)
-    return _description_xml(vars_, outputs, [], fmi, step, token, units_used,
+                          desc=f"the mode of {component}", unit="", start=None, lo=None, hi=None, kind="enum",
+                          type=enum))
+    return _description_xml(vars_, outputs, [], fmi, step, token, enums,
                              f"hydrohil circuit {c.name!r} ({c.source}): generated from its description, RK3 at a "
                              f"fixed {step * 1e3:g} ms step, parameters as exported",
                              fmu_sources(CIRCUIT_UNITS, fmi), feedthrough=True)

@@ -122,8 +122,30 @@ int plant_get_integer(plant *pl, unsigned vr, int *v)
         *v = (int)pl->v.m[vr - VR_MODE0];
         return PLANT_OK;
     }
-    plant_logf(pl, PLANT_ERROR, "value reference %u is not an Integer", vr);
+    plant_logf(pl, PLANT_ERROR, "value reference %u is not an Enumeration (the modes)", vr);
     return PLANT_ERROR;
+}
+
+/* a circuit's FMU has no settable Integer or Enumeration and no Boolean: its parameters are the export's */
+int plant_set_integer(plant *pl, unsigned vr, int v)
+{
+    (void)v;
+    plant_logf(pl, PLANT_ERROR, "value reference %u: this FMU has no settable Integer or Enumeration (its modes are "
+               "outputs, its parameters fixed by the export)", vr);
+    return PLANT_ERROR;
+}
+
+int plant_get_boolean(plant *pl, unsigned vr, int *v)
+{
+    (void)v;
+    plant_logf(pl, PLANT_ERROR, "value reference %u: this FMU has no Boolean variable", vr);
+    return PLANT_ERROR;
+}
+
+int plant_set_boolean(plant *pl, unsigned vr, int v)
+{
+    (void)v;
+    return plant_get_boolean(pl, vr, &v);
 }
 
 /* A communication step of any size: the plant steps on its own grid t0 + k*h, as many whole internal steps as

@@ -140,10 +140,17 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[])
 {
+    size_t i;
     CHECK(c);
-    (void)vr;
-    (void)value;
-    return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2GetBoolean (the FMU has no Boolean variable)");
+    if (nvr > 0 && (!vr || !value))
+        return fmi2Error;
+    for (i = 0; i < nvr; i++) {
+        int b;
+        if (plant_get_boolean(PL(c), vr[i], &b) != PLANT_OK)
+            return fmi2Error;
+        value[i] = b ? fmi2True : fmi2False;
+    }
+    return fmi2OK;
 }
 
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[])
@@ -168,18 +175,26 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
 
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[])
 {
+    size_t i;
     CHECK(c);
-    (void)vr;
-    (void)value;
-    return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2SetInteger (the FMU's Integer variables are outputs)");
+    if (nvr > 0 && (!vr || !value))
+        return fmi2Error;
+    for (i = 0; i < nvr; i++)          /* (an Integer's or an Enumeration's) */
+        if (plant_set_integer(PL(c), vr[i], value[i]) != PLANT_OK)
+            return fmi2Error;
+    return fmi2OK;
 }
 
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[])
 {
+    size_t i;
     CHECK(c);
-    (void)vr;
-    (void)value;
-    return nvr == 0 ? fmi2OK : UNSUPPORTED(c, "fmi2SetBoolean (the FMU has no Boolean variable)");
+    if (nvr > 0 && (!vr || !value))
+        return fmi2Error;
+    for (i = 0; i < nvr; i++)
+        if (plant_set_boolean(PL(c), vr[i], value[i] != fmi2False) != PLANT_OK)
+            return fmi2Error;
+    return fmi2OK;
 }
 
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[])

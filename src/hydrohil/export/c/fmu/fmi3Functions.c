@@ -32,6 +32,15 @@ static fmi3Status st(int s) { return s == PLANT_OK ? fmi3OK : s == PLANT_WARNING
         if (!(c))                                                                                               \
             return fmi3Error;                                                                                   \
     } while (0)
+/* what every getter and setter of values checks: an instance, one value per reference (no arrays), both given */
+#define CHECK_VALUES(c, vr, nvr, values, nValues)                                                               \
+    do {                                                                                                        \
+        CHECK(c);                                                                                               \
+        if ((nValues) != (nvr))                                                                                 \
+            return unsupported(c, "arrays (nValues != nValueReferences)");                                      \
+        if ((nvr) > 0 && (!(vr) || !(values)))                                                                  \
+            return fmi3Error;                                                                                   \
+    } while (0)
 static fmi3Status unsupported(fmi3Instance c, const char *what)
 {
     CHECK(c);
@@ -147,11 +156,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
                           size_t nValues)
 {
     size_t i;
-    CHECK(c);
-    if (nValues != nvr)
-        return unsupported(c, "arrays (nValues != nValueReferences)");
-    if (nvr > 0 && (!vr || !values))
-        return fmi3Error;
+    CHECK_VALUES(c, vr, nvr, values, nValues);
     for (i = 0; i < nvr; i++) {
         if (vr[i] == VR_TIME) {
             values[i] = PL(c)->t_comm;
@@ -167,11 +172,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
                           size_t nValues)
 {
     size_t i;
-    CHECK(c);
-    if (nValues != nvr)
-        return unsupported(c, "arrays (nValues != nValueReferences)");
-    if (nvr > 0 && (!vr || !values))
-        return fmi3Error;
+    CHECK_VALUES(c, vr, nvr, values, nValues);
     for (i = 0; i < nvr; i++)
         if (plant_set_real(PL(c), vr[i], values[i]) != PLANT_OK)
             return fmi3Error;
@@ -181,17 +182,79 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
 fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int32 values[], size_t nValues)
 {
     size_t i;
-    CHECK(c);
-    if (nValues != nvr)
-        return unsupported(c, "arrays (nValues != nValueReferences)");
-    if (nvr > 0 && (!vr || !values))
-        return fmi3Error;
+    CHECK_VALUES(c, vr, nvr, values, nValues);
     for (i = 0; i < nvr; i++) {
         int v;
         if (plant_get_integer(PL(c), vr[i], &v) != PLANT_OK)
             return fmi3Error;
         values[i] = v;
     }
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Int64 values[], size_t nValues)
+{
+    size_t i;
+    CHECK_VALUES(c, vr, nvr, values, nValues);
+    for (i = 0; i < nvr; i++) {        /* (an Enumeration's: FMI 3 reads them as Int64) */
+        int v;
+        if (plant_get_integer(PL(c), vr[i], &v) != PLANT_OK)
+            return fmi3Error;
+        values[i] = v;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Boolean values[],
+                          size_t nValues)
+{
+    size_t i;
+    CHECK_VALUES(c, vr, nvr, values, nValues);
+    for (i = 0; i < nvr; i++) {
+        int b;
+        if (plant_get_boolean(PL(c), vr[i], &b) != PLANT_OK)
+            return fmi3Error;
+        values[i] = b ? fmi3True : fmi3False;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Int32 values[],
+                        size_t nValues)
+{
+    size_t i;
+    CHECK_VALUES(c, vr, nvr, values, nValues);
+    for (i = 0; i < nvr; i++)
+        if (plant_set_integer(PL(c), vr[i], values[i]) != PLANT_OK)
+            return fmi3Error;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetInt64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Int64 values[],
+                        size_t nValues)
+{
+    size_t i;
+    CHECK_VALUES(c, vr, nvr, values, nValues);
+    for (i = 0; i < nvr; i++) {        /* (an Enumeration's: its items' values are the core's codes) */
+        if (values[i] < -2147483647 || values[i] > 2147483647) {
+            plant_logf(PL(c), PLANT_ERROR, "value reference %u: %lld is no value of this FMU's", vr[i],
+                       (long long)values[i]);
+            return fmi3Error;
+        }
+        if (plant_set_integer(PL(c), vr[i], (int)values[i]) != PLANT_OK)
+            return fmi3Error;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Boolean values[],
+                          size_t nValues)
+{
+    size_t i;
+    CHECK_VALUES(c, vr, nvr, values, nValues);
+    for (i = 0; i < nvr; i++)
+        if (plant_set_boolean(PL(c), vr[i], values[i] != fmi3False) != PLANT_OK)
+            return fmi3Error;
     return fmi3OK;
 }
 
@@ -216,20 +279,15 @@ NO_GET(fmi3GetUInt8, fmi3UInt8)
 NO_GET(fmi3GetInt16, fmi3Int16)
 NO_GET(fmi3GetUInt16, fmi3UInt16)
 NO_GET(fmi3GetUInt32, fmi3UInt32)
-NO_GET(fmi3GetInt64, fmi3Int64)
 NO_GET(fmi3GetUInt64, fmi3UInt64)
-NO_GET(fmi3GetBoolean, fmi3Boolean)
 NO_GET(fmi3GetString, fmi3String)
 NO_SET(fmi3SetFloat32, fmi3Float32)
 NO_SET(fmi3SetInt8, fmi3Int8)
 NO_SET(fmi3SetUInt8, fmi3UInt8)
 NO_SET(fmi3SetInt16, fmi3Int16)
 NO_SET(fmi3SetUInt16, fmi3UInt16)
-NO_SET(fmi3SetInt32, fmi3Int32)
 NO_SET(fmi3SetUInt32, fmi3UInt32)
-NO_SET(fmi3SetInt64, fmi3Int64)
 NO_SET(fmi3SetUInt64, fmi3UInt64)
-NO_SET(fmi3SetBoolean, fmi3Boolean)
 NO_SET(fmi3SetString, fmi3String)
 
 fmi3Status fmi3GetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, size_t valueSizes[],

@@ -21,7 +21,10 @@ void plant_free(plant *pl);
 void plant_defaults(plant *pl);                 /* start values of every variable, state INSTANTIATED */
 int plant_set_real(plant *pl, unsigned vr, double v);
 int plant_get_real(plant *pl, unsigned vr, double *v);
-int plant_get_integer(plant *pl, unsigned vr, int *v);
+int plant_get_integer(plant *pl, unsigned vr, int *v);   /* an Integer's or an Enumeration's */
+int plant_set_integer(plant *pl, unsigned vr, int v);
+int plant_get_boolean(plant *pl, unsigned vr, int *v);
+int plant_set_boolean(plant *pl, unsigned vr, int v);
 int plant_setup(plant *pl, double t0);          /* the start time, before initialisation */
 int plant_enter_init(plant *pl, double t0);
 int plant_exit_init(plant *pl);                 /* checks the parameters, sets the initial state */

@@ -52,17 +52,57 @@ void plant_free(plant *pl)
     }
 }
 
+static const char *const KIND_WORDS[] = {"a Real", "an Integer", "a Boolean", "an Enumeration"};
+
+/* A parameter set (any kind: its value as the core's double), before the end of initialisation only. */
+static int set_parameter(plant *pl, unsigned vr, double v)
+{
+    if (pl->mode != PLANT_INSTANTIATED && pl->mode != PLANT_INITIALIZING) {
+        plant_logf(pl, PLANT_ERROR, "parameter %s is fixed after initialisation", PLANT_NAMES[vr]);
+        return PLANT_ERROR;
+    }
+    pl->par[vr] = v;
+    pl->prepared = 0;
+    return PLANT_OK;
+}
+
+/* vr is a parameter of kind `kind`; else PLANT_ERROR saying which setter or getter it takes (`call`: "set", "get"). */
+static int parameter_of_kind(plant *pl, unsigned vr, int kind, const char *call)
+{
+    if (vr < PLANT_NPAR && (PLANT_KIND[vr] == kind || (kind == PLANT_KIND_INT && PLANT_KIND[vr] == PLANT_KIND_ENUM)))
+        return PLANT_OK;
+    if (vr < PLANT_NPAR)
+        plant_logf(pl, PLANT_ERROR, "parameter %s is %s: %s it as one", PLANT_NAMES[vr], KIND_WORDS[PLANT_KIND[vr]], call);
+    else
+        plant_logf(pl, PLANT_ERROR, "value reference %u is not %s to %s", vr, KIND_WORDS[kind], call);
+    return PLANT_ERROR;
+}
+
+int plant_set_integer(plant *pl, unsigned vr, int v)
+{
+    return parameter_of_kind(pl, vr, PLANT_KIND_INT, "set") == PLANT_OK ? set_parameter(pl, vr, (double)v) : PLANT_ERROR;
+}
+
+int plant_set_boolean(plant *pl, unsigned vr, int v)
+{
+    return parameter_of_kind(pl, vr, PLANT_KIND_BOOL, "set") == PLANT_OK ? set_parameter(pl, vr, v ? 1.0 : 0.0)
+                                                                         : PLANT_ERROR;
+}
+
+int plant_get_boolean(plant *pl, unsigned vr, int *v)
+{
+    if (parameter_of_kind(pl, vr, PLANT_KIND_BOOL, "get") != PLANT_OK)
+        return PLANT_ERROR;
+    *v = pl->par[vr] != 0.0;
+    return PLANT_OK;
+}
+
 int plant_set_real(plant *pl, unsigned vr, double v)
 {
-    if (vr < PLANT_NPAR) {
-        if (pl->mode != PLANT_INSTANTIATED && pl->mode != PLANT_INITIALIZING) {
-            plant_logf(pl, PLANT_ERROR, "parameter %s is fixed after initialisation", PLANT_NAMES[vr]);
-            return PLANT_ERROR;
-        }
-        pl->par[vr] = v;
-        pl->prepared = 0;
-        return PLANT_OK;
-    }
+    if (vr < PLANT_NPAR && PLANT_KIND[vr] != PLANT_KIND_REAL)
+        return parameter_of_kind(pl, vr, PLANT_KIND_REAL, "set");
+    if (vr < PLANT_NPAR)
+        return set_parameter(pl, vr, v);
     switch (vr) {
     case VR_U:   /* saturated to [-1, 1] when stepping, as the rig's command path does */
         if (!isfinite(v)) {
@@ -100,7 +140,7 @@ int plant_set_real(plant *pl, unsigned vr, double v)
  * PLANT_ERROR with a message when a value is out of range. */
 static int model_params(plant *pl, double *p)
 {
-    double h = pl->par[VR_STEP], xp0 = pl->par[VR_XP0], xs0 = pl->par[VR_XS0], at_rest = pl->par[VR_AT_REST];
+    double h = pl->par[VR_STEP], xp0 = pl->par[VR_XP0], xs0 = pl->par[VR_XS0];
     char msg[400];
     int i;
     for (i = 0; i < HH_NP; i++)
@@ -114,12 +154,8 @@ static int model_params(plant *pl, double *p)
         return PLANT_ERROR;
     }
     if (!(xp0 >= 0.0 && xp0 <= p[HH_CYLINDER_STROKE]) || !(xs0 >= -1.0 && xs0 <= 1.0)) {
-        plant_logf(pl, PLANT_ERROR, "initial state xp0 = %g m, xs0 = %g: need 0 <= xp0 <= cylinder.stroke (%g m) "
-                   "and -1 <= xs0 <= 1", xp0, xs0, p[HH_CYLINDER_STROKE]);
-        return PLANT_ERROR;
-    }
-    if (at_rest != 0.0 && at_rest != 1.0) {
-        plant_logf(pl, PLANT_ERROR, "parameter at_rest = %g: 1 (start at rest) or 0 (start at xs0)", at_rest);
+        plant_logf(pl, PLANT_ERROR, "initial state initial.xp = %g m, initial.xs = %g: need 0 <= initial.xp <= "
+                   "cylinder.stroke (%g m) and -1 <= initial.xs <= 1", xp0, xs0, p[HH_CYLINDER_STROKE]);
         return PLANT_ERROR;
     }
     hh_params_derive(p);
@@ -140,7 +176,7 @@ static int attach_model(plant *pl)
     return PLANT_OK;
 }
 
-/* The initial state of the parameters as set (SPEC §12.5): at rest (at_rest = 1: the spool offset that holds
+/* The initial state of the parameters as set (SPEC §12.5): at rest (initial.at_rest: the spool offset that holds
  * the piston, the pressures balancing the chambers' flows) or with the spool at xs0; sim and its delay line
  * set up, xs_rest computed. */
 int plant_prepare(plant *pl)
@@ -181,8 +217,9 @@ int plant_prepare(plant *pl)
         plant_logf(pl, PLANT_WARNING, "no spool position holds the piston at rest: the load is more than the cylinder "
                    "gives at a supply pressure of %g bar; the spool starts centred and the load moves the piston", p[HH_SUPPLY_PS] / 1e5);
     if (pl->par[VR_AT_REST] == 1.0 && pl->par[VR_XS0] != 0.0)
-        plant_logf(pl, PLANT_WARNING, "xs0 = %g is not used: at_rest = 1 starts the spool at the offset that holds "
-                   "the piston (%g); set at_rest = 0 to start at xs0", pl->par[VR_XS0], pl->xs_rest);
+        plant_logf(pl, PLANT_WARNING, "initial.xs = %g is not used: initial.at_rest = true starts the spool at the "
+                   "offset that holds the piston (%g); set initial.at_rest = false to start at initial.xs",
+                   pl->par[VR_XS0], pl->xs_rest);
     pl->prepared = 1;
     return PLANT_OK;
 }
@@ -190,6 +227,8 @@ int plant_prepare(plant *pl)
 int plant_get_real(plant *pl, unsigned vr, double *v)
 {
     const double *y = pl->sim.y;
+    if (vr < PLANT_NPAR && PLANT_KIND[vr] != PLANT_KIND_REAL)
+        return parameter_of_kind(pl, vr, PLANT_KIND_REAL, "get");
     if (vr < PLANT_NPAR) {
         *v = pl->par[vr];
         return PLANT_OK;
@@ -224,8 +263,14 @@ int plant_get_real(plant *pl, unsigned vr, double *v)
 int plant_get_integer(plant *pl, unsigned vr, int *v)
 {
     double res, c;
+    if (vr < PLANT_NPAR) {                       /* an Integer or Enumeration parameter */
+        if (parameter_of_kind(pl, vr, PLANT_KIND_INT, "get") != PLANT_OK)
+            return PLANT_ERROR;
+        *v = (int)pl->par[vr];
+        return PLANT_OK;
+    }
     if (vr != VR_TRAVEL && vr != VR_FRICTION && vr != VR_SPOOL && vr != VR_ENCODER) {
-        plant_logf(pl, PLANT_ERROR, "value reference %u is not an Integer", vr);
+        plant_logf(pl, PLANT_ERROR, "value reference %u is not an Integer or an Enumeration", vr);
         return PLANT_ERROR;
     }
     if (pl->mode == PLANT_INSTANTIATED) {
