@@ -34,11 +34,11 @@ def test_python_names_come_from_the_description():
     assert protocol.ST_FAULT_INJECTED == lib.HH_ST_FAULT_INJECTED == 1 << 10
     assert len(set(shape.TIMING_KEYS)) == len(shape.TIMING_KEYS)
     # every column the FMU outputs is a quantity or a mode of the description, with its unit
-    from hydrohil.export.fmu import INT_OUTPUTS, REAL_OUTPUTS
+    from hydrohil.export.fmu import MODE_OUTPUTS, REAL_OUTPUTS
     for name, unit, desc, _ in REAL_OUTPUTS:
         q = shape.QUANTITIES[name]
-        assert desc == q.description and unit == ("" if q.unit == "-" else q.unit)
-    assert [n for n, *_ in INT_OUTPUTS[:3]] == [f"{m.name}_mode" for m in shape.MODES]
+        assert desc == q.description and unit == ("1" if q.unit == "-" else q.unit)   # FMI: "1" for a dimensionless Real
+    assert [n for n, *_ in MODE_OUTPUTS] == [f"{m.name}_mode" for m in shape.MODES]
 
 
 # the shape's arrays indexed by a number instead of a name: out[5], y[2], m[0], row[9], r->p[3], sim.m[1]
