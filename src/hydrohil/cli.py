@@ -647,8 +647,8 @@ app.add_typer(export_app, name="export")
 def export_fmu(out: Path, params: str = "ferreira2004", fmi: int = 2, step: Optional[float] = None,
                circuit: Optional[str] = None, scenario: Optional[Path] = None, sets: Optional[dict] = None,
                platforms: Optional[list[str]] = None) -> Path:
-    """Write a Co-Simulation FMU (FMI 2.0 or 3.0) of the plant with the parameter set ``params``; or of a circuit
-    (``circuit``: a built-in name or a circuit file; ``scenario``: a scenario naming its circuit, whose [set] and
+    """Write an FMU (FMI 2.0 or 3.0; Co-Simulation and Model Exchange) of the plant with the parameter set
+    ``params``; or of a circuit (``circuit``: a built-in name or a circuit file; ``scenario``: a scenario naming its circuit, whose [set] and
     closed loop's start it takes), ``sets`` on top (a circuit's "component.key", the paper's rig's "group.key" ->
     value). Its binaries: this machine's and every platform whose cross compiler is here, or ``platforms``."""
     from hydrohil.export.fmu import export_circuit_fmu, export_fmu as build
@@ -689,8 +689,8 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", callback=out_file, hel
                                                        "(repeatable): host, x86_64-linux, aarch64-linux, "
                                                        "x86_64-windows (default: this machine's and every one whose "
                                                        "cross compiler is installed)")):
-    """Co-Simulation FMU of the plant, or of a circuit: its C sources (declared: any importer may rebuild it for
-    its target) and binaries built here; see the README."""
+    """FMU of the plant, or of a circuit (Co-Simulation and Model Exchange): its C sources (declared: any importer
+    may rebuild it for its target) and binaries built here; see the README."""
     try:
         path = export_fmu(out, params, fmi, step, circuit, scenario, _parse_sets(sets), platforms or None)
     except HydrohilError as exc:
@@ -701,7 +701,9 @@ def export_fmu_cmd(out: Path = typer.Option(..., "--out", callback=out_file, hel
     import zipfile
     with zipfile.ZipFile(path) as z:
         bins = sorted({n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") >= 2})
-    typer.echo(f"wrote {path} (FMI {fmi}.0 Co-Simulation of {what}, internal step "
+    kinds = " and ".join(k for k, on in (("Model Exchange", md.modelExchange), ("Co-Simulation", md.coSimulation))
+                         if on)
+    typer.echo(f"wrote {path} (FMI {fmi}.0 {kinds} of {what}, internal step "
                f"{md.defaultExperiment.stepSize} s; binaries: {', '.join(bins)}; sources)")
 
 

@@ -52,6 +52,7 @@ void hc_state_bounds(const double *P, double *lo, double *hi);
 int64_t hc_unphysical(const double *P, const double *y);
 void hc_reference_rhs(const double *P, const double *y, const double *u, double *dy);
 void hc_reference_row(const double *P, const double *y, const double *u, double t, double *row);
+void hc_me_sizes(int64_t *ny, int64_t *nm, int64_t *nz, int64_t *nd);
 """ + (CORE / "hc_core.h").read_text().split("/* cdef: begin */")[1].split("/* cdef: end */")[0]
 
 

@@ -931,20 +931,25 @@ static void core_in(hc_core_ctx *c, const double *y, const int64_t *m, const dou
     c->mc[c->valve_mode] = m[HH_M_SPOOL];
 }}
 
+/* the loop's state and modes of the circuit's (core_in's inverse) */
+HH_INLINE void core_out(const hc_core_ctx *c, double *y, int64_t *m)
+{{
+    int64_t i, cyl = c->mc[c->cyl_mode];
+    for (i = 0; i < c->n; i++)
+        y[i] = c->yc[c->at[i]];
+    m[HH_M_TRAVEL] = c->travel_of[cyl];
+    m[HH_M_FRICTION] = c->friction_of[cyl];
+    m[HH_M_SPOOL] = c->mc[c->valve_mode];
+}}
+
 int hc_core_hybrid_step(void *ctx, double *y, int64_t *m, const double *p, double ud, double h)
 {{
     hc_core_ctx *c = (hc_core_ctx *)ctx;
     int events = 0, status;
-    int64_t i, cyl;
     core_in(c, y, m, p);
     c->u[c->command] = ud;
     status = method_step(c->method, h, c->yc, c->mc, c->u, c->P, &events);
-    for (i = 0; i < c->n; i++)
-        y[i] = c->yc[c->at[i]];
-    cyl = c->mc[c->cyl_mode];
-    m[HH_M_TRAVEL] = c->travel_of[cyl];
-    m[HH_M_FRICTION] = c->friction_of[cyl];
-    m[HH_M_SPOOL] = c->mc[c->valve_mode];
+    core_out(c, y, m);
     return status ? -1 : events;
 }}
 
@@ -953,6 +958,139 @@ double hc_core_friction(void *ctx, const double *y, const int64_t *m, const doub
     hc_core_ctx *c = (hc_core_ctx *)ctx;
     core_in(c, y, m, p);
     return log_value(c->friction_column, 0.0, c->yc, c->mc, c->u, c->P);
+}}
+
+/* ---- Model Exchange (an FMU's: the importer's solver integrates the hybrid model): the states y[0..NY-1] and
+ * their derivatives in the modes m (hc_rhs: no stiff-node form, the solver takes its own steps), the guards as
+ * event indicators, the transitions at an event; the delayed inputs are the importer's values each delayed by
+ * its delay (the FMU's queue, hc_me_delays). */
+void hc_me_sizes(int64_t *ny, int64_t *nm, int64_t *nz, int64_t *nd)
+{{
+    *ny = NY;
+    *nm = NM;
+    *nz = NG;
+    *nd = ND;
+}}
+
+/* the event indicators z[NG]: each guard's value (>= 0 while its mode holds), 1 for a guard of another mode */
+void hc_me_indicators(const double *P, const double *y, const int64_t *m, const double *u, double *z)
+{{
+    double gv[NG + 1];
+    int g;
+    guard_values(y, m, u, P, gv);
+    for (g = 0; g < NG; g++)
+        z[g] = isinf(gv[g]) ? 1.0 : gv[g];
+}}
+
+/* the state and modes changed by (y, m) -> (y0, m0)? */
+HH_INLINE int me_changed(const double *y, const int64_t *m, const double *y0, const int64_t *m0)
+{{
+    int i;
+    for (i = 0; i < NY; i++)
+        if (y[i] != y0[i])
+            return 1;
+    for (i = 0; i < NM; i++)
+        if (m[i] != m0[i])
+            return 1;
+    return 0;
+}}
+
+/* An event (a crossing the solver located, a step's end where one went unseen, the start): the projections (a
+ * spool at its end), then the transition of the first guard crossed (< 0) and on in the new modes, at most
+ * HH_MAX_EVENTS (hybrid.c's budget, one_step's rule); returns 1 when the state or a mode changed. */
+int hc_me_event(const double *P, double *y, int64_t *m, const double *u)
+{{
+    double y0[NY], gv[NG + 1];
+    int64_t m0[NM];
+    int i, n, g;
+    for (i = 0; i < NY; i++)
+        y0[i] = y[i];
+    for (i = 0; i < NM; i++)
+        m0[i] = m[i];
+    project(y, m, u, P);
+    for (n = 0; n < HH_MAX_EVENTS; n++) {{
+        guard_values(y, m, u, P, gv);
+        for (g = 0; g < NG && !(gv[g] < 0.0); g++)
+            ;
+        if (g == NG)
+            break;
+        transition(g, y, m, u, P);
+        project(y, m, u, P);
+    }}
+    return me_changed(y, m, y0, m0);
+}}
+
+/* an event due at the end of a solver's step: a guard crossed that the solver did not locate, or a projection
+ * that moves the state (a spool past its end) */
+int hc_me_step_event(const double *P, const double *y, const int64_t *m, const double *u)
+{{
+    double yy[NY], gv[NG + 1];
+    int64_t mm[NM];
+    int i, g;
+    for (i = 0; i < NY; i++)
+        yy[i] = y[i];
+    for (i = 0; i < NM; i++)
+        mm[i] = m[i];
+    project(yy, mm, u, P);
+    if (me_changed(yy, mm, y, m))
+        return 1;
+    guard_values(y, m, u, P, gv);
+    for (g = 0; g < NG; g++)
+        if (gv[g] < 0.0)
+            return 1;
+    return 0;
+}}
+
+/* the delayed inputs: ND of them, the input each delays (idx) and its delay [s] (tau) */
+int64_t hc_me_delays(const double *P, int64_t *idx, double *tau)
+{{
+    int d;
+    for (d = 0; d < ND; d++) {{
+        idx[d] = DELAYED[d];
+        tau[d] = delay_time(d, P);
+    }}
+    return ND;
+}}
+
+/* The same behind the core's loop (the paper's rig's FMU: its state, modes and parameters in the core's layout,
+ * the valve's input ud): the derivatives, the event indicators, an event, a step's end. */
+void hc_core_me_derivatives(void *ctx, const double *y, const int64_t *m, const double *p, double ud, double *dy)
+{{
+    hc_core_ctx *c = (hc_core_ctx *)ctx;
+    double dyc[NY];
+    int64_t i;
+    core_in(c, y, m, p);
+    c->u[c->command] = ud;
+    hc_rhs(c->P, c->yc, c->mc, c->u, dyc);
+    for (i = 0; i < c->n; i++)
+        dy[i] = dyc[c->at[i]];
+}}
+
+void hc_core_me_indicators(void *ctx, const double *y, const int64_t *m, const double *p, double ud, double *z)
+{{
+    hc_core_ctx *c = (hc_core_ctx *)ctx;
+    core_in(c, y, m, p);
+    c->u[c->command] = ud;
+    hc_me_indicators(c->P, c->yc, c->mc, c->u, z);
+}}
+
+int hc_core_me_event(void *ctx, double *y, int64_t *m, const double *p, double ud)
+{{
+    hc_core_ctx *c = (hc_core_ctx *)ctx;
+    int changed;
+    core_in(c, y, m, p);
+    c->u[c->command] = ud;
+    changed = hc_me_event(c->P, c->yc, c->mc, c->u);
+    core_out(c, y, m);
+    return changed;
+}}
+
+int hc_core_me_step_event(void *ctx, const double *y, const int64_t *m, const double *p, double ud)
+{{
+    hc_core_ctx *c = (hc_core_ctx *)ctx;
+    core_in(c, y, m, p);
+    c->u[c->command] = ud;
+    return hc_me_step_event(c->P, c->yc, c->mc, c->u);
 }}
 
 /* What a loop's pressure transducers read of the log row v of step k (SPEC §10; sensors.c's model, the rig's):

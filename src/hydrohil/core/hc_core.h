@@ -30,10 +30,25 @@ typedef struct {
 int hc_core_continuous_advance(void *ctx, double t, double h, double alpha, double u_old, double u_new, double *y);
 int hc_core_hybrid_step(void *ctx, double *y, int64_t *m, const double *p, double ud, double h);
 double hc_core_friction(void *ctx, const double *y, const int64_t *m, const double *p);
+/* Model Exchange in the core's layout (the paper's rig's FMU): the derivatives, the event indicators, an event's
+ * transitions (1: the state or a mode changed), an event due at a solver step's end */
+void hc_core_me_derivatives(void *ctx, const double *y, const int64_t *m, const double *p, double ud, double *dy);
+void hc_core_me_indicators(void *ctx, const double *y, const int64_t *m, const double *p, double ud, double *z);
+int hc_core_me_event(void *ctx, double *y, int64_t *m, const double *p, double ud);
+int hc_core_me_step_event(void *ctx, const double *y, const int64_t *m, const double *p, double ud);
 /* cdef: end */
 
 /* the generated circuit's own functions an adapter starts it with (circuits/build.py's CDEF declares them too) */
 void hc_init(const double *P, const double *u, double h, double *y, int64_t *m);
 int64_t hc_state_size(const double *P, double h);
+/* ... and Model Exchange's, in the circuit's own layout (a circuit's FMU): its sizes (states, modes, event
+ * indicators, delayed inputs), the derivatives in the modes m under the inputs u as the components see them, the
+ * event indicators, an event's transitions, an event due at a step's end, the delayed inputs and their delays */
+void hc_me_sizes(int64_t *ny, int64_t *nm, int64_t *nz, int64_t *nd);
+void hc_rhs(const double *P, const double *y, const int64_t *m, const double *u, double *dy);
+void hc_me_indicators(const double *P, const double *y, const int64_t *m, const double *u, double *z);
+int hc_me_event(const double *P, double *y, int64_t *m, const double *u);
+int hc_me_step_event(const double *P, const double *y, const int64_t *m, const double *u);
+int64_t hc_me_delays(const double *P, int64_t *idx, double *tau);
 
 #endif

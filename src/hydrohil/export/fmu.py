@@ -1,4 +1,4 @@
-"""``hydrohil export fmu``: the plant as a Co-Simulation FMU (FMI 2.0 or 3.0), built on the spot.
+"""``hydrohil export fmu``: the plant as an FMU (FMI 2.0 or 3.0, Co-Simulation and Model Exchange), built on the spot.
 
 The FMU holds its C sources (the core, ``hh_params.h``, a generated ``config.h`` with the value references
 and start values, the instance layer ``plant_fmu.c`` and the FMI wrapper of its version) and a shared
@@ -77,10 +77,23 @@ REAL_OUTPUTS = tuple((name, "1" if shape.QUANTITIES[name].unit == "-" else shape
 MODE_OUTPUTS = tuple((f"{m.name}_mode", f"{m.name.capitalize()}Mode", vr) for m, vr in zip(shape.MODES, (310, 311, 312)))
 MODE_TYPES = {f"{m.name.capitalize()}Mode": [(v.name, v.description) for v in m.values] for m in shape.MODES}
 INT_OUTPUTS = (("encoder", "encoder reading [counts] (sensors.encoder_resolution; 0: ideal, 1 nm counts)", 313),)
+# Model Exchange: the continuous states are the core's (core/shape.py's STATES, in its order): the outputs above
+# and two locals (the spool's speed, the bristles); their derivatives der(x) from VR_DER0, the statechart's guards
+# (event indicators) from VR_EVENT0; nominal: a state's typical size (the importer's absolute tolerance: its
+# relative one times it)
+STATE_LOCALS = (("vs", 306), ("z", 307))
+STATE_NOMINALS = {"xs": 1.0, "vs": 100.0, "p1": 1e6, "p2": 1e6, "xp": 1e-2, "vp": 1e-2, "z": 1e-5}
+VR_DER0, VR_EVENT0 = 400, 450
 # eq 3's coefficients: k1, k2 of a pseudo-section in (l/min)/sqrt(bar), k3..k5 under its square root
 K_UNITS = ("(l/min)/sqrt(bar)", "(l/min)/sqrt(bar)", "(l/min)^2/bar", "(l/min)^2/bar", "(l/min)^2/bar")
 # C's kinds of a parameter (config.h's PLANT_KIND): what its getters and setters are
 KIND_CODES = {"real": 0, "int": 1, "bool": 2, "enum": 3}
+
+
+def _paper_guards(params: Parameters, step: float) -> list[str]:
+    """The guards of the parameter set's circuit's statechart (its event indicators), by name."""
+    from hydrohil.simulation.generated_model import core_tables
+    return list(core_tables(params, step).compiled.layout.guards)
 
 
 def _slot_type(s) -> str:
@@ -132,13 +145,19 @@ def config_h(params: Parameters, step: float, token: str) -> str:
     lines += [f"#define VR_{name.upper()} {vr}" for name, _, _, vr, *_ in INPUTS]
     lines += [f"#define VR_{name.upper()} {vr}" for name, _, _, vr in REAL_OUTPUTS]
     lines += [f"#define VR_{name.upper().replace('_MODE', '')} {vr}" for name, _, vr in MODE_OUTPUTS + INT_OUTPUTS]
+    lines += [f"#define VR_{name.upper()} {vr}" for name, vr in STATE_LOCALS]
+    lines += [f"#define VR_DER0 {VR_DER0}   /* Model Exchange: der(x) of the core's states, in their order */",
+              f"#define VR_EVENT0 {VR_EVENT0}   /* Model Exchange: the event indicators */",
+              f"#define PLANT_NX {len(shape.STATES)}", f"#define PLANT_NZ {len(_paper_guards(params, step))}"]
     lines += ["/* a parameter's kind: its getters and setters (Real, Integer, Boolean, Enumeration) */",
               "enum { " + ", ".join(f"PLANT_KIND_{k.upper()} = {v}" for k, v in KIND_CODES.items()) + " };",
               "", "static const double PLANT_START[PLANT_NPAR] = {"]
     lines += [f"    {_fmt(v)},   /* {k} */" for k, v in zip(names, starts)]
     lines += ["};", "static const char *const PLANT_NAMES[PLANT_NPAR] = {"]
     lines += [f'    "{k}",' for k in names]
-    lines += ["};", "static const int PLANT_KIND[PLANT_NPAR] = {"]
+    lines += ["};", "static const double PLANT_NOMINAL[PLANT_NX] = {" +
+              ", ".join(_fmt(STATE_NOMINALS[s.name]) for s in shape.STATES) + "};"]
+    lines += ["static const int PLANT_KIND[PLANT_NPAR] = {"]
     lines += [f"    PLANT_KIND_{k.upper()},   /* {name} */" for name, k in zip(names, kinds)]
     lines += ["};", "", "#endif", ""]
     return "\n".join(lines)
@@ -243,9 +262,36 @@ def model_description(params: Parameters, fmi: int, step: float, token: str) -> 
         outputs.append(len(vars_))
         vars_.append(dict(name=name, vr=vr, causality="output", variability="discrete", initial=None,
                           desc=desc, unit="", start=None, lo=None, hi=None, kind="int"))
+    locals_ = dict(STATE_LOCALS)
+    for s in shape.STATES:                       # (Model Exchange's states: an output, or a local of its own)
+        if s.name in locals_:
+            vars_.append(dict(name=s.name, vr=locals_[s.name], causality="local", variability="continuous",
+                              initial=None, desc=shape.QUANTITIES[s.name].description,
+                              unit=_real_unit(shape.QUANTITIES[s.name].unit), start=None, lo=None, hi=None,
+                              kind="real"))
+    index = {v["name"]: i for i, v in enumerate(vars_)}
+    me = {"states": [index[s.name] for s in shape.STATES], "derivatives": [], "indicators": []}
+    for k, s in enumerate(shape.STATES):
+        vars_[index[s.name]]["nominal"] = STATE_NOMINALS[s.name]
+        me["derivatives"].append(len(vars_))
+        unit = _real_unit(shape.QUANTITIES[s.name].unit)
+        vars_.append(dict(name=f"der({s.name})", vr=VR_DER0 + k, causality="local", variability="continuous",
+                          initial=None, desc=f"d/dt of {s.name}", unit=_per_second(unit),
+                          start=None, lo=None, hi=None, kind="real", derivative=index[s.name]))
+    for g, name in enumerate(_paper_guards(params, step)):
+        me["indicators"].append(len(vars_))
+        vars_.append(dict(name=f"guard.{name}", vr=VR_EVENT0 + g, causality="local", variability="continuous",
+                          initial=None, desc=f"the statechart's guard {name}: >= 0 while its mode holds (1 in "
+                          "the other modes); its zero crossing an event", unit="1", start=None, lo=None, hi=None,
+                          kind="real"))
     return _description_xml(vars_, outputs, calculated, fmi, step, token, enums,
                             "hydrohil: servo-solenoid valve + differential cylinder, hybrid model (Ferreira et al., "
-                            "Part 2), parameter set exported with its values", fmu_sources(RIG_UNITS, fmi))
+                            "Part 2), parameter set exported with its values", fmu_sources(RIG_UNITS, fmi), me=me)
+
+
+def _per_second(unit: str) -> str:
+    """A rate's unit: "Pa" -> "Pa/s", "m/s" -> "m/s^2", "1" -> "1/s"."""
+    return f"{unit}^2" if unit.endswith("/s") else f"{unit}/s"
 
 
 def _real_unit(unit: str) -> str:
@@ -307,30 +353,40 @@ def _display_unit(unit: str) -> str | None:
 
 
 def _description_xml(vars_: list[dict], outputs: list[int], calculated: list[int], fmi: int, step: float, token: str,
-                     enums: dict, description: str, sources: list[str], feedthrough: bool = False) -> str:
+                     enums: dict, description: str, sources: list[str], feedthrough: bool = False,
+                     me: dict | None = None) -> str:
     """modelDescription.xml of FMI ``fmi`` from the variables (dicts: name, vr, causality, variability, initial,
     desc, unit, start, lo, hi, kind "real"/"int"/"bool"/"enum" (with its "type", one of ``enums``: name ->
-    [(item, description)])), the indices of the outputs and calculated parameters, the C files the binary is
-    built from (``sources``: FMI 2's <SourceFiles>; FMI 3 declares them in sources/buildDescription.xml,
-    :func:`build_description_xml`); ``feedthrough``: the outputs may depend on the inputs directly (their
-    dependencies not declared). Every Real has a unit (its UnitDefinition: base units, display units; "1":
-    dimensionless) and, where an engineer reads another, a displayUnit (bar, mm, l/min, rpm)."""
+    [(item, description)]); a state's "nominal", a derivative's "derivative": its state's index in ``vars_``),
+    the indices of the outputs and calculated parameters, the C files the binary is built from (``sources``: FMI
+    2's <SourceFiles>; FMI 3 declares them in sources/buildDescription.xml, :func:`build_description_xml`);
+    ``feedthrough``: the outputs may depend on the inputs directly (their dependencies not declared). ``me``: the
+    Model Exchange interface beside Co-Simulation's, {"states", "derivatives", "indicators": indices in
+    ``vars_``}. Every Real has a unit (its UnitDefinition: base units, display units; "1": dimensionless) and,
+    where an engineer reads another, a displayUnit (bar, mm, l/min, rpm)."""
     deps = "" if feedthrough else ' dependencies=""'
     def attrs(d: dict) -> str:
         return " ".join(f'{k}={quoteattr(str(v))}' for k, v in d.items() if v is not None)
+    me = me or {"states": [], "derivatives": [], "indicators": []}
+    files = ["    <SourceFiles>", *[f"      <File name={quoteattr(name)}/>" for name in sources], "    </SourceFiles>"]
     out = ['<?xml version="1.0" encoding="UTF-8"?>']
     head = dict(modelName=MODEL_IDENTIFIER, description=description, generationTool=f"hydrohil {__version__}",
                 variableNamingConvention="structured")
     if fmi == 2:
-        out.append(f'<fmiModelDescription fmiVersion="2.0" guid="{token}" numberOfEventIndicators="0" {attrs(head)}>')
+        out.append(f'<fmiModelDescription fmiVersion="2.0" guid="{token}" '
+                   f'numberOfEventIndicators="{len(me["indicators"])}" {attrs(head)}>')
+        if me["states"]:
+            out.append(f'  <ModelExchange modelIdentifier="{MODEL_IDENTIFIER}" completedIntegratorStepNotNeeded="false" '
+                       'canGetAndSetFMUstate="true" canSerializeFMUstate="true" canNotUseMemoryManagementFunctions="true">')
+            out += [*files, "  </ModelExchange>"]
         out.append(f'  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" '
                    'canGetAndSetFMUstate="true" canSerializeFMUstate="true" canNotUseMemoryManagementFunctions="true">')
-        out.append("    <SourceFiles>")
-        out += [f"      <File name={quoteattr(name)}/>" for name in sources]
-        out.append("    </SourceFiles>")
-        out.append("  </CoSimulation>")
+        out += [*files, "  </CoSimulation>"]
     else:
         out.append(f'<fmiModelDescription fmiVersion="3.0" instantiationToken="{token}" {attrs(head)}>')
+        if me["states"]:
+            out.append(f'  <ModelExchange modelIdentifier="{MODEL_IDENTIFIER}" needsCompletedIntegratorStep="true" '
+                       'canGetAndSetFMUState="true" canSerializeFMUState="true"/>')
         out.append(f'  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" '
                    f'canGetAndSetFMUState="true" canSerializeFMUState="true" fixedInternalStepSize="{_fmt(step)}"/>')
     out += _unit_definitions([_real_unit(v["unit"]) for v in vars_ if v["kind"] == "real"] + ["s"])   # (s: time's)
@@ -345,7 +401,10 @@ def _description_xml(vars_: list[dict], outputs: list[int], calculated: list[int
                  else ("true" if v["start"] else "false") if kind == "bool" else int(v["start"]))
         if kind == "real":
             unit = _real_unit(v["unit"])
-            typed = dict(unit=unit, displayUnit=v.get("display") or _display_unit(unit), min=_bound(v["lo"]),
+            der = v.get("derivative")               # (FMI 2: its state's index, from 1; FMI 3: its state's vr)
+            typed = dict(unit=unit, displayUnit=v.get("display") or _display_unit(unit),
+                         derivative=None if der is None else der + 1 if fmi == 2 else vars_[der]["vr"],
+                         nominal=None if v.get("nominal") is None else _fmt(v["nominal"]), min=_bound(v["lo"]),
                          max=_bound(v["hi"]), start=start)
         elif kind == "bool":
             typed = dict(start=start)
@@ -365,16 +424,23 @@ def _description_xml(vars_: list[dict], outputs: list[int], calculated: list[int
                    'description="simulation time" unit="s"/>')
     out.append("  </ModelVariables>")
     out.append("  <ModelStructure>")
+    initial = sorted(set(outputs + calculated + me["states"] + me["derivatives"]))
     if fmi == 2:
         out.append("    <Outputs>")
         out += [f'      <Unknown index="{i + 1}"{deps}/>' for i in outputs]
         out.append("    </Outputs>")
+        if me["derivatives"]:
+            out.append("    <Derivatives>")
+            out += [f'      <Unknown index="{i + 1}"/>' for i in me["derivatives"]]
+            out.append("    </Derivatives>")
         out.append("    <InitialUnknowns>")
-        out += [f'      <Unknown index="{i + 1}"/>' for i in sorted(outputs + calculated)]
+        out += [f'      <Unknown index="{i + 1}"/>' for i in initial]
         out.append("    </InitialUnknowns>")
     else:
         out += [f'    <Output valueReference="{vars_[i]["vr"]}"{deps}/>' for i in outputs]
-        out += [f'    <InitialUnknown valueReference="{vars_[i]["vr"]}"/>' for i in sorted(outputs + calculated)]
+        out += [f'    <ContinuousStateDerivative valueReference="{vars_[i]["vr"]}"/>' for i in me["derivatives"]]
+        out += [f'    <InitialUnknown valueReference="{vars_[i]["vr"]}"/>' for i in initial]
+        out += [f'    <EventIndicator valueReference="{vars_[i]["vr"]}"/>' for i in me["indicators"]]
     out.append("  </ModelStructure>")
     out.append("</fmiModelDescription>")
     return "\n".join(out) + "\n"
@@ -476,10 +542,31 @@ def package_fmu(out: Path, fmi: int, files: dict, sources: list[str], descriptio
 # ---- a circuit as an FMU (issue #27): the circuit's generated C behind the same FMI layer ------------------
 
 VR_INPUT0, VR_OUTPUT0, VR_MODE0 = 1000, 2000, 3000
+# Model Exchange: der(x) of each state, the guards (event indicators), the states that are no output signal
+CIRCUIT_VR_DER0, CIRCUIT_VR_EVENT0, CIRCUIT_VR_LOCAL0 = 4000, 5000, 6000
 
 
-def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
-    """``config.h`` of a circuit's FMU: sizes, value references, the exported parameters and initial state."""
+def circuit_me_sizes(compiled) -> dict:
+    """A compiled circuit's Model Exchange sizes: states, modes, event indicators (its guards), delayed inputs."""
+    ffi = compiled.ffi
+    out = [ffi.new("int64_t *") for _ in range(4)]
+    compiled.lib.hc_me_sizes(*out)
+    return dict(zip(("ny", "nm", "nz", "nd"), (int(v[0]) for v in out)))
+
+
+def _state_nominal(name: str, unit: str, y0: float) -> float:
+    """A circuit state's typical size (Model Exchange's nominal: the importer's absolute tolerance is its relative one
+    times it): its start's size, at least its unit's (a pressure 1 bar, a length 1 mm, a speed 1 mm/s, a LuGre
+    seal's bristles 10 um)."""
+    if name.endswith(".z"):
+        return 1e-5
+    floor = {"Pa": 1e5, "m": 1e-3, "m/s": 1e-3, "rad/s": 1.0, "1/s": 1.0, "-": 1e-2}.get(unit, 1.0)
+    return max(abs(float(y0)), floor)
+
+
+def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str, me: dict) -> str:
+    """``config.h`` of a circuit's FMU: sizes, value references, the exported parameters and initial state, Model
+    Exchange's sizes (``me``: :func:`circuit_me_sizes`) and its states' nominals."""
     outputs = [i for i, col in enumerate(lay.log_columns) if col != "t" and col not in lay.modes]
     q = json.dumps                                      # a C string literal of a name (ASCII, escaped)
     held = [1 if n in c.initial else 0 for n in c.state_nodes] + [0] * (len(lay.states) - len(c.state_nodes))
@@ -492,7 +579,13 @@ def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
              f"#define CIRCUIT_NLOG {len(lay.log_columns)}", f"#define CIRCUIT_NINPUTS {len(lay.inputs)}",
              f"#define CIRCUIT_NOUTPUTS {len(outputs)}", f"#define CIRCUIT_NMODES {len(lay.modes)}",
              f"#define CIRCUIT_NSTATES {len(lay.states)}",
-             f"#define VR_INPUT0 {VR_INPUT0}", f"#define VR_OUTPUT0 {VR_OUTPUT0}", f"#define VR_MODE0 {VR_MODE0}", ""]
+             f"#define VR_INPUT0 {VR_INPUT0}", f"#define VR_OUTPUT0 {VR_OUTPUT0}", f"#define VR_MODE0 {VR_MODE0}",
+             "/* Model Exchange: its states (the first CIRCUIT_NSTATES of y), der(x), the event indicators, the states "
+             "no output shows */",
+             f"#define PLANT_NX {len(lay.states)}", f"#define PLANT_NZ {me['nz']}",
+             f"#define CIRCUIT_NDELAY {max(me['nd'], 1)}   /* the delayed inputs (at least 1: C has no empty arrays) */",
+             f"#define VR_DER0 {CIRCUIT_VR_DER0}", f"#define VR_EVENT0 {CIRCUIT_VR_EVENT0}",
+             f"#define VR_LOCAL0 {CIRCUIT_VR_LOCAL0}", ""]
     lines += c_array("double", "CIRCUIT_P", lay.values(), c_double)
     lines += c_array("double", "CIRCUIT_U0", u0[:max(len(lay.inputs), 1)], c_double)
     lines += c_array("double", "CIRCUIT_Y0", y0, c_double)
@@ -501,6 +594,8 @@ def circuit_config_h(c, lay, y0, m0, u0, step: float, token: str) -> str:
     lines += c_array("char *const", "CIRCUIT_INPUT_NAMES", lay.inputs, q, empty='""')
     lines += c_array("char *const", "CIRCUIT_STATE_NAMES", lay.states, q, empty='""')
     lines += c_array("int64_t", "CIRCUIT_HELD", held or [0], str)          # nodes given in [initial]
+    lines += c_array("double", "CIRCUIT_NOMINAL", [_state_nominal(n, u, y0[i]) for i, (n, u) in
+                                                   enumerate(zip(lay.states, lay.state_units))], c_double)
     lines += ["", "#endif", ""]
     return "\n".join(lines)
 
@@ -510,7 +605,7 @@ def _finite(v: float) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str) -> str:
+def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str, y0=None) -> str:
     """modelDescription.xml of a circuit's FMU: its input signals (start: the exported drive at t = 0), every
     signal as an output with its SI unit, the modes as Enumeration outputs of their names."""
     from hydrohil.circuits.run import input_unit
@@ -541,10 +636,30 @@ def circuit_model_description(c, lay, u0, fmi: int, step: float, token: str) -> 
         vars_.append(dict(name=md, vr=VR_MODE0 + j, causality="output", variability="discrete", initial=None,
                           desc=f"the mode of {component}", unit="", start=None, lo=None, hi=None, kind="enum",
                           type=enum))
+    index = {v["name"]: i for i, v in enumerate(vars_)}
+    me = {"states": [], "derivatives": [], "indicators": []}
+    for i, (name, unit) in enumerate(zip(lay.states, lay.state_units)):   # (Model Exchange's states)
+        if name not in index:                          # (a state no output shows: a local of its own)
+            index[name] = len(vars_)
+            vars_.append(dict(name=name, vr=CIRCUIT_VR_LOCAL0 + i, causality="local", variability="continuous",
+                              initial=None, desc=f"state {name}", unit=unit, start=None, lo=None, hi=None,
+                              kind="real"))
+        vars_[index[name]]["nominal"] = _state_nominal(name, unit, 0.0 if y0 is None else y0[i])
+        me["states"].append(index[name])
+    for i, (name, unit) in enumerate(zip(lay.states, lay.state_units)):
+        me["derivatives"].append(len(vars_))
+        vars_.append(dict(name=f"der({name})", vr=CIRCUIT_VR_DER0 + i, causality="local", variability="continuous",
+                          initial=None, desc=f"d/dt of {name}", unit=_per_second(_real_unit(unit)), start=None,
+                          lo=None, hi=None, kind="real", derivative=index[name]))
+    for g, name in enumerate(lay.guards):
+        me["indicators"].append(len(vars_))
+        vars_.append(dict(name=f"guard.{name}", vr=CIRCUIT_VR_EVENT0 + g, causality="local", variability="continuous",
+                          initial=None, desc=f"the guard {name}: >= 0 while its mode holds (1 in the other modes); its "
+                          "zero crossing an event", unit="1", start=None, lo=None, hi=None, kind="real"))
     return _description_xml(vars_, outputs, [], fmi, step, token, enums,
                              f"hydrohil circuit {c.name!r} ({c.source}): generated from its description, RK3 at a "
                              f"fixed {step * 1e3:g} ms step, parameters as exported",
-                             fmu_sources(CIRCUIT_UNITS, fmi), feedthrough=True)
+                             fmu_sources(CIRCUIT_UNITS, fmi), feedthrough=True, me=me)
 
 
 def export_circuit_fmu(c, out: Path, *, fmi: int = 2, step: float = 5e-4, loop=None, rest=True,
@@ -563,6 +678,7 @@ def export_circuit_fmu(c, out: Path, *, fmi: int = 2, step: float = 5e-4, loop=N
                                             f"{u0.tobytes().hex()}|{fmi}|{step}".encode()).hexdigest())) + "}"
     model = HERE / "c" / "circuit_fmu"
     return package_fmu(out, fmi, {"plant_fmu.h": model / "plant_fmu.h", "plant_fmu.c": model / "plant_fmu.c",
-                                  "circuit.c": source, "config.h": circuit_config_h(c, lay, y0, m0, u0, step, token)},
-                       fmu_sources(CIRCUIT_UNITS, fmi), circuit_model_description(c, lay, u0, fmi, step, token),
+                                  "circuit.c": source,
+                                  "config.h": circuit_config_h(c, lay, y0, m0, u0, step, token, circuit_me_sizes(compiled))},
+                       fmu_sources(CIRCUIT_UNITS, fmi), circuit_model_description(c, lay, u0, fmi, step, token, y0),
                        fmu_compilers(cc, platforms))

@@ -6,7 +6,7 @@
 #include "plant_fmu.h"
 
 #define STATE_TAG "hydrohil circuit state"
-#define STATE_VERSION 1u
+#define STATE_VERSION 2u            /* 2: Model Exchange's mode, time and delayed inputs */
 #define REST_S 20.0                  /* simulated seconds of the rest march when inputs set change the rest */
 #define REST_TOL 1e-13
 
@@ -48,6 +48,12 @@ int plant_set_real(plant *pl, unsigned vr, double v)
         }
         pl->v.u[vr - VR_INPUT0] = v;
         pl->v.row_valid = 0;              /* (an output may depend on an input directly: an orifice's flow) */
+        if (pl->me && pl->mode == PLANT_STEPPING) {   /* (ME: a delayed input reaches its component later) */
+            int64_t d;
+            for (d = 0; d < pl->me_nd; d++)
+                if (pl->me_idx[d] == (int64_t)(vr - VR_INPUT0))
+                    return fmu_delay_set(pl, &pl->me_in[d], pl->t_me, v, pl->me_event);
+        }
         if (pl->mode == PLANT_INSTANTIATED || pl->mode == PLANT_INITIALIZING) {
             pl->v.inputs_set = 1;
             pl->prepared = 0;
@@ -83,6 +89,15 @@ int plant_prepare(plant *pl)
     return PLANT_OK;
 }
 
+/* the inputs as the components see them now (Model Exchange: each delayed one its delay ago) */
+static void me_inputs(const plant *pl, double *u)
+{
+    int64_t d;
+    memcpy(u, pl->v.u, sizeof pl->v.u);
+    for (d = 0; d < pl->me_nd; d++)
+        u[pl->me_idx[d]] = fmu_delay_value(&pl->me_in[d], pl->t_me);
+}
+
 static int outputs_ready(plant *pl, unsigned vr)
 {
     if (pl->mode == PLANT_INSTANTIATED) {
@@ -91,7 +106,12 @@ static int outputs_ready(plant *pl, unsigned vr)
     }
     if (pl->mode == PLANT_INITIALIZING && !pl->prepared && plant_prepare(pl) != PLANT_OK)
         return PLANT_ERROR;
-    if (!pl->v.row_valid) {
+    if (!pl->v.row_valid && pl->me && pl->mode == PLANT_STEPPING) {
+        double u[CIRCUIT_NU];
+        me_inputs(pl, u);
+        hc_row(pl->v.P, pl->v.y, pl->v.m, u, pl->t_me, pl->v.row);
+        pl->v.row_valid = 1;
+    } else if (!pl->v.row_valid) {
         hc_row(pl->v.P, pl->v.y, pl->v.m, pl->v.u, (double)pl->v.k * CIRCUIT_STEP, pl->v.row);
         pl->v.row_valid = 1;
     }
@@ -110,8 +130,131 @@ int plant_get_real(plant *pl, unsigned vr, double *v)
         *v = pl->v.row[CIRCUIT_OUTPUT_COLUMN[vr - VR_OUTPUT0]];
         return PLANT_OK;
     }
+    if (vr >= VR_LOCAL0 && vr < VR_LOCAL0 + CIRCUIT_NSTATES) {    /* a state that is no output (ME's) */
+        if (outputs_ready(pl, vr) != PLANT_OK)
+            return PLANT_ERROR;
+        *v = pl->v.y[vr - VR_LOCAL0];
+        return PLANT_OK;
+    }
+    if ((vr >= VR_DER0 && vr < VR_DER0 + CIRCUIT_NSTATES) || (vr >= VR_EVENT0 && vr < VR_EVENT0 + PLANT_NZ)) {
+        double u[CIRCUIT_NU], w[CIRCUIT_NSTATES + PLANT_NZ + 1];
+        if (outputs_ready(pl, vr) != PLANT_OK)
+            return PLANT_ERROR;
+        me_inputs(pl, u);
+        if (vr >= VR_DER0 && vr < VR_DER0 + CIRCUIT_NSTATES) {
+            hc_rhs(pl->v.P, pl->v.y, pl->v.m, u, w);
+            *v = w[vr - VR_DER0];
+        } else {
+            hc_me_indicators(pl->v.P, pl->v.y, pl->v.m, u, w);
+            *v = w[vr - VR_EVENT0];
+        }
+        return PLANT_OK;
+    }
     plant_logf(pl, PLANT_ERROR, "value reference %u is not a Real", vr);
     return PLANT_ERROR;
+}
+
+/* ---- Model Exchange: the importer's solver integrates the circuit's hybrid model (its generated hc_rhs, the
+ * guards as event indicators, hc_me_event's transitions), each delayed input its delay late (fmu_delay) ---- */
+int plant_me_start(plant *pl)
+{
+    double tau[CIRCUIT_NDELAY];
+    int64_t d;
+    pl->me_nd = hc_me_delays(pl->v.P, pl->me_idx, tau);
+    for (d = 0; d < pl->me_nd; d++)
+        fmu_delay_init(&pl->me_in[d], tau[d], pl->t0, pl->v.u[pl->me_idx[d]]);
+    return PLANT_OK;
+}
+
+static int me_size(plant *pl, size_t n, size_t want, const char *what)
+{
+    if (n == want)
+        return PLANT_OK;
+    plant_logf(pl, PLANT_ERROR, "%zu %s: this FMU has %zu", n, what, want);
+    return PLANT_ERROR;
+}
+
+int plant_me_states(plant *pl, double *x, size_t nx, int set)
+{
+    size_t i;
+    if (me_size(pl, nx, CIRCUIT_NSTATES, "continuous states") != PLANT_OK)
+        return PLANT_ERROR;
+    for (i = 0; i < nx; i++) {
+        if (set)
+            pl->v.y[i] = x[i];
+        else
+            x[i] = pl->v.y[i];
+    }
+    pl->v.row_valid &= !set;
+    return PLANT_OK;
+}
+
+int plant_me_nominals(plant *pl, double *x, size_t nx)
+{
+    if (me_size(pl, nx, CIRCUIT_NSTATES, "continuous states") != PLANT_OK)
+        return PLANT_ERROR;
+    memcpy(x, CIRCUIT_NOMINAL, sizeof(double) * nx);
+    return PLANT_OK;
+}
+
+int plant_me_derivatives(plant *pl, double *dx, size_t nx)
+{
+    double u[CIRCUIT_NU], dy[CIRCUIT_NSTATES + 1];
+    if (me_size(pl, nx, CIRCUIT_NSTATES, "derivatives") != PLANT_OK)
+        return PLANT_ERROR;
+    me_inputs(pl, u);
+    hc_rhs(pl->v.P, pl->v.y, pl->v.m, u, dy);
+    memcpy(dx, dy, sizeof(double) * nx);
+    return PLANT_OK;
+}
+
+int plant_me_indicators(plant *pl, double *z, size_t nz)
+{
+    double u[CIRCUIT_NU], g[PLANT_NZ + 1];
+    if (me_size(pl, nz, PLANT_NZ, "event indicators") != PLANT_OK)
+        return PLANT_ERROR;
+    me_inputs(pl, u);
+    hc_me_indicators(pl->v.P, pl->v.y, pl->v.m, u, g);
+    memcpy(z, g, sizeof(double) * nz);
+    return PLANT_OK;
+}
+
+int plant_me_update(plant *pl, int *changed, int *next_defined, double *next)
+{
+    double u[CIRCUIT_NU], t;
+    int64_t d;
+    for (d = 0; d < pl->me_nd; d++)
+        fmu_delay_event(&pl->me_in[d], pl->t_me);
+    me_inputs(pl, u);
+    *changed = hc_me_event(pl->v.P, pl->v.y, pl->v.m, u);
+    pl->v.row_valid = 0;
+    *next_defined = 0;
+    for (d = 0; d < pl->me_nd; d++)
+        if (fmu_delay_next(&pl->me_in[d], pl->t_me, &t) && (!*next_defined || t < *next)) {
+            *next = t;
+            *next_defined = 1;
+        }
+    return PLANT_OK;
+}
+
+int plant_me_step_done(plant *pl, int *enter_event, int *terminate)
+{
+    double u[CIRCUIT_NU], lo[CIRCUIT_NSTATES + 1], hi[CIRCUIT_NSTATES + 1];
+    int64_t bad = hc_unphysical(pl->v.P, pl->v.y), d;
+    *terminate = bad != 0;
+    if (bad) {
+        hc_state_bounds(pl->v.P, lo, hi);
+        plant_logf(pl, PLANT_ERROR, "the simulation diverged at t = %.6g s (%s = %.6g outside its physical range "
+                   "[%.6g, %.6g])", pl->t_me, CIRCUIT_STATE_NAMES[bad - 1], pl->v.y[bad - 1], lo[bad - 1], hi[bad - 1]);
+        pl->mode = PLANT_FAILED;
+        return PLANT_ERROR;
+    }
+    me_inputs(pl, u);
+    *enter_event = hc_me_step_event(pl->v.P, pl->v.y, pl->v.m, u);
+    for (d = 0; d < pl->me_nd; d++)
+        if (fmu_delay_accept(pl, &pl->me_in[d], pl->t_me) != PLANT_OK)
+            return PLANT_ERROR;
+    return PLANT_OK;
 }
 
 int plant_get_integer(plant *pl, unsigned vr, int *v)
@@ -187,6 +330,9 @@ typedef struct {
     circuit_values v;
     double t0, t_comm;
     int64_t mode, prepared;
+    int64_t me, me_event, me_nd, me_idx[CIRCUIT_NDELAY];     /* Model Exchange */
+    double t_me;
+    fmu_delay me_in[CIRCUIT_NDELAY];
 } state_values;
 
 static void state_header_of(plant_state_header *hd)
@@ -221,6 +367,12 @@ int plant_state_get(plant *pl, void **state)
     v.t_comm = pl->t_comm;
     v.mode = pl->mode;
     v.prepared = pl->prepared;
+    v.me = pl->me;
+    v.me_event = pl->me_event;
+    v.me_nd = pl->me_nd;
+    memcpy(v.me_idx, pl->me_idx, sizeof v.me_idx);
+    v.t_me = pl->t_me;
+    memcpy(v.me_in, pl->me_in, sizeof v.me_in);
     memcpy(bytes, &hd, sizeof hd);
     memcpy(bytes + sizeof hd, &v, sizeof v);
     *state = bytes;
@@ -230,6 +382,7 @@ int plant_state_get(plant *pl, void **state)
 int plant_state_set(plant *pl, const void *state)
 {
     state_values v;
+    int64_t i;
     if (!state) {
         plant_logf(pl, PLANT_ERROR, "no FMU state given");
         return PLANT_ERROR;
@@ -237,16 +390,31 @@ int plant_state_set(plant *pl, const void *state)
     if (plant_state_check(pl, state, plant_state_block_size(state)) != PLANT_OK)
         return PLANT_ERROR;
     memcpy(&v, (const char *)state + sizeof(plant_state_header), sizeof v);
-    if (v.mode < PLANT_INSTANTIATED || v.mode > PLANT_FAILED || v.v.k < 0) {
+    if (v.me != pl->me) {
+        plant_logf(pl, PLANT_ERROR, "FMU state of a %s instance: this one is %s's", v.me ? "Model Exchange" :
+                   "Co-Simulation", pl->me ? "Model Exchange" : "Co-Simulation");
+        return PLANT_ERROR;
+    }
+    if (v.mode < PLANT_INSTANTIATED || v.mode > PLANT_FAILED || v.v.k < 0 || v.me_nd < 0 || v.me_nd > CIRCUIT_NDELAY) {
         plant_logf(pl, PLANT_ERROR, "FMU state with inconsistent values (mode %lld, k %lld)", (long long)v.mode,
                    (long long)v.v.k);
         return PLANT_ERROR;
     }
+    for (i = 0; i < v.me_nd; i++)
+        if (v.me_in[i].n < 1 || v.me_in[i].n > FMU_DELAY_CAP || v.me_idx[i] < 0 || v.me_idx[i] >= CIRCUIT_NU) {
+            plant_logf(pl, PLANT_ERROR, "FMU state with an inconsistent delayed input (%lld)", (long long)i);
+            return PLANT_ERROR;
+        }
     pl->v = v.v;
     pl->v.row_valid = 0;
     pl->t0 = v.t0;
     pl->t_comm = v.t_comm;
     pl->mode = (int)v.mode;
     pl->prepared = (int)v.prepared;
+    pl->me_event = (int)v.me_event;
+    pl->me_nd = v.me_nd;
+    memcpy(pl->me_idx, v.me_idx, sizeof v.me_idx);
+    pl->t_me = v.t_me;
+    memcpy(pl->me_in, v.me_in, sizeof v.me_in);
     return PLANT_OK;
 }

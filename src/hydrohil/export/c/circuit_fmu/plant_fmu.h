@@ -27,6 +27,11 @@ struct plant {
     double t0, t_comm;
     int mode;
     int prepared;
+    int me, me_event;               /* Model Exchange: this instance's interface; in event mode (fmu_instance.h) */
+    double t_me;                    /* Model Exchange: the time the importer set */
+    fmu_delay me_in[CIRCUIT_NDELAY];    /* Model Exchange: each delayed input as its component sees it */
+    int64_t me_idx[CIRCUIT_NDELAY];     /* ... the input it delays */
+    int64_t me_nd;
     char name[80];
     plant_log_fn log;
     void *env;
@@ -40,5 +45,11 @@ int64_t hc_unphysical(const double *P, const double *y);
 void hc_state_bounds(const double *P, double *lo, double *hi);
 int64_t hc_rest(const double *P, const double *u, double *y, int64_t *m, const int64_t *held, int method, double h,
                 int64_t max_steps, double rel_tol);
+/* its Model Exchange (circuits/generate.py; hc_core.h declares them for every unit that includes it) */
+void hc_rhs(const double *P, const double *y, const int64_t *m, const double *u, double *dy);
+void hc_me_indicators(const double *P, const double *y, const int64_t *m, const double *u, double *z);
+int hc_me_event(const double *P, double *y, int64_t *m, const double *u);
+int hc_me_step_event(const double *P, const double *y, const int64_t *m, const double *u);
+int64_t hc_me_delays(const double *P, int64_t *idx, double *tau);
 
 #endif

@@ -1,5 +1,5 @@
-/* fmi2Functions.c: FMI 2.0 Co-Simulation interface of the exported plant (plant_fmu.h). Every function of
- * the standard's header is defined; Model Exchange ones and input/output derivatives answer fmi2Error. */
+/* fmi2Functions.c: FMI 2.0 Co-Simulation and Model Exchange interfaces of the exported plant (plant_fmu.h).
+ * Every function of the standard's header is defined; input/output derivatives answer fmi2Error. */
 #include <stdlib.h>
 #include <string.h>
 #include "fmi2Functions.h"
@@ -50,11 +50,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     fmu2 *f;
     (void)fmuResourceLocation;
     (void)visible;
-    if (!functions || fmuType != fmi2CoSimulation || !fmuGUID || strcmp(fmuGUID, PLANT_TOKEN) != 0) {
+    if (!functions || (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) || !fmuGUID ||
+        strcmp(fmuGUID, PLANT_TOKEN) != 0) {
         if (functions && functions->logger)
             functions->logger(functions->componentEnvironment, instanceName, fmi2Error, "logStatusError",
-                              "hydrohil_plant: a Co-Simulation FMU of token %s (got type %d, token %s)", PLANT_TOKEN,
-                              (int)fmuType, fmuGUID ? fmuGUID : "none");
+                              "hydrohil_plant: a Model Exchange and Co-Simulation FMU of token %s (got type %d, token "
+                              "%s)", PLANT_TOKEN, (int)fmuType, fmuGUID ? fmuGUID : "none");
         return NULL;
     }
     f = calloc(1, sizeof *f);
@@ -67,6 +68,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         free(f);
         return NULL;
     }
+    f->pl->me = fmuType == fmi2ModelExchange;
     return f;
 }
 
@@ -332,4 +334,106 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
     (void)s; (void)value;
     CHECK(c);
     return UNSUPPORTED(c, "fmi2GetStringStatus");
+}
+
+/* ---- Model Exchange (fmu_instance.h: plant_me_*) ------------------------------------------------------------ */
+fmi2Status fmi2EnterEventMode(fmi2Component c)
+{
+    CHECK(c);
+    if (plant_me_check(PL(c), "fmi2EnterEventMode", -1) != PLANT_OK)
+        return fmi2Error;
+    PL(c)->me_event = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info)
+{
+    int changed = 0, next_defined = 0;
+    double next = 0.0;
+    CHECK(c);
+    if (!info || plant_me_check(PL(c), "fmi2NewDiscreteStates", 1) != PLANT_OK)
+        return fmi2Error;
+    if (plant_me_update(PL(c), &changed, &next_defined, &next) != PLANT_OK)
+        return fmi2Error;
+    info->newDiscreteStatesNeeded = fmi2False;
+    info->terminateSimulation = fmi2False;
+    info->nominalsOfContinuousStatesChanged = fmi2False;
+    info->valuesOfContinuousStatesChanged = changed ? fmi2True : fmi2False;
+    info->nextEventTimeDefined = next_defined ? fmi2True : fmi2False;
+    info->nextEventTime = next;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c)
+{
+    CHECK(c);
+    if (plant_me_check(PL(c), "fmi2EnterContinuousTimeMode", 1) != PLANT_OK)
+        return fmi2Error;
+    PL(c)->me_event = 0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation)
+{
+    int event = 0, stop = 0;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    CHECK(c);
+    if (!enterEventMode || !terminateSimulation || plant_me_check(PL(c), "fmi2CompletedIntegratorStep", 0) != PLANT_OK)
+        return fmi2Error;
+    if (plant_me_step_done(PL(c), &event, &stop) != PLANT_OK) {
+        *terminateSimulation = fmi2True;
+        return fmi2Error;
+    }
+    *enterEventMode = event ? fmi2True : fmi2False;
+    *terminateSimulation = stop ? fmi2True : fmi2False;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
+{
+    CHECK(c);
+    return st(plant_me_set_time(PL(c), time));
+}
+
+fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx)
+{
+    CHECK(c);
+    if ((nx > 0 && !x) || plant_me_check(PL(c), "fmi2SetContinuousStates", -1) != PLANT_OK)
+        return fmi2Error;
+    return st(plant_me_states(PL(c), (double *)x, nx, 1));
+}
+
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx)
+{
+    CHECK(c);
+    if ((nx > 0 && !derivatives) || plant_me_check(PL(c), "fmi2GetDerivatives", -1) != PLANT_OK)
+        return fmi2Error;
+    return st(plant_me_derivatives(PL(c), derivatives, nx));
+}
+
+fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni)
+{
+    CHECK(c);
+    if ((ni > 0 && !eventIndicators) || plant_me_check(PL(c), "fmi2GetEventIndicators", -1) != PLANT_OK)
+        return fmi2Error;
+    return st(plant_me_indicators(PL(c), eventIndicators, ni));
+}
+
+fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx)
+{
+    CHECK(c);
+    if ((nx > 0 && !x) || plant_me_check(PL(c), "fmi2GetContinuousStates", -1) != PLANT_OK)
+        return fmi2Error;
+    return st(plant_me_states(PL(c), x, nx, 0));
+}
+
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx)
+{
+    CHECK(c);
+    if ((nx > 0 && !x_nominal) || !PL(c)->me) {
+        plant_logf(PL(c), PLANT_ERROR, "fmi2GetNominalsOfContinuousStates: a Model Exchange call");
+        return fmi2Error;
+    }
+    return st(plant_me_nominals(PL(c), x_nominal, nx));
 }

@@ -59,33 +59,15 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean loggingOn, size_t nCa
     return fmi3OK;
 }
 
-fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
-                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
-                                          fmi3InstanceEnvironment instanceEnvironment, fmi3LogMessageCallback logMessage)
-{
-    (void)instanceName; (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
-    if (logMessage)
-        logMessage(instanceEnvironment, fmi3Error, "logStatusError", "hydrohil_plant is a Co-Simulation FMU only");
-    return NULL;
-}
-
-fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
-                                         fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
-                                         fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
-                                         const fmi3ValueReference requiredIntermediateVariables[],
-                                         size_t nRequiredIntermediateVariables,
-                                         fmi3InstanceEnvironment instanceEnvironment,
-                                         fmi3LogMessageCallback logMessage,
-                                         fmi3IntermediateUpdateCallback intermediateUpdate)
+/* an instance of the plant (Model Exchange: me), or NULL with the reason given to logMessage */
+static fmi3Instance instantiate(fmi3String instanceName, fmi3String instantiationToken, fmi3Boolean loggingOn,
+                                fmi3InstanceEnvironment instanceEnvironment, fmi3LogMessageCallback logMessage, int me)
 {
     fmu3 *f;
-    (void)resourcePath; (void)visible; (void)earlyReturnAllowed; (void)requiredIntermediateVariables;
-    (void)nRequiredIntermediateVariables; (void)intermediateUpdate;
-    if (!instantiationToken || strcmp(instantiationToken, PLANT_TOKEN) != 0 || eventModeUsed) {
+    if (!instantiationToken || strcmp(instantiationToken, PLANT_TOKEN) != 0) {
         if (logMessage)
             logMessage(instanceEnvironment, fmi3Error, "logStatusError",
-                       eventModeUsed ? "hydrohil_plant: event mode is not supported"
-                                     : "hydrohil_plant: instantiation token of another export");
+                       "hydrohil_plant: instantiation token of another export");
         return NULL;
     }
     f = calloc(1, sizeof *f);
@@ -99,7 +81,36 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
         free(f);
         return NULL;
     }
+    f->pl->me = me;
     return f;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
+                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment, fmi3LogMessageCallback logMessage)
+{
+    (void)resourcePath; (void)visible;
+    return instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 1);
+}
+
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
+                                         fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                         fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
+                                         const fmi3ValueReference requiredIntermediateVariables[],
+                                         size_t nRequiredIntermediateVariables,
+                                         fmi3InstanceEnvironment instanceEnvironment,
+                                         fmi3LogMessageCallback logMessage,
+                                         fmi3IntermediateUpdateCallback intermediateUpdate)
+{
+    (void)resourcePath; (void)visible; (void)earlyReturnAllowed; (void)requiredIntermediateVariables;
+    (void)nRequiredIntermediateVariables; (void)intermediateUpdate;
+    if (eventModeUsed) {
+        if (logMessage)
+            logMessage(instanceEnvironment, fmi3Error, "logStatusError",
+                       "hydrohil_plant: Co-Simulation's event mode is not supported");
+        return NULL;
+    }
+    return instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 0);
 }
 
 fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
@@ -112,7 +123,8 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
     (void)instanceName; (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
     (void)clockUpdate; (void)lockPreemption; (void)unlockPreemption;
     if (logMessage)
-        logMessage(instanceEnvironment, fmi3Error, "logStatusError", "hydrohil_plant is a Co-Simulation FMU only");
+        logMessage(instanceEnvironment, fmi3Error, "logStatusError",
+                   "hydrohil_plant: a Model Exchange and Co-Simulation FMU (no scheduled execution)");
     return NULL;
 }
 
@@ -137,7 +149,14 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance c)
     CHECK(c);
     return st(plant_exit_init(PL(c)));
 }
-fmi3Status fmi3EnterEventMode(fmi3Instance c) { return unsupported(c, "fmi3EnterEventMode"); }
+fmi3Status fmi3EnterEventMode(fmi3Instance c)
+{
+    CHECK(c);
+    if (plant_me_check(PL(c), "fmi3EnterEventMode", -1) != PLANT_OK)
+        return fmi3Error;
+    PL(c)->me_event = 1;
+    return fmi3OK;
+}
 
 fmi3Status fmi3Terminate(fmi3Instance c)
 {
@@ -462,54 +481,100 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *discreteStatesN
                                     fmi3Boolean *valuesOfContinuousStatesChanged, fmi3Boolean *nextEventTimeDefined,
                                     fmi3Float64 *nextEventTime)
 {
-    (void)discreteStatesNeedUpdate; (void)terminateSimulation; (void)nominalsOfContinuousStatesChanged;
-    (void)valuesOfContinuousStatesChanged; (void)nextEventTimeDefined; (void)nextEventTime;
-    return unsupported(c, "fmi3UpdateDiscreteStates");
+    int changed = 0, next_defined = 0;
+    double next = 0.0;
+    CHECK(c);
+    if (!discreteStatesNeedUpdate || !terminateSimulation || !nominalsOfContinuousStatesChanged ||
+        !valuesOfContinuousStatesChanged || !nextEventTimeDefined || !nextEventTime ||
+        plant_me_check(PL(c), "fmi3UpdateDiscreteStates", 1) != PLANT_OK)
+        return fmi3Error;
+    if (plant_me_update(PL(c), &changed, &next_defined, &next) != PLANT_OK)
+        return fmi3Error;
+    *discreteStatesNeedUpdate = fmi3False;
+    *terminateSimulation = fmi3False;
+    *nominalsOfContinuousStatesChanged = fmi3False;
+    *valuesOfContinuousStatesChanged = changed ? fmi3True : fmi3False;
+    *nextEventTimeDefined = next_defined ? fmi3True : fmi3False;
+    *nextEventTime = next;
+    return fmi3OK;
 }
 
-fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) { return unsupported(c, "Model Exchange"); }
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c)
+{
+    CHECK(c);
+    if (plant_me_check(PL(c), "fmi3EnterContinuousTimeMode", 1) != PLANT_OK)
+        return fmi3Error;
+    PL(c)->me_event = 0;
+    return fmi3OK;
+}
 
 fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation)
 {
-    (void)noSetFMUStatePriorToCurrentPoint; (void)enterEventMode; (void)terminateSimulation;
-    return unsupported(c, "Model Exchange");
+    int event = 0, stop = 0;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    CHECK(c);
+    if (!enterEventMode || !terminateSimulation || plant_me_check(PL(c), "fmi3CompletedIntegratorStep", 0) != PLANT_OK)
+        return fmi3Error;
+    if (plant_me_step_done(PL(c), &event, &stop) != PLANT_OK) {
+        *terminateSimulation = fmi3True;
+        return fmi3Error;
+    }
+    *enterEventMode = event ? fmi3True : fmi3False;
+    *terminateSimulation = stop ? fmi3True : fmi3False;
+    return fmi3OK;
 }
 
 fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 time)
 {
-    (void)time;
-    return unsupported(c, "Model Exchange");
+    CHECK(c);
+    return plant_me_set_time(PL(c), time) == PLANT_OK ? fmi3OK : fmi3Error;
+}
+
+/* a call of Model Exchange's on n values (x: its array), in either mode */
+static int me_call(fmi3Instance c, const char *call, const void *x, size_t n)
+{
+    return (n == 0 || x) && plant_me_check(PL(c), call, -1) == PLANT_OK;
 }
 
 fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 x[], size_t n)
 {
-    (void)x; (void)n;
-    return unsupported(c, "Model Exchange");
+    CHECK(c);
+    if (!me_call(c, "fmi3SetContinuousStates", x, n))
+        return fmi3Error;
+    return plant_me_states(PL(c), (double *)x, n, 1) == PLANT_OK ? fmi3OK : fmi3Error;
 }
 
 fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 d[], size_t n)
 {
-    (void)d; (void)n;
-    return unsupported(c, "Model Exchange");
+    CHECK(c);
+    if (!me_call(c, "fmi3GetContinuousStateDerivatives", d, n))
+        return fmi3Error;
+    return plant_me_derivatives(PL(c), d, n) == PLANT_OK ? fmi3OK : fmi3Error;
 }
 
 fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 e[], size_t n)
 {
-    (void)e; (void)n;
-    return unsupported(c, "Model Exchange");
+    CHECK(c);
+    if (!me_call(c, "fmi3GetEventIndicators", e, n))
+        return fmi3Error;
+    return plant_me_indicators(PL(c), e, n) == PLANT_OK ? fmi3OK : fmi3Error;
 }
 
 fmi3Status fmi3GetContinuousStates(fmi3Instance c, fmi3Float64 x[], size_t n)
 {
-    (void)x; (void)n;
-    return unsupported(c, "Model Exchange");
+    CHECK(c);
+    if (!me_call(c, "fmi3GetContinuousStates", x, n))
+        return fmi3Error;
+    return plant_me_states(PL(c), x, n, 0) == PLANT_OK ? fmi3OK : fmi3Error;
 }
 
 fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Float64 x[], size_t n)
 {
-    (void)x; (void)n;
-    return unsupported(c, "Model Exchange");
+    CHECK(c);
+    if ((n > 0 && !x) || !PL(c)->me)
+        return unsupported(c, "fmi3GetNominalsOfContinuousStates of a Co-Simulation instance");
+    return plant_me_nominals(PL(c), x, n) == PLANT_OK ? fmi3OK : fmi3Error;
 }
 
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n)
@@ -517,7 +582,7 @@ fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n)
     CHECK(c);
     if (!n)
         return fmi3Error;
-    *n = 0;
+    *n = PLANT_NZ;
     return fmi3OK;
 }
 
@@ -526,7 +591,7 @@ fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *n)
     CHECK(c);
     if (!n)
         return fmi3Error;
-    *n = 0;
+    *n = PLANT_NX;
     return fmi3OK;
 }
 

@@ -50,18 +50,158 @@ int plant_exit_init(plant *pl)
 {
     if (pl->mode != PLANT_INITIALIZING)
         return plant_wrong_mode(pl, "exiting initialisation mode", "initialisation");
-    if (!pl->prepared && plant_prepare(pl) != PLANT_OK) {
+    if ((!pl->prepared && plant_prepare(pl) != PLANT_OK) || (pl->me && plant_me_start(pl) != PLANT_OK)) {
         pl->mode = PLANT_FAILED;
         return PLANT_ERROR;
     }
     pl->mode = PLANT_STEPPING;
+    pl->me_event = pl->me;            /* (an ME instance: in event mode now, FMI's rule) */
+    pl->t_me = pl->t0;
     return PLANT_OK;
+}
+
+int plant_me_check(plant *pl, const char *call, int event)
+{
+    if (!pl->me) {
+        plant_logf(pl, PLANT_ERROR, "%s: a Model Exchange call, and this instance is Co-Simulation's", call);
+        return PLANT_ERROR;
+    }
+    if (pl->mode != PLANT_STEPPING)
+        return plant_wrong_mode(pl, call, "event or continuous-time (initialise first; a failed instance must be "
+                                "reset)");
+    if (event >= 0 && pl->me_event != event) {
+        plant_logf(pl, PLANT_ERROR, "%s: only in %s mode (the instance is in %s mode)", call,
+                   event ? "event" : "continuous-time", pl->me_event ? "event" : "continuous-time");
+        return PLANT_ERROR;
+    }
+    return PLANT_OK;
+}
+
+int plant_me_set_time(plant *pl, double t)
+{
+    if (pl->me && (pl->mode == PLANT_INSTANTIATED || pl->mode == PLANT_INITIALIZING)) {
+        pl->t_me = t;
+        return PLANT_OK;
+    }
+    if (plant_me_check(pl, "setTime", -1) != PLANT_OK)
+        return PLANT_ERROR;
+    if (!isfinite(t)) {          /* (a solver's trial points may go back within its step: any finite time) */
+        plant_logf(pl, PLANT_ERROR, "setTime(%g s): not a finite time", t);
+        return PLANT_ERROR;
+    }
+    pl->t_me = t;
+    return PLANT_OK;
+}
+
+void fmu_delay_init(fmu_delay *d, double tau, double t0, double value)
+{
+    d->tau = tau;
+    d->now = value;
+    d->t_now = t0;
+    d->n = 1;
+    d->t[0] = t0;
+    d->v[0] = value;
+    d->t_done = t0;
+}
+
+/* (t, v) appended to the history, its samples older than what the model still needs (t - tau) dropped */
+static int delay_keep(plant *pl, fmu_delay *d, double t, double v)
+{
+    int drop = 0, i;
+    while (drop + 1 < d->n && d->t[drop + 1] <= t - d->tau && d->t[drop + 1] <= d->t_done - d->tau)
+        drop++;
+    if (drop > 0) {
+        for (i = drop; i < d->n; i++) {
+            d->t[i - drop] = d->t[i];
+            d->v[i - drop] = d->v[i];
+        }
+        d->n -= drop;
+    }
+    if (d->n == FMU_DELAY_CAP) {
+        plant_logf(pl, PLANT_ERROR, "an input's history within its delay of %g s: more than %d values (steps of the "
+                   "solver shorter than %g s)", d->tau, FMU_DELAY_CAP, d->tau / FMU_DELAY_CAP);
+        return PLANT_ERROR;
+    }
+    d->t[d->n] = t;
+    d->v[d->n++] = v;
+    return PLANT_OK;
+}
+
+int fmu_delay_set(plant *pl, fmu_delay *d, double t, double value, int event)
+{
+    double before = d->now;
+    d->now = value;
+    d->t_now = t;
+    if (d->tau <= 0.0 || !event || value == before)
+        return PLANT_OK;
+    if (d->t[d->n - 1] < t && delay_keep(pl, d, t, before) != PLANT_OK)   /* (the value up to the step) */
+        return PLANT_ERROR;
+    if (d->t[d->n - 1] == t && d->n >= 2 && d->t[d->n - 2] == t) {    /* (set again at the same event) */
+        d->v[d->n - 1] = value;
+        return PLANT_OK;
+    }
+    return delay_keep(pl, d, t, value);
+}
+
+int fmu_delay_accept(plant *pl, fmu_delay *d, double t)
+{
+    if (d->tau <= 0.0 || !(t > d->t[d->n - 1]))
+        return PLANT_OK;
+    return delay_keep(pl, d, t, d->now);
+}
+
+void fmu_delay_event(fmu_delay *d, double t)
+{
+    if (t > d->t_done)
+        d->t_done = t;
+}
+
+double fmu_delay_value(const fmu_delay *d, double t)
+{
+    double s = t - d->tau, ta, tb;
+    int i;
+    if (d->tau <= 0.0)
+        return d->now;
+    if (s <= d->t[0])
+        return d->v[0];
+    for (i = 1; i < d->n; i++) {
+        if (d->t[i] == d->t[i - 1]) {        /* a step at t[i]: its new value once its time event was handled */
+            if (s >= d->t[i] && d->t[i] + d->tau <= d->t_done + 1e-12 * (1.0 + fabs(d->t_done)))
+                continue;
+            if (s >= d->t[i])
+                return d->v[i - 1];
+            continue;
+        }
+        if (s < d->t[i]) {                   /* between two samples: linear (a continuous input) */
+            ta = d->t[i - 1];
+            tb = d->t[i];
+            return d->v[i - 1] + (d->v[i] - d->v[i - 1]) * (s - ta) / (tb - ta);
+        }
+    }
+    ta = d->t[d->n - 1];                      /* beyond the history: towards the value set last */
+    tb = d->t_now;
+    if (tb > ta && s < tb)
+        return d->v[d->n - 1] + (d->now - d->v[d->n - 1]) * (s - ta) / (tb - ta);
+    return s >= tb ? d->now : d->v[d->n - 1];
+}
+
+int fmu_delay_next(const fmu_delay *d, double t, double *next)
+{
+    int i;
+    if (d->tau <= 0.0)
+        return 0;
+    for (i = 1; i < d->n; i++)
+        if (d->t[i] == d->t[i - 1] && d->t[i] + d->tau > t + 1e-12 * (1.0 + fabs(t))) {
+            *next = d->t[i] + d->tau;
+            return 1;
+        }
+    return 0;
 }
 
 int plant_terminate(plant *pl)
 {
     if (pl->mode != PLANT_STEPPING)
-        return plant_wrong_mode(pl, "terminating", "step");
+        return plant_wrong_mode(pl, "terminating", pl->me ? "event or continuous-time" : "step");
     pl->mode = PLANT_TERMINATED;
     return PLANT_OK;
 }
@@ -70,6 +210,10 @@ int plant_terminate(plant *pl)
  * before the last communication point (a warning when after it: the plant steps through the gap). */
 int plant_step_check(plant *pl, double t, double dt, double h)
 {
+    if (pl->me) {
+        plant_logf(pl, PLANT_ERROR, "doStep: a Co-Simulation call, and this instance is Model Exchange's");
+        return PLANT_ERROR;
+    }
     if (pl->mode != PLANT_STEPPING)
         return plant_wrong_mode(pl, "doStep", "step (initialise first; a failed instance must be reset)");
     if (!(dt > 0.0 && isfinite(dt) && isfinite(t))) {

@@ -6,8 +6,12 @@
 #include "plant_fmu.h"
 
 #define STATE_TAG "hydrohil FMU state"
-#define STATE_VERSION 3u        /* 2: the rig's command path (hh_watchdog) saved too; 3: the shared header */
+#define STATE_VERSION 4u        /* 2: the rig's command path (hh_watchdog) saved too; 3: the shared header;
+                                 * 4: Model Exchange's mode, time and delayed input */
 #define DELAY_MAX 100000000       /* a saved delay line longer than this is not one of this plant's */
+
+/* the spool's input in Model Exchange: u saturated, delayed by spool.delay (fmu_instance.h: fmu_delay) */
+static double me_ud(const plant *pl) { return fmu_delay_value(&pl->me_u, pl->t_me); }
 
 void plant_defaults(plant *pl)
 {
@@ -110,6 +114,8 @@ int plant_set_real(plant *pl, unsigned vr, double v)
             return PLANT_ERROR;
         }
         pl->u = v;
+        if (pl->me && pl->mode == PLANT_STEPPING)    /* (ME: it reaches the spool spool.delay later) */
+            return fmu_delay_set(pl, &pl->me_u, pl->t_me, hh_command_clamp(v), pl->me_event);
         return PLANT_OK;
     case VR_F_LOAD:
         if (!isfinite(v)) {
@@ -119,6 +125,8 @@ int plant_set_real(plant *pl, unsigned vr, double v)
         pl->f_load = v;
         pl->f_load_set = 1;
         pl->prepared = 0;
+        if (pl->me && pl->mode == PLANT_STEPPING)    /* (ME: at once; Co-Simulation: from the next doStep) */
+            pl->sim.p[HH_LOAD_FORCE] = v;
         return PLANT_OK;
     case VR_PS:
         if (!(isfinite(v) && v > pl->par[HH_SUPPLY_PT] && v <= 1e8)) {
@@ -129,6 +137,8 @@ int plant_set_real(plant *pl, unsigned vr, double v)
         pl->ps = v;
         pl->ps_set = 1;
         pl->prepared = 0;
+        if (pl->me && pl->mode == PLANT_STEPPING)
+            pl->sim.p[HH_SUPPLY_PS] = v;
         return PLANT_OK;
     default:
         plant_logf(pl, PLANT_ERROR, "value reference %u is not a settable Real", vr);
@@ -253,11 +263,109 @@ int plant_get_real(plant *pl, unsigned vr, double *v)
     case VR_P1: *v = y[HH_P1]; return PLANT_OK;
     case VR_P2: *v = y[HH_P2]; return PLANT_OK;
     case VR_XS: *v = y[HH_XS]; return PLANT_OK;
+    case VR_VS: *v = y[HH_VS]; return PLANT_OK;
+    case VR_Z: *v = y[HH_Z]; return PLANT_OK;
     case VR_FF: *v = hh_sim_friction(&pl->sim); return PLANT_OK;
     default:
-        plant_logf(pl, PLANT_ERROR, "value reference %u is not a Real", vr);
+        break;
+    }
+    if (vr >= VR_DER0 && vr < VR_DER0 + HH_NY) {            /* a state's derivative (Model Exchange's) */
+        double dx[HH_NY];
+        hc_core_me_derivatives(&pl->model.ctx, y, pl->sim.m, pl->sim.p, me_ud(pl), dx);
+        *v = dx[vr - VR_DER0];
+        return PLANT_OK;
+    }
+    if (vr >= VR_EVENT0 && vr < VR_EVENT0 + PLANT_NZ) {     /* an event indicator (a guard of the statechart) */
+        double z[PLANT_NZ];
+        hc_core_me_indicators(&pl->model.ctx, y, pl->sim.m, pl->sim.p, me_ud(pl), z);
+        *v = z[vr - VR_EVENT0];
+        return PLANT_OK;
+    }
+    plant_logf(pl, PLANT_ERROR, "value reference %u is not a Real", vr);
+    return PLANT_ERROR;
+}
+
+/* ---- Model Exchange: the importer's solver integrates the hybrid model (its circuit's generated model behind
+ * the core's layout: hc_core_me_*), the states the core's (HH_NY, in its order), the spool's input u saturated
+ * and delayed by spool.delay (me_u: a time event at each change), the rig's command path without its watchdog */
+int plant_me_start(plant *pl)
+{
+    fmu_delay_init(&pl->me_u, pl->sim.p[HH_SPOOL_DELAY], pl->t0, hh_command_clamp(pl->u));
+    pl->sim.p[HH_LOAD_FORCE] = pl->f_load;
+    pl->sim.p[HH_SUPPLY_PS] = pl->ps;
+    return PLANT_OK;
+}
+
+int plant_me_states(plant *pl, double *x, size_t nx, int set)
+{
+    size_t i;
+    if (nx != HH_NY) {
+        plant_logf(pl, PLANT_ERROR, "%zu continuous states: this FMU has %d", nx, HH_NY);
         return PLANT_ERROR;
     }
+    for (i = 0; i < nx; i++) {
+        if (set)
+            pl->sim.y[i] = x[i];
+        else
+            x[i] = pl->sim.y[i];
+    }
+    return PLANT_OK;
+}
+
+int plant_me_nominals(plant *pl, double *x, size_t nx)
+{
+    size_t i;
+    if (nx != HH_NY) {
+        plant_logf(pl, PLANT_ERROR, "%zu continuous states: this FMU has %d", nx, HH_NY);
+        return PLANT_ERROR;
+    }
+    for (i = 0; i < nx; i++)
+        x[i] = PLANT_NOMINAL[i];
+    return PLANT_OK;
+}
+
+int plant_me_derivatives(plant *pl, double *dx, size_t nx)
+{
+    if (nx != HH_NY) {
+        plant_logf(pl, PLANT_ERROR, "%zu derivatives: this FMU has %d continuous states", nx, HH_NY);
+        return PLANT_ERROR;
+    }
+    hc_core_me_derivatives(&pl->model.ctx, pl->sim.y, pl->sim.m, pl->sim.p, me_ud(pl), dx);
+    return PLANT_OK;
+}
+
+int plant_me_indicators(plant *pl, double *z, size_t nz)
+{
+    if (nz != PLANT_NZ) {
+        plant_logf(pl, PLANT_ERROR, "%zu event indicators: this FMU has %d", nz, PLANT_NZ);
+        return PLANT_ERROR;
+    }
+    hc_core_me_indicators(&pl->model.ctx, pl->sim.y, pl->sim.m, pl->sim.p, me_ud(pl), z);
+    return PLANT_OK;
+}
+
+int plant_me_update(plant *pl, int *changed, int *next_defined, double *next)
+{
+    fmu_delay_event(&pl->me_u, pl->t_me);
+    *changed = hc_core_me_event(&pl->model.ctx, pl->sim.y, pl->sim.m, pl->sim.p, me_ud(pl));
+    *next_defined = fmu_delay_next(&pl->me_u, pl->t_me, next);
+    return PLANT_OK;
+}
+
+int plant_me_step_done(plant *pl, int *enter_event, int *terminate)
+{
+    const double *y = pl->sim.y;
+    *terminate = hh_diverged(y, pl->sim.p);
+    if (*terminate) {
+        plant_logf(pl, PLANT_ERROR, "the simulation diverged at t = %.6g s (travel %d, friction %d, spool %d): xs %g, "
+                   "vs %g, p1 %g Pa, p2 %g Pa, xp %g m, vp %g m/s, z %g m", pl->t_me, (int)pl->sim.m[HH_M_TRAVEL],
+                   (int)pl->sim.m[HH_M_FRICTION], (int)pl->sim.m[HH_M_SPOOL], y[HH_XS], y[HH_VS], y[HH_P1], y[HH_P2],
+                   y[HH_XP], y[HH_VP], y[HH_Z]);
+        pl->mode = PLANT_FAILED;
+        return PLANT_ERROR;
+    }
+    *enter_event = hc_core_me_step_event(&pl->model.ctx, y, pl->sim.m, pl->sim.p, me_ud(pl));
+    return fmu_delay_accept(pl, &pl->me_u, pl->t_me);
 }
 
 int plant_get_integer(plant *pl, unsigned vr, int *v)
@@ -327,6 +435,9 @@ typedef struct {
     int64_t m[HH_NM], k, model, method, bounded, delay_pos, delay_n;
     double link_u_held, link_hold_x;          /* the rig's command path (hh_watchdog) */
     int64_t link_k_delivered, link_k_interfered, link_delivered, link_active, link_trips, link_trips_unexplained;
+    int64_t me, me_event;                     /* Model Exchange */
+    double t_me;
+    fmu_delay me_u;
 } state_values;
 
 static void state_header_of(plant_state_header *hd, uint64_t dbuf_size)
@@ -395,6 +506,10 @@ int plant_state_get(plant *pl, void **state)
     v.link_active = pl->rig.link.active;
     v.link_trips = pl->rig.link.trips;
     v.link_trips_unexplained = pl->rig.link.trips_unexplained;
+    v.me = pl->me;
+    v.me_event = pl->me_event;
+    v.t_me = pl->t_me;
+    v.me_u = pl->me_u;
     memcpy(bytes, &hd, sizeof hd);
     memcpy(bytes + sizeof hd, &v, sizeof v);
     if (pl->dbuf_size > 0)
@@ -407,7 +522,7 @@ int plant_state_get(plant *pl, void **state)
  * and no model yet; one taken after has the hybrid model, the FMU's method and step, modes in their ranges. */
 static int state_values_valid(const state_values *v, uint64_t dbuf_size)
 {
-    if (v->mode < PLANT_INSTANTIATED || v->mode > PLANT_FAILED)
+    if (v->mode < PLANT_INSTANTIATED || v->mode > PLANT_FAILED || v->me_u.n < 0 || v->me_u.n > FMU_DELAY_CAP)
         return 0;
     if (dbuf_size == 0)
         return v->mode <= PLANT_INITIALIZING && v->delay_n == 0;
@@ -435,6 +550,11 @@ int plant_state_set(plant *pl, const void *state)
         return PLANT_ERROR;
     memcpy(&hd, bytes, sizeof hd);
     memcpy(&v, bytes + sizeof hd, sizeof v);
+    if (v.me != pl->me) {
+        plant_logf(pl, PLANT_ERROR, "FMU state of a %s instance: this one is %s's", v.me ? "Model Exchange" :
+                   "Co-Simulation", pl->me ? "Model Exchange" : "Co-Simulation");
+        return PLANT_ERROR;
+    }
     if (hd.extra > 0 && paper_model_structure_check(v.p, why, sizeof why) != 0) {   /* (its generated model's) */
         plant_logf(pl, PLANT_ERROR, "FMU state refused: %s", why);
         return PLANT_ERROR;
@@ -496,6 +616,10 @@ int plant_state_set(plant *pl, const void *state)
     pl->rig.link.active = (int)v.link_active;
     pl->rig.link.trips = v.link_trips;
     pl->rig.link.trips_unexplained = v.link_trips_unexplained;
+    pl->me = (int)v.me;
+    pl->me_event = (int)v.me_event;
+    pl->t_me = v.t_me;
+    pl->me_u = v.me_u;
     if (pl->dbuf_size > 0)
         memcpy(pl->dbuf, bytes + sizeof hd + sizeof v, sizeof(double) * (size_t)pl->dbuf_size);
     return PLANT_OK;

@@ -29,6 +29,9 @@ struct plant {
     int dbuf_size;
     int mode;
     int prepared;                   /* initialisation mode: the initial state is that of the values set now */
+    int me, me_event;               /* Model Exchange: this instance's interface; in event mode (fmu_instance.h) */
+    double t_me;                    /* Model Exchange: the time the importer set */
+    fmu_delay me_u;                 /* Model Exchange: u saturated, delayed by spool.delay: the spool's input */
     char name[80];
     plant_log_fn log;
     void *env;
