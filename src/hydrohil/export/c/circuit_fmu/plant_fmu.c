@@ -166,18 +166,10 @@ int plant_me_start(plant *pl)
     return PLANT_OK;
 }
 
-static int me_size(plant *pl, size_t n, size_t want, const char *what)
-{
-    if (n == want)
-        return PLANT_OK;
-    plant_logf(pl, PLANT_ERROR, "%zu %s: this FMU has %zu", n, what, want);
-    return PLANT_ERROR;
-}
-
 int plant_me_states(plant *pl, double *x, size_t nx, int set)
 {
     size_t i;
-    if (me_size(pl, nx, CIRCUIT_NSTATES, "continuous states") != PLANT_OK)
+    if (plant_me_size(pl, nx, CIRCUIT_NSTATES, "continuous states") != PLANT_OK)
         return PLANT_ERROR;
     for (i = 0; i < nx; i++) {
         if (set)
@@ -191,7 +183,7 @@ int plant_me_states(plant *pl, double *x, size_t nx, int set)
 
 int plant_me_nominals(plant *pl, double *x, size_t nx)
 {
-    if (me_size(pl, nx, CIRCUIT_NSTATES, "continuous states") != PLANT_OK)
+    if (plant_me_size(pl, nx, CIRCUIT_NSTATES, "continuous states") != PLANT_OK)
         return PLANT_ERROR;
     memcpy(x, CIRCUIT_NOMINAL, sizeof(double) * nx);
     return PLANT_OK;
@@ -200,7 +192,7 @@ int plant_me_nominals(plant *pl, double *x, size_t nx)
 int plant_me_derivatives(plant *pl, double *dx, size_t nx)
 {
     double u[CIRCUIT_NU], dy[CIRCUIT_NSTATES + 1];
-    if (me_size(pl, nx, CIRCUIT_NSTATES, "derivatives") != PLANT_OK)
+    if (plant_me_size(pl, nx, CIRCUIT_NSTATES, "derivatives") != PLANT_OK)
         return PLANT_ERROR;
     me_inputs(pl, u);
     hc_rhs(pl->v.P, pl->v.y, pl->v.m, u, dy);
@@ -211,7 +203,7 @@ int plant_me_derivatives(plant *pl, double *dx, size_t nx)
 int plant_me_indicators(plant *pl, double *z, size_t nz)
 {
     double u[CIRCUIT_NU], g[PLANT_NZ + 1];
-    if (me_size(pl, nz, PLANT_NZ, "event indicators") != PLANT_OK)
+    if (plant_me_size(pl, nz, PLANT_NZ, "event indicators") != PLANT_OK)
         return PLANT_ERROR;
     me_inputs(pl, u);
     hc_me_indicators(pl->v.P, pl->v.y, pl->v.m, u, g);

@@ -206,6 +206,14 @@ int plant_terminate(plant *pl)
     return PLANT_OK;
 }
 
+int plant_me_size(plant *pl, size_t n, size_t want, const char *what)
+{
+    if (n == want)
+        return PLANT_OK;
+    plant_logf(pl, PLANT_ERROR, "%zu %s: this FMU has %zu", n, what, want);
+    return PLANT_ERROR;
+}
+
 /* The checks of a doStep at t with step dt on an internal grid of step h: in step mode, a finite step > 0, not
  * before the last communication point (a warning when after it: the plant steps through the gap). */
 int plant_step_check(plant *pl, double t, double dt, double h)

@@ -94,6 +94,8 @@ int fmu_delay_next(const fmu_delay *d, double t, double *next);   /* 1 and the n
 /* shared by every exported plant (fmu_instance.c) */
 int plant_wrong_mode(plant *pl, const char *call, const char *where);
 int plant_step_check(plant *pl, double t, double dt, double h);
+/* Model Exchange: an array of n `what` where the FMU has `want` (PLANT_OK, or an error naming both) */
+int plant_me_size(plant *pl, size_t n, size_t want, const char *what);
 void plant_state_header_of(plant_state_header *hd, const char *tag, uint32_t version, const uint64_t dims[6],
                            uint64_t values_size, uint64_t extra);
 /* the header of `bytes` (size bytes) into *hd when it is a block of this FMU's tag, version and token;

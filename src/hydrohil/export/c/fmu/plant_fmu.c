@@ -299,10 +299,8 @@ int plant_me_start(plant *pl)
 int plant_me_states(plant *pl, double *x, size_t nx, int set)
 {
     size_t i;
-    if (nx != HH_NY) {
-        plant_logf(pl, PLANT_ERROR, "%zu continuous states: this FMU has %d", nx, HH_NY);
+    if (plant_me_size(pl, nx, HH_NY, "continuous states") != PLANT_OK)
         return PLANT_ERROR;
-    }
     for (i = 0; i < nx; i++) {
         if (set)
             pl->sim.y[i] = x[i];
@@ -315,10 +313,8 @@ int plant_me_states(plant *pl, double *x, size_t nx, int set)
 int plant_me_nominals(plant *pl, double *x, size_t nx)
 {
     size_t i;
-    if (nx != HH_NY) {
-        plant_logf(pl, PLANT_ERROR, "%zu continuous states: this FMU has %d", nx, HH_NY);
+    if (plant_me_size(pl, nx, HH_NY, "continuous states") != PLANT_OK)
         return PLANT_ERROR;
-    }
     for (i = 0; i < nx; i++)
         x[i] = PLANT_NOMINAL[i];
     return PLANT_OK;
@@ -326,20 +322,16 @@ int plant_me_nominals(plant *pl, double *x, size_t nx)
 
 int plant_me_derivatives(plant *pl, double *dx, size_t nx)
 {
-    if (nx != HH_NY) {
-        plant_logf(pl, PLANT_ERROR, "%zu derivatives: this FMU has %d continuous states", nx, HH_NY);
+    if (plant_me_size(pl, nx, HH_NY, "derivatives") != PLANT_OK)
         return PLANT_ERROR;
-    }
     hc_core_me_derivatives(&pl->model.ctx, pl->sim.y, pl->sim.m, pl->sim.p, me_ud(pl), dx);
     return PLANT_OK;
 }
 
 int plant_me_indicators(plant *pl, double *z, size_t nz)
 {
-    if (nz != PLANT_NZ) {
-        plant_logf(pl, PLANT_ERROR, "%zu event indicators: this FMU has %d", nz, PLANT_NZ);
+    if (plant_me_size(pl, nz, PLANT_NZ, "event indicators") != PLANT_OK)
         return PLANT_ERROR;
-    }
     hc_core_me_indicators(&pl->model.ctx, pl->sim.y, pl->sim.m, pl->sim.p, me_ud(pl), z);
     return PLANT_OK;
 }
