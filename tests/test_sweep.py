@@ -326,6 +326,30 @@ def test_a_paper_study_runs_on_the_generated_code_with_the_cores_rows(mc60, monk
     assert runs.keep_freed_memory() is True                             # (glibc: this machine's C library)
 
 
+def test_a_paper_studys_run_read_in_memory_is_its_file_run(mc60, tmp_path):
+    """A worker reads a paper run's table in memory (nothing written): each row's metrics are those of the run's
+    table written to a TOML file, loaded and simulated as `hydrohil simulate` would (3 runs, bit for bit)."""
+    import tomli_w
+
+    import hydrohil.studies.runs as runs
+    from hydrohil.simulation.run import run_scenario
+    from hydrohil.simulation.scenario import load_scenario
+    study = load_study(mc60)
+    base = {"study": str(study.source.resolve()), "digest": study.digest(), "logs": None}
+    for r in study.runs()[:3]:
+        row = runs.execute({**r, **base})
+        data, kind = runs.run_data(study, r["inputs"])
+        assert kind == "scenario" and row["status"] == "ok"
+        path = tmp_path / f"{r['run_id']}.toml"
+        path.write_text(tomli_w.dumps(data))
+        sc = load_scenario(path)
+        res = run_scenario(sc)
+        t = res.column("t")
+        want = runs.metrics_of(t, res.column("xp"), sc.scenario.reference.sample(t)[0], res.column("p1"),
+                               res.column("p2"), res.column("friction_mode"))
+        assert {k: row[k] for k in want} == want
+
+
 def test_runs_go_to_the_workers_in_small_batches():
     from hydrohil.studies.engine import BATCH_MAX, batch_size
     assert batch_size(1000, 2) == BATCH_MAX == 8             # (a big study: 8 runs a task)

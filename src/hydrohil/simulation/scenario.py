@@ -325,6 +325,19 @@ def load_scenario(path: str | Path, *, solver: str | None = None, step: float | 
             data["solver"]["step"] = step
     if duration is not None:
         data["duration"] = duration
+    return _validated(data, path, solver=solver, step=step, duration=duration, params=params, sets=sets)
+
+
+def scenario_from_data(data: dict, source: str | Path) -> LoadedScenario:
+    """A scenario's table in memory (:func:`scenario_data`'s, e.g. with a study run's values applied) read as the
+    file ``source`` would be: validated and resolved, errors naming ``source`` (nothing written or parsed)."""
+    return _validated(data, Path(source))
+
+
+def _validated(data: dict, path: Path, *, solver=None, step=None, duration=None, params=None,
+               sets=None) -> LoadedScenario:
+    """:func:`load_scenario`'s validation of the table ``data`` of the file ``path`` (the command line's options
+    named in its errors)."""
     try:
         sc = Scenario.model_validate(data)
     except ValidationError as exc:

@@ -144,16 +144,17 @@ def execute(task: dict) -> dict:
     try:
         study = _study(task["study"], task["digest"])
         data, kind = run_data(study, task["inputs"])
-        with tempfile.TemporaryDirectory(prefix="hydrohil-run-") as d:
-            path = Path(d) / f"{task['run_id']}.toml"
-            path.write_text(tomli_w.dumps(data))
-            if kind == "scenario":
-                cols, diverged = _run_scenario(path)
-            elif kind == "circuit":
-                cols, diverged = _run_circuit(path)
-            else:
-                cols, diverged, verdicts = _run_sequence(path, Path(d))
-                row.update(verdicts)
+        if kind == "scenario":           # (read in memory, as its base file would be: nothing written)
+            cols, diverged = _run_scenario(data, study.settings(task["inputs"])["base"])
+        else:
+            with tempfile.TemporaryDirectory(prefix="hydrohil-run-") as d:
+                path = Path(d) / f"{task['run_id']}.toml"
+                path.write_text(tomli_w.dumps(data))
+                if kind == "circuit":
+                    cols, diverged = _run_circuit(path)
+                else:
+                    cols, diverged, verdicts = _run_sequence(path, Path(d))
+                    row.update(verdicts)
         row.update(metrics_of(cols["t"], cols["xp"], cols["x_ref"], cols["p1"], cols["p2"], cols.get("friction_mode")))
         if diverged is not None:
             row["status"], row["error"] = "diverged", diverged
@@ -173,12 +174,13 @@ def execute_batch(tasks: list[dict]) -> list[dict]:
     return [execute(task) for task in tasks]
 
 
-def _run_scenario(path: Path):
+def _run_scenario(data: dict, base: str | Path):
+    """A paper scenario's run from its table ``data`` (the base file ``base``'s with the run's values)."""
     from hydrohil.simulation.run import run_scenario
-    from hydrohil.simulation.scenario import load_scenario
-    sc = load_scenario(path)
+    from hydrohil.simulation.scenario import scenario_from_data
+    sc = scenario_from_data(data, base)
     if not sc.scenario.closed_loop:
-        raise InputError("a study's scenario must be closed loop ([controller] + [reference])", source=str(path))
+        raise InputError("a study's scenario must be closed loop ([controller] + [reference])", source=str(base))
     res = run_scenario(sc, engine=ENGINE)
     t = res.column("t")
     cols = {c: res.column(c) for c in ("t", "xp", "p1", "p2", "u", "xs", "friction_mode")}

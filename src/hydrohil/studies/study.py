@@ -33,6 +33,7 @@ can be made again alone (``hydrohil sweep STUDY --rerun r000042``) and a resumed
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import itertools
 import json
@@ -150,9 +151,10 @@ class LoadedStudy:
         self.base = self._base_file()
         self.nominal = self._nominal()
 
-    @property
+    @functools.cached_property
     def circuit(self) -> bool:
-        """The base scenario names a circuit: its runs are the circuit's (values "component.key")."""
+        """The base scenario names a circuit: its runs are the circuit's (values "component.key"). (Read once:
+        a worker asks it for every run of the study it keeps.)"""
         from hydrohil.circuits.scenario import is_circuit_scenario
         return is_circuit_scenario(self.base_scenario())
 
