@@ -6,7 +6,11 @@ see the same machine) and, with valgrind, the machine instructions per step insi
 over the first 4000 steps. (``hydrohil bench``'s ``paper_circuit`` times the same runs through Python: there the
 core's run costs some 230 instructions a step more than here, not located; this is the issue's comparison.)
 
-    python benchmarks/paper_circuit_c.py [--seconds 600] [--runs 41]
+    python benchmarks/paper_circuit_c.py [--seconds 600] [--runs 41] [--floor rk3_floor.c]
+
+With the floor program (``--floor``, default hydrohil.bench.floor_program's: a plain-C RK3 of the same right-hand
+side without the statechart, which prints its own ns per step), it runs in the same rounds, built with the same
+flags: the ratios of each loop to it, and its instructions per step.
 
 (The defaults: a timed run of 600 simulated seconds is ~0.14 s of wall time; runs of 60 s, ~14 ms, scatter by
 several per cent from one run to the next.)
@@ -95,26 +99,43 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=600.0, help="simulated time of a timed run [s]")
     ap.add_argument("--runs", type=int, default=41, help="timed runs of each (alternated)")
+    ap.add_argument("--floor", type=Path, default=None, help="the floor program's C file")
     a = ap.parse_args()
+    from hydrohil.bench import floor_program, floor_step
+    from hydrohil.core.build import CFLAGS, c_compiler
     out: dict = {}
+    floor_src = floor_program(a.floor)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         write_data(folder, int(round(a.seconds / 5e-4)), 1)
         core, circuit = build(folder)
-        times = {"core": [], "circuit": []}
+        floor = None
+        if floor_src is not None:
+            floor = folder / "rk3_floor"
+            subprocess.run([*c_compiler().split(), *CFLAGS, str(floor_src), "-lm", "-o", str(floor)], check=True)
+        times = {"core": [], "circuit": [], "floor": []}
         for _ in range(a.runs):
             for name, exe in (("core", core), ("circuit", circuit)):
                 t, xp = ns_per_step(exe)
                 times[name] += t
                 out[f"{name}_final_xp_m"] = xp
+            if floor is not None:           # (it prints "<ns> ns per RK3 step ...")
+                times["floor"].append(float(subprocess.run([str(floor)], check=True, capture_output=True,
+                                                           text=True).stdout.split()[0]))
         out["core_ns_per_step"] = statistics.median(times["core"])
         out["circuit_ns_per_step"] = statistics.median(times["circuit"])
         out["ratio"] = out["circuit_ns_per_step"] / out["core_ns_per_step"]
+        if floor is not None:
+            out["floor_ns_per_step"] = statistics.median(times["floor"])
+            out["circuit_vs_floor"] = out["circuit_ns_per_step"] / out["floor_ns_per_step"]
+            out["core_vs_floor"] = out["core_ns_per_step"] / out["floor_ns_per_step"]
         if shutil.which("valgrind"):
             write_data(folder, 4000, 1)
             core, circuit = build(folder)
             out["core_instructions"] = instructions(core, "hh_sim_run", 4000)
             out["circuit_instructions"] = instructions(circuit, "hc_run", 4000)
+            if floor_src is not None:
+                out["floor_instructions"] = floor_step(floor_src, 1, 4000)["instructions_per_step"]
     print(json.dumps(out, indent=2))
 
 

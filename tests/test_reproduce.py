@@ -179,3 +179,35 @@ def test_bench_sections_measure_what_they_say():
     assert per_step_api(n=500, repeats=1)["us_per_call"] > 0
     with pytest.raises(KeyError):                 # the table needs every section: no silent blanks
         markdown({"compiled_loop": c, "machine": {}})
+
+
+FLOOR_C = r"""#include <stdio.h>
+int main(void) {
+    const int N = 2000000; volatile double sink = 0;
+    for (int n = 0; n < N; n++) sink += n * 0.5;
+    printf("%.1f ns per RK3 step (3 RHS), sink %g\n", 12.5, sink);
+    return 0;
+}
+"""
+
+
+def test_bench_floor_runs_the_floor_program(tmp_path, monkeypatch):
+    """bench's floor section builds the floor program it is given (or $HYDROHIL_RK3_FLOOR's), reads the ns per
+    step it prints, and counts its loop's instructions with a copy of N steps when valgrind is there (a loop of
+    one volatile add: a handful of instructions a step, printf's shared over 1000 steps)."""
+    import shutil
+
+    from hydrohil.bench import FLOOR_ENV, floor_program, floor_step
+    src = tmp_path / "floor.c"
+    src.write_text(FLOOR_C)
+    monkeypatch.setenv(FLOOR_ENV, str(src))
+    assert floor_program() == src and floor_program(tmp_path / "none.c") == src
+    res = floor_step(repeats=2, steps=1000)
+    assert res["ns_per_step"] == 12.5 and res["runs"] == [12.5, 12.5]
+    if shutil.which("valgrind") is None:
+        assert res["instructions_per_step"] is None
+    else:
+        assert 5 < res["instructions_per_step"] < 45, res   # (measured: 15)
+    monkeypatch.setenv(FLOOR_ENV, str(tmp_path / "none.c"))
+    if floor_program() is None:                        # (no workspace's floor beside this clone)
+        assert floor_step()["reason"].startswith("no floor program")

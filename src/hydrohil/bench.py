@@ -10,6 +10,7 @@ Sections (each a function returning a dict; medians over repeats, ratios compute
   max_stable_step   largest stable RK3 step, hybrid vs continuous stiff-stop model, ratio
   circuits          each example circuit: ns per RK3 step, real-time factor, largest stable step, accuracy
   paper_circuit     the paper's rig as a generated circuit beside the core: ns and instructions per step
+  floor             the floor program (rk3_floor.c, the same RHS in plain C): ns and instructions per step
   realtime_0.5ms    plant + controller processes over loopback, wall-clock locked: jitter, overruns, RTT
   realtime_0.1ms    the same at 0.1 ms: does it keep up?
   udp_ping_pong     bare Python UDP round trip on loopback (the floor under the HIL RTT)
@@ -125,6 +126,58 @@ def instructions(steps: int = 4000) -> dict:
             if line.startswith("totals:") or line.startswith("summary:"):
                 total = int(line.split()[1])
     return {"per_step": total / steps, "steps": steps, "tool": "valgrind --tool=callgrind"}
+
+
+FLOOR_ENV = "HYDROHIL_RK3_FLOOR"     # the floor program's C file (default: the workspace's shared/bench/rk3_floor.c)
+
+
+def floor_program(path: str | Path | None = None) -> Path | None:
+    """The floor program's C file (a plain-C RK3 of the same right-hand side without the statechart, events or
+    stiff-chamber constants: what the arithmetic alone costs): ``path``, else $HYDROHIL_RK3_FLOOR, else
+    ``shared/bench/rk3_floor.c`` beside the repository; None when there is none."""
+    for p in (path, os.environ.get(FLOOR_ENV), Path(__file__).resolve().parents[3] / "shared" / "bench" /
+              "rk3_floor.c"):
+        if p and Path(p).is_file():
+            return Path(p)
+    return None
+
+
+def floor_step(path: str | Path | None = None, repeats: int = 5, steps: int | None = 4000) -> dict:
+    """The floor program (:func:`floor_program`) built with the package's compiler and flags: the median of its
+    own ns per step over ``repeats`` runs (it prints it: 2e6 steps a run) and, with valgrind, its machine
+    instructions per step inside ``main``'s loop (a copy with ``steps`` steps a run; its ``sin`` of the command
+    included); {"ns_per_step": None, "reason": ...} without it."""
+    import re
+    import shutil
+    import subprocess
+    from hydrohil.core import build as core_build
+    src, cc = floor_program(path), core_build.c_compiler()
+    if src is None or shutil.which(cc.split()[0]) is None:
+        return {"ns_per_step": None, "instructions_per_step": None,
+                "reason": f"no floor program (give --floor or ${FLOOR_ENV})" if src is None else "no C compiler"}
+    text = src.read_text()
+    with tempfile.TemporaryDirectory() as tmp:
+        t = Path(tmp)
+        exe = t / "rk3_floor"
+        subprocess.run([*cc.split(), *core_build.CFLAGS, str(src), "-lm", "-o", str(exe)], check=True,
+                       capture_output=True)
+        ns = []
+        for _ in range(repeats):
+            out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
+            ns.append(float(out.split()[0]))
+        res = {"ns_per_step": statistics.median(ns), "runs": ns, "source": str(src), "instructions_per_step": None}
+        short, n = re.subn(r"const int N = \d+;", f"const int N = {steps};", text)
+        if steps and n == 1 and shutil.which("valgrind"):
+            (t / "floor_short.c").write_text(short)
+            subprocess.run([*cc.split(), *core_build.CFLAGS, str(t / "floor_short.c"), "-lm", "-o", str(exe)],
+                           check=True, capture_output=True)
+            cg = t / "cg.out"
+            subprocess.run(["valgrind", "--tool=callgrind", "--toggle-collect=main", f"--callgrind-out-file={cg}",
+                            str(exe)], check=True, capture_output=True)
+            total = next(int(line.split()[1]) for line in cg.read_text().splitlines()
+                         if line.startswith(("summary:", "totals:")))
+            res["instructions_per_step"] = total / steps
+    return res
 
 
 def reference_solver(duration: float = 6.0, repeats: int = 3) -> dict:
@@ -349,8 +402,9 @@ def identification() -> dict:
 
 
 def run_bench(*, seconds: float = 60.0, quick: bool = False,
-              on_section: Callable[[str, int, int], None] | None = None) -> dict:
-    """Run every section; ``quick`` shortens every run (a smoke test, not figures to report)."""
+              on_section: Callable[[str, int, int], None] | None = None, floor: str | Path | None = None) -> dict:
+    """Run every section; ``quick`` shortens every run (a smoke test, not figures to report); ``floor``: the
+    floor program's C file (:func:`floor_program`)."""
     rt = 2.0 if quick else seconds
     sections: list[tuple[str, Callable[[], dict]]] = [
         ("startup", lambda: startup(1 if quick else 3)),
@@ -361,6 +415,7 @@ def run_bench(*, seconds: float = 60.0, quick: bool = False,
         ("max_stable_step", max_stable_step),
         ("circuits", lambda: circuits(6.0 if quick else 60.0, 2 if quick else 7)),
         ("paper_circuit", lambda: paper_circuit(6.0 if quick else 60.0, 2 if quick else 7, None if quick else 4000)),
+        ("floor", lambda: floor_step(floor, 2 if quick else 7, None if quick else 4000)),
         ("realtime_0.5ms", lambda: hil(rt, 5e-4)),
         ("realtime_0.5ms_c", lambda: hil(rt, 5e-4, plant="c")),
         ("hiccup", lambda: hiccup(rt)),
@@ -399,14 +454,23 @@ def _f(v, fmt="{:.3g}") -> str:
 def markdown(res: dict) -> str:
     """The README's performance table from a ``run_bench`` result."""
     c, rt5, rt1 = res["compiled_loop"], res["realtime_0.5ms"], res["realtime_0.1ms"]
+    pc, fl = res.get("paper_circuit") or {}, res.get("floor") or {}
     m = res["machine"]
     rows = [
+        ("hybrid RK3 step, the paper's rig on its generated code (what `simulate` runs) / on the C core, Fig 10",
+         f"{_f(pc.get('circuit_ns_per_step'), '{:.0f}')} / {_f(pc.get('core_ns_per_step'), '{:.0f}')} ns", "≤ 100 ns"),
+        ("… the floor program in the same run (`rk3_floor.c`: plain-C RK3 of the same right-hand side, no "
+         "statechart; the package's flags): ns, the generated step / the floor",
+         f"{_f(fl.get('ns_per_step'), '{:.0f}')} ns, "
+         + (f"{pc['circuit_ns_per_step'] / fl['ns_per_step']:.2f}" if fl.get("ns_per_step") and pc else "—"),
+         "—"),
+        ("… machine instructions per RK3 step (callgrind, independent of load): generated / core / floor",
+         f"{_f(pc.get('circuit_instructions'), '{:.0f}')} / {_f(res.get('instructions', {}).get('per_step'), '{:.0f}')}"
+         f" / {_f(fl.get('instructions_per_step'), '{:.0f}')}", "≤ 1 100"),
         ("hybrid RK3 step, C core loop (open / closed loop)",
          f"{c['open_loop']['ns_per_step']:.0f} / {c['closed_loop']['ns_per_step']:.0f} ns "
          f"(real-time factor {c['open_loop']['realtime_factor']:.0f} / {c['closed_loop']['realtime_factor']:.0f})",
-         "≤ 100 ns"),
-        ("… machine instructions per RK3 step (callgrind, independent of load)",
-         _f(res.get("instructions", {}).get("per_step"), "{:.0f}"), "—"),
+         "—"),
         ("`hydrohil simulate` as a new process: first / following runs",
          f"{res['startup']['cold_s']:.2f} s / {res['startup']['warm_s']:.2f} s", "≤ 1.5 s"),
         ("`import hydrohil` / `import hydrohil.simulation.run` (fresh process, less the interpreter's start)",

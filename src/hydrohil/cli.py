@@ -1204,12 +1204,16 @@ def reproduce_cmd(out: Path = typer.Option(Path("hydrohil-reproduce"), "--out", 
 
 
 def bench(json_path: Optional[Path] = None, markdown_path: Optional[Path] = None, seconds: float = 60.0,
-          quick: bool = False, progress: bool = True) -> dict:
-    """Run the benchmark suite; optionally write the JSON and the README table (markdown)."""
+          quick: bool = False, progress: bool = True, floor: Optional[Path] = None) -> dict:
+    """Run the benchmark suite; optionally write the JSON and the README table (markdown). ``floor``: the floor
+    program's C file (hydrohil.bench.floor_program)."""
     from hydrohil.bench import markdown, run_bench
     from hydrohil.simulation.outputs import write_json
+    if floor is not None and not Path(floor).is_file():
+        raise InputError("no such file (the floor program: a plain-C RK3 loop that prints its ns per step)",
+                         source=str(floor), key="--floor")
     with _Stages("bench", progress) as stages:
-        res = run_bench(seconds=seconds, quick=quick, on_section=stages)
+        res = run_bench(seconds=seconds, quick=quick, on_section=stages, floor=floor)
     if json_path:
         write_json(json_path, res)
     if markdown_path:
@@ -1221,11 +1225,14 @@ def bench(json_path: Optional[Path] = None, markdown_path: Optional[Path] = None
 def bench_cmd(json_path: Optional[Path] = typer.Option(None, "--json", help="write all results as JSON"),
               markdown_path: Optional[Path] = typer.Option(None, "--markdown", help="write the README table"),
               seconds: float = typer.Option(60.0, help="length of the 0.5 ms real-time run [s]"),
-              quick: bool = typer.Option(False, help="short runs: a smoke test, not figures to report")):
+              quick: bool = typer.Option(False, help="short runs: a smoke test, not figures to report"),
+              floor: Optional[Path] = typer.Option(None, "--floor", help="the floor program's C file (default: "
+                                                   "$HYDROHIL_RK3_FLOOR, else shared/bench/rk3_floor.c beside "
+                                                   "the repository)")):
     """Benchmark suite: step cost, solvers, step sizes, real-time jitter/overruns/RTT, lock-step, identification."""
     from hydrohil.bench import markdown
     try:
-        res = bench(json_path, markdown_path, seconds, quick)
+        res = bench(json_path, markdown_path, seconds, quick, floor=floor)
     except HydrohilError as exc:
         fail(exc)
     typer.echo(markdown(res))
