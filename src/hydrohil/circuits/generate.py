@@ -801,7 +801,8 @@ void hc_sensed_rows(const double *x, int64_t rows, int64_t every, double *sensor
     }}
 }}
 
-/* One explicit (sub)step of h from y (modes m) into y1 (node pressures floored, then projected: the modes that
+/* One explicit (sub)step of h from y (modes m) into y1 (node pressures floored, the components' states without
+ * subnormal magnitudes (core.h: hh_unsubnormal, as the core's project), then projected: the modes that
  * follow the state into m1, m kept for a substep not taken). Returns 1 when the state went non-finite. */
 HH_INLINE int substep(const hh_tableau *tab, double h, const double *y, int64_t *m, const double *u, const double *P,
                       double *sc, int first, double *y1, int64_t *m1)
@@ -814,7 +815,8 @@ HH_INLINE int substep(const hh_tableau *tab, double h, const double *y, int64_t 
         double acc = y[i];
         HH_UNROLL for (s = 0; s < tab->stages; s++)
             acc += h * tab->b[s] * k[s][i];
-        y1[i] = i < NNODES && acc < {PRESSURE_FLOOR!r} ? {PRESSURE_FLOOR!r} : acc;   /* pressures floored */
+        y1[i] = i < NNODES ? (acc < {PRESSURE_FLOOR!r} ? {PRESSURE_FLOOR!r} : acc)   /* pressures floored, */
+                           : hh_unsubnormal(acc);                  /* the components' states not subnormal */
         bad += acc - acc;
     }}
     if (bad != 0.0)

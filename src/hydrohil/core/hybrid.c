@@ -147,9 +147,15 @@ HH_INLINE void apply_reset(int gid, double *y, int64_t *m, const double *p)
     m[HH_M_FRICTION] = mode >= HC_LC_AT_RETRACT ? HH_STICK : mode;
 }
 
-/* Keep the state on its mode's manifold and inside physical bounds after a (sub)step. */
+/* Keep the state on its mode's manifold and inside physical bounds after a (sub)step (the spool's and the
+ * piston's states without subnormal magnitudes: hh_unsubnormal, as a circuit's generated step). */
 HH_INLINE void project(double *y, const int64_t *m, const double *p)
 {
+    y[HH_XS] = hh_unsubnormal(y[HH_XS]);
+    y[HH_VS] = hh_unsubnormal(y[HH_VS]);
+    y[HH_XP] = hh_unsubnormal(y[HH_XP]);
+    y[HH_VP] = hh_unsubnormal(y[HH_VP]);
+    y[HH_Z] = hh_unsubnormal(y[HH_Z]);
     spool_project(&y[HH_XS], &y[HH_VS], p[HH_SPOOL_LV]);
     if (y[HH_P1] < HH_P_MIN)
         y[HH_P1] = HH_P_MIN;
