@@ -101,27 +101,22 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=41, help="timed runs of each (alternated)")
     ap.add_argument("--floor", type=Path, default=None, help="the floor program's C file")
     a = ap.parse_args()
-    from hydrohil.bench import floor_program, floor_step
-    from hydrohil.core.build import CFLAGS, c_compiler
+    from hydrohil.bench import build_floor, floor_instructions, floor_ns, floor_program
     out: dict = {}
     floor_src = floor_program(a.floor)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         write_data(folder, int(round(a.seconds / 5e-4)), 1)
         core, circuit = build(folder)
-        floor = None
-        if floor_src is not None:
-            floor = folder / "rk3_floor"
-            subprocess.run([*c_compiler().split(), *CFLAGS, str(floor_src), "-lm", "-o", str(floor)], check=True)
+        floor = build_floor(floor_src, folder / "rk3_floor") if floor_src is not None else None
         times = {"core": [], "circuit": [], "floor": []}
         for _ in range(a.runs):
             for name, exe in (("core", core), ("circuit", circuit)):
                 t, xp = ns_per_step(exe)
                 times[name] += t
                 out[f"{name}_final_xp_m"] = xp
-            if floor is not None:           # (it prints "<ns> ns per RK3 step ...")
-                times["floor"].append(float(subprocess.run([str(floor)], check=True, capture_output=True,
-                                                           text=True).stdout.split()[0]))
+            if floor is not None:
+                times["floor"].append(floor_ns(floor))
         out["core_ns_per_step"] = statistics.median(times["core"])
         out["circuit_ns_per_step"] = statistics.median(times["circuit"])
         out["ratio"] = out["circuit_ns_per_step"] / out["core_ns_per_step"]
@@ -135,7 +130,7 @@ def main() -> None:
             out["core_instructions"] = instructions(core, "hh_sim_run", 4000)
             out["circuit_instructions"] = instructions(circuit, "hc_run", 4000)
             if floor_src is not None:
-                out["floor_instructions"] = floor_step(floor_src, 1, 4000)["instructions_per_step"]
+                out["floor_instructions"] = floor_instructions(floor_src, 4000)[0]
     print(json.dumps(out, indent=2))
 
 

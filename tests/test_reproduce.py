@@ -194,20 +194,27 @@ int main(void) {
 def test_bench_floor_runs_the_floor_program(tmp_path, monkeypatch):
     """bench's floor section builds the floor program it is given (or $HYDROHIL_RK3_FLOOR's), reads the ns per
     step it prints, and counts its loop's instructions with a copy of N steps when valgrind is there (a loop of
-    one volatile add: a handful of instructions a step, printf's shared over 1000 steps)."""
+    one volatile add: a handful of instructions a step, printf's shared over 1000 steps); a program that does not
+    build, or none, is a reason in the section, not a failed benchmark; a --floor that is not a file, an error."""
     import shutil
 
+    import hydrohil.bench as bench
     from hydrohil.bench import FLOOR_ENV, floor_program, floor_step
     src = tmp_path / "floor.c"
     src.write_text(FLOOR_C)
     monkeypatch.setenv(FLOOR_ENV, str(src))
-    assert floor_program() == src and floor_program(tmp_path / "none.c") == src
+    assert floor_program() == src
+    with pytest.raises(FileNotFoundError, match="none.c"):
+        floor_program(tmp_path / "none.c")
     res = floor_step(repeats=2, steps=1000)
     assert res["ns_per_step"] == 12.5 and res["runs"] == [12.5, 12.5]
     if shutil.which("valgrind") is None:
-        assert res["instructions_per_step"] is None
+        assert res["instructions_per_step"] is None and res["instructions_reason"] == "valgrind not found"
     else:
         assert 5 < res["instructions_per_step"] < 45, res   # (measured: 15)
-    monkeypatch.setenv(FLOOR_ENV, str(tmp_path / "none.c"))
-    if floor_program() is None:                        # (no workspace's floor beside this clone)
-        assert floor_step()["reason"].startswith("no floor program")
+    broken = tmp_path / "broken.c"
+    broken.write_text("int main(void) { return undefined_name; }\n")
+    res = floor_step(broken, repeats=1, steps=None)
+    assert res["ns_per_step"] is None and "does not build" in res["reason"] and "undefined_name" in res["reason"]
+    monkeypatch.setattr(bench, "floor_program", lambda path=None: None)
+    assert floor_step()["reason"].startswith("no floor program")

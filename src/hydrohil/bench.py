@@ -133,50 +133,88 @@ FLOOR_ENV = "HYDROHIL_RK3_FLOOR"     # the floor program's C file (default: the 
 
 def floor_program(path: str | Path | None = None) -> Path | None:
     """The floor program's C file (a plain-C RK3 of the same right-hand side without the statechart, events or
-    stiff-chamber constants: what the arithmetic alone costs): ``path``, else $HYDROHIL_RK3_FLOOR, else
-    ``shared/bench/rk3_floor.c`` beside the repository; None when there is none."""
-    for p in (path, os.environ.get(FLOOR_ENV), Path(__file__).resolve().parents[3] / "shared" / "bench" /
-              "rk3_floor.c"):
+    stiff-chamber constants: what the arithmetic alone costs): ``path`` (FileNotFoundError when it is not a file),
+    else $HYDROHIL_RK3_FLOOR, else ``shared/bench/rk3_floor.c`` beside the repository; None when there is none."""
+    if path is not None:
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"{path}: no such file (the floor program)")
+        return Path(path)
+    for p in (os.environ.get(FLOOR_ENV), Path(__file__).resolve().parents[3] / "shared" / "bench" / "rk3_floor.c"):
         if p and Path(p).is_file():
             return Path(p)
     return None
 
 
-def floor_step(path: str | Path | None = None, repeats: int = 5, steps: int | None = 4000) -> dict:
-    """The floor program (:func:`floor_program`) built with the package's compiler and flags: the median of its
-    own ns per step over ``repeats`` runs (it prints it: 2e6 steps a run) and, with valgrind, its machine
-    instructions per step inside ``main``'s loop (a copy with ``steps`` steps a run; its ``sin`` of the command
-    included); {"ns_per_step": None, "reason": ...} without it."""
+def build_floor(src: Path, exe: Path, text: str | None = None) -> Path:
+    """The floor program ``src`` (or its ``text``, e.g. a shortened copy) compiled to ``exe`` with the package's
+    compiler and flags (its folder on the include path); RuntimeError with the compiler's message."""
+    import subprocess
+    from hydrohil.core import build as core_build
+    c = exe.with_suffix(".c")
+    c.write_text(src.read_text() if text is None else text)
+    r = subprocess.run([*core_build.c_compiler().split(), *core_build.CFLAGS, f"-I{src.resolve().parent}", str(c),
+                        "-lm", "-o", str(exe)], capture_output=True, text=True)
+    if r.returncode:
+        raise RuntimeError(f"{src}: does not build: {r.stderr.strip()[-400:]}")
+    return exe
+
+
+def floor_ns(exe: Path) -> float:
+    """One run of the built floor program: the ns per step it prints first ("<ns> ns per RK3 step ...")."""
+    import subprocess
+    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
+    try:
+        return float(out.split()[0])
+    except (IndexError, ValueError):
+        raise RuntimeError(f"{exe}: printed {out[:80]!r}, not its ns per step first") from None
+
+
+def floor_instructions(src: Path, steps: int = 4000) -> tuple[float | None, str | None]:
+    """(machine instructions per step of the floor program's loop, None) counted by callgrind inside ``main`` on
+    a copy of ``steps`` steps (its ``const int N = ...;`` replaced; its ``sin`` of the command included), or
+    (None, why not)."""
     import re
     import shutil
     import subprocess
-    from hydrohil.core import build as core_build
-    src, cc = floor_program(path), core_build.c_compiler()
-    if src is None or shutil.which(cc.split()[0]) is None:
-        return {"ns_per_step": None, "instructions_per_step": None,
-                "reason": f"no floor program (give --floor or ${FLOOR_ENV})" if src is None else "no C compiler"}
-    text = src.read_text()
+    if shutil.which("valgrind") is None:
+        return None, "valgrind not found"
+    short, n = re.subn(r"const int N = \d+;", f"const int N = {steps};", src.read_text())
+    if n != 1:
+        return None, f"{src}: no single 'const int N = <steps>;' to shorten"
     with tempfile.TemporaryDirectory() as tmp:
-        t = Path(tmp)
-        exe = t / "rk3_floor"
-        subprocess.run([*cc.split(), *core_build.CFLAGS, str(src), "-lm", "-o", str(exe)], check=True,
-                       capture_output=True)
-        ns = []
-        for _ in range(repeats):
-            out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
-            ns.append(float(out.split()[0]))
-        res = {"ns_per_step": statistics.median(ns), "runs": ns, "source": str(src), "instructions_per_step": None}
-        short, n = re.subn(r"const int N = \d+;", f"const int N = {steps};", text)
-        if steps and n == 1 and shutil.which("valgrind"):
-            (t / "floor_short.c").write_text(short)
-            subprocess.run([*cc.split(), *core_build.CFLAGS, str(t / "floor_short.c"), "-lm", "-o", str(exe)],
-                           check=True, capture_output=True)
-            cg = t / "cg.out"
-            subprocess.run(["valgrind", "--tool=callgrind", "--toggle-collect=main", f"--callgrind-out-file={cg}",
-                            str(exe)], check=True, capture_output=True)
-            total = next(int(line.split()[1]) for line in cg.read_text().splitlines()
-                         if line.startswith(("summary:", "totals:")))
-            res["instructions_per_step"] = total / steps
+        exe = build_floor(src, Path(tmp) / "floor_short", short)
+        cg = Path(tmp) / "cg.out"
+        subprocess.run(["valgrind", "--tool=callgrind", "--toggle-collect=main", f"--callgrind-out-file={cg}",
+                        str(exe)], check=True, capture_output=True)
+        total = next(int(line.split()[1]) for line in cg.read_text().splitlines()
+                     if line.startswith(("summary:", "totals:")))
+    return total / steps, None
+
+
+def floor_step(path: str | Path | None = None, repeats: int = 5, steps: int | None = 4000) -> dict:
+    """The floor program (:func:`floor_program`) built with the package's compiler and flags: the median of its
+    own ns per step over ``repeats`` runs (2e6 steps a run) and, with valgrind, its instructions per step
+    (:func:`floor_instructions`; ``steps`` None: not counted); {"ns_per_step": None, "reason": ...} when there
+    is no floor program or it does not build or run (the rest of the benchmark goes on)."""
+    import shutil
+    import subprocess
+    from hydrohil.core import build as core_build
+    src = floor_program(path)
+    none = {"ns_per_step": None, "instructions_per_step": None}
+    if src is None:
+        return {**none, "reason": f"no floor program (give --floor or ${FLOOR_ENV})"}
+    if shutil.which(core_build.c_compiler().split()[0]) is None:
+        return {**none, "reason": "no C compiler"}
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            exe = build_floor(src, Path(tmp) / "rk3_floor")
+            ns = [floor_ns(exe) for _ in range(repeats)]
+        count, why = floor_instructions(src, steps) if steps else (None, "not counted")
+    except (RuntimeError, subprocess.CalledProcessError, StopIteration) as exc:
+        return {**none, "reason": str(exc)[-400:]}
+    res = {"ns_per_step": statistics.median(ns), "runs": ns, "source": str(src), "instructions_per_step": count}
+    if why:
+        res["instructions_reason"] = why
     return res
 
 
@@ -464,7 +502,8 @@ def markdown(res: dict) -> str:
          f"{_f(fl.get('ns_per_step'), '{:.0f}')} ns, "
          + (f"{pc['circuit_ns_per_step'] / fl['ns_per_step']:.2f}" if fl.get("ns_per_step") and pc else "—"),
          "—"),
-        ("… machine instructions per RK3 step (callgrind, independent of load): generated / core / floor",
+        ("… machine instructions per RK3 step (callgrind, independent of load): generated (hc_run) / core (its plain-C "
+         "driver, core/tools/step_count.c) / floor",
          f"{_f(pc.get('circuit_instructions'), '{:.0f}')} / {_f(res.get('instructions', {}).get('per_step'), '{:.0f}')}"
          f" / {_f(fl.get('instructions_per_step'), '{:.0f}')}", "≤ 1 100"),
         ("hybrid RK3 step, C core loop (open / closed loop)",

@@ -802,7 +802,7 @@ void hc_sensed_rows(const double *x, int64_t rows, int64_t every, double *sensor
 }}
 
 /* One explicit (sub)step of h from y (modes m) into y1 (node pressures floored, the components' states without
- * subnormal magnitudes (core.h: hh_unsubnormal, as the core's project), then projected: the modes that
+ * subnormal magnitudes (core.h: hh_unsubnormal, as the core's hybrid_step_tab), then projected: the modes that
  * follow the state into m1, m kept for a substep not taken). Returns 1 when the state went non-finite. */
 HH_INLINE int substep(const hh_tableau *tab, double h, const double *y, int64_t *m, const double *u, const double *P,
                       double *sc, int first, double *y1, int64_t *m1)

@@ -47,9 +47,11 @@ HH_INLINE double hh_clamp(double x, double lo, double hi) { return hh_min(hh_max
 /* A state's value after a step with its subnormal magnitudes (0 < |x| < DBL_MIN, 2.2e-308) made zero (SPEC §6's
  * step, issue #29). A state that decays to rest (a spool under a zero command: a damped second-order lag) falls
  * into the subnormal numbers and stays there, its arithmetic ~100 cycles an operation on Intel CPUs (microcode
- * assists): the settled example circuits stepped 5-6x slower there. Only a subnormal changes (to +0), in plain C:
- * the same bits on every platform, whatever its flush-to-zero mode. */
+ * assists): the settled example circuits stepped 5-6x slower there. 0·x: a subnormal becomes the zero of its
+ * sign, a zero stays as it was (-0 too); a comparison and a product in plain C, the same bits on every platform
+ * whatever its flush-to-zero and denormals-are-zero modes. Applied to the components' states right after each
+ * explicit (sub)step, before the projection: the core's hybrid_step_tab and a circuit's generated substep. */
 #define HH_SMALLEST_NORMAL 2.2250738585072014e-308
-HH_INLINE double hh_unsubnormal(double x) { return x != 0.0 && fabs(x) < HH_SMALLEST_NORMAL ? 0.0 : x; }
+HH_INLINE double hh_unsubnormal(double x) { return fabs(x) < HH_SMALLEST_NORMAL ? 0.0 * x : x; }
 
 #endif

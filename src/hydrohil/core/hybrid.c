@@ -147,15 +147,9 @@ HH_INLINE void apply_reset(int gid, double *y, int64_t *m, const double *p)
     m[HH_M_FRICTION] = mode >= HC_LC_AT_RETRACT ? HH_STICK : mode;
 }
 
-/* Keep the state on its mode's manifold and inside physical bounds after a (sub)step (the spool's and the
- * piston's states without subnormal magnitudes: hh_unsubnormal, as a circuit's generated step). */
+/* Keep the state on its mode's manifold and inside physical bounds after a (sub)step. */
 HH_INLINE void project(double *y, const int64_t *m, const double *p)
 {
-    y[HH_XS] = hh_unsubnormal(y[HH_XS]);
-    y[HH_VS] = hh_unsubnormal(y[HH_VS]);
-    y[HH_XP] = hh_unsubnormal(y[HH_XP]);
-    y[HH_VP] = hh_unsubnormal(y[HH_VP]);
-    y[HH_Z] = hh_unsubnormal(y[HH_Z]);
     spool_project(&y[HH_XS], &y[HH_VS], p[HH_SPOOL_LV]);
     if (y[HH_P1] < HH_P_MIN)
         y[HH_P1] = HH_P_MIN;
@@ -188,6 +182,11 @@ HH_INLINE int hybrid_step_tab(const hh_tableau *tab, double *y, int64_t *m, cons
     stiff_chamber_constants(y, p, h, sc);
     for (it = 0; it < 2 * HH_MAX_EVENTS + 1; it++) {
         rk_step(tab, hybrid_rhs, y, hs, ud, m, p, sc, y1);
+        y1[HH_XS] = hh_unsubnormal(y1[HH_XS]);   /* the spool's and the piston's states without subnormal */
+        y1[HH_VS] = hh_unsubnormal(y1[HH_VS]);   /* magnitudes (core.h), as a circuit's generated substep */
+        y1[HH_XP] = hh_unsubnormal(y1[HH_XP]);
+        y1[HH_VP] = hh_unsubnormal(y1[HH_VP]);
+        y1[HH_Z] = hh_unsubnormal(y1[HH_Z]);
         project(y1, m, p);
         if (pending != HH_G_NONE) {   /* arrived at a located event: reset, go on in the new mode */
             for (i = 0; i < HH_NY; i++)
