@@ -338,7 +338,7 @@ def test_a_paper_studys_run_read_in_memory_is_its_file_run(mc60, tmp_path):
     base = {"study": str(study.source.resolve()), "digest": study.digest(), "logs": None}
     for r in study.runs()[:3]:
         row = runs.execute({**r, **base})
-        data, kind = runs.run_data(study, r["inputs"])
+        data, kind, _ = runs.run_data(study, r["inputs"])
         assert kind == "scenario" and row["status"] == "ok"
         path = tmp_path / f"{r['run_id']}.toml"
         path.write_text(tomli_w.dumps(data))

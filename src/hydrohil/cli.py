@@ -1207,11 +1207,13 @@ def bench(json_path: Optional[Path] = None, markdown_path: Optional[Path] = None
           quick: bool = False, progress: bool = True, floor: Optional[Path] = None) -> dict:
     """Run the benchmark suite; optionally write the JSON and the README table (markdown). ``floor``: the floor
     program's C file (hydrohil.bench.floor_program)."""
-    from hydrohil.bench import markdown, run_bench
+    from hydrohil.bench import floor_program, markdown, run_bench
     from hydrohil.simulation.outputs import write_json
-    if floor is not None and not Path(floor).is_file():
+    try:
+        floor_program(floor)                     # (before the long run: an explicit one must be a file)
+    except FileNotFoundError:
         raise InputError("no such file (the floor program: a plain-C RK3 loop that prints its ns per step)",
-                         source=str(floor), key="--floor")
+                         source=str(floor), key="--floor") from None
     with _Stages("bench", progress) as stages:
         res = run_bench(seconds=seconds, quick=quick, on_section=stages, floor=floor)
     if json_path:

@@ -242,7 +242,7 @@ def rerun(path: str | Path, run_id: str, dest: str | Path) -> Path:
     run = next((r for r in study.runs() if r["run_id"] == run_id), None)
     if run is None:
         raise InputError(f"no run {run_id!r} in this study (r000000 .. r{len(study.runs()) - 1:06d})", key="--rerun")
-    data, kind = run_data(study, run["inputs"])
+    data, kind, _ = run_data(study, run["inputs"])
     dest = Path(dest)
     dest.parent.mkdir(parents=True, exist_ok=True)
     head = "\n".join(f"#   {k} = {v!r}" for k, v in run["inputs"].items())

@@ -49,15 +49,16 @@ def keep_freed_memory() -> bool:
         return False
 
 
-def run_data(study, inputs: dict) -> tuple[dict, str]:
-    """(the run's table, "scenario" | "sequence"): the base file's table with the run's inputs applied."""
+def run_data(study, inputs: dict) -> tuple[dict, str, Path]:
+    """(the run's table, "scenario" | "circuit" | "sequence", the base file): the base file's table with the run's
+    inputs applied."""
     from hydrohil.parameters import read_toml
     from hydrohil.simulation.scenario import scenario_data
     st = study.settings(inputs)
     base = Path(st["base"])
     kind = "sequence" if study.study.sequence is not None else "scenario"
     if kind == "scenario" and study.circuit:
-        return _circuit_data(base, st), "circuit"
+        return _circuit_data(base, st), "circuit", base
     if kind == "scenario":
         data = scenario_data(base, sets=st["sets"] or None)
     else:
@@ -83,7 +84,7 @@ def run_data(study, inputs: dict) -> tuple[dict, str]:
         data["initial"] = {**data.get("initial", {}), **st["initial"]}
     if st["duration"] is not None:
         data["duration"] = st["duration"]
-    return data, kind
+    return data, kind, base
 
 
 def _circuit_data(base: Path, st: dict) -> dict:
@@ -143,9 +144,9 @@ def execute(task: dict) -> dict:
         row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
     try:
         study = _study(task["study"], task["digest"])
-        data, kind = run_data(study, task["inputs"])
+        data, kind, base = run_data(study, task["inputs"])
         if kind == "scenario":           # (read in memory, as its base file would be: nothing written)
-            cols, diverged = _run_scenario(data, study.settings(task["inputs"])["base"])
+            cols, diverged = _run_scenario(data, base)
         else:
             with tempfile.TemporaryDirectory(prefix="hydrohil-run-") as d:
                 path = Path(d) / f"{task['run_id']}.toml"
