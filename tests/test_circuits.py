@@ -877,7 +877,8 @@ def test_a_port_plugged_on_purpose_is_a_node_declared_with_its_volume():
 def test_a_run_computes_only_the_columns_asked_for_and_they_are_the_full_runs():
     """``simulate_circuit(..., columns=[...])``: the log holds t, the columns asked for and what the run reads
     itself (the loop's measured signal, its transducers' pressures), each the full run's bit for bit, the others
-    not computed (the valve's flows absent); a column the circuit does not log is named."""
+    not computed (the valve's flows absent, what the sensor read too); a column the circuit does not log is
+    named."""
     from hydrohil.circuits.scenario import load_circuit_scenario
     from hydrohil.errors import InputError
     cs = load_circuit_scenario(EXAMPLES / "circuits" / "servo_supply" / "scenario.toml")
@@ -889,6 +890,12 @@ def test_a_run_computes_only_the_columns_asked_for_and_they_are_the_full_runs():
     logged = {"t", "valve.v", "cyl.mode", cs.loop.measure}
     assert logged <= set(some.columns) and not any(k.startswith("valve.q_") for k in some.columns)
     assert set(full.columns) - set(some.columns) - {"t"}                     # (some columns left out)
+    assert not any(k.endswith(".sensed") for k in some.columns)
+    rig = load_circuit_scenario(EXAMPLES / "circuits" / "ferreira2004" / "scenario.toml")   # (an encoder read)
+    read = [simulate_circuit(rig.circuit, 0.05, h=rig.step, loop=rig.loop, rest=rig.rest, compiled=rig.compiled,
+                             columns=columns) for columns in (None, ["cyl.x"])]
+    assert "cyl.x.sensed" in read[0].columns and "cyl.x.sensed" not in read[1].columns
+    assert np.array_equal(read[0].columns["cyl.x"], read[1].columns["cyl.x"])
     for name, column in some.columns.items():
         assert np.array_equal(column, full.columns[name]), name
     with pytest.raises(InputError, match="no column 'valve.flow'"):

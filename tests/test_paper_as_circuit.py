@@ -1619,3 +1619,31 @@ def test_every_parameter_set_the_schema_takes_is_a_circuit_of_the_component_libr
         load_parameters("ferreira2004", {"cylinder.a2": 2e-3})
     with pytest.raises(ValueError, match="engine: generated or core"):
         HybridPlant(base, engine="numba")
+
+
+@pytest.mark.parametrize("path", ["fig11_p_control.toml", "fig10_open_loop_sine.toml", "faults/sensor_noise.toml",
+                                  "faults/packet_loss.toml", "controllers/fig11_python_pi.toml",
+                                  "controllers/fig12_pressure_feedback.toml", "diverging"])
+def test_the_columns_alone_are_the_generated_runs(tmp_path, path):
+    """as_circuit.generated_columns (a study's run: the generated code logging only the circuit columns of the
+    core's columns asked for) gives run_generated's log columns bit for bit, the cylinder's mode as the core's
+    travel and friction modes; a run that diverges, the same divergence; a column not in the core's log named."""
+    from hydrohil.core.shape import LOG_COLUMNS
+    from hydrohil.simulation.as_circuit import generated_columns, run_generated
+    f = tmp_path / "big.toml" if path == "diverging" else EXAMPLES / path
+    if path == "diverging":
+        f.write_text(DIVERGING)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ls = load_scenario(f)
+        full = run_generated(ls)
+        names = ["t", "xp", "p1", "p2", "u", "xs", "friction_mode", "travel_mode", "ud", "events"]
+        cols, diverged = generated_columns(ls, names)
+        every, _ = generated_columns(ls, LOG_COLUMNS)
+    assert str(diverged) == str(full.diverged) and (diverged is None) == (path != "diverging")
+    for name in LOG_COLUMNS:
+        assert np.array_equal(every[name], full.column(name)), name
+        if name in names:
+            assert np.array_equal(cols[name], full.column(name)), name
+    with pytest.raises(KeyError, match="no column 'x_ref'"):
+        generated_columns(ls, ["x_ref"])

@@ -42,13 +42,14 @@ def _first_crossing(t, x, level, rising):
 
 
 def step_metrics(t, x, x_ref, p1=None, p2=None, *, sliding=None, band: float = 0.02, min_band: float = 2e-6,
-                 min_hold: float = 0.05) -> dict:
+                 min_hold: float = 0.05, spans: list[tuple[int, int]] | None = None) -> dict:
     """Metrics of the position ``x`` following ``x_ref`` (samples at times ``t``; module docstring).
-    ``sliding`` (non-zero while the friction slips) adds ``breakaways``, the stick-to-slip transitions."""
+    ``sliding`` (non-zero while the friction slips) adds ``breakaways``, the stick-to-slip transitions.
+    ``spans``: :func:`holds` (t, x_ref, min_hold), when the caller has them."""
     t, x, x_ref = (np.asarray(a, dtype=float) for a in (t, x, x_ref))
     moves = []
     prev_end, prev_val = 0, float(x[0])
-    for first, last in holds(t, x_ref, min_hold):
+    for first, last in holds(t, x_ref, min_hold) if spans is None else spans:
         r1 = float(x_ref[first])
         amp = r1 - prev_val
         if abs(amp) >= MIN_MOVE:

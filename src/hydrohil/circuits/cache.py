@@ -3,10 +3,17 @@ the circuit files of parameter sets (:mod:`hydrohil.circuits.parameter_set`), by
 
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 
 
 def cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "hydrohil" / "circuits"
+    """$XDG_CACHE_HOME/hydrohil/circuits, else ~/.cache/hydrohil/circuits (read at each call: a test or a user's
+    process may set it)."""
+    return _cache_dir(os.environ.get("XDG_CACHE_HOME"), os.environ.get("HOME"))
+
+
+@functools.lru_cache(maxsize=8)
+def _cache_dir(xdg: str | None, home: str | None) -> Path:
+    return Path(xdg or str(Path.home() / ".cache")) / "hydrohil" / "circuits"

@@ -3,6 +3,7 @@ the core's explicit methods, its inputs from the circuit's default drive or give
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -438,8 +439,11 @@ class Loop:
         return Drive(*self.reference, self.linear).at(t, h)
 
     def table(self, n: int, h: float) -> tuple[np.ndarray, np.ndarray]:
-        """The reference and its slope at each step (a held reference has none)."""
-        return self.reference_at(np.arange(n + 1) * h, h)
+        """The reference and its slope at each step (a held reference has none): :meth:`reference_at` of the
+        n + 1 step times, made once per reference and grid in a process (a study's runs share them), copies."""
+        ts, vs = (np.ascontiguousarray(a, dtype=float) for a in self.reference)
+        r, dr = _reference_table(ts.tobytes(), vs.tobytes(), self.linear, self.period, n, h)
+        return r.copy(), dr.copy()
 
     def reference_at(self, t: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
         """The reference and its slope at the step times ``t`` of step ``h`` (a held reference has none)."""
@@ -453,6 +457,14 @@ class Loop:
         slope = np.where(dt > 0, np.diff(vs) / np.where(dt > 0, dt, 1.0), 0.0) if len(ts) > 1 else np.zeros(1)
         dr = np.where(t < ts[-1], slope[seg], 0.0) if len(ts) > 1 else np.zeros_like(t)
         return r, np.ascontiguousarray(dr, dtype=float)
+
+
+@functools.lru_cache(maxsize=8)
+def _reference_table(ts: bytes, vs: bytes, linear: bool, period: float | None, n: int,
+                     h: float) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`Loop.table` of the reference (the times ``ts``, the values ``vs``: their doubles' bytes)."""
+    loop = Loop(None, "", "", (np.frombuffer(ts), np.frombuffer(vs)), linear=linear, period=period)
+    return loop.reference_at(np.arange(n + 1) * h, h)
 
 
 @dataclass
@@ -525,8 +537,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     the link (:class:`Commands`: the scenario's network faults act on them; their sent values as columns
     ``<input>.sent``). ``compiled``: ``compile_circuit(c)`` when the caller has it (a scenario's ``compiled``).
     ``columns``: the log columns a caller reads (a fixed-step run computes only those, with t, a loop's measured
-    signal and the pressures its transducers read; the step's columns, the inputs and the loop's columns besides;
-    None: every column; the reference computes every column)."""
+    signal and the pressures its transducers read; the step's columns, the inputs and the loop's reference
+    besides, not what its sensor and transducers read, ``.sensed``; None: every column; the reference computes
+    every column)."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
@@ -605,10 +618,11 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         raise SimulationDiverged(int(steps[0]) * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
                                  divergence_reason(cc, P, y, status),
-                                 partial=_with_drives(c, cc, res, u, every, loop, commands, sent, dog))
+                                 partial=_with_drives(c, cc, res, u, every, loop, commands, sent, dog,
+                                                      sensed=columns is None))
     if warn and len(log):
         _warn_unbalanced(c, res)
-    return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)
+    return _with_drives(c, cc, res, u, every, loop, commands, sent, dog, sensed=columns is None)
 
 
 class Hold(NamedTuple):
@@ -764,10 +778,10 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
 
 def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None,
                  commands: Commands | None = None, sent: np.ndarray | None = None,
-                 dog: np.ndarray | None = None) -> CircuitResult:
+                 dog: np.ndarray | None = None, sensed: bool = True) -> CircuitResult:
     """The run's inputs as columns (``valve.command``: what drove each step; closed loop: what the controller
     sent; an open loop's commands through network faults: what was sent, ``<input>.sent``) and the loop's
-    reference (``<measure>.reference``)."""
+    reference (``<measure>.reference``); ``sensed``: what its sensor and transducers read too (``.sensed``)."""
     rows = len(res.columns["t"])
     idx = np.minimum(np.arange(rows) * every, len(u) - 1)
     for j, sig in enumerate(c.inputs):
@@ -786,10 +800,10 @@ def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, 
     if loop is not None:
         res.columns[f"{loop.measure}.reference"] = loop.at(res.columns["t"], res.h)
         res.units[f"{loop.measure}.reference"] = res.units.get(loop.measure, "-")
-        if loop.sensor is not None:          # what the controller read (through the sensor: the C's hc_sensed)
+        if loop.sensor is not None and sensed:   # what the controller read (through the sensor: the C's hc_sensed)
             res.columns[f"{loop.measure}.sensed"] = sensed_column(cc, loop, res.columns[loop.measure], every)
             res.units[f"{loop.measure}.sensed"] = res.units.get(loop.measure, "-")
-        for name, column in pressures_sensed(cc, loop, res, every).items():   # (its transducers': Pa)
+        for name, column in pressures_sensed(cc, loop, res, every).items() if sensed else ():   # (its transducers')
             res.columns[name], res.units[name] = column, "Pa"
     return res
 

@@ -382,15 +382,60 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     (:func:`paper_divergence`: the same time, modes and state; the state that left its range named). None when
     the scenario has what a circuit does not take, or a sensor fault with a memory in a run not logged every
     step (rig_columns): run_scenario then runs the core."""
+    from hydrohil.circuits.paper import paper_log
+    from hydrohil.simulation.result import SimulationResult
+    run = _generated_run(ls, PAPER_COLUMNS, progress)
+    if run is None:
+        return None
+    res, diverged, cs, tables = run
+    s = ls.scenario
+    columns = rig_columns(ls, res, cs.compiled, tables) if s.faults or s.python_controller or rig else {}   # (run_rig's
+    #                                                          columns: ``rig``, or a run the core gives the rig)
+    return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, diverged,
+                            extra={"engine": "generated"}, columns=columns)
+
+
+def generated_columns(ls, names: list[str]):
+    """The core's log columns ``names`` (core/shape.LOG_COLUMNS': t, xp, p1, friction_mode, ...) of
+    :func:`run_generated`'s run of the paper scenario ``ls``, the generated code logging only their circuit
+    columns (circuits.paper.PAPER_VIEW; a study's metrics read five of the core's fifteen): ({name: column},
+    the divergence or None), the same values as :func:`run_generated`'s log and ``diverged``; None where
+    :func:`run_generated` is None (run_scenario then runs the core)."""
+    from hydrohil.circuits.paper import CYL_MODE, PAPER_VIEW
+    from hydrohil.core.shape import LOG_COLUMNS, MODE_NAMES
+    unknown = [n for n in names if n not in LOG_COLUMNS]
+    if unknown:
+        raise KeyError(f"no column {unknown[0]!r} in the core's log ({', '.join(LOG_COLUMNS)})")
+    modes = {"travel_mode": "travel", "friction_mode": "friction"}
+    wanted = [PAPER_VIEW[n] for n in names if n in PAPER_VIEW] + (["cyl.mode"] if set(modes) & set(names) else [])
+    run = _generated_run(ls, [c for c in PAPER_COLUMNS if c in wanted], None)
+    if run is None:
+        return None
+    res, diverged, _, _ = run
+    out = {}
+    for name in names:
+        if name in modes:                   # (the cylinder's one mode as the core's two: circuits.paper.paper_log)
+            code = np.array([MODE_NAMES[modes[name]].index(CYL_MODE[m][name != "travel_mode"])
+                             for m in res.mode_names["cyl.mode"]], dtype=float)
+            out[name] = code[res.columns["cyl.mode"].astype(int)]
+        else:
+            out[name] = res.columns["t" if name == "t" else PAPER_VIEW[name]]
+    return out, diverged
+
+
+def _generated_run(ls, columns: list[str], progress):
+    """The generated code's run of ``ls`` for :func:`run_generated` and :func:`generated_columns` (``columns``
+    the circuit's log columns it computes): (its CircuitResult, its divergence's message or None, its circuit
+    scenario, :func:`circuit_tables`'s tables), or None (what a circuit does not take). The divergence: the
+    core's SimulationDiverged (:func:`paper_divergence`)."""
     import warnings
 
-    from hydrohil.circuits.paper import paper_log, paper_start
+    from hydrohil.circuits.paper import paper_start
     from hydrohil.circuits.run import simulate_circuit
     from hydrohil.core.shape import LOG_COLUMNS
     from hydrohil.errors import SimulationDiverged
     from hydrohil.models.layout import MODE_COLUMNS, STATE_NAMES
     from hydrohil.simulation.loop import initial_state
-    from hydrohil.simulation.result import SimulationResult
     s = ls.scenario
     if s.solver.output_every > 1 and any(f.type in STATEFUL_SENSOR_FAULTS for f in s.faults):
         return None                              # (rig_columns' readings between rows would not be the rig's)
@@ -414,13 +459,10 @@ def run_generated(ls, *, progress=None, rig: bool = False):
     try:
         res = simulate_circuit(cs.circuit, cs.duration, h=cs.step, method=cs.method, every=cs.every, loop=cs.loop,
                                commands=cs.commands, start=paper_start(cs.circuit, row, cs.step, compiled=cs.compiled),
-                               progress=progress, compiled=cs.compiled, columns=PAPER_COLUMNS)
+                               progress=progress, compiled=cs.compiled, columns=columns)
     except SimulationDiverged as exc:            # (non-finite, or outside the core's physical range: the paper's
         res, diverged = exc.partial, paper_divergence(exc)   # components declare hh_diverged's bounds: the core's
-    columns = rig_columns(ls, res, cs.compiled, tables) if s.faults or s.python_controller or rig else {}   # (run_rig's
-    #                                                          columns: ``rig``, or a run the core gives the rig)
-    return SimulationResult(paper_log(res), s.solver.method, s.solver.step, res.wall, diverged,
-                            extra={"engine": "generated"}, columns=columns)
+    return res, diverged, cs, tables
 
 
 def paper_divergence(exc):

@@ -119,10 +119,16 @@ class Table:
         self.slopes[1:-1] = np.where(dt > 0, dx / np.where(dt > 0, dt, 1.0), 0.0)
 
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
-        t = np.asarray(t, dtype=float)
-        if self.period:
-            t = np.fmod(t, self.period)             # (exact, as math.fmod in at())
+        t = self._in_period(t)
         return np.interp(t, self.t, self.x), self.slopes[np.searchsorted(self.t, t, side="right")]
+
+    def values(self, t) -> np.ndarray:
+        """The value alone at the times t (``self(t)[0]``, its slopes not looked up)."""
+        return np.interp(self._in_period(t), self.t, self.x)
+
+    def _in_period(self, t) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        return np.fmod(t, self.period) if self.period else t     # (exact, as math.fmod in at())
 
     def at(self, t: float) -> tuple[float, float]:
         if self.period:

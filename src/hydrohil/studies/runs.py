@@ -106,25 +106,27 @@ def _circuit_data(base: Path, st: dict) -> dict:
     return data
 
 
-def hold_error(t, x, x_ref) -> float:
-    """Largest |x_ref − xp| over the second half of every hold of the reference (the settled position error)."""
+def hold_error(t, x, x_ref, spans: list[tuple[int, int]] | None = None) -> float:
+    """Largest |x_ref − xp| over the second half of every hold of the reference (the settled position error;
+    ``spans``: metrics.holds(t, x_ref), when the caller has them)."""
     from hydrohil.metrics import holds
     worst = 0.0
-    for first, last in holds(t, x_ref):
+    for first, last in holds(t, x_ref) if spans is None else spans:
         mid = first + (last - first) // 2
         worst = max(worst, float(np.max(np.abs(x_ref[mid:last + 1] - x[mid:last + 1]))))
     return worst
 
 
 def metrics_of(t, xp, x_ref, p1, p2, sliding=None) -> dict:
-    from hydrohil.metrics import step_metrics
-    m = step_metrics(t, xp, x_ref, p1, p2, sliding=sliding)
+    from hydrohil.metrics import holds, step_metrics
+    spans = holds(t, x_ref)
+    m = step_metrics(t, xp, x_ref, p1, p2, sliding=sliding, spans=spans)
     moves = m["moves"]
 
     def worst(key, f=lambda v: v):
         vals = [f(mv[key]) for mv in moves if mv[key] is not None]
         return float(max(vals)) if vals else None
-    return {"rms_error": m["rms_error"], "max_abs_error": m["max_abs_error"], "max_hold_error": hold_error(t, xp, x_ref),
+    return {"rms_error": m["rms_error"], "max_abs_error": m["max_abs_error"], "max_hold_error": hold_error(t, xp, x_ref, spans),
             "max_p1": m["max_p1"], "max_p2": m["max_p2"], "max_overshoot_pct": worst("overshoot_pct"),
             "max_settling_time": worst("settling_time"), "max_abs_ss_error": worst("steady_state_error", abs),
             "breakaways": float(m.get("breakaways", 0)) if sliding is not None else None}
@@ -175,18 +177,26 @@ def execute_batch(tasks: list[dict]) -> list[dict]:
     return [execute(task) for task in tasks]
 
 
+STUDY_COLUMNS = ["t", "xp", "p1", "p2", "u", "xs", "friction_mode"]    # (the core's log: what a row and a run's log read)
+
+
 def _run_scenario(data: dict, base: str | Path):
-    """A paper scenario's run from its table ``data`` (the base file ``base``'s with the run's values)."""
+    """A paper scenario's run from its table ``data`` (the base file ``base``'s with the run's values): on the
+    generated code, only the columns of :data:`STUDY_COLUMNS` logged (as_circuit.generated_columns: the values
+    of run_scenario's log), else (what a circuit does not take, or ENGINE "core") run_scenario's run."""
+    from hydrohil.simulation.as_circuit import generated_columns
     from hydrohil.simulation.run import run_scenario
     from hydrohil.simulation.scenario import scenario_from_data
     sc = scenario_from_data(data, base)
     if not sc.scenario.closed_loop:
         raise InputError("a study's scenario must be closed loop ([controller] + [reference])", source=str(base))
-    res = run_scenario(sc, engine=ENGINE)
-    t = res.column("t")
-    cols = {c: res.column(c) for c in ("t", "xp", "p1", "p2", "u", "xs", "friction_mode")}
-    cols["x_ref"] = sc.scenario.reference.sample(t)[0]
-    return cols, (str(res.diverged) if res.diverged else None)
+    run = generated_columns(sc, STUDY_COLUMNS) if ENGINE == "generated" else None
+    if run is None:
+        res = run_scenario(sc, engine=ENGINE)
+        run = {c: res.column(c) for c in STUDY_COLUMNS}, res.diverged
+    cols, diverged = run
+    cols["x_ref"] = sc.scenario.reference.sampler().values(cols["t"])
+    return cols, (str(diverged) if diverged else None)
 
 
 def _run_circuit(path: Path):
