@@ -877,8 +877,8 @@ def test_a_port_plugged_on_purpose_is_a_node_declared_with_its_volume():
 def test_a_run_computes_only_the_columns_asked_for_and_they_are_the_full_runs():
     """``simulate_circuit(..., columns=[...])``: the log holds t, the columns asked for and what the run reads
     itself (the loop's measured signal, its transducers' pressures), each the full run's bit for bit, the others
-    not computed (the valve's flows absent, what the sensor read too); a column the circuit does not log is
-    named."""
+    not computed (the valve's flows absent, what the sensor read too, the valve's delayed command unless named);
+    a column the circuit does not log is named."""
     from hydrohil.circuits.scenario import load_circuit_scenario
     from hydrohil.errors import InputError
     cs = load_circuit_scenario(EXAMPLES / "circuits" / "servo_supply" / "scenario.toml")
@@ -889,6 +889,11 @@ def test_a_run_computes_only_the_columns_asked_for_and_they_are_the_full_runs():
     full, some = run(), run(["valve.v", "cyl.mode"])
     logged = {"t", "valve.v", "cyl.mode", cs.loop.measure}
     assert logged <= set(some.columns) and not any(k.startswith("valve.q_") for k in some.columns)
+    assert "valve.command.seen" in full.columns and "valve.command.seen" not in some.columns   # (named: computed)
+    mixed = run(["cyl.friction", "accumulator.mode", "tank.p", "valve.x", "supply.p", "valve.command.seen", "cyl.x"])
+    assert {"cyl.friction", "accumulator.mode", "tank.p", "valve.command.seen", "events"} <= set(mixed.columns)
+    for name, column in mixed.columns.items():    # (states copied, modes converted, the rest computed: in order)
+        assert np.array_equal(column, full.columns[name]), name
     assert set(full.columns) - set(some.columns) - {"t"}                     # (some columns left out)
     assert not any(k.endswith(".sensed") for k in some.columns)
     rig = load_circuit_scenario(EXAMPLES / "circuits" / "ferreira2004" / "scenario.toml")   # (an encoder read)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 
 from hydrohil.circuits.circuit import Circuit
 
@@ -150,6 +151,12 @@ class _View:
         return f"P[{self.lay.slot['fluid.' + key]}]"
 
 
+def _state_index(expr: str) -> int:
+    """k when the C expression is the state y[k] itself, else -1."""
+    match = re.fullmatch(r"y\[(\d+)\]", expr.strip())
+    return int(match.group(1)) if match else -1
+
+
 def _pressure(lay: Layout, node: str) -> str:
     c = lay.circuit
     if node in c.fixed:
@@ -227,6 +234,8 @@ def generate(c: Circuit) -> tuple[str, Layout]:
     value_cases += [f"    case LOG_OUTPUTS + {i}: return {expr};   /* {lay.outputs[i][0]} */"
                     for i, expr in enumerate(out_exprs)]
     value_cases += [f"    case LOG_MODES + {i}: return (double)m[{i}];   /* {name} */" for i, name in enumerate(lay.modes)]
+    state_of = [-1] + [_state_index(_pressure(lay, n)) for n in c.nodes] + [_state_index(e) for e in out_exprs] \
+        + [-1] * len(lay.modes)             # (hc_run copies a column that is a state, log_value computes the rest)
     held = [f"    m[{lay.modes.index(comp.name + '.mode')}] = {e.mode_at_rest};   /* {comp.name} */"
             for comp, e in emits if e.mode_at_rest]
     held += [f"    y[{lay.states.index(f'{comp.name}.{st}')}] = {expr};   /* {comp.name}.{st} */"
@@ -248,6 +257,9 @@ enum {{ NY = {max(ny, 1)}, NM = {max(nm, 1)}, NU = {max(nu, 1)}, NOUT = {max(nou
        NNODES = {len(c.state_nodes)}, NG = {len(guards)} }};   /* y: the NNODES node pressures, then the components' states; NG guards */
 /* log columns: t, the nodes' pressures, the components' outputs, the modes */
 enum {{ LOG_T, LOG_NODES, LOG_OUTPUTS = LOG_NODES + {len(c.nodes)}, LOG_MODES = LOG_OUTPUTS + {nout} }};
+
+/* per log column, the state it is (y[LOG_STATE[j]]), or -1: computed (log_value) */
+static const int LOG_STATE[NLOG] = {{ {", ".join(map(str, state_of))} }};
 
 /* sc: per state node (c, (1 - c)/g, its Gershgorin reach) of hc_node.h's stiff-node form, NOT_STIFF: c = 1 */
 enum {{ NSC = 3 * NNODES + 3 }};
@@ -734,6 +746,15 @@ double hc_sensed(double x, double *sensor, void *rng, int64_t k)
     if (!sensor)
         return x;
     nf = (int)sensor[4];
+    if (nf == 0) {{                          /* no fault: the noise, the counts, the range (the same numbers as */
+        if (sensor[3] > 0.0 && r) {{         /* below: no count lost, counts - 0.0 is counts) */
+            hh_rng_normals(&r[0], 1, &z);
+            v = v + sensor[3] * z;
+        }}
+        if (sensor[0] > 0.0)
+            v = encoder_counts(v, sensor[0]) * sensor[0];
+        return v < sensor[1] ? sensor[1] : v > sensor[2] ? sensor[2] : v;
+    }}
     encoder = sensor[6] != 0.0;
     t = (double)k * sensor[5];
     for (f = 0; f < nf; f++) {{
@@ -1191,8 +1212,19 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
            void *progress_ctx, const int64_t *cols, int64_t ncols)
 {{
     double seen[NLOG], held = 0.0, events = 0.0;
-    int64_t step, row = 0, i;
-    int ev = 0;
+    int64_t step, row = 0, i, next_row = 0;
+    int64_t copied[NLOG], of_state[NLOG], modes[NLOG], computed[NLOG], nc = 0, nmc = 0, ncc = 0;
+    int ev = 0, split = cols && ncols <= NLOG, meas_state = meas >= 0 && meas < NLOG ? LOG_STATE[meas] : -1;
+    for (i = 0; split && i < ncols; i++) {{   /* the columns asked for: a state's copied, a mode's converted, */
+        int64_t j = cols[i];                  /* the others computed (log_value) */
+        if (j >= 0 && j < NLOG && LOG_STATE[j] >= 0) {{
+            copied[nc] = i;
+            of_state[nc++] = LOG_STATE[j];
+        }} else if (j >= LOG_MODES && j < NLOG)
+            modes[nmc++] = i;
+        else
+            computed[ncc++] = i;
+    }}
     for (step = 0; step <= n; step++) {{
         double *uk = u + step * NU;
         if (progress && (step & 4095) == 0 && ((hc_progress_fn)progress)(progress_ctx, step)) {{
@@ -1211,7 +1243,7 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
             if (command)                  /* (a user's controller is handed the whole row: its status bits) */
                 log_row((double)step * h, y, m, uk, P, seen);
             else {{                        /* (the law reads its signal and its transducers' columns only) */
-                seen[meas] = log_value(meas, (double)step * h, y, m, uk, P);
+                seen[meas] = meas_state >= 0 ? y[meas_state] : log_value(meas, (double)step * h, y, m, uk, P);
                 for (i = 0; press && i < (int64_t)press[0]; i++) {{
                     int64_t col = (int64_t)press[HC_PRESS_HEAD + 1 + 2 * i];
                     seen[col] = log_value(col, (double)step * h, y, m, uk, P);
@@ -1243,13 +1275,22 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                 watchdog_log[step] = (double)((hh_path *)path)->link.active;
             uk[cmd] = c;
         }}
-        if (step % every == 0) {{
+        if (step == next_row) {{         /* (every `every` steps: a countdown, no division a step) */
+            next_row += every;
             if (seen_log && ND > 0)
                 delayed_peek(y, uk, seen_log + row * ND);
             if (events_log)
                 events_log[row] = events;
             events = 0.0;
-            if (cols) {{                   /* (only the columns asked for, in their order) */
+            if (split) {{                  /* (only the columns asked for, in their order) */
+                double *out = log + (row++) * ncols;
+                for (i = 0; i < nc; i++)
+                    out[copied[i]] = y[of_state[i]];
+                for (i = 0; i < nmc; i++)
+                    out[modes[i]] = (double)m[cols[modes[i]] - LOG_MODES];
+                for (i = 0; i < ncc; i++)
+                    out[computed[i]] = log_value(cols[computed[i]], (double)step * h, y, m, uk, P);
+            }} else if (cols) {{
                 double *out = log + (row++) * ncols;
                 for (i = 0; i < ncols; i++)
                     out[i] = log_value(cols[i], (double)step * h, y, m, uk, P);

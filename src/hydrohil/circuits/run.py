@@ -537,9 +537,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     the link (:class:`Commands`: the scenario's network faults act on them; their sent values as columns
     ``<input>.sent``). ``compiled``: ``compile_circuit(c)`` when the caller has it (a scenario's ``compiled``).
     ``columns``: the log columns a caller reads (a fixed-step run computes only those, with t, a loop's measured
-    signal and the pressures its transducers read; the step's columns, the inputs and the loop's reference
-    besides, not what its sensor and transducers read, ``.sensed``; None: every column; the reference computes
-    every column)."""
+    signal and the pressures its transducers read; ``events``, the inputs and the loop's reference besides, a
+    delayed input as the components see it, ``<input>.seen``, when named, not what its sensor and transducers
+    read, ``.sensed``; None: every column; the reference computes every column)."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):
@@ -569,13 +569,16 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
                  else (None, None))
     warn = bool(rest and warn_unheld and start is None and not (isinstance(rest, Start) and (
         rest.pressures or rest.inputs)))           # (a start of the user's own: not the rest's to balance)
-    names = _logged(c, lay, columns, loop, warn)  # (the reference computes them all)
+    seen_cols = [f"{name}.seen" for name in lay.delayed]   # (the step's: asked for by name, or every one)
+    with_seen = columns is None or bool(set(columns) & set(seen_cols))
+    names = _logged(c, lay, None if columns is None else [x for x in columns if x not in seen_cols], loop, warn)
     if method == "reference":
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
         return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)
     cols = np.array([lay.log_columns.index(name) for name in names], dtype=np.int64)
     log = np.zeros((n // every + 1, len(names)))
-    seen, events = np.zeros((len(log), max(len(lay.delayed), 1))), np.zeros(len(log))
+    seen = np.zeros((len(log), max(len(lay.delayed), 1))) if with_seen else None
+    events = np.zeros(len(log))
     rows, steps = ffi.new("int64_t *"), ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h, input_range(c, loop.command)) if loop is not None else
            (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, 0.0, ffi.NULL,
@@ -595,7 +598,8 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     status = lib.hc_run(ffi.from_buffer("double[]", P), ffi.from_buffer("double[]", y),
                         ffi.from_buffer("int64_t[]", m), METHODS.index(method), float(h), n, int(every),
                         ffi.from_buffer("double[]", u), ffi.from_buffer("double[]", log), rows, *ctl,
-                        ffi.from_buffer("double[]", seen), ffi.from_buffer("double[]", events),
+                        ffi.from_buffer("double[]", seen) if seen is not None else ffi.NULL,
+                        ffi.from_buffer("double[]", events),
                         ffi.from_buffer("double[]", loop.watchdog) if loop is not None and loop.watchdog is not None
                         else ffi.NULL, steps, lib.hc_py_progress if handle is not None else ffi.NULL,
                         handle if handle is not None else ffi.NULL,
@@ -613,7 +617,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         raise HydrohilError(f"circuit {c.name!r}: the step {h} s is not the one its state's delay lines were sized "
                             "for (hc_init)")
     res.units = signal_units(c, lay)
-    _step_columns(c, res, lay, seen[:rows[0]], events[:rows[0]])
+    _step_columns(c, res, lay, seen[:rows[0]] if seen is not None else None, events[:rows[0]])
     if status != 0:                       # (the end of the failed step; the rows logged before it: ``partial``)
         modes = {name: lay.mode_names[name][int(m[i])] for i, name in enumerate(lay.modes)}
         raise SimulationDiverged(int(steps[0]) * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
@@ -947,11 +951,12 @@ def _reference_run(c: Circuit, cc, P, y, m, u, h: float, n: int, every: int, pro
     return res
 
 
-def _step_columns(c: Circuit, res: CircuitResult, lay, seen: np.ndarray, events: np.ndarray) -> None:
+def _step_columns(c: Circuit, res: CircuitResult, lay, seen: np.ndarray | None, events: np.ndarray) -> None:
     """What each row's step did beside its state (the core's log columns ud and events): ``<input>.seen``, each
-    delayed input as the components see it in the row's step (after its delay), and ``events``, the events
-    located in the steps since the row before (the reference: none, its modes are functions of its state)."""
-    for j, name in enumerate(lay.delayed):
+    delayed input as the components see it in the row's step (after its delay; ``seen`` None: not asked for),
+    and ``events``, the events located in the steps since the row before (the reference: none, its modes are
+    functions of its state)."""
+    for j, name in enumerate(lay.delayed if seen is not None else ()):
         res.columns[f"{name}.seen"] = seen[:, j].copy()
         res.units[f"{name}.seen"] = input_unit(c, name)
     res.columns["events"] = events.copy()

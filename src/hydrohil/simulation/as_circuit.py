@@ -268,7 +268,7 @@ def convert(ls, out: str | Path) -> tuple[Path, Path, list[str]]:
 # rig's sensors (rig_columns: the piston, the four nodes' pressures); the others (the valve's four flows, the
 # cylinder's force) not computed
 PAPER_COLUMNS = ["cyl.mode", "valve.mode", "valve.x", "valve.v", "cyl.x", "cyl.v", "cyl.z", "cyl.friction", "cap.p",
-                 "rod.p", "supply.p", "tank.p"]
+                 "rod.p", "supply.p", "tank.p", "valve.command.seen"]
 
 
 def _listed(table):
