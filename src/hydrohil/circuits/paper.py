@@ -34,21 +34,41 @@ CYL_MODE = {"stick": ("free", "stick"), "slip_pos": ("free", "slip_pos"), "slip_
 def paper_log(res) -> np.ndarray:
     """The run ``res`` (:class:`~hydrohil.circuits.run.CircuitResult`) of a paper's circuit (:func:`paper_circuit`,
     ``hydrohil circuit convert``) as the core's log: a row per log row, the core's 15 columns in its order
-    (LOG_COLUMNS: t, u, ud, the state, ff, the travel, friction and spool modes, events), each the circuit's
-    column of :data:`PAPER_VIEW`; the cylinder's mode split into the core's travel and friction modes (at an
-    end stop, stick: the core's reset there; the array in column order, the same values). KeyError naming a column the run lacks (not the paper's circuit)."""
-    cyl = res.mode_names["cyl.mode"]
-    travel = np.array([MODE_NAMES["travel"].index(CYL_MODE[name][0]) for name in cyl], dtype=float)
-    friction = np.array([MODE_NAMES["friction"].index(CYL_MODE[name][1]) for name in cyl], dtype=float)
-    if res.mode_names["valve.mode"] != MODE_NAMES["spool"]:
-        raise KeyError(f"valve.mode's modes {res.mode_names['valve.mode']} are not the core's spool modes")
-    mode = res.columns["cyl.mode"].astype(int)
-    cols = {"t": res.columns["t"], "travel_mode": travel[mode], "friction_mode": friction[mode],
-            **{core: res.columns[name] for core, name in PAPER_VIEW.items()}}
+    (LOG_COLUMNS: t, u, ud, the state, ff, the travel, friction and spool modes, events), each
+    :func:`paper_columns`' (the array in column order, the same values). KeyError naming a column the run lacks
+    (not the paper's circuit)."""
+    cols = paper_columns(res, LOG_COLUMNS)
     log = np.empty((len(LOG_COLUMNS), len(cols["t"])))    # (column by column: a fifth of column_stack's time)
     for i, name in enumerate(LOG_COLUMNS):
         log[i] = cols[name]
     return log.T
+
+
+def paper_columns(res, names) -> dict[str, np.ndarray]:
+    """The core's log columns ``names`` (LOG_COLUMNS') of the run ``res`` of a paper's circuit: each the circuit's
+    column of :data:`PAPER_VIEW`, the cylinder's mode split into the core's travel and friction modes (at an end
+    stop, stick: the core's reset there). KeyError naming a column the run lacks, or when the valve's modes are
+    not the core's spool modes."""
+    check_core_columns(names)
+    if "spool_mode" in names and res.mode_names["valve.mode"] != MODE_NAMES["spool"]:
+        raise KeyError(f"valve.mode's modes {res.mode_names['valve.mode']} are not the core's spool modes")
+    split = {"travel_mode": 0, "friction_mode": 1}            # (CYL_MODE's (travel, friction))
+    out = {}
+    for name in names:
+        if name in split:
+            code = np.array([MODE_NAMES[name[:-5]].index(CYL_MODE[mode][split[name]])
+                             for mode in res.mode_names["cyl.mode"]], dtype=float)
+            out[name] = code[res.columns["cyl.mode"].astype(int)]
+        else:
+            out[name] = res.columns["t" if name == "t" else PAPER_VIEW[name]]
+    return out
+
+
+def check_core_columns(names) -> None:
+    """KeyError naming the first of ``names`` that is not a column of the core's log (LOG_COLUMNS)."""
+    unknown = [n for n in names if n not in LOG_COLUMNS]
+    if unknown:
+        raise KeyError(f"no column {unknown[0]!r} in the core's log ({', '.join(LOG_COLUMNS)})")
 
 
 def paper_start(c: Circuit, core_row, h: float = 5e-4, command: str = "valve.command", compiled=None) -> tuple:

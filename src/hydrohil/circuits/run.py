@@ -440,9 +440,13 @@ class Loop:
 
     def table(self, n: int, h: float) -> tuple[np.ndarray, np.ndarray]:
         """The reference and its slope at each step (a held reference has none): :meth:`reference_at` of the
-        n + 1 step times, made once per reference and grid in a process (a study's runs share them), copies."""
-        ts, vs = (np.ascontiguousarray(a, dtype=float) for a in self.reference)
-        r, dr = _reference_table(ts.tobytes(), vs.tobytes(), self.linear, self.period, n, h)
+        n + 1 step times; a run of up to TABLE_CACHED steps made once per reference and grid in a process (a
+        study's runs share them; copies), a longer one (a long HIL session) each time."""
+        if n > TABLE_CACHED:
+            return self.reference_at(np.arange(n + 1) * h, h)
+        ts, vs = (np.asarray(a) for a in self.reference)
+        r, dr = _reference_table(ts.tobytes(), str(ts.dtype), vs.tobytes(), str(vs.dtype), self.linear,
+                                 self.period, n, h)
         return r.copy(), dr.copy()
 
     def reference_at(self, t: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -459,12 +463,15 @@ class Loop:
         return r, np.ascontiguousarray(dr, dtype=float)
 
 
+TABLE_CACHED = 400_000       # steps: Loop.table's tables kept up to this (8 at most: 51 MB), a 200 s run at 0.5 ms
+
+
 @functools.lru_cache(maxsize=8)
-def _reference_table(ts: bytes, vs: bytes, linear: bool, period: float | None, n: int,
+def _reference_table(ts: bytes, ts_type: str, vs: bytes, vs_type: str, linear: bool, period: float | None, n: int,
                      h: float) -> tuple[np.ndarray, np.ndarray]:
-    """:meth:`Loop.table` of the reference (the times ``ts``, the values ``vs``: their doubles' bytes)."""
-    loop = Loop(None, "", "", (np.frombuffer(ts), np.frombuffer(vs)), linear=linear, period=period)
-    return loop.reference_at(np.arange(n + 1) * h, h)
+    """:meth:`Loop.table` of the reference (the times ``ts``, the values ``vs``: their arrays' bytes and dtypes)."""
+    ref = (np.frombuffer(ts, dtype=ts_type), np.frombuffer(vs, dtype=vs_type))
+    return Loop(None, "", "", ref, linear=linear, period=period).reference_at(np.arange(n + 1) * h, h)
 
 
 @dataclass
@@ -537,9 +544,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
     the link (:class:`Commands`: the scenario's network faults act on them; their sent values as columns
     ``<input>.sent``). ``compiled``: ``compile_circuit(c)`` when the caller has it (a scenario's ``compiled``).
     ``columns``: the log columns a caller reads (a fixed-step run computes only those, with t, a loop's measured
-    signal and the pressures its transducers read; ``events``, the inputs and the loop's reference besides, a
-    delayed input as the components see it, ``<input>.seen``, when named, not what its sensor and transducers
-    read, ``.sensed``; None: every column; the reference computes every column)."""
+    signal and the pressures its transducers read; ``events``, the inputs and the loop's reference besides; the
+    delayed inputs as the components see them, ``<input>.seen``, when one is named; not what its sensor and
+    transducers read, ``.sensed``; None: every column; the reference computes every column)."""
     if method not in SOLVERS:
         raise InputError(f"one of {', '.join(SOLVERS)}, got {method!r}", key="method")
     if not (h > 0 and duration >= 0 and every >= 1):

@@ -398,36 +398,29 @@ def run_generated(ls, *, progress=None, rig: bool = False):
 def generated_columns(ls, names: list[str]):
     """The core's log columns ``names`` (core/shape.LOG_COLUMNS': t, xp, p1, friction_mode, ...) of
     :func:`run_generated`'s run of the paper scenario ``ls``, the generated code logging only their circuit
-    columns (circuits.paper.PAPER_VIEW; a study's metrics read five of the core's fifteen): ({name: column},
+    columns (circuits.paper.paper_columns; a study's metrics read five of the core's fifteen): ({name: column},
     the divergence or None), the same values as :func:`run_generated`'s log and ``diverged``; None where
-    :func:`run_generated` is None (run_scenario then runs the core)."""
-    from hydrohil.circuits.paper import CYL_MODE, PAPER_VIEW
-    from hydrohil.core.shape import LOG_COLUMNS, MODE_NAMES
-    unknown = [n for n in names if n not in LOG_COLUMNS]
-    if unknown:
-        raise KeyError(f"no column {unknown[0]!r} in the core's log ({', '.join(LOG_COLUMNS)})")
-    modes = {"travel_mode": "travel", "friction_mode": "friction"}
-    wanted = [PAPER_VIEW[n] for n in names if n in PAPER_VIEW] + (["cyl.mode"] if set(modes) & set(names) else [])
+    :func:`run_generated` is None (run_scenario then runs the core) or the scenario's solver is the continuous
+    reference (run_scenario's: the core's sampled loop). KeyError naming a column not in the core's log."""
+    from hydrohil.circuits.paper import PAPER_VIEW, check_core_columns, paper_columns
+    check_core_columns(names)
+    if ls.scenario.solver.method == "reference":
+        return None
+    wanted = {PAPER_VIEW[n] for n in names if n in PAPER_VIEW}
+    if {"travel_mode", "friction_mode"} & set(names):
+        wanted.add("cyl.mode")
     run = _generated_run(ls, [c for c in PAPER_COLUMNS if c in wanted], None)
     if run is None:
         return None
     res, diverged, _, _ = run
-    out = {}
-    for name in names:
-        if name in modes:                   # (the cylinder's one mode as the core's two: circuits.paper.paper_log)
-            code = np.array([MODE_NAMES[modes[name]].index(CYL_MODE[m][name != "travel_mode"])
-                             for m in res.mode_names["cyl.mode"]], dtype=float)
-            out[name] = code[res.columns["cyl.mode"].astype(int)]
-        else:
-            out[name] = res.columns["t" if name == "t" else PAPER_VIEW[name]]
-    return out, diverged
+    return paper_columns(res, names), diverged
 
 
 def _generated_run(ls, columns: list[str], progress):
     """The generated code's run of ``ls`` for :func:`run_generated` and :func:`generated_columns` (``columns``
-    the circuit's log columns it computes): (its CircuitResult, its divergence's message or None, its circuit
-    scenario, :func:`circuit_tables`'s tables), or None (what a circuit does not take). The divergence: the
-    core's SimulationDiverged (:func:`paper_divergence`)."""
+    the circuit's log columns it computes): (its CircuitResult, its divergence (the core's SimulationDiverged,
+    :func:`paper_divergence`) or None, its circuit scenario, :func:`circuit_tables`'s tables), or None (what a
+    circuit does not take)."""
     import warnings
 
     from hydrohil.circuits.paper import paper_start
