@@ -15,5 +15,5 @@ def cache_dir() -> Path:
 
 
 @functools.lru_cache(maxsize=8)
-def _cache_dir(xdg: str | None, home: str | None) -> Path:
+def _cache_dir(xdg: str | None, home: str | None) -> Path:   # (home: a key only; Path.home() reads $HOME)
     return Path(xdg or str(Path.home() / ".cache")) / "hydrohil" / "circuits"

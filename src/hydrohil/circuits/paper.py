@@ -26,6 +26,8 @@ def paper_circuit(p: Parameters, x0: float | None = None, command: float = 0.0) 
 PAPER_VIEW = {"u": "valve.command", "ud": "valve.command.seen", "xs": "valve.x", "vs": "valve.v", "p1": "cap.p",
               "p2": "rod.p", "xp": "cyl.x", "vp": "cyl.v", "z": "cyl.z", "ff": "cyl.friction",
               "spool_mode": "valve.mode", "events": "events"}
+# the core's modes the cylinder's one mode gives (paper_columns): the place of each in CYL_MODE's pairs
+CYL_SPLIT = {"travel_mode": 0, "friction_mode": 1}
 # the cylinder's one mode (hc_lugre_cylinder.h: the friction's three, then the two end stops) as the core's two
 CYL_MODE = {"stick": ("free", "stick"), "slip_pos": ("free", "slip_pos"), "slip_neg": ("free", "slip_neg"),
             "at_retract": ("at_retract_stop", "stick"), "at_extend": ("at_extend_stop", "stick")}
@@ -52,16 +54,21 @@ def paper_columns(res, names) -> dict[str, np.ndarray]:
     check_core_columns(names)
     if "spool_mode" in names and res.mode_names["valve.mode"] != MODE_NAMES["spool"]:
         raise KeyError(f"valve.mode's modes {res.mode_names['valve.mode']} are not the core's spool modes")
-    split = {"travel_mode": 0, "friction_mode": 1}            # (CYL_MODE's (travel, friction))
     out = {}
     for name in names:
-        if name in split:
-            code = np.array([MODE_NAMES[name[:-5]].index(CYL_MODE[mode][split[name]])
+        if name in CYL_SPLIT:
+            code = np.array([MODE_NAMES[name[:-5]].index(CYL_MODE[mode][CYL_SPLIT[name]])
                              for mode in res.mode_names["cyl.mode"]], dtype=float)
             out[name] = code[res.columns["cyl.mode"].astype(int)]
         else:
             out[name] = res.columns["t" if name == "t" else PAPER_VIEW[name]]
     return out
+
+
+def circuit_columns(names) -> set[str]:
+    """The columns of a paper circuit's run that :func:`paper_columns` reads for the core's columns ``names``."""
+    check_core_columns(names)
+    return {"cyl.mode" if name in CYL_SPLIT else "t" if name == "t" else PAPER_VIEW[name] for name in names}
 
 
 def check_core_columns(names) -> None:

@@ -402,14 +402,11 @@ def generated_columns(ls, names: list[str]):
     the divergence or None), the same values as :func:`run_generated`'s log and ``diverged``; None where
     :func:`run_generated` is None (run_scenario then runs the core) or the scenario's solver is the continuous
     reference (run_scenario's: the core's sampled loop). KeyError naming a column not in the core's log."""
-    from hydrohil.circuits.paper import PAPER_VIEW, check_core_columns, paper_columns
-    check_core_columns(names)
+    from hydrohil.circuits.paper import circuit_columns, paper_columns
+    wanted = circuit_columns(names)
     if ls.scenario.solver.method == "reference":
         return None
-    wanted = {PAPER_VIEW[n] for n in names if n in PAPER_VIEW}
-    if {"travel_mode", "friction_mode"} & set(names):
-        wanted.add("cyl.mode")
-    run = _generated_run(ls, [c for c in PAPER_COLUMNS if c in wanted], None)
+    run = _generated_run(ls, [c for c in PAPER_COLUMNS if c in wanted], None)   # (the log's: not t, the inputs)
     if run is None:
         return None
     res, diverged, _, _ = run
