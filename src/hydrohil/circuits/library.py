@@ -397,7 +397,7 @@ def _emit_servo_valve(c):
     wear = c.par("wear")
 
     def section(sign, coeffs, burst=None):        # (eq 3's section, plus the worn lands' leakage section; an edge
-        s = f"(hc_section({sign}{xc}, {coeffs}) + {wear})"      # to tank, plus its line's burst hose: the core's)
+        s = f"(hc_section{'_neg' if sign else ''}({xc}, {coeffs}) + {wear})"      # to tank, plus its line's burst hose: the core's)
         return f"({s} + {c.par(burst)})" if burst else s
 
     def edge(sign, coeffs, a, b, s=None, burst=None, laminar=dpt):

@@ -14,6 +14,14 @@ HH_INLINE double hc_section(double x, double k1, double k2, double k3, double k4
     return hh_max(k1 * x + k2 + sqrt(hh_max(k3 * x * x + k4 * x + k5, 0.0)), 0.0);
 }
 
+/* hc_section(-x, ...), bit for bit (a sign change is exact: k1*(-x) = -(k1*x), k3*(-x)*(-x) = k3*x*x, a + (-b) =
+ * a - b), from the products of x that hc_section(x, ...) of the same coefficients forms: an edge pair's two
+ * sections (P->A and P->B, A->T and B->T) share them (the compiler computes each product once) */
+HH_INLINE double hc_section_neg(double x, double k1, double k2, double k3, double k4, double k5)
+{
+    return hh_max(-(k1 * x) + k2 + sqrt(hh_max(k3 * x * x - k4 * x + k5, 0.0)), 0.0);
+}
+
 /* d(hc_section)/dx (0 where the section is floored at zero) */
 HH_INLINE double hc_section_slope(double x, double k1, double k2, double k3, double k4, double k5)
 {
