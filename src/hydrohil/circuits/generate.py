@@ -216,7 +216,7 @@ def generate(c: Circuit) -> tuple[str, Layout]:
                for comp, e in emits for st, (lo, hi) in e.bounds.items()]
     if any("u[" in lo + hi for _, lo, hi, _ in bounds):     # (a library mistake: the check has no inputs)
         raise RuntimeError(f"circuit {c.name}: a physical range reads an input (Emit.bounds: _View.nominal)")
-    bound_checks = [f"    if (!({lo} <= y[{i}] && y[{i}] <= {hi}))   /* {name} */\n        return {i + 1};"
+    bound_checks = [f"    if (!({_in_range(f'y[{i}]', lo, hi)}))   /* {name} */\n        return {i + 1};"
                     for i, lo, hi, name in bounds]
     bound_sets = [f"    lo[{i}] = {lo};   /* {name} */\n    hi[{i}] = {hi};" for i, lo, hi, name in bounds]
     nout = len(outs)
@@ -1354,7 +1354,7 @@ def _rhs_lines(c: Circuit, lay: Layout, emits, nodes: dict, *, reference: bool,
             assigned.add(j)
             rhs.append(f"    dy[{j}] = {expr};   /* {comp.name}.{state} */")
     for comp, e in emits:
-        rhs += _flow_lines(comp, e, reference)
+        rhs += _flow_lines(comp, e, reference, start is not None)
     # a state without a derivative is constant (a circuit without states has one): each written once, no loop
     rhs += [f"    dy[{j}] = 0.0;" for j in range(max(len(lay.states), 1)) if j not in assigned]
     for i, node in enumerate(c.state_nodes):            # each node's volume, bulk modulus, capacitance: once
@@ -1390,15 +1390,45 @@ def _pre_lines(comp, e) -> list[str]:
             for name, expr in e.pre]
 
 
-def _flow_lines(comp, e, reference: bool = False) -> list[str]:
+def _flow_lines(comp, e, reference: bool = False, start: bool = False) -> list[str]:
     """A component's flows as C constants (q_<component>_<j>; ``reference``: the continuous reference's,
-    Emit.reference_flows where it has them)."""
+    Emit.reference_flows where it has them; ``start``: rhs_start's, a square-root law's conductance computed with
+    its flow, g_q_<component>_<j>, :func:`_fused_law`)."""
     lines = []
     flows = e.reference_flows if reference and e.reference_flows is not None else e.flows
-    for j, (a, b, expr, _, _) in enumerate(map(_flow, flows)):
-        lines.append(f"    const double q_{_ident(comp.name)}_{j} = {expr};   /* {comp.name}: {a or 'out'} -> {b or 'out'} */")
-        lines.append(f"    (void)q_{_ident(comp.name)}_{j};")
+    for j, (a, b, expr, slope, _) in enumerate(map(_flow, flows)):
+        var, law = f"q_{_ident(comp.name)}_{j}", _fused_law(expr, slope) if start else None
+        if law is not None:
+            lines.append(f"    double g_{var};")
+            expr = f"hc_sqrt_law_g({law}, &g_{var})"
+        lines.append(f"    const double {var} = {expr};   /* {comp.name}: {a or 'out'} -> {b or 'out'} */")
+        lines.append(f"    (void){var};")
     return lines
+
+
+def _in_range(v: str, lo: str, hi: str) -> str:
+    """C that is true where v lies in [lo, hi] (false for NaN): a range symmetric about 0 as fabs(v) <= hi (the
+    same truth for every v, NaN too; one comparison, issue #29)."""
+    return f"fabs({v}) <= {hi}" if lo == f"-{hi}" else f"{lo} <= {v} && {v} <= {hi}"
+
+
+def _fused_law(expr: str, slope: str | None) -> str | None:
+    """The arguments of a flow that is hc_sqrt_law(ARGS) whose conductance is hc_sqrt_law_slope(ARGS), or None:
+    rhs_start computes the two at once (hc_sqrt_law_g: one square root, the same bits; issue #29)."""
+    head = "hc_sqrt_law("
+    if slope is None or not expr.startswith(head) or slope != "hc_sqrt_law_slope(" + expr[len(head):]:
+        return None
+    depth = 0
+    for i, ch in enumerate(expr):
+        depth += (ch == "(") - (ch == ")")
+        if depth == 0 and ch == ")":
+            return expr[len(head):i] if i == len(expr) - 1 else None
+    return None
+
+
+def _conductance(var: str, expr: str, slope: str) -> str:
+    """The C of a flow's conductance in rhs_start: the fused law's g_<var> (:func:`_fused_law`), else its own."""
+    return f"g_{var}" if _fused_law(expr, slope) is not None else slope
 
 
 def _flow(flow: tuple) -> tuple:
@@ -1410,10 +1440,11 @@ def _coupled_pairs(c: Circuit, emits) -> list[tuple[int, int, str, str]]:
     """(node i, node j, conductance, name) of each flow between two pressure nodes (hc_node.h's coupling)."""
     out = []
     for comp, e in emits:
-        for a, b, _, slope, _ in map(_flow, e.flows):
+        for j, (a, b, expr, slope, _) in enumerate(map(_flow, e.flows)):
             ends = [comp.ports[p] for p in (a, b) if p is not None]
             if slope is not None and len(ends) == 2 and ends[0] != ends[1] and all(n in c.state_nodes for n in ends):
-                out.append((c.state_nodes.index(ends[0]), c.state_nodes.index(ends[1]), slope,
+                out.append((c.state_nodes.index(ends[0]), c.state_nodes.index(ends[1]),
+                            _conductance(f"q_{_ident(comp.name)}_{j}", expr, slope),
                             f"{comp.name}: {ends[0]} - {ends[1]}"))
     return out
 
@@ -1430,14 +1461,14 @@ def _node_terms(c: Circuit, lay: Layout, emits) -> dict:
             if comp.ports[port] in beta:
                 beta[comp.ports[port]] = expr
     for comp, e in emits:
-        for j, (a, b, _, slope, drift) in enumerate(map(_flow, e.flows)):
+        for j, (a, b, expr, slope, drift) in enumerate(map(_flow, e.flows)):
             var = f"q_{_ident(comp.name)}_{j}"
             for port, sign in ((a, "-"), (b, "+")):
                 if port is not None and comp.ports[port] in qin:
                     node = comp.ports[port]
                     qin[node].append(f"{sign} {var}")
-                    if slope is not None:
-                        g[node].append(f"+ {slope}")
+                    if slope is not None:                   # (rhs_start's: a square-root law's with its flow)
+                        g[node].append(f"+ {_conductance(var, expr, slope)}")
                     if isinstance(drift, tuple):             # (factor, speed): the factors of one speed summed
                         factor, speed = drift
                         if speed not in by_speed[node]:
