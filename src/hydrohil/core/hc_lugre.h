@@ -5,6 +5,7 @@
 #ifndef HC_LUGRE_H
 #define HC_LUGRE_H
 #include "core.h"
+#include "hh_exp.h"              /* (exp: the same bits on every platform) */
 
 /* g(v) = fc + (fs - fc)*exp(-(v/vs)^2) [N] of the set of the direction of v (v >= 0: positive) */
 HH_INLINE double hc_stribeck(double v, double fc_p, double fs_p, double vs_p, double fc_n, double fs_n, double vs_n)
@@ -12,10 +13,10 @@ HH_INLINE double hc_stribeck(double v, double fc_p, double fs_p, double vs_p, do
     double r;
     if (v >= 0.0) {
         r = v / vs_p;
-        return fc_p + (fs_p - fc_p) * exp(-r * r);
+        return fc_p + (fs_p - fc_p) * hh_exp(-r * r);
     }
     r = v / vs_n;
-    return fc_n + (fs_n - fc_n) * exp(-r * r);
+    return fc_n + (fs_n - fc_n) * hh_exp(-r * r);
 }
 
 /* the steady-state (sliding) friction of eq 25 in a slip mode of one direction, of that direction's set [N]:
@@ -24,8 +25,8 @@ HH_INLINE double hc_slip_friction(double v, int direction, double fc, double fs,
 {
     double r = v / vs;
     if (direction > 0)
-        return fc + (fs - fc) * exp(-r * r) + kv * v;
-    return -(fc + (fs - fc) * exp(-r * r)) + kv * v;
+        return fc + (fs - fc) * hh_exp(-r * r) + kv * v;
+    return -(fc + (fs - fc) * hh_exp(-r * r)) + kv * v;
 }
 
 /* continuous LuGre: dz = v - sigma0*|v|*z/g(v), Ff = sigma0*z + sigma1*dz + kv*v (g and kv of v's direction) */
