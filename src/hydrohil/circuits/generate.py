@@ -1407,9 +1407,10 @@ def _flow_lines(comp, e, reference: bool = False, start: bool = False) -> list[s
 
 
 def _in_range(v: str, lo: str, hi: str) -> str:
-    """C that is true where v lies in [lo, hi] (false for NaN): a range symmetric about 0 as fabs(v) <= hi (the
-    same truth for every v, NaN too; one comparison, issue #29)."""
-    return f"fabs({v}) <= {hi}" if lo == f"-{hi}" else f"{lo} <= {v} && {v} <= {hi}"
+    """C that is true where v lies in [lo, hi] (false for NaN): a range symmetric about 0 (lo is -hi of a single
+    term, or -(hi)) as fabs(v) <= hi (the same truth for every v, NaN too; one comparison, issue #29)."""
+    symmetric = lo == f"-({hi})" or (lo == f"-{hi}" and re.fullmatch(r"[\w.\[\]]+", hi) is not None)
+    return f"fabs({v}) <= {hi}" if symmetric else f"{lo} <= {v} && {v} <= {hi}"
 
 
 def _fused_law(expr: str, slope: str | None) -> str | None:

@@ -2,20 +2,21 @@
  * same bits from every build on every platform (x86-64 with or without an FMA unit, aarch64, armhf; gcc, clang,
  * MSVC), where libm's exp is each platform's own (glibc picks a variant by the CPU: its FMA variant and its AVX one
  * differ in the last bit for some x, and a run's stick-slip events carry that to 1e-11 of its states; issue #29),
- * and inline: no call. Error below 0.51 ulp where exp(x) is a normal number, 0.72 ulp of the subnormals' spacing
+ * and inline: no call. Error below 0.51 ulp where exp(x) is a normal number, 0.76 ulp of the subnormals' spacing
  * below (tests/test_c_identities.py: against 40-digit decimal arithmetic).
  *
  * x = (128 m + j)·ln2/128 + r, |r| <= ln2/256 (k = 128 m + j the nearest integer to x·128/ln2, by the 1.5·2^52 shift;
- * r = x - k·L1 - k·L2, ln2/128 = L1 + L2 with L1 of 35 bits: k·L1 and x - k·L1 exact for |k| < 2^18);
+ * r = x - k·L1 - k·L2, ln2/128 = L1 + L2 with L1 of 34 bits: k·L1 and x - k·L1 exact for |k| < 2^18);
  * exp(x) = 2^m · 2^(j/128) · (1 + p), p = r + r²/2 + r³/6 + r⁴/24 + r⁵/120 (the truncation: < 6e-19 relative),
  * 2^(j/128) = t + lo (HH_EXP2_J: t the double nearest, lo the double nearest the rest; computed with 60-digit
  * decimal arithmetic); the sum t + (lo + t·p) rounded once; 2^m in two factors where it would leave the normal range
- * (a subnormal result rounded once, at the last product). x < -745.2: 0; x > 709.79: inf; NaN: NaN. */
+ * (a subnormal result rounded twice: the sum, then the last product). x < -745.2: 0; x > 709.79: inf; NaN: NaN. */
 #ifndef HH_EXP_H
 #define HH_EXP_H
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#include "hh_compat.h"            /* (no fused multiply-add, whoever includes this first) */
 
 static const double HH_EXP2_J[128][2] = {
     {1.0, 0.0}, {1.0054299011128027, 9.499186535455032e-17},
@@ -98,7 +99,7 @@ static inline double hh_exp(double x)
     const double shift = 6755399441055744.0;            /* 1.5·2^52: x·128/ln2 + shift rounds to an integer */
     const double l1 = 0.005415212347998022, l2 = 1.2655086083325438e-13;   /* ln2/128 = l1 + l2 */
     double kd, r, p, t, s;
-    int64_t k;
+    int64_t k;                                          /* (|k| < 2^18; int64_t: fewer instructions on x86-64) */
     int j, m;
     if (!(x > -745.2))
         return x != x ? x : 0.0;
