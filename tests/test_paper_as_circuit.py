@@ -1647,6 +1647,37 @@ def test_the_columns_alone_are_the_generated_runs(tmp_path, path):
         generated_columns(ls, ["x_ref"])
 
 
+@pytest.mark.parametrize("every, repeat", [(1, None), (7, 2.3)])
+def test_a_study_runs_reference_is_the_scenarios_reference(tmp_path, every, repeat):
+    """The reference a study's metrics read of a generated run (generated_columns(..., reference=True): the loop's
+    table at each row, what its controller read) is the scenario's reference sampled at the log's times
+    (ReferenceTable.sampler, np.interp of the paper's table) bit for bit: a table from after 0, a time given three
+    times and twice, logged every step or every 7th, repeating or not; the circuit's reference column is
+    Loop.at of the log's times, bit for bit."""
+    from hydrohil.simulation.as_circuit import generated_columns
+    text = (EXAMPLES / "fig11_p_control.toml").read_text()
+    text = text.replace("t = [0.0, 0.5, 1.5, 3.0, 4.0, 6.0]", "t = [0.2, 0.5, 1.5, 1.5, 1.5, 3.0, 3.0, 4.0, 5.9999]")
+    text = text.replace("x = [0.03, 0.03, 0.15, 0.15, 0.03, 0.03]",
+                        "x = [0.03, 0.03, 0.15, 0.1, 0.12, 0.15, 0.05, 0.03, 0.03]"
+                        + (f"\nrepeat = {repeat}" if repeat else ""))
+    text = text.replace("step = 5e-4", f"step = 5e-4\noutput_every = {every}").replace("duration = 6.0", "duration = 4.0")
+    assert text.count("5.9999") == 1 and text.count("output_every") == 1
+    f = tmp_path / "ref.toml"
+    f.write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ls = load_scenario(f)
+        cols, _ = generated_columns(ls, ["t", "xp"], reference=True)
+    t = cols["t"]
+    assert len(t) == 8000 // every + 1
+    assert np.array_equal(cols["x_ref"], ls.scenario.reference.sampler().values(t))
+    assert len(np.unique(cols["x_ref"])) > 100            # (ramps and holds: not a constant)
+    from hydrohil.simulation.as_circuit import circuit_scenario_of
+    cs = circuit_scenario_of(ls)
+    res = simulate_circuit(cs.circuit, 1.0, h=cs.step, every=every, loop=cs.loop, compiled=cs.compiled)
+    assert np.array_equal(res.columns["cyl.x.reference"], cs.loop.at(res.columns["t"], cs.step))
+
+
 def test_a_study_run_on_the_continuous_reference_is_run_scenarios():
     """A paper scenario on the continuous reference is run_scenario's (the core's sampled loop), not the
     circuit's own reference: generated_columns declines it, and a study's run of it (studies.runs._run_scenario)

@@ -738,6 +738,20 @@ HH_INLINE double sensor_fault(double v, const double *F, double t, double *memor
     }}
 }}
 
+/* hc_sensed of a sensor without faults (sensor[4] = 0): the noise, the counts, the range (the same numbers as
+ * hc_sensed's path with faults: no count lost, counts - 0.0 is counts); inline in hc_run's loop */
+HH_INLINE double sensed_plain(double v, const double *sensor, hh_rng *r)
+{{
+    double z;
+    if (sensor[3] > 0.0 && r) {{
+        hh_rng_normals(&r[0], 1, &z);
+        v = v + sensor[3] * z;
+    }}
+    if (sensor[0] > 0.0)
+        v = encoder_counts(v, sensor[0]) * sensor[0];
+    return v < sensor[1] ? sensor[1] : v > sensor[2] ? sensor[2] : v;
+}}
+
 double hc_sensed(double x, double *sensor, void *rng, int64_t k)
 {{
     hh_rng *r = (hh_rng *)rng;
@@ -746,15 +760,8 @@ double hc_sensed(double x, double *sensor, void *rng, int64_t k)
     if (!sensor)
         return x;
     nf = (int)sensor[4];
-    if (nf == 0) {{                          /* no fault: the noise, the counts, the range (the same numbers as */
-        if (sensor[3] > 0.0 && r) {{         /* below: no count lost, counts - 0.0 is counts) */
-            hh_rng_normals(&r[0], 1, &z);
-            v = v + sensor[3] * z;
-        }}
-        if (sensor[0] > 0.0)
-            v = encoder_counts(v, sensor[0]) * sensor[0];
-        return v < sensor[1] ? sensor[1] : v > sensor[2] ? sensor[2] : v;
-    }}
+    if (nf == 0)                            /* no fault */
+        return sensed_plain(v, sensor, r);
     encoder = sensor[6] != 0.0;
     t = (double)k * sensor[5];
     for (f = 0; f < nf; f++) {{
@@ -1249,7 +1256,8 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                     seen[col] = log_value(col, (double)step * h, y, m, uk, P);
                 }}
             }}
-            sensed = hc_sensed(seen[meas], sensor, rng, step);
+            sensed = sensor && (int)sensor[4] == 0 ? sensed_plain(seen[meas], sensor, (hh_rng *)rng)   /* (inline) */
+                                                    : hc_sensed(seen[meas], sensor, rng, step);
             if (press)
                 saturated = hc_pressures_read(seen, press, rng, step, pr);
             if (command) {{
@@ -1260,7 +1268,9 @@ int hc_run(const double *P, double *y, int64_t *m, int method, double h, int64_t
                         *steps = step;
                     return 3;
                 }}
-            }} else
+            }} else if (((const hh_controller *)ctl)->type == HH_CTRL_P)   /* (the P law inline: its arithmetic) */
+                c = hh_p_law((const hh_controller *)ctl, sign * ref[step], sign * sensed);
+            else
                 c = hh_controller_update((const hh_controller *)ctl, (hh_controller_state *)ctl_state,
                                          sign * ref[step], sign * dref[step], sign * sensed, pr[0], pr[1]);
             if (path && sent)

@@ -583,9 +583,9 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         res = _reference_run(c, cc, P, y, m, u, h, n, every, progress, loop)
         return _with_drives(c, cc, res, u, every, loop, commands, sent, dog)
     cols = np.array([lay.log_columns.index(name) for name in names], dtype=np.int64)
-    log = np.zeros((n // every + 1, len(names)))
-    seen = np.zeros((len(log), max(len(lay.delayed), 1))) if with_seen else None
-    events = np.zeros(len(log))
+    log = np.empty((n // every + 1, len(names)))    # (hc_run writes every column of each row it reports: no
+    seen = np.zeros((len(log), max(len(lay.delayed), 1))) if with_seen else None   # zeroing, a few per cent of a
+    events = np.empty(len(log))                      # study's run)
     rows, steps = ffi.new("int64_t *"), ffi.new("int64_t *")
     ctl = (_loop_args(cc, lay, loop, n, h, input_range(c, loop.command)) if loop is not None else
            (ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0, 0, ffi.NULL, ffi.NULL, 1.0, ffi.NULL, 0.0, 0.0, ffi.NULL,
@@ -599,6 +599,7 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         except BaseException as exc:      # noqa: BLE001 - raised again once hc_run has stopped
             stop.append(exc)
             return 1
+    reference = loop._keep[0] if loop is not None else None     # (the reference at each step, as hc_run read it)
     handle = ffi.new_handle(tick) if progress is not None else None
     callback_raised()                     # (nothing kept from another run)
     t0 = time.perf_counter()
@@ -630,10 +631,11 @@ def simulate_circuit(c: Circuit, duration: float, *, h: float = 5e-4, method: st
         raise SimulationDiverged(int(steps[0]) * h, modes, {s: float(y[i]) for i, s in enumerate(lay.states)},
                                  divergence_reason(cc, P, y, status),
                                  partial=_with_drives(c, cc, res, u, every, loop, commands, sent, dog,
-                                                      sensed=columns is None))
+                                                      sensed=columns is None, reference=reference))
     if warn and len(log):
         _warn_unbalanced(c, res)
-    return _with_drives(c, cc, res, u, every, loop, commands, sent, dog, sensed=columns is None)
+    return _with_drives(c, cc, res, u, every, loop, commands, sent, dog, sensed=columns is None,
+                        reference=reference)
 
 
 class Hold(NamedTuple):
@@ -789,27 +791,35 @@ def _loop_args(cc, lay, loop: Loop, n: int, h: float, limits: tuple[float, float
 
 def _with_drives(c: Circuit, cc, res: CircuitResult, u: np.ndarray, every: int, loop: Loop | None,
                  commands: Commands | None = None, sent: np.ndarray | None = None,
-                 dog: np.ndarray | None = None, sensed: bool = True) -> CircuitResult:
+                 dog: np.ndarray | None = None, sensed: bool = True,
+                 reference: np.ndarray | None = None) -> CircuitResult:
     """The run's inputs as columns (``valve.command``: what drove each step; closed loop: what the controller
     sent; an open loop's commands through network faults: what was sent, ``<input>.sent``) and the loop's
-    reference (``<measure>.reference``); ``sensed``: what its sensor and transducers read too (``.sensed``)."""
+    reference (``<measure>.reference``: ``reference``, the loop's at each step of a fixed-step run (Loop.table,
+    what hc_run read), at the logged steps; else Loop.at of the log's times, the same values: the log's t is
+    step * h); ``sensed``: what its sensor and transducers read too (``.sensed``)."""
     rows = len(res.columns["t"])
-    idx = np.minimum(np.arange(rows) * every, len(u) - 1)
+
+    def at_rows(a: np.ndarray) -> np.ndarray:     # (a per-step array at each row's step, its last beyond its end;
+        if every == 1 and rows <= len(a):          # a copy: a slice of it when every step is a row)
+            return a[:rows].copy()
+        return a[np.minimum(np.arange(rows) * every, len(a) - 1)]
     for j, sig in enumerate(c.inputs):
-        res.columns[sig] = u[idx, j].copy()
+        res.columns[sig] = at_rows(u[:, j])
         res.units[sig] = input_unit(c, sig)
     for i, sig in enumerate(commands.inputs if sent is not None else ()):
-        res.columns[f"{sig}.sent"] = sent[idx, i].copy()
+        res.columns[f"{sig}.sent"] = at_rows(sent[:, i])
         res.units[f"{sig}.sent"] = input_unit(c, sig)
     if loop is not None and loop.sent is not None and len(loop.sent):   # (network faults: what was sent)
-        res.columns[f"{loop.command}.sent"] = loop.sent[np.minimum(idx, len(loop.sent) - 1)]
+        res.columns[f"{loop.command}.sent"] = at_rows(loop.sent)
         res.units[f"{loop.command}.sent"] = input_unit(c, loop.command)
         dog = loop.watchdog
     if dog is not None and len(dog):      # (a command path: 1 where its watchdog held the safe state)
-        res.columns["watchdog"], res.units["watchdog"] = dog[np.minimum(idx, len(dog) - 1)].copy(), "-"
+        res.columns["watchdog"], res.units["watchdog"] = at_rows(dog), "-"
         res.watchdog = dog
     if loop is not None:
-        res.columns[f"{loop.measure}.reference"] = loop.at(res.columns["t"], res.h)
+        res.columns[f"{loop.measure}.reference"] = (loop.at(res.columns["t"], res.h) if reference is None else
+                                                    at_rows(reference))
         res.units[f"{loop.measure}.reference"] = res.units.get(loop.measure, "-")
         if loop.sensor is not None and sensed:   # what the controller read (through the sensor: the C's hc_sensed)
             res.columns[f"{loop.measure}.sensed"] = sensed_column(cc, loop, res.columns[loop.measure], every)

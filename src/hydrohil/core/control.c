@@ -8,6 +8,13 @@ HH_INLINE double p_control(double kp, double x_ref, double x_meas)
     return hh_min(hh_max(u, -1.0), 1.0);
 }
 
+/* The P law's command of hh_controller_update (HH_CTRL_P): inline where a loop calls it each step (the generated
+ * hc_run), the one source of the law's arithmetic */
+HH_INLINE double hh_p_law(const hh_controller *c, double x_ref, double x)
+{
+    return hh_clamp(c->kp * (x_ref - x), c->u_min, c->u_max);
+}
+
 #ifndef HH_CORE_LINKED   /* (hh.h's functions of this part; a translation unit linked with hh_core.c, which defines
                            them, leaves them out: core.h) */
 void hh_controller_reset(hh_controller_state *s)
@@ -25,7 +32,7 @@ double hh_controller_update(const hh_controller *c, hh_controller_state *s, doub
 {
     double e = x_ref - x, pl = p1 - c->area_ratio * p2, u_star, u;
     if (c->type == HH_CTRL_P)   /* the paper's law: no filter, no state (the hot path of most runs) */
-        return hh_clamp(c->kp * e, c->u_min, c->u_max);
+        return hh_p_law(c, x_ref, x);
     if (!s->started) {          /* the first sample: the filters start at rest on the first measurement */
         s->x_prev = x;
         s->pl_prev = pl;

@@ -395,11 +395,14 @@ def run_generated(ls, *, progress=None, rig: bool = False):
                             extra={"engine": "generated"}, columns=columns)
 
 
-def generated_columns(ls, names: list[str]):
+def generated_columns(ls, names: list[str], *, reference: bool = False):
     """The core's log columns ``names`` (core/shape.LOG_COLUMNS': t, xp, p1, friction_mode, ...) of
     :func:`run_generated`'s run of the paper scenario ``ls``, the generated code logging only their circuit
     columns (circuits.paper.paper_columns; a study's metrics read five of the core's fifteen): ({name: column},
-    the divergence or None), the same values as :func:`run_generated`'s log and ``diverged``; None where
+    the divergence or None), the same values as :func:`run_generated`'s log and ``diverged``; with ``reference``
+    (a closed loop's) its column ``x_ref`` too: the reference the controller read at each row (the loop's table,
+    what ``ls.scenario.reference.sample`` gives at the row's t: the circuit's table has the same values at every
+    time, :func:`_linear_table`); None where
     :func:`run_generated` is None (run_scenario then runs the core) or the scenario's solver is the continuous
     reference (run_scenario's: the core's sampled loop). KeyError naming a column not in the core's log."""
     from hydrohil.circuits.paper import circuit_columns, paper_columns
@@ -410,7 +413,10 @@ def generated_columns(ls, names: list[str]):
     if run is None:
         return None
     res, diverged, _, _ = run
-    return paper_columns(res, names), diverged
+    cols = paper_columns(res, names)
+    if reference:
+        cols["x_ref"] = res.columns["cyl.x.reference"]
+    return cols, diverged
 
 
 def _generated_run(ls, columns: list[str], progress):

@@ -190,12 +190,13 @@ def _run_scenario(data: dict, base: str | Path):
     sc = scenario_from_data(data, base)
     if not sc.scenario.closed_loop:
         raise InputError("a study's scenario must be closed loop ([controller] + [reference])", source=str(base))
-    run = generated_columns(sc, STUDY_COLUMNS) if ENGINE == "generated" else None
+    run = generated_columns(sc, STUDY_COLUMNS, reference=True) if ENGINE == "generated" else None
     if run is None:
         res = run_scenario(sc, engine=ENGINE)
         run = {c: res.column(c) for c in STUDY_COLUMNS}, res.diverged
     cols, diverged = run
-    cols["x_ref"] = sc.scenario.reference.sampler().values(cols["t"])
+    if "x_ref" not in cols:              # (the generated run's: the loop's reference, the same values)
+        cols["x_ref"] = sc.scenario.reference.sampler().values(cols["t"])
     return cols, (str(diverged) if diverged else None)
 
 
