@@ -35,10 +35,10 @@ def copy_tables(tree):
     """A copy of a tree of tables (a parsed TOML file's, or tables made like one): its tables (dicts) and arrays
     (lists) new, the values in them shared (str, numbers, bool, dates: immutable in a parsed file); for a tree
     whose tables are changed, never its values in place, what copy.deepcopy gives, in a fifth of its time."""
-    if isinstance(tree, dict):
-        return {k: copy_tables(v) for k, v in tree.items()}
+    if isinstance(tree, dict):                # (a value is not a call: most of a tree is values)
+        return {k: copy_tables(v) if isinstance(v, (dict, list)) else v for k, v in tree.items()}
     if isinstance(tree, list):
-        return [copy_tables(v) for v in tree]
+        return [copy_tables(v) if isinstance(v, (dict, list)) else v for v in tree]
     return tree
 
 
@@ -75,7 +75,12 @@ def _resolve_source(name_or_path: str | Path) -> Path:
 
 def apply_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: str = "overrides") -> dict[str, Any]:
     """Return a copy of ``data`` with dotted keys (``supply.ps``) set; unknown paths are errors."""
-    out = copy_tables(data)                  # (its tables new: the values set replace, never change, a value)
+    return _set_overrides(copy_tables(data), overrides, source)   # (its tables new: the values set replace,
+    #                                                               never change, a value)
+
+
+def _set_overrides(out: dict[str, Any], overrides: Mapping[str, Any], source: str) -> dict[str, Any]:
+    """:func:`apply_overrides` in the tables of ``out`` (a tree of its caller's own, copied already)."""
     for dotted, value in overrides.items():
         parts = dotted.split(".")
         node = out
@@ -210,8 +215,8 @@ def load_parameters(name_or_path: str | Path = "ferreira2004",
     data = read_toml(path)
     if overrides and any(k.startswith("linear.") for k in overrides):
         data = with_derived_linear(data)          # an override of a derived value needs the group to set it in
-    if overrides:
-        data = apply_overrides(data, overrides)
+    if overrides:                                 # (data: read_toml's copy, or with_derived_linear's)
+        data = _set_overrides(data, overrides, "overrides")
     try:
         return validate_parameters(data, str(path))
     except InputError as exc:
